@@ -1,0 +1,25 @@
+"""The physics of air for the pneumatic arm: plain functions in SI units, no MuJoCo.
+
+Each law is written once here and used by the plant (twin/), the angle predictor (control/)
+and the gap diagnosis (gap/). Pressures are absolute Pa unless a name says `gauge`.
+"""
+
+from pneumatics.brake import brake_holding_torque, brake_step, brake_target
+from pneumatics.chamber import chamber_pressure_rate
+from pneumatics.friction import coulomb_viscous_torque, reducer_output_torque, stribeck_excess_torque
+from pneumatics.gas import AIR, Gas, isentropic_temperature
+from pneumatics.hose import friction_factor, hose_mass_flow, hose_pressure_drop, hose_volume, reynolds_number
+from pneumatics.motor import chamber_volumes, displacement_per_rad, swept_area, vane_torque, wrap_motor_angle
+from pneumatics.orifice import critical_pressure_ratio, flow_function, orifice_mass_flow
+from pneumatics.params import JointParams, ParameterError, load_joint_params, params_row, validated
+from pneumatics.valves import lag_toward, proportional_valve_target, solenoid_step, valve_opening
+
+__all__ = [
+    "AIR", "Gas", "JointParams", "ParameterError",
+    "brake_holding_torque", "brake_step", "brake_target", "chamber_pressure_rate", "chamber_volumes",
+    "coulomb_viscous_torque", "critical_pressure_ratio", "displacement_per_rad", "flow_function",
+    "friction_factor", "hose_mass_flow", "hose_pressure_drop", "hose_volume", "isentropic_temperature",
+    "lag_toward", "load_joint_params", "orifice_mass_flow", "params_row", "proportional_valve_target",
+    "reducer_output_torque", "reynolds_number", "solenoid_step", "stribeck_excess_torque",
+    "swept_area", "valve_opening", "validated", "vane_torque", "wrap_motor_angle",
+]

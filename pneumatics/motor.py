@@ -1,0 +1,77 @@
+"""The N-vane air motor: chamber volumes, their rates, and the vane torque.
+
+Wang, Pu & Moore, "Modelling study and servo-control of air motor systems", Int. J. Control
+71(3), 1998, and its N-vane form (Luo & Wang, 2008), as used in the paper's eq. 7.
+
+With stator radius B, rotor radius r, eccentricity e = B - r and vane length L, the distance
+from the rotor centre to the stator along a vane at motor angle phi is
+    rho^2 = B^2 + 2 e B cos(phi) + e^2 cos(2 phi),
+and a pressure difference on the exposed vane gives the torque
+    T = (p_A - p_B) (L/2) (rho^2 - r^2).
+The driving chamber's volume slope dV_A/dphi is the same function, so that the pressures do
+exactly the work the torque does (DESIGN, "Torque and volume must agree"). phi is wrapped into
+one vane pitch (+-45 deg for 4 vanes): each time a vane passes the port the chamber resets, which
+is the paper's j index. The paper's own polynomial for V_A does not give a plausible volume for a
+small motor (DESIGN); we integrate the slope instead.
+"""
+
+from __future__ import annotations
+
+import math
+
+from pneumatics._jit import njit
+
+
+@njit
+def wrap_motor_angle(phi_rad: float, n_vanes: float) -> float:
+    """Motor angle wrapped into one vane pitch, [-pi/n, pi/n)."""
+    pitch = 2.0 * math.pi / n_vanes
+    return phi_rad - pitch * math.floor(phi_rad / pitch + 0.5)
+
+
+@njit
+def swept_area(phi_rad: float, stator_radius_m: float, rotor_radius_m: float, vane_length_m: float, n_vanes: float) -> float:
+    """dV_A/dphi in m^3/rad = (L/2)(rho^2 - r^2) at the wrapped motor angle."""
+    b = stator_radius_m
+    e = stator_radius_m - rotor_radius_m
+    w = wrap_motor_angle(phi_rad, n_vanes)
+    rho2 = b * b + 2.0 * e * b * math.cos(w) + e * e * math.cos(2.0 * w)
+    return 0.5 * vane_length_m * (rho2 - rotor_radius_m * rotor_radius_m)
+
+
+@njit
+def _swept_integral(w: float, b: float, r: float, e: float, half_l: float) -> float:
+    # antiderivative of (L/2)(rho^2 - r^2) in the wrapped angle
+    return half_l * ((b * b - r * r) * w + 2.0 * e * b * math.sin(w) + 0.5 * e * e * math.sin(2.0 * w))
+
+
+@njit
+def chamber_volumes(phi_rad: float, stator_radius_m: float, rotor_radius_m: float, vane_length_m: float, n_vanes: float, dead_volume_m3: float) -> tuple[float, float]:
+    """Volumes (V_A, V_B) in m^3 of the two motor chambers at motor angle phi.
+
+    V_A grows from `dead_volume_m3` at the start of a vane pitch while V_B shrinks; V_A + V_B is
+    the same at every angle. The rates are +-`swept_area` times the motor speed.
+    """
+    b = stator_radius_m
+    r = rotor_radius_m
+    e = b - r
+    half_l = 0.5 * vane_length_m
+    half_pitch = math.pi / n_vanes
+    w = wrap_motor_angle(phi_rad, n_vanes)
+    lo = _swept_integral(-half_pitch, b, r, e, half_l)
+    hi = _swept_integral(half_pitch, b, r, e, half_l)
+    mid = _swept_integral(w, b, r, e, half_l)
+    return dead_volume_m3 + (mid - lo), dead_volume_m3 + (hi - mid)
+
+
+@njit
+def vane_torque(p_a_pa: float, p_b_pa: float, phi_rad: float, stator_radius_m: float, rotor_radius_m: float, vane_length_m: float, n_vanes: float) -> float:
+    """Motor shaft torque in N·m from the chamber pressures: (p_A - p_B) dV_A/dphi."""
+    return (p_a_pa - p_b_pa) * swept_area(phi_rad, stator_radius_m, rotor_radius_m, vane_length_m, n_vanes)
+
+
+def displacement_per_rad(stator_radius_m: float, rotor_radius_m: float, vane_length_m: float, n_vanes: float) -> float:
+    """Mean swept volume per motor radian in m^3/rad (a vane pitch's swept volume over its angle)."""
+    va_lo, _ = chamber_volumes(-math.pi / n_vanes + 1e-12, stator_radius_m, rotor_radius_m, vane_length_m, n_vanes, 0.0)
+    _, vb_lo = chamber_volumes(-math.pi / n_vanes + 1e-12, stator_radius_m, rotor_radius_m, vane_length_m, n_vanes, 0.0)
+    return (vb_lo - va_lo) / (2.0 * math.pi / n_vanes)

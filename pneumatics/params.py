@@ -1,0 +1,192 @@
+"""Parameters of one pneumatic joint: a frozen record, its allowed ranges, and the TOML reader.
+
+A joint's parameter file (assets/joints/<joint>.toml) has one table per part: [motor],
+[reducer], [hose], [valves], [brake], [friction] and [effects] (the optional effects of the gap
+catalogue, all off by default). Every field must be present in the file (except [effects]
+fields, which default to "off"), be a number, and lie within the range below; anything else is
+refused with the file, the field, the value and what is allowed. Each number in the files says
+where it comes from.
+"""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from dataclasses import dataclass
+from pathlib import Path
+from typing import NamedTuple
+
+import numpy as np
+
+from pneumatics.gas import AIR, Gas
+
+
+class ParameterError(ValueError):
+    """A parameter file is missing, malformed, or holds a value outside its allowed range."""
+
+
+class JointParams(NamedTuple):
+    """Everything the pneumatic model of one joint needs, in SI units (frozen)."""
+
+    # [motor] vane air motor
+    stator_radius_m: float
+    rotor_radius_m: float
+    vane_length_m: float
+    n_vanes: float
+    dead_volume_m3: float  # porting volume of each motor port
+    rotor_inertia_kg_m2: float  # rotor + wave generator, motor side
+    # [reducer]
+    ratio: float  # motor angle / joint angle
+    efficiency_forward: float
+    efficiency_backward: float
+    # [hose] one hose per motor port, platform to arm
+    hose_length_m: float
+    hose_diameter_m: float
+    hose_loss: float  # 1: the hose's resistance is modelled (paper eq. 1-5); 0: not (volume only)
+    # [valves]
+    inlet_area_m2: float  # effective area of the supply path at full opening
+    exhaust_area_m2: float  # effective area of the exhaust path (with its speed throttle)
+    k_u_per_pa: float  # opening per gauge Pa of proportional-valve pressure (paper k_u)
+    valve_time_constant_s: float  # proportional valve response (paper: 0.1 s)
+    solenoid_delay_s: float  # direction valve switching delay
+    # [brake]
+    brake_holding_nm: float
+    brake_release_gauge_pa: float
+    brake_engage_time_constant_s: float
+    brake_release_time_constant_s: float
+    # [friction] joint side
+    coulomb_nm: float
+    viscous_nm_s: float
+    stick_speed_rad_s: float  # predictor's Karnopp window
+    # [effects] the gap catalogue's optional effects; defaults are "off"
+    leak_area_m2: float = 0.0  # vane leakage between the chambers
+    stribeck_excess_nm: float = 0.0  # static minus Coulomb friction
+    stribeck_speed_rad_s: float = 0.05
+    valve_dead_zone: float = 0.0  # fraction of the valve stroke before the port opens
+    conductance_scale: float = 1.0  # real valve conductance / nominal
+    polytropic_n: float = 1.4  # 1.4: adiabatic (paper); lower: heat exchange
+    ripple_fraction: float = 0.0  # torque ripple amplitude with motor angle, fraction of torque
+    supply_droop_pa_s_per_kg: float = 0.0  # supply pressure lost per kg/s drawn
+
+
+@dataclass(frozen=True)
+class FieldSpec:
+    section: str
+    low: float
+    high: float
+    unit: str
+
+
+# allowed ranges: physically possible values with room for every real motor of this class
+SPEC: dict[str, FieldSpec] = {
+    "stator_radius_m": FieldSpec("motor", 1e-3, 0.2, "m"),
+    "rotor_radius_m": FieldSpec("motor", 1e-3, 0.2, "m"),
+    "vane_length_m": FieldSpec("motor", 1e-3, 0.5, "m"),
+    "n_vanes": FieldSpec("motor", 2, 12, "vanes"),
+    "dead_volume_m3": FieldSpec("motor", 1e-8, 1e-2, "m^3"),
+    "rotor_inertia_kg_m2": FieldSpec("motor", 0.0, 1.0, "kg·m^2"),
+    "ratio": FieldSpec("reducer", 1.0, 10_000.0, "-"),
+    "efficiency_forward": FieldSpec("reducer", 0.05, 1.0, "-"),
+    "efficiency_backward": FieldSpec("reducer", 0.05, 1.0, "-"),
+    "hose_length_m": FieldSpec("hose", 0.01, 100.0, "m"),
+    "hose_diameter_m": FieldSpec("hose", 1e-3, 0.05, "m"),
+    "hose_loss": FieldSpec("hose", 0.0, 1.0, "0 or 1"),
+    "inlet_area_m2": FieldSpec("valves", 1e-8, 1e-3, "m^2"),
+    "exhaust_area_m2": FieldSpec("valves", 1e-8, 1e-3, "m^2"),
+    "k_u_per_pa": FieldSpec("valves", 1e-8, 1e-4, "1/Pa"),
+    "valve_time_constant_s": FieldSpec("valves", 0.0, 5.0, "s"),
+    "solenoid_delay_s": FieldSpec("valves", 0.0, 1.0, "s"),
+    "brake_holding_nm": FieldSpec("brake", 0.0, 1e5, "N·m"),
+    "brake_release_gauge_pa": FieldSpec("brake", 0.0, 1.0e6, "Pa"),
+    "brake_engage_time_constant_s": FieldSpec("brake", 0.0, 1.0, "s"),
+    "brake_release_time_constant_s": FieldSpec("brake", 0.0, 1.0, "s"),
+    "coulomb_nm": FieldSpec("friction", 0.0, 1e4, "N·m"),
+    "viscous_nm_s": FieldSpec("friction", 0.0, 1e4, "N·m·s/rad"),
+    "stick_speed_rad_s": FieldSpec("friction", 1e-6, 1.0, "rad/s"),
+    "leak_area_m2": FieldSpec("effects", 0.0, 1e-4, "m^2"),
+    "stribeck_excess_nm": FieldSpec("effects", 0.0, 1e4, "N·m"),
+    "stribeck_speed_rad_s": FieldSpec("effects", 1e-4, 10.0, "rad/s"),
+    "valve_dead_zone": FieldSpec("effects", 0.0, 0.9, "-"),
+    "conductance_scale": FieldSpec("effects", 0.05, 10.0, "-"),
+    "polytropic_n": FieldSpec("effects", 1.0, 1.4, "-"),
+    "ripple_fraction": FieldSpec("effects", 0.0, 0.9, "-"),
+    "supply_droop_pa_s_per_kg": FieldSpec("effects", 0.0, 1e9, "Pa·s/kg"),
+}
+assert list(SPEC) == list(JointParams._fields), "SPEC and JointParams must list the same fields"
+
+SECTIONS = ("motor", "reducer", "hose", "valves", "brake", "friction", "effects")
+# metadata keys a section may carry besides numbers (names of the parts, e.g. model = "1UP-NRV-3A")
+TEXT_KEYS = {"model", "note"}
+
+
+def check_value(source: str, field: str, value: object) -> float:
+    """`value` as a float if it is allowed for `field`, else ParameterError naming source and field."""
+    spec = SPEC[field]
+    where = f"{source}: [{spec.section}] {field}"
+    allowed = f"a number in {spec.low:g}..{spec.high:g} {spec.unit}"
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise ParameterError(f"{where} = {value!r} is not a number; allowed: {allowed}")
+    value = float(value)
+    if not math.isfinite(value) or not spec.low <= value <= spec.high:
+        raise ParameterError(f"{where} = {value:g} is outside the allowed range; allowed: {allowed}")
+    return value
+
+
+def validated(params: JointParams, source: str = "<parameters>") -> JointParams:
+    """Check every field of `params` and the relations between them."""
+    for field, value in zip(JointParams._fields, params):
+        check_value(source, field, value)
+    if params.rotor_radius_m >= params.stator_radius_m:
+        raise ParameterError(
+            f"{source}: [motor] rotor_radius_m = {params.rotor_radius_m:g} must be smaller than "
+            f"stator_radius_m = {params.stator_radius_m:g}"
+        )
+    if params.hose_loss not in (0.0, 1.0):
+        raise ParameterError(f"{source}: [hose] hose_loss = {params.hose_loss:g}; allowed: 0 or 1")
+    return params
+
+
+def load_joint_params(path: str | Path) -> JointParams:
+    """Read and check one joint's parameter file."""
+    path = Path(path)
+    try:
+        with path.open("rb") as f:
+            doc = tomllib.load(f)
+    except FileNotFoundError:
+        raise ParameterError(f"{path}: no such parameter file") from None
+    except tomllib.TOMLDecodeError as e:
+        raise ParameterError(f"{path}: not valid TOML: {e}") from None
+    values: dict[str, float] = {}
+    for section, table in doc.items():
+        if section not in SECTIONS or not isinstance(table, dict):
+            raise ParameterError(f"{path}: unknown table [{section}]; allowed: {', '.join(SECTIONS)}")
+        for field, value in table.items():
+            if field in TEXT_KEYS:
+                continue
+            if field not in SPEC or SPEC[field].section != section:
+                known = [f for f, s in SPEC.items() if s.section == section]
+                raise ParameterError(f"{path}: [{section}] {field} is not a known field; allowed: {', '.join(known)}")
+            values[field] = check_value(str(path), field, value)
+    defaults = JointParams._field_defaults
+    for field, spec in SPEC.items():
+        if field not in values and field not in defaults:
+            raise ParameterError(f"{path}: [{spec.section}] {field} is missing; allowed: a number in {spec.low:g}..{spec.high:g} {spec.unit}")
+    return validated(JointParams(**values), str(path))
+
+
+def params_row(params: JointParams, gas: Gas = AIR) -> np.ndarray:
+    """The flat float64 row the compiled kernels read: the joint's fields, then the gas's."""
+    return np.array(tuple(params) + tuple(gas), dtype=np.float64)
+
+
+# column of each field in `params_row` (compile-time constants for the kernels)
+_COLUMNS = {name: i for i, name in enumerate(JointParams._fields + tuple("gas_" + f for f in Gas._fields))}
+STATOR, ROTOR, VANE_L, N_VANES, DEAD_V, ROTOR_J = (_COLUMNS[f] for f in JointParams._fields[0:6])
+RATIO, ETA_F, ETA_B = (_COLUMNS[f] for f in JointParams._fields[6:9])
+HOSE_L, HOSE_D, HOSE_LOSS = (_COLUMNS[f] for f in JointParams._fields[9:12])
+A_IN, A_EX, K_U, VALVE_TAU, SOLENOID_DELAY = (_COLUMNS[f] for f in JointParams._fields[12:17])
+BRAKE_HOLD, BRAKE_RELEASE_PA, BRAKE_TAU_ON, BRAKE_TAU_OFF = (_COLUMNS[f] for f in JointParams._fields[17:21])
+COULOMB, VISCOUS, STICK_SPEED = (_COLUMNS[f] for f in JointParams._fields[21:24])
+LEAK_A, STRIBECK_EXCESS, STRIBECK_SPEED, DEAD_ZONE, COND_SCALE, POLY_N, RIPPLE, DROOP = (_COLUMNS[f] for f in JointParams._fields[24:32])
+GAS_R, GAS_K, GAS_T, GAS_P_ATM, GAS_MU = (_COLUMNS["gas_" + f] for f in Gas._fields)
+N_COLUMNS = len(_COLUMNS)

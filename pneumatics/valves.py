@@ -1,0 +1,65 @@
+"""The platform's valves: the proportional valve and the solenoid direction valves.
+
+Proportional valve (paper Sec. IV): a pressure-regulating valve whose output pressure P_v follows
+its set point as a first-order lag of 0.1 s (the paper's "response time of the proportional
+valve is 0.1 s"), never above the supply. Its pressure sensor is what the platform reads, and the
+paper turns it into the valve body's opening by u = k_u P_v with k_u = 0.1959. The paper gives no
+unit; with P_v in bar (gauge) that puts full opening at 5.1 bar, inside the 0.5-0.8 MPa working
+range, so we take k_u = 0.1959 / bar = 1.959e-6 / Pa (gauge) and clip u to [0, 1].
+
+Solenoid direction valves (paper Fig. 3): 5/3 valves that connect one motor port to the supply
+and the other to exhaust, or both to exhaust in the centre position (our assumption: an exhaust
+centre, so an idle motor holds no trapped pressure; the brake holds the joint). A command takes
+effect after a switching delay.
+"""
+
+from __future__ import annotations
+
+import math
+
+from pneumatics._jit import njit
+
+
+@njit
+def lag_toward(value: float, target: float, dt_s: float, time_constant_s: float) -> float:
+    """Exact step of a first-order lag dv/dt = (target - v)/tau over dt (for a constant target)."""
+    if time_constant_s <= 0.0:
+        return target
+    return target + (value - target) * math.exp(-dt_s / time_constant_s)
+
+
+@njit
+def proportional_valve_target(set_point_gauge_pa: float, supply_gauge_pa: float) -> float:
+    """Output pressure (gauge, Pa) the proportional valve settles at: its set point, capped by the supply."""
+    return max(0.0, min(set_point_gauge_pa, supply_gauge_pa))
+
+
+@njit
+def valve_opening(p_v_gauge_pa: float, k_u_per_pa: float, dead_zone: float) -> float:
+    """Valve body opening u in [0, 1] from the output pressure: u = k_u P_v (paper Sec. IV).
+
+    `dead_zone` (0 for the paper's valve) is the part of the stroke at which the spool has not yet
+    uncovered its port (the gap catalogue's valve dead zone).
+    """
+    u = k_u_per_pa * p_v_gauge_pa
+    if dead_zone > 0.0:
+        u = (u - dead_zone) / (1.0 - dead_zone)
+    return min(1.0, max(0.0, u))
+
+
+@njit
+def solenoid_step(effective: float, pending: float, remaining_s: float, command: float, delay_s: float, dt_s: float) -> tuple[float, float, float]:
+    """Advance a solenoid valve with a switching delay by dt.
+
+    State: the position in effect, a commanded position still pending, and the time left until it
+    takes effect. A new command restarts the delay; returns (effective, pending, remaining_s).
+    """
+    if command != pending:
+        pending = command
+        remaining_s = delay_s
+    if pending != effective:
+        remaining_s -= dt_s
+        if remaining_s <= 1e-12:
+            effective = pending
+            remaining_s = 0.0
+    return effective, pending, remaining_s

@@ -1,0 +1,42 @@
+"""Loading the MJCF into MuJoCo, looking things up by name, and treating warnings as errors."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import mujoco
+import numpy as np
+
+
+class SimulationError(RuntimeError):
+    """MuJoCo warned during a run (divergence, constraint overflow, ...): the run cannot be trusted."""
+
+
+def load_model(path: str | Path) -> mujoco.MjModel:
+    """Compile an MJCF file."""
+    return mujoco.MjModel.from_xml_path(str(path))
+
+
+def ids(model: mujoco.MjModel, kind: mujoco.mjtObj, names) -> np.ndarray:
+    """Indices of named objects of one kind, in the order given; KeyError names a missing one."""
+    out = []
+    for name in names:
+        i = mujoco.mj_name2id(model, kind, name)
+        if i < 0:
+            raise KeyError(f"{mujoco.mjOBJECTSTRING[kind] if hasattr(mujoco, 'mjOBJECTSTRING') else kind}: no {name!r} in the model")
+        out.append(i)
+    return np.array(out, dtype=np.int64)
+
+
+def warning_counts(data: mujoco.MjData) -> np.ndarray:
+    """How often each MuJoCo warning has fired so far."""
+    return np.array([w.number for w in data.warning], dtype=np.int64)
+
+
+def raise_on_new_warnings(data: mujoco.MjData, before: np.ndarray, when: str) -> None:
+    """SimulationError if any MuJoCo warning fired since `before` (STYLE rule 7)."""
+    now = warning_counts(data)
+    fired = np.flatnonzero(now > before)
+    if fired.size:
+        names = ", ".join(mujoco.mjtWarning(int(i)).name for i in fired)
+        raise SimulationError(f"MuJoCo warned {when} (t = {data.time:.4f} s): {names}")

@@ -1,0 +1,186 @@
+"""The plant: MuJoCo moves the arm, each joint's pneumatic actuator moves MuJoCo.
+
+Per physics step (0.5 ms, the MJCF's timestep): every joint's torque is computed from its chamber
+pressures and written into its actuator's ctrl, its brake and Coulomb friction into its drive
+tendon's frictionloss; the valves, brake and the four node pressures are advanced over the step
+(Heun sub-steps, the joint moving at the speed MuJoCo reports); then MuJoCo steps. The coupling
+is explicit in both directions, like MuJoCo's own semi-implicit Euler; tests hold it to scipy's
+LSODA on the same equations.
+
+The plant knows the truth. What the operator's platform can read of it is `sensors()`: the supply
+pressure and each proportional valve's pressure, nothing more (the real arm has no angle sensor).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import mujoco
+import numpy as np
+
+import assets
+from pneumatics import AIR, Gas, JointParams, load_joint_params, params_row
+from pneumatics import joint as J
+from pneumatics import params as P
+from twin.kernel import pneumatic_step
+from twin.model import ids, load_model, raise_on_new_warnings, warning_counts
+
+SUBSTEPS = 1  # Heun sub-steps of the air per physics step; tests/test_plant_accuracy.py shows 1 is enough at 0.5 ms
+
+
+@dataclass(frozen=True)
+class Sensors:
+    """What the operator's platform measures (paper Sec. IV): absolute supply pressure and each
+    proportional valve's output pressure (gauge), in Pa. Indexed like `Plant.joints`."""
+
+    time_s: float
+    supply_pa: float
+    valve_gauge_pa: np.ndarray
+
+
+@dataclass
+class PlantState:
+    """Everything needed to continue a run exactly: MuJoCo's integration state and the air."""
+
+    mujoco_state: np.ndarray
+    air: np.ndarray
+    commands: np.ndarray
+    supply_pa: float
+    sensor_bias_pa: np.ndarray = field(default_factory=lambda: np.zeros(0))
+
+
+class Plant:
+    """The arm and its pneumatic actuators."""
+
+    def __init__(
+        self,
+        model_path: str | Path = assets.SCENE_XML,
+        joint_params: dict[str, JointParams] | None = None,
+        joints: tuple[str, ...] | None = None,
+        gas: Gas = AIR,
+        keyframe: str | None = "home",
+    ):
+        self.model = load_model(model_path)
+        self.data = mujoco.MjData(self.model)
+        m = self.model
+        if joints is None:
+            joints = tuple(j for j in assets.JOINTS if mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, j) >= 0)
+        self.joints = joints
+        joint_params = dict(joint_params or {})
+        for j in joints:
+            if j not in joint_params:
+                joint_params[j] = load_joint_params(assets.joint_param_path(j))
+        self.joint_params = {j: joint_params[j] for j in joints}
+        self.gas = gas
+        self.params = np.vstack([params_row(self.joint_params[j], gas) for j in joints])
+        self.tendon_ids = ids(m, mujoco.mjtObj.mjOBJ_TENDON, [assets.drive_tendon(j) for j in joints])
+        self.actuator_ids = ids(m, mujoco.mjtObj.mjOBJ_ACTUATOR, joints)
+        self.joint_ids = ids(m, mujoco.mjtObj.mjOBJ_JOINT, joints)
+        self.dt = m.opt.timestep
+        # the motor's rotor and wave generator, reflected through the reducer (ratio^2 J_rotor)
+        # and the viscous friction act on the drive coordinate
+        for row, t in zip(self.params, self.tendon_ids):
+            m.tendon_armature[t] = row[P.RATIO] ** 2 * row[P.ROTOR_J]
+            m.tendon_damping[t] = row[P.VISCOUS]
+        self.air = np.vstack([J.initial_state(gas.p_atm_pa) for _ in joints])
+        self.commands = np.zeros((len(joints), J.N_COMMAND))
+        self.supply_pa = gas.p_atm_pa + 0.5e6
+        self.sensor_bias_pa = np.zeros(len(joints))
+        if keyframe is not None and mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_KEY, keyframe) >= 0:
+            mujoco.mj_resetDataKeyframe(m, self.data, mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_KEY, keyframe))
+        self._apply_brakes()
+        mujoco.mj_forward(m, self.data)
+        self._state_size = mujoco.mj_stateSize(m, mujoco.mjtState.mjSTATE_INTEGRATION)
+
+    # -- inputs -------------------------------------------------------------------------------
+    def set_supply(self, supply_pa: float) -> None:
+        """Absolute supply pressure at the platform's regulator, Pa."""
+        self.supply_pa = float(supply_pa)
+
+    def command(self, joint: str, direction: int, valve_set_gauge_pa: float, brake_release: bool) -> None:
+        """What the platform sends a joint: direction valve (-1, 0, +1), the proportional valve's
+        set point (gauge Pa) and whether the brake's release air is on."""
+        i = self.joints.index(joint)
+        self.commands[i, J.C_DIRECTION] = float(np.sign(direction))
+        self.commands[i, J.C_PV_SET_GAUGE_PA] = float(valve_set_gauge_pa)
+        self.commands[i, J.C_BRAKE_RELEASE] = 1.0 if brake_release else 0.0
+
+    def set_joint_params(self, joint: str, params: JointParams) -> None:
+        """Change one joint's parameters mid-run (faults: a leak, a stuck valve, ...)."""
+        i = self.joints.index(joint)
+        self.joint_params[joint] = params
+        self.params[i] = params_row(params, self.gas)
+        self.model.tendon_damping[self.tendon_ids[i]] = params.viscous_nm_s
+
+    # -- stepping -----------------------------------------------------------------------------
+    def step(self, n: int = 1) -> None:
+        """Advance n physics steps with the inputs held. SimulationError if MuJoCo warns."""
+        m, d = self.model, self.data
+        before = warning_counts(d)
+        for _ in range(n):
+            pneumatic_step(
+                self.air, self.commands, self.params, self.tendon_ids, self.actuator_ids,
+                d.ten_length, d.ten_velocity, d.ctrl, m.tendon_frictionloss,
+                self.supply_pa, self.dt, SUBSTEPS,
+            )
+            mujoco.mj_step(m, d)
+        raise_on_new_warnings(d, before, "while stepping the plant")
+
+    def _apply_brakes(self) -> None:
+        for row, x, t in zip(self.params, self.air, self.tendon_ids):
+            self.model.tendon_frictionloss[t] = row[P.COULOMB] + x[J.S_BRAKE] * row[P.BRAKE_HOLD]
+
+    # -- outputs ------------------------------------------------------------------------------
+    @property
+    def time(self) -> float:
+        return float(self.data.time)
+
+    def sensors(self) -> Sensors:
+        """What the platform can measure. The true angles are not in here, by design."""
+        return Sensors(
+            time_s=self.time,
+            supply_pa=self.supply_pa,
+            valve_gauge_pa=self.air[:, J.S_PV] + self.sensor_bias_pa,
+        )
+
+    def drive_angles(self) -> np.ndarray:
+        """True drive-coordinate angle of each joint, rad (for logging and tests, not the controller)."""
+        return self.data.ten_length[self.tendon_ids].copy()
+
+    def drive_speeds(self) -> np.ndarray:
+        """True drive-coordinate speed of each joint, rad/s."""
+        return self.data.ten_velocity[self.tendon_ids].copy()
+
+    def joint_torques(self) -> np.ndarray:
+        """Pneumatic drive torque applied to each joint in the last step, N·m."""
+        return self.data.ctrl[self.actuator_ids].copy()
+
+    def chamber_pressures(self) -> np.ndarray:
+        """(n_joints, 2) absolute pressures of motor chambers A and B, Pa."""
+        return self.air[:, [J.S_PA_MOTOR, J.S_PB_MOTOR]].copy()
+
+    def brake_engagement(self) -> np.ndarray:
+        return self.air[:, J.S_BRAKE].copy()
+
+    def valve_directions(self) -> np.ndarray:
+        """Direction valve position in effect per joint (-1, 0, +1)."""
+        return self.air[:, J.S_DIR].copy()
+
+    def site_position(self, name: str) -> np.ndarray:
+        return self.data.site(name).xpos.copy()
+
+    # -- state --------------------------------------------------------------------------------
+    def save_state(self) -> PlantState:
+        buf = np.empty(self._state_size)
+        mujoco.mj_getState(self.model, self.data, buf, mujoco.mjtState.mjSTATE_INTEGRATION)
+        return PlantState(buf, self.air.copy(), self.commands.copy(), self.supply_pa, self.sensor_bias_pa.copy())
+
+    def restore_state(self, state: PlantState) -> None:
+        mujoco.mj_setState(self.model, self.data, state.mujoco_state, mujoco.mjtState.mjSTATE_INTEGRATION)
+        self.air[:] = state.air
+        self.commands[:] = state.commands
+        self.supply_pa = state.supply_pa
+        self.sensor_bias_pa[:] = state.sensor_bias_pa
+        self._apply_brakes()
+        mujoco.mj_forward(self.model, self.data)

@@ -1,0 +1,142 @@
+"""The run loop: controller ticks, plant steps, telemetry samples (DESIGN, "One control tick").
+
+    controller.tick(sensors) --commands--> plant.step x n --> sensors (next tick)
+    telemetry: true state from the plant beside the controller's prediction
+
+The controller is anything with `tick(sensors) -> (n_joints, 3) commands`, `predicted_angles()`
+and `target_angles()`; it is handed only `plant.sensors()`, never the plant.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Callable, Protocol
+
+import mujoco
+import numpy as np
+
+from twin.plant import Plant, Sensors
+from twin.telemetry import Telemetry
+
+CONTROL_PERIOD_S = 1e-3  # the platform PC's control period (issue: "a 1 ms control period")
+LOG_PERIOD_S = 0.02  # 50 samples per simulated second (>= 30 frames/s for playback)
+
+
+class Controller(Protocol):
+    def tick(self, sensors: Sensors) -> np.ndarray: ...
+    def predicted_angles(self) -> np.ndarray: ...
+    def target_angles(self) -> np.ndarray: ...
+
+
+class Recorder(Protocol):
+    def write(self, telemetry: Telemetry, start: int) -> None: ...
+    def close(self) -> None: ...
+
+
+@dataclass
+class CommandSchedule:
+    """A controller that replays commands given as functions of time (open loop, no prediction):
+    the gap diagnosis replays measured runs with it, tests drive the plant with it."""
+
+    commands_at: Callable[[float], np.ndarray]
+    n_joints: int
+
+    def tick(self, sensors: Sensors) -> np.ndarray:
+        return self.commands_at(sensors.time_s)
+
+    def predicted_angles(self) -> np.ndarray:
+        return np.full(self.n_joints, np.nan)
+
+    def target_angles(self) -> np.ndarray:
+        return np.full(self.n_joints, np.nan)
+
+
+def brush_contact_force(plant: Plant) -> float:
+    """Sum of the normal forces between the brush and anything it touches, N."""
+    m, d = plant.model, plant.data
+    brush = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, "brush")
+    if brush < 0:
+        return 0.0
+    total = 0.0
+    f = np.zeros(6)
+    for i in range(d.ncon):
+        c = d.contact[i]
+        if c.geom1 == brush or c.geom2 == brush:
+            mujoco.mj_contactForce(m, d, i, f)
+            total += f[0]
+    return total
+
+
+def sample(plant: Plant, controller: Controller) -> dict[str, np.ndarray]:
+    """One telemetry sample of the plant's truth beside the controller's belief."""
+    d = plant.data
+    return {
+        "true_angle_rad": plant.drive_angles(),
+        "predicted_angle_rad": controller.predicted_angles(),
+        "target_angle_rad": controller.target_angles(),
+        "pressure_a_pa": plant.air[:, 1],
+        "pressure_b_pa": plant.air[:, 3],
+        "valve_gauge_pa": plant.sensors().valve_gauge_pa,
+        "direction": plant.commands[:, 0],
+        "brake_release": plant.commands[:, 2],
+        "brake_engagement": plant.brake_engagement(),
+        "supply_pa": np.asarray(plant.supply_pa),
+        "brush_force_n": np.asarray(brush_contact_force(plant)),
+        "body_pos_m": d.xpos[1:],
+        "body_quat_wxyz": d.xquat[1:],
+    }
+
+
+def body_names(plant: Plant) -> tuple[str, ...]:
+    m = plant.model
+    return tuple(mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_BODY, i) for i in range(1, m.nbody))
+
+
+def run(
+    plant: Plant,
+    controller: Controller,
+    duration_s: float,
+    supply_pa_at: Callable[[float], float] | None = None,
+    events: Callable[[Plant, float], None] | None = None,
+    recorders: tuple[Recorder, ...] = (),
+    telemetry: Telemetry | None = None,
+    control_period_s: float = CONTROL_PERIOD_S,
+    log_period_s: float = LOG_PERIOD_S,
+    flush_period_s: float = 0.5,
+) -> Telemetry:
+    """Run the closed loop for `duration_s` simulated seconds; returns the telemetry.
+
+    `supply_pa_at(t)` sets the supply each tick; `events(plant, t)` applies faults. Recorders get
+    the new samples every `flush_period_s` of simulated time and once more at the end, also when
+    the run stops on an error, so what was logged stays readable.
+    """
+    steps_per_tick = max(1, round(control_period_s / plant.dt))
+    ticks_per_log = max(1, round(log_period_s / (steps_per_tick * plant.dt)))
+    ticks_per_flush = max(1, round(flush_period_s / (steps_per_tick * plant.dt)))
+    n_ticks = round(duration_s / (steps_per_tick * plant.dt))
+    telemetry = telemetry or Telemetry(plant.joints, body_names(plant))
+    flushed = len(telemetry)
+
+    def flush() -> None:
+        nonlocal flushed
+        for r in recorders:
+            r.write(telemetry, flushed)
+        flushed = len(telemetry)
+
+    try:
+        for k in range(n_ticks):
+            t = plant.time
+            if supply_pa_at is not None:
+                plant.set_supply(supply_pa_at(t))
+            if events is not None:
+                events(plant, t)
+            plant.commands[:] = controller.tick(plant.sensors())
+            if k % ticks_per_log == 0:
+                telemetry.append(t, sample(plant, controller))
+            plant.step(steps_per_tick)
+            if k % ticks_per_flush == ticks_per_flush - 1:
+                flush()
+        telemetry.append(plant.time, sample(plant, controller))
+    finally:
+        flush()
+    return telemetry
