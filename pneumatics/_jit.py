@@ -4,11 +4,30 @@ Every law in pneumatics/ is a plain Python function. `njit` compiles it with num
 disk) so that the plant can call it every physics step at the speed of C; the same function is
 what the predictor, the reference solver in the tests and the gap diagnosis call. Setting
 TWIN_NO_JIT=1 runs the plain Python instead (for debugging and coverage).
+
+Numba's cache notices a change only in the file that defines a function, not in the functions
+and constants it inlines from other files. So the cache lives in a folder named after a hash of
+every source file that compiles code: any edit to any of them starts a fresh cache.
 """
 
 from __future__ import annotations
 
+import hashlib
 import os
+from pathlib import Path
+
+_ROOT = Path(__file__).resolve().parent.parent
+_COMPILED_PACKAGES = ("pneumatics", "twin", "control", "gap")
+
+
+def _source_hash() -> str:
+    h = hashlib.sha256()
+    for package in _COMPILED_PACKAGES:
+        for path in sorted((_ROOT / package).glob("*.py")):
+            h.update(path.name.encode())
+            h.update(path.read_bytes())
+    return h.hexdigest()[:16]
+
 
 if os.environ.get("TWIN_NO_JIT") == "1":
 
@@ -16,6 +35,9 @@ if os.environ.get("TWIN_NO_JIT") == "1":
         return fn if fn is not None else (lambda f: f)
 
 else:
+    if "NUMBA_CACHE_DIR" not in os.environ:
+        cache_root = Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache"))
+        os.environ["NUMBA_CACHE_DIR"] = str(cache_root / "pneumatic-arm-twin" / _source_hash())
     import numba
 
     def njit(fn=None, **kwargs):

@@ -109,6 +109,8 @@ def pressure_rates(pa_valve: float, pa_motor: float, pb_valve: float, pb_motor: 
     v_a, v_b = chamber_volumes(phi_motor, p[P.STATOR], p[P.ROTOR], p[P.VANE_L], p[P.N_VANES], p[P.DEAD_V])
     dv_a = swept_area(phi_motor, p[P.STATOR], p[P.ROTOR], p[P.VANE_L], p[P.N_VANES]) * omega_motor
     m_leak = orifice_mass_flow(pa_motor, pb_motor, p[P.LEAK_A], t_s, r, p[P.GAS_K])  # A -> B past the vanes
+    # a leak in port A's hose (a fault) vents at the hose's valve end
+    m_a_valve -= orifice_mass_flow(pa_valve, p[P.GAS_P_ATM], p[P.HOSE_LEAK_A], t_s, r, p[P.GAS_K])
     half_hose = 0.5 * hose_volume(p[P.HOSE_L], p[P.HOSE_D])
 
     if p[P.HOSE_LOSS] == 0.0:

@@ -67,6 +67,7 @@ class JointParams(NamedTuple):
     polytropic_n: float = 1.4  # 1.4: adiabatic (paper); lower: heat exchange
     ripple_fraction: float = 0.0  # torque ripple amplitude with motor angle, fraction of torque
     supply_droop_pa_s_per_kg: float = 0.0  # supply pressure lost per kg/s drawn
+    hose_leak_area_m2: float = 0.0  # a leak to atmosphere in port A's hose (a fault)
 
 
 @dataclass(frozen=True)
@@ -111,6 +112,7 @@ SPEC: dict[str, FieldSpec] = {
     "polytropic_n": FieldSpec("effects", 1.0, 1.4, "-"),
     "ripple_fraction": FieldSpec("effects", 0.0, 0.9, "-"),
     "supply_droop_pa_s_per_kg": FieldSpec("effects", 0.0, 1e9, "Pa·s/kg"),
+    "hose_leak_area_m2": FieldSpec("effects", 0.0, 1e-4, "m^2"),
 }
 assert list(SPEC) == list(JointParams._fields), "SPEC and JointParams must list the same fields"
 
@@ -187,6 +189,6 @@ HOSE_L, HOSE_D, HOSE_LOSS = (_COLUMNS[f] for f in JointParams._fields[9:12])
 A_IN, A_EX, K_U, VALVE_TAU, SOLENOID_DELAY = (_COLUMNS[f] for f in JointParams._fields[12:17])
 BRAKE_HOLD, BRAKE_RELEASE_PA, BRAKE_TAU_ON, BRAKE_TAU_OFF = (_COLUMNS[f] for f in JointParams._fields[17:21])
 COULOMB, VISCOUS, STICK_SPEED = (_COLUMNS[f] for f in JointParams._fields[21:24])
-LEAK_A, STRIBECK_EXCESS, STRIBECK_SPEED, DEAD_ZONE, COND_SCALE, POLY_N, RIPPLE, DROOP = (_COLUMNS[f] for f in JointParams._fields[24:32])
+LEAK_A, STRIBECK_EXCESS, STRIBECK_SPEED, DEAD_ZONE, COND_SCALE, POLY_N, RIPPLE, DROOP, HOSE_LEAK_A = (_COLUMNS[f] for f in JointParams._fields[24:33])
 GAS_R, GAS_K, GAS_T, GAS_P_ATM, GAS_MU = (_COLUMNS["gas_" + f] for f in Gas._fields)
 N_COLUMNS = len(_COLUMNS)

@@ -48,6 +48,7 @@ class PlantState:
     commands: np.ndarray
     supply_pa: float
     sensor_bias_pa: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    stuck_direction: np.ndarray = field(default_factory=lambda: np.zeros(0))
 
 
 class Plant:
@@ -87,6 +88,8 @@ class Plant:
         self.commands = np.zeros((len(joints), J.N_COMMAND))
         self.supply_pa = gas.p_atm_pa + 0.5e6
         self.sensor_bias_pa = np.zeros(len(joints))
+        # a valve stuck open in one direction (a fault): NaN where the valves obey
+        self.stuck_direction = np.full(len(joints), np.nan)
         if keyframe is not None and mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_KEY, keyframe) >= 0:
             mujoco.mj_resetDataKeyframe(m, self.data, mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_KEY, keyframe))
         self._apply_brakes()
@@ -118,9 +121,15 @@ class Plant:
         """Advance n physics steps with the inputs held. SimulationError if MuJoCo warns."""
         m, d = self.model, self.data
         before = warning_counts(d)
+        commands = self.commands
+        stuck = ~np.isnan(self.stuck_direction)
+        if stuck.any():
+            commands = commands.copy()
+            commands[stuck, J.C_DIRECTION] = self.stuck_direction[stuck]
+            commands[stuck, J.C_PV_SET_GAUGE_PA] = np.inf  # stuck fully open: the supply passes
         for _ in range(n):
             pneumatic_step(
-                self.air, self.commands, self.params, self.tendon_ids, self.actuator_ids,
+                self.air, commands, self.params, self.tendon_ids, self.actuator_ids,
                 d.ten_length, d.ten_velocity, d.ctrl, m.tendon_frictionloss,
                 self.supply_pa, self.dt, SUBSTEPS,
             )
@@ -174,7 +183,7 @@ class Plant:
     def save_state(self) -> PlantState:
         buf = np.empty(self._state_size)
         mujoco.mj_getState(self.model, self.data, buf, mujoco.mjtState.mjSTATE_INTEGRATION)
-        return PlantState(buf, self.air.copy(), self.commands.copy(), self.supply_pa, self.sensor_bias_pa.copy())
+        return PlantState(buf, self.air.copy(), self.commands.copy(), self.supply_pa, self.sensor_bias_pa.copy(), self.stuck_direction.copy())
 
     def restore_state(self, state: PlantState) -> None:
         mujoco.mj_setState(self.model, self.data, state.mujoco_state, mujoco.mjtState.mjSTATE_INTEGRATION)
@@ -182,5 +191,6 @@ class Plant:
         self.commands[:] = state.commands
         self.supply_pa = state.supply_pa
         self.sensor_bias_pa[:] = state.sensor_bias_pa
+        self.stuck_direction[:] = state.stuck_direction
         self._apply_brakes()
         mujoco.mj_forward(self.model, self.data)

@@ -1,0 +1,89 @@
+"""Where the joints must be for the brush to stand on an insulator disc's rim.
+
+The cleaning task keeps the tool level (pointing along +x at the string) and the base and tool
+roll at zero, so the shoulder and the parallelogram elbow form a planar two-link arm and the
+inverse kinematics is closed-form (law of cosines, elbow above the line from shoulder to wrist).
+Lengths are read from the compiled model, not repeated here.
+"""
+
+from __future__ import annotations
+
+import math
+
+import mujoco
+import numpy as np
+
+# the brush's face stands this far in front of its centre site (cylinder half-length, arm.xml)
+BRUSH_HALF_LENGTH_M = 0.03
+
+
+def arm_lengths(model: mujoco.MjModel) -> tuple[np.ndarray, float, float, float]:
+    """(shoulder position, upper arm, forearm, wrist axis to brush_tip) in m, at the zero pose."""
+    d = mujoco.MjData(model)
+    mujoco.mj_forward(model, d)
+    shoulder = d.body("upper_arm").xpos.copy()
+    upper = float(np.linalg.norm(d.body("forearm").xpos - shoulder))
+    fore = float(np.linalg.norm(d.body("wrist").xpos - d.body("forearm").xpos))
+    tool = float(np.linalg.norm(d.site("brush_tip").xpos - d.body("wrist").xpos))
+    return shoulder, upper, fore, tool
+
+
+def tool_drive_angles(model: mujoco.MjModel, tip_target: np.ndarray, tool_pitch_rad: float = 0.0) -> dict[str, float]:
+    """Drive angles (rad) that put brush_tip at `tip_target` (in the arm's x-z plane) with the
+    tool's absolute pitch `tool_pitch_rad` (0: level, pointing along +x).
+
+    Drive coordinates: shoulder = shoulder pitch, elbow = forearm's absolute pitch (parallelogram),
+    wrist = tool pitch - forearm pitch. ValueError if out of reach.
+    """
+    shoulder, l1, l2, lt = arm_lengths(model)
+    wx = tip_target[0] - lt * math.cos(tool_pitch_rad) - shoulder[0]
+    wz = tip_target[2] - lt * math.sin(tool_pitch_rad) - shoulder[2]
+    r = math.hypot(wx, wz)
+    if not abs(l1 - l2) < r < l1 + l2:
+        raise ValueError(f"brush target {tip_target} is out of reach (wrist at {r:.3f} m from the shoulder)")
+    # elbow above the shoulder-wrist line: upper arm raised by the triangle's angle at the shoulder
+    alpha = math.atan2(wz, wx)
+    beta = math.acos((l1 * l1 + r * r - l2 * l2) / (2 * l1 * r))
+    q_shoulder = alpha + beta
+    elbow_x = l1 * math.cos(q_shoulder)
+    elbow_z = l1 * math.sin(q_shoulder)
+    q_forearm = math.atan2(wz - elbow_z, wx - elbow_x)  # absolute pitch of the forearm
+    return {"base_yaw": 0.0, "shoulder_pitch": q_shoulder, "elbow_pitch": q_forearm, "wrist_pitch": tool_pitch_rad - q_forearm, "tool_roll": 0.0}
+
+
+def disc_drive_angles(model: mujoco.MjModel, disc: int, standoff_m: float = -0.006) -> dict[str, float]:
+    """Drive angles for the brush on disc `disc`'s rim: the tool level where the arm reaches,
+    tilted up in 5 deg steps (up to 45 deg) where it does not (the top discs)."""
+    target = disc_rim_target(model, disc, standoff_m)
+    for tilt_deg in range(0, 50, 5):
+        try:
+            return tool_drive_angles(model, target, math.radians(tilt_deg))
+        except ValueError:
+            continue
+    raise ValueError(f"disc_{disc} is out of the brush's reach")
+
+
+def disc_rim_target(model: mujoco.MjModel, disc: int, standoff_m: float) -> np.ndarray:
+    """brush_tip position that puts the brush face on disc `disc`'s rim facing the arm.
+
+    A negative standoff presses the brush into the rim; a positive one holds it clear.
+    """
+    geom = model.geom(f"disc_{disc}")
+    rim = geom.pos - np.array([geom.size[0], 0.0, 0.0])
+    return rim - np.array([BRUSH_HALF_LENGTH_M + standoff_m, 0.0, 0.0])
+
+
+def drive_to_qpos(drive: dict[str, float]) -> dict[str, float]:
+    """Joint angles (qpos) from drive angles: the parallelogram's elbow drive is absolute."""
+    q = dict(drive)
+    if "elbow_pitch" in drive:
+        q["elbow_pitch"] = drive["elbow_pitch"] - drive.get("shoulder_pitch", 0.0)
+    return q
+
+
+def qpos_to_drive(q: dict[str, float]) -> dict[str, float]:
+    """Drive angles from joint angles (inverse of `drive_to_qpos`)."""
+    drive = dict(q)
+    if "elbow_pitch" in q:
+        drive["elbow_pitch"] = q["elbow_pitch"] + q.get("shoulder_pitch", 0.0)
+    return drive

@@ -1,0 +1,301 @@
+"""The scenario file format: a typed schema, read from TOML as data (nothing in it is executed).
+
+A scenario says where the arm starts, what it carries, what air it gets, what it must do, what
+"reality" has that the predictor lacks, what goes wrong and when, and how to judge the run.
+Every field below carries its unit in its name. A file with an unknown field, a wrong type or a
+value out of range is refused with its path, the field, the value and what is allowed.
+
+Top level:            name (str), description (str), model ("arm" | "wrist_rig"), seed (int),
+                      duration_s (0 < . <= 7200)
+[start]               pose ("home" | "zero"), angles_deg {joint: deg} (override; joint angles)
+[payload]             mass_kg (0..40)
+[supply]              kind ("constant" | "steps" | "random"); pressure_mpa (gauge, 0..1.0);
+                      steps [[time_s, pressure_mpa], ...]; mean_mpa, variance_pa2, hold_s (random)
+[reality]             hose_loss (bool); [reality.effects.<joint>] {JointParams field: value}
+[predictor]           hose_loss (bool); [predictor.effects.<joint>] {field: value}
+[control]             mode ("closed_loop" | "open_loop" | "none"), sequence ("one_after_another" |
+                      "together"), min_rotation_deg (0..90), tolerance_deg (0.05..10),
+                      move_timeout_s (0.1..600)
+[[targets]]           angles_deg {joint: deg} (drive angles) | brush_at_disc (1..8, the brush on
+                      that disc's rim by inverse kinematics) ; dwell_s (0..600)
+[[faults]]            kind ("supply_lost" | "hose_leak" | "valve_stuck_open" | "brake_fails" |
+                      "sensor_bias"), at_s, joint, value (area m^2 for hose_leak, Pa for sensor_bias)
+[[criteria]]          kind ("final_error_deg" | "max_error_deg" | "brush_on_disc" |
+                      "contact_force_n" | "max_drop_m" | "max_travel_deg" | "fails"), joint, max,
+                      min, disc
+"""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from assets import JOINTS
+from pneumatics import JointParams
+from pneumatics.params import SPEC
+from twin.errors import UserError
+
+
+class ScenarioError(UserError):
+    """A scenario file that cannot be run as written."""
+
+
+@dataclass(frozen=True)
+class Supply:
+    kind: str = "constant"
+    pressure_mpa: float = 0.6
+    steps: tuple[tuple[float, float], ...] = ()
+    mean_mpa: float = 0.6
+    variance_pa2: float = 5e9
+    hold_s: float = 0.5
+
+
+@dataclass(frozen=True)
+class Model:
+    hose_loss: bool = True
+    effects: dict = field(default_factory=dict)  # joint -> {field: value}
+
+
+@dataclass(frozen=True)
+class Control:
+    mode: str = "closed_loop"
+    sequence: str = "one_after_another"
+    min_rotation_deg: float = 20.0
+    tolerance_deg: float = 0.5
+    move_timeout_s: float = 20.0
+
+
+@dataclass(frozen=True)
+class Target:
+    angles_deg: dict = field(default_factory=dict)
+    brush_at_disc: int = 0
+    dwell_s: float = 0.0
+
+
+@dataclass(frozen=True)
+class Fault:
+    kind: str
+    at_s: float
+    joint: str = ""
+    value: float = 0.0
+
+
+@dataclass(frozen=True)
+class Criterion:
+    kind: str
+    joint: str = ""
+    max: float = math.inf
+    min: float = -math.inf
+    disc: int = 0
+
+
+@dataclass(frozen=True)
+class Scenario:
+    path: str
+    name: str
+    description: str = ""
+    model: str = "arm"
+    seed: int = 0
+    duration_s: float = 10.0
+    start_pose: str = "home"
+    start_angles_deg: dict = field(default_factory=dict)
+    payload_kg: float = 20.0
+    supply: Supply = Supply()
+    reality: Model = Model()
+    predictor: Model = Model()
+    control: Control = Control()
+    targets: tuple[Target, ...] = ()
+    faults: tuple[Fault, ...] = ()
+    criteria: tuple[Criterion, ...] = ()
+    text: str = ""  # the file as read, stored in logs
+
+    @property
+    def joints(self) -> tuple[str, ...]:
+        return ("wrist_pitch",) if self.model == "wrist_rig" else JOINTS
+
+
+class _Reader:
+    """Pulls typed, range-checked values out of one TOML table, naming the path of each."""
+
+    def __init__(self, path: str, table: dict, where: str, allowed: set[str]):
+        self.path, self.table, self.where = path, table, where
+        unknown = sorted(set(table) - allowed)
+        if unknown:
+            raise ScenarioError(f"{path}: {self._name(unknown[0])} is not a known field; allowed: {', '.join(sorted(allowed))}")
+
+    def _name(self, key: str) -> str:
+        return f"{self.where}.{key}" if self.where else key
+
+    def fail(self, key: str, value, allowed: str):
+        raise ScenarioError(f"{self.path}: {self._name(key)} = {value!r} is not allowed; allowed: {allowed}")
+
+    def number(self, key: str, default, low: float, high: float, unit: str = ""):
+        value = self.table.get(key, default)
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) or not low <= value <= high:
+            self.fail(key, value, f"a number in {low:g}..{high:g}{' ' + unit if unit else ''}")
+        return float(value)
+
+    def integer(self, key: str, default, low: int, high: int):
+        value = self.table.get(key, default)
+        if isinstance(value, bool) or not isinstance(value, int) or not low <= value <= high:
+            self.fail(key, value, f"a whole number in {low}..{high}")
+        return value
+
+    def choice(self, key: str, default, options: tuple[str, ...]):
+        value = self.table.get(key, default)
+        if value not in options:
+            self.fail(key, value, " | ".join(repr(o) for o in options))
+        return value
+
+    def text(self, key: str, default=""):
+        value = self.table.get(key, default)
+        if not isinstance(value, str):
+            self.fail(key, value, "a string")
+        return value
+
+    def boolean(self, key: str, default: bool):
+        value = self.table.get(key, default)
+        if not isinstance(value, bool):
+            self.fail(key, value, "true or false")
+        return value
+
+    def table_of(self, key: str) -> dict:
+        value = self.table.get(key, {})
+        if not isinstance(value, dict):
+            self.fail(key, value, "a table")
+        return value
+
+    def array_of_tables(self, key: str) -> list[dict]:
+        value = self.table.get(key, [])
+        if not isinstance(value, list) or not all(isinstance(v, dict) for v in value):
+            self.fail(key, value, "an array of tables [[...]]")
+        return value
+
+
+def _joint_angles(path: str, where: str, table: dict, joints: tuple[str, ...]) -> dict:
+    r = _Reader(path, table, where, set(joints))
+    return {j: r.number(j, None, -360.0, 360.0, "deg") for j in table}
+
+
+def _model(path: str, where: str, table: dict, joints: tuple[str, ...]) -> Model:
+    r = _Reader(path, table, where, {"hose_loss", "effects"})
+    effects = {}
+    er = _Reader(path, r.table_of("effects"), f"{where}.effects", set(joints))
+    for joint, fields in er.table.items():
+        fr = _Reader(path, er.table_of(joint), f"{where}.effects.{joint}", set(SPEC))
+        effects[joint] = {f: fr.number(f, None, SPEC[f].low, SPEC[f].high, SPEC[f].unit) for f in fields}
+    return Model(hose_loss=r.boolean("hose_loss", True), effects=effects)
+
+
+def parse(text: str, path: str = "<scenario>") -> Scenario:
+    """A Scenario from TOML text; ScenarioError names the path, the field, the value and what is allowed."""
+    try:
+        doc = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as e:
+        raise ScenarioError(f"{path}: not valid TOML: {e}") from None
+    top = _Reader(path, doc, "", {"name", "description", "model", "seed", "duration_s", "start", "payload", "supply", "reality", "predictor", "control", "targets", "faults", "criteria"})
+    model = top.choice("model", "arm", ("arm", "wrist_rig"))
+    joints = ("wrist_pitch",) if model == "wrist_rig" else JOINTS
+    joint_names = " | ".join(joints)
+
+    start = _Reader(path, top.table_of("start"), "start", {"pose", "angles_deg"})
+    supply_r = _Reader(path, top.table_of("supply"), "supply", {"kind", "pressure_mpa", "steps", "mean_mpa", "variance_pa2", "hold_s"})
+    steps = supply_r.table.get("steps", [])
+    if not isinstance(steps, list) or not all(isinstance(s, list) and len(s) == 2 and all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in s) for s in steps):
+        supply_r.fail("steps", steps, "a list of [time_s, pressure_mpa] pairs")
+    for t, mpa in steps:
+        if not (0 <= t and 0 <= mpa <= 1.0):
+            supply_r.fail("steps", [t, mpa], "time_s >= 0 and pressure_mpa in 0..1")
+    supply = Supply(
+        kind=supply_r.choice("kind", "constant", ("constant", "steps", "random")),
+        pressure_mpa=supply_r.number("pressure_mpa", 0.6, 0.0, 1.0, "MPa gauge"),
+        steps=tuple((float(t), float(p)) for t, p in steps),
+        mean_mpa=supply_r.number("mean_mpa", 0.6, 0.0, 1.0, "MPa gauge"),
+        variance_pa2=supply_r.number("variance_pa2", 5e9, 0.0, 1e11, "Pa^2"),
+        hold_s=supply_r.number("hold_s", 0.5, 1e-3, 600.0, "s"),
+    )
+    if supply.kind == "steps" and not supply.steps:
+        supply_r.fail("steps", [], "at least one [time_s, pressure_mpa] pair when kind = 'steps'")
+
+    ctl = _Reader(path, top.table_of("control"), "control", {"mode", "sequence", "min_rotation_deg", "tolerance_deg", "move_timeout_s"})
+    control = Control(
+        mode=ctl.choice("mode", "closed_loop", ("closed_loop", "open_loop", "none")),
+        sequence=ctl.choice("sequence", "one_after_another", ("one_after_another", "together")),
+        min_rotation_deg=ctl.number("min_rotation_deg", 20.0, 0.0, 90.0, "deg"),
+        tolerance_deg=ctl.number("tolerance_deg", 0.5, 0.05, 10.0, "deg"),
+        move_timeout_s=ctl.number("move_timeout_s", 20.0, 0.1, 600.0, "s"),
+    )
+
+    targets = []
+    for i, t in enumerate(top.array_of_tables("targets")):
+        tr = _Reader(path, t, f"targets[{i}]", {"angles_deg", "brush_at_disc", "dwell_s"})
+        angles = _joint_angles(path, f"targets[{i}].angles_deg", tr.table_of("angles_deg"), joints)
+        disc = tr.integer("brush_at_disc", 0, 0, 8)
+        if not angles and not disc:
+            tr.fail("angles_deg", {}, "angles_deg for at least one joint, or brush_at_disc 1..8")
+        if disc and model != "arm":
+            tr.fail("brush_at_disc", disc, "only with model = 'arm' (the rig has no brush)")
+        targets.append(Target(angles, disc, tr.number("dwell_s", 0.0, 0.0, 600.0, "s")))
+
+    duration = top.number("duration_s", 10.0, 1e-3, 7200.0, "s")
+    faults = []
+    for i, f in enumerate(top.array_of_tables("faults")):
+        fr = _Reader(path, f, f"faults[{i}]", {"kind", "at_s", "joint", "value"})
+        kind = fr.choice("kind", None, ("supply_lost", "hose_leak", "valve_stuck_open", "brake_fails", "sensor_bias"))
+        joint = fr.text("joint", "")
+        if kind != "supply_lost" and joint not in joints:
+            fr.fail("joint", joint, joint_names)
+        faults.append(Fault(kind, fr.number("at_s", None, 0.0, duration, "s"), joint, fr.number("value", 0.0, -1e7, 1e7)))
+
+    criteria = []
+    for i, c in enumerate(top.array_of_tables("criteria")):
+        cr = _Reader(path, c, f"criteria[{i}]", {"kind", "joint", "max", "min", "disc"})
+        kind = cr.choice("kind", None, ("final_error_deg", "max_error_deg", "brush_on_disc", "contact_force_n", "max_drop_m", "max_travel_deg", "fails"))
+        joint = cr.text("joint", "")
+        if joint and joint not in joints:
+            cr.fail("joint", joint, joint_names)
+        criteria.append(Criterion(kind, joint, cr.number("max", math.inf, 0.0, math.inf), cr.number("min", -math.inf, -math.inf, math.inf), cr.integer("disc", 0, 0, 8)))
+
+    return Scenario(
+        path=path,
+        name=top.text("name", Path(path).stem),
+        description=top.text("description", ""),
+        model=model,
+        seed=top.integer("seed", 0, 0, 2**63 - 1),
+        duration_s=duration,
+        start_pose=start.choice("pose", "home", ("home", "zero")),
+        start_angles_deg=_joint_angles(path, "start.angles_deg", start.table_of("angles_deg"), joints),
+        payload_kg=_Reader(path, top.table_of("payload"), "payload", {"mass_kg"}).number("mass_kg", 20.0, 0.0, 40.0, "kg"),
+        supply=supply,
+        reality=_model(path, "reality", top.table_of("reality"), joints),
+        predictor=_model(path, "predictor", top.table_of("predictor"), joints),
+        control=control,
+        targets=tuple(targets),
+        faults=tuple(faults),
+        criteria=tuple(criteria),
+        text=text,
+    )
+
+
+def load(path: str | Path) -> Scenario:
+    """Read and check a scenario file."""
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise ScenarioError(f"{path}: no such scenario file") from None
+    except (UnicodeDecodeError, IsADirectoryError) as e:
+        raise ScenarioError(f"{path}: cannot be read as a text file ({e})") from None
+    return parse(text, str(path))
+
+
+def joint_params_for(base: dict[str, JointParams], model: Model) -> dict[str, JointParams]:
+    """The joints' parameters with this model's configuration applied (hose loss, effects)."""
+    out = {}
+    for joint, params in base.items():
+        params = params._replace(hose_loss=1.0 if model.hose_loss else 0.0)
+        params = params._replace(**model.effects.get(joint, {}))
+        out[joint] = params
+    return out
