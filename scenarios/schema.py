@@ -110,6 +110,7 @@ class Scenario:
     faults: tuple[Fault, ...] = ()
     criteria: tuple[Criterion, ...] = ()
     text: str = ""  # the file as read, stored in logs
+    overrides: dict = field(default_factory=dict)  # fields a sweep set on top of the file
 
     @property
     def joints(self) -> tuple[str, ...]:
@@ -132,6 +133,8 @@ class _Reader:
         raise ScenarioError(f"{self.path}: {self._name(key)} = {value!r} is not allowed; allowed: {allowed}")
 
     def number(self, key: str, default, low: float, high: float, unit: str = ""):
+        if key not in self.table and default is not None:
+            return float(default)  # an unset bound may be infinite
         value = self.table.get(key, default)
         if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) or not low <= value <= high:
             self.fail(key, value, f"a number in {low:g}..{high:g}{' ' + unit if unit else ''}")
@@ -145,6 +148,8 @@ class _Reader:
 
     def choice(self, key: str, default, options: tuple[str, ...]):
         value = self.table.get(key, default)
+        if value is None:
+            self.fail(key, "<missing>", " | ".join(repr(o) for o in options))
         if value not in options:
             self.fail(key, value, " | ".join(repr(o) for o in options))
         return value
@@ -195,6 +200,29 @@ def parse(text: str, path: str = "<scenario>") -> Scenario:
         doc = tomllib.loads(text)
     except tomllib.TOMLDecodeError as e:
         raise ScenarioError(f"{path}: not valid TOML: {e}") from None
+    return parse_doc(doc, path, text)
+
+
+def with_overrides(scenario: Scenario, overrides: dict[str, object]) -> Scenario:
+    """The scenario with dotted fields set (`supply.pressure_mpa`, `seed`, ...), checked again.
+
+    Used by sweeps; an override that names no field or breaks a range is refused like a file.
+    """
+    doc = tomllib.loads(scenario.text)
+    for dotted, value in overrides.items():
+        table = doc
+        *parents, leaf = dotted.split(".")
+        for key in parents:
+            table = table.setdefault(key, {})
+            if not isinstance(table, dict):
+                raise ScenarioError(f"{scenario.path}: {dotted} cannot be set by a sweep (not a table field)")
+        table[leaf] = value
+    where = f"{scenario.path} with " + ", ".join(f"{k}={v!r}" for k, v in overrides.items())
+    return parse_doc(doc, where, scenario.text, overrides)
+
+
+def parse_doc(doc: dict, path: str, text: str, overrides: dict | None = None) -> Scenario:
+    """A Scenario from an already-parsed TOML document (see `parse`)."""
     top = _Reader(path, doc, "", {"name", "description", "model", "seed", "duration_s", "start", "payload", "supply", "reality", "predictor", "control", "targets", "faults", "criteria"})
     model = top.choice("model", "arm", ("arm", "wrist_rig"))
     joints = ("wrist_pitch",) if model == "wrist_rig" else JOINTS
@@ -252,7 +280,7 @@ def parse(text: str, path: str = "<scenario>") -> Scenario:
     criteria = []
     for i, c in enumerate(top.array_of_tables("criteria")):
         cr = _Reader(path, c, f"criteria[{i}]", {"kind", "joint", "max", "min", "disc"})
-        kind = cr.choice("kind", None, ("final_error_deg", "max_error_deg", "brush_on_disc", "contact_force_n", "max_drop_m", "max_travel_deg", "fails"))
+        kind = cr.choice("kind", None, ("final_error_deg", "max_error_deg", "brush_on_disc", "contact_force_n", "max_drop_m", "max_travel_deg", "prediction_error_deg"))
         joint = cr.text("joint", "")
         if joint and joint not in joints:
             cr.fail("joint", joint, joint_names)
@@ -276,6 +304,7 @@ def parse(text: str, path: str = "<scenario>") -> Scenario:
         faults=tuple(faults),
         criteria=tuple(criteria),
         text=text,
+        overrides=dict(overrides or {}),
     )
 
 

@@ -114,7 +114,8 @@ def run(
     ticks_per_log = max(1, round(log_period_s / (steps_per_tick * plant.dt)))
     ticks_per_flush = max(1, round(flush_period_s / (steps_per_tick * plant.dt)))
     n_ticks = round(duration_s / (steps_per_tick * plant.dt))
-    telemetry = telemetry or Telemetry(plant.joints, body_names(plant))
+    if telemetry is None:
+        telemetry = Telemetry(plant.joints, body_names(plant))
     flushed = len(telemetry)
 
     def flush() -> None:

@@ -1,0 +1,108 @@
+"""Pass criteria of a scenario, judged on the run's telemetry.
+
+    final_error_deg  |true - last target| of `joint` (every targeted joint if none) at the end <= max
+    max_error_deg    |true - target| of `joint` over the whole run (after the first target) <= max
+    brush_on_disc    the brush came within `max` m of disc `disc`'s rim (every disc if 0)
+    contact_force_n  the brush's peak force on the discs lies in min..max N
+    max_drop_m       after the first fault, the payload never fell more than `max` m below where it was
+    max_travel_deg   after the first fault, `joint` turned no more than `max` deg
+    prediction_error_deg  |true - predicted| of `joint` (every predicted joint) over the run <= max
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass
+
+import mujoco
+import numpy as np
+
+from scenarios.schema import Criterion, Scenario
+
+
+@dataclass(frozen=True)
+class Verdict:
+    kind: str
+    subject: str
+    value: float
+    limit: str
+    passed: bool
+
+
+def _deg(x):
+    return np.degrees(x)
+
+
+def judge(scenario: Scenario, arrays: dict[str, np.ndarray], joints: tuple[str, ...], bodies: tuple[str, ...], model: mujoco.MjModel) -> list[Verdict]:
+    """One verdict per criterion of the scenario."""
+    out = []
+    for c in scenario.criteria:
+        out.extend(_judge_one(c, scenario, arrays, joints, bodies, model))
+    return out
+
+
+def _within(value: float, c: Criterion) -> bool:
+    return bool(c.min <= value <= c.max)
+
+
+def _limit(c: Criterion) -> str:
+    if math.isfinite(c.min) and math.isfinite(c.max):
+        return f"{c.min:g}..{c.max:g}"
+    return f"<= {c.max:g}" if math.isfinite(c.max) else f">= {c.min:g}"
+
+
+def _judge_one(c: Criterion, scenario: Scenario, a: dict, joints, bodies, model) -> list[Verdict]:
+    t = a["time_s"]
+    fault_t = min((f.at_s for f in scenario.faults), default=0.0)
+    after_fault = t >= fault_t
+    if c.kind == "prediction_error_deg":
+        pred = a["predicted_angle_rad"]
+        chosen = [c.joint] if c.joint else [j for i, j in enumerate(joints) if np.isfinite(pred[:, i]).any()]
+        verdicts = []
+        for joint in chosen:
+            i = joints.index(joint)
+            value = float(np.nanmax(np.abs(_deg(a["true_angle_rad"][:, i] - pred[:, i]))))
+            verdicts.append(Verdict(c.kind, joint, value, _limit(c), bool(np.isfinite(value) and _within(value, c))))
+        return verdicts
+    if c.kind in ("final_error_deg", "max_error_deg"):
+        targets = a["target_angle_rad"]
+        chosen = [c.joint] if c.joint else [j for i, j in enumerate(joints) if np.isfinite(targets[:, i]).any()]
+        verdicts = []
+        for joint in chosen:
+            i = joints.index(joint)
+            err = np.abs(_deg(a["true_angle_rad"][:, i] - targets[:, i]))
+            if c.kind == "final_error_deg":
+                finite = np.flatnonzero(np.isfinite(targets[:, i]))
+                value = float(_deg(abs(a["true_angle_rad"][-1, i] - targets[finite[-1], i]))) if finite.size else math.nan
+            else:
+                value = float(np.nanmax(err)) if np.isfinite(err).any() else math.nan
+            verdicts.append(Verdict(c.kind, joint, value, _limit(c), bool(np.isfinite(value) and _within(value, c))))
+        return verdicts
+    if c.kind == "brush_on_disc":
+        brush = a["body_pos_m"][:, bodies.index("brush")]
+        verdicts = []
+        for disc in [c.disc] if c.disc else range(1, 9):
+            g = model.geom(f"disc_{disc}")
+            rim = g.pos - np.array([g.size[0], 0.0, 0.0])
+            # the brush face is its half-length in front of the brush body's origin, on the tool axis
+            gap = np.linalg.norm(brush - rim, axis=1) - 0.03
+            value = float(np.min(np.abs(gap)))
+            verdicts.append(Verdict(c.kind, f"disc_{disc}", value, _limit(c), _within(value, c)))
+        return verdicts
+    if c.kind == "contact_force_n":
+        value = float(np.max(a["brush_force_n"]))
+        return [Verdict(c.kind, "brush", value, _limit(c), _within(value, c))]
+    if c.kind == "max_drop_m":
+        z = a["body_pos_m"][after_fault, bodies.index("payload"), 2]
+        value = float(z[0] - z.min()) if z.size else math.nan
+        return [Verdict(c.kind, "payload", value, _limit(c), bool(np.isfinite(value) and _within(value, c)))]
+    if c.kind == "max_travel_deg":
+        i = joints.index(c.joint)
+        q = _deg(a["true_angle_rad"][after_fault, i])
+        value = float(q.max() - q.min()) if q.size else math.nan
+        return [Verdict(c.kind, c.joint, value, _limit(c), bool(np.isfinite(value) and _within(value, c)))]
+    raise ValueError(f"unknown criterion {c.kind!r}")
+
+
+def as_dicts(verdicts: list[Verdict]) -> list[dict]:
+    return [asdict(v) for v in verdicts]

@@ -1,0 +1,148 @@
+"""`twin run`, `twin sweep`, `twin paper`, `twin bench`: the scenario-facing subcommands."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+from twin.errors import UserError
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("run", help="run a scenario file; exit 1 if a pass criterion broke")
+    p.add_argument("scenario", help="scenario TOML file (see scenarios/)")
+    p.add_argument("--json", action="store_true", help="print the summary as JSON on stdout")
+    p.add_argument("--rrd", type=Path, help="write a rerun recording here")
+    p.add_argument("--mcap", type=Path, help="write an MCAP log here")
+    p.add_argument("--duration", type=float, help="stop after this many simulated seconds")
+    p.add_argument("--seed", type=int, help="override the scenario's seed")
+    p.set_defaults(func=cmd_run)
+
+    p = sub.add_parser("sweep", help="run a scenario over a grid of field values and/or Monte Carlo seeds")
+    p.add_argument("scenario")
+    p.add_argument("--set", action="append", default=[], metavar="FIELD=V1,V2", help="grid over a scenario field, e.g. supply.pressure_mpa=0.5,0.6,0.7 (repeatable)")
+    p.add_argument("--monte-carlo", type=int, default=0, metavar="N", help="N runs per grid point with child seeds")
+    p.add_argument("--workers", type=int, default=0, help="local worker processes (default: all cores)")
+    p.add_argument("--scheduler", help="Dask scheduler address: run the sweep on that cluster")
+    p.add_argument("--duration", type=float, help="shorten every run to this many simulated seconds")
+    p.add_argument("--out", type=Path, help="write all summaries to this JSON file")
+    p.set_defaults(func=cmd_sweep)
+
+    p = sub.add_parser("paper", help="reproduce the paper's experiments into DIR (paper.json, PNG plots, report.md)")
+    p.add_argument("--out", type=Path, required=True)
+    p.add_argument("--quick", action="store_true", help="fewer angles and a shorter random-supply run")
+    p.set_defaults(func=cmd_paper)
+
+    p = sub.add_parser("bench", help="speed benchmarks as ratios against bare MuJoCo measured in the same run")
+    p.add_argument("--json", action="store_true")
+    p.add_argument("--quick", action="store_true")
+    p.set_defaults(func=cmd_bench)
+
+
+def cmd_run(args) -> int:
+    from scenarios.runner import run_scenario
+    from scenarios.schema import load, with_overrides
+
+    scenario = load(args.scenario)
+    if args.seed is not None:
+        scenario = with_overrides(scenario, {"seed": args.seed})
+    if args.duration is not None and args.duration <= 0:
+        raise UserError(f"--duration {args.duration}: must be > 0 s")
+    recorders = open_recorders(scenario, args.rrd, args.mcap)
+    try:
+        result = run_scenario(scenario, recorders=recorders, duration_s=args.duration)
+    finally:
+        for r in recorders:
+            r.close()
+    summary = result.summary()
+    if args.json:
+        json.dump(summary, sys.stdout, indent=2)
+        print()
+    else:
+        print_summary(summary)
+    for label, path in (("rerun recording", args.rrd), ("MCAP log", args.mcap)):
+        if path:
+            print(f"{label}: {path}", file=sys.stderr if args.json else sys.stdout)
+    return 0 if result.passed else 1
+
+
+def open_recorders(scenario, rrd: Path | None, mcap: Path | None) -> list:
+    """The log writers a run asked for, told what they need to know about the scenario."""
+    recorders = []
+    if not (rrd or mcap):
+        return recorders
+    from scenarios.runner import build_plant
+    from twin.provenance import run_metadata
+
+    plant = build_plant(scenario)
+    meta = run_metadata(scenario)
+    if rrd:
+        from twin.rerun_log import RerunRecorder
+
+        rrd.parent.mkdir(parents=True, exist_ok=True)
+        recorders.append(RerunRecorder(rrd, plant.model, plant.joints, meta))
+    if mcap:
+        from twin.mcap_log import McapRecorder
+
+        mcap.parent.mkdir(parents=True, exist_ok=True)
+        recorders.append(McapRecorder(mcap, plant.model, plant.joints, meta))
+    return recorders
+
+
+def print_summary(summary: dict) -> None:
+    state = "PASSED" if summary["passed"] else "FAILED"
+    print(f"{summary['scenario']}: {state} after {summary['duration_s']:.2f} s simulated")
+    if summary.get("error"):
+        print(f"  stopped: {summary['error']}")
+    print(f"  {'joint':<16}{'target':>9}{'true':>9}{'predicted':>11}{'error':>9}")
+    for joint, j in summary["joints"].items():
+        cells = [j["target_deg"], j["true_final_deg"], j["predicted_final_deg"], j["error_deg"]]
+        print(f"  {joint:<16}" + "".join(f"{'-' if v is None else f'{v:.2f}':>{w}}" for v, w in zip(cells, (9, 9, 11, 9))))
+    for c in summary["criteria"]:
+        mark = "ok  " if c["passed"] else "FAIL"
+        print(f"  [{mark}] {c['kind']} {c['subject']}: {c['value']:.4g} (allowed {c['limit']})")
+
+
+def cmd_sweep(args) -> int:
+    from scenarios.schema import load
+    from scenarios.sweep import parse_grid, sweep
+
+    scenario = load(args.scenario)
+    if args.monte_carlo < 0 or args.workers < 0:
+        raise UserError("--monte-carlo and --workers must be >= 0")
+    results = sweep(scenario, parse_grid(args.set), args.monte_carlo, args.workers, args.scheduler, args.duration)
+    passed = sum(r["passed"] for r in results)
+    if args.out:
+        args.out.parent.mkdir(parents=True, exist_ok=True)
+        args.out.write_text(json.dumps(results, indent=2))
+        print(f"{len(results)} runs, {passed} passed; summaries in {args.out}")
+    else:
+        json.dump(results, sys.stdout, indent=2)
+        print()
+        print(f"{len(results)} runs, {passed} passed", file=sys.stderr)
+    return 0 if passed == len(results) else 1
+
+
+def cmd_paper(args) -> int:
+    from scenarios.paper import reproduce
+
+    report = reproduce(args.out, quick=args.quick)
+    print(f"paper's experiments reproduced: {report}")
+    return 0
+
+
+def cmd_bench(args) -> int:
+    from benchmarks.all import run_all
+
+    results = run_all(quick=args.quick)
+    if args.json:
+        json.dump(results, sys.stdout, indent=2)
+        print()
+    else:
+        for name, figures in results.items():
+            print(f"{name}:")
+            for k, v in figures.items():
+                print(f"  {k}: {v}")
+    return 0
