@@ -34,7 +34,7 @@ from pneumatics.chamber import chamber_pressure_rate
 from pneumatics.friction import coulomb_viscous_torque, reducer_output_torque, stribeck_excess_torque
 from pneumatics.gas import isentropic_temperature
 from pneumatics.hose import hose_mass_flow, hose_volume
-from pneumatics.motor import chamber_volumes, swept_area, vane_torque
+from pneumatics.motor import chamber_geometry, vane_torque
 from pneumatics.orifice import orifice_mass_flow
 from pneumatics.valves import lag_toward, proportional_valve_target, solenoid_step, valve_opening
 
@@ -106,8 +106,8 @@ def pressure_rates(pa_valve: float, pa_motor: float, pb_valve: float, pb_motor: 
     m_a_valve = _port_valve_flow(pa_valve, direction > 0.0, p_s, inlet_area, p)
     m_b_valve = _port_valve_flow(pb_valve, direction < 0.0, p_s, inlet_area, p)
 
-    v_a, v_b = chamber_volumes(phi_motor, p[P.STATOR], p[P.ROTOR], p[P.VANE_L], p[P.N_VANES], p[P.DEAD_V])
-    dv_a = swept_area(phi_motor, p[P.STATOR], p[P.ROTOR], p[P.VANE_L], p[P.N_VANES]) * omega_motor
+    v_a, v_b, slope = chamber_geometry(phi_motor, p[P.STATOR], p[P.ROTOR], p[P.VANE_L], p[P.N_VANES], p[P.DEAD_V])
+    dv_a = slope * omega_motor
     m_leak = orifice_mass_flow(pa_motor, pb_motor, p[P.LEAK_A], t_s, r, p[P.GAS_K])  # A -> B past the vanes
     # a leak in port A's hose (a fault) vents at the hose's valve end
     m_a_valve -= orifice_mass_flow(pa_valve, p[P.GAS_P_ATM], p[P.HOSE_LEAK_A], t_s, r, p[P.GAS_K])

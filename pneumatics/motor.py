@@ -30,19 +30,33 @@ def wrap_motor_angle(phi_rad: float, n_vanes: float) -> float:
 
 
 @njit
-def swept_area(phi_rad: float, stator_radius_m: float, rotor_radius_m: float, vane_length_m: float, n_vanes: float) -> float:
-    """dV_A/dphi in m^3/rad = (L/2)(rho^2 - r^2) at the wrapped motor angle."""
+def chamber_geometry(phi_rad: float, stator_radius_m: float, rotor_radius_m: float, vane_length_m: float, n_vanes: float, dead_volume_m3: float) -> tuple[float, float, float]:
+    """(V_A, V_B, dV_A/dphi) at motor angle phi, in m^3 and m^3/rad.
+
+    dV_A/dphi = (L/2)(rho^2 - r^2); V_A is its integral from the start of the vane pitch
+    (-pi/n), where V_A equals the dead volume; V_B is the integral to the pitch's end, so
+    V_A + V_B is the same at every angle.
+    """
     b = stator_radius_m
-    e = stator_radius_m - rotor_radius_m
+    r = rotor_radius_m
+    e = b - r
+    half_l = 0.5 * vane_length_m
     w = wrap_motor_angle(phi_rad, n_vanes)
-    rho2 = b * b + 2.0 * e * b * math.cos(w) + e * e * math.cos(2.0 * w)
-    return 0.5 * vane_length_m * (rho2 - rotor_radius_m * rotor_radius_m)
+    s1 = math.sin(w)
+    c1 = math.cos(w)
+    # rho^2 - r^2 with cos(2w) = 2cos^2(w) - 1, and its antiderivative with sin(2w) = 2 sin(w) cos(w)
+    slope = half_l * (b * b + 2.0 * e * b * c1 + e * e * (2.0 * c1 * c1 - 1.0) - r * r)
+    mid = half_l * ((b * b - r * r) * w + 2.0 * e * b * s1 + e * e * s1 * c1)
+    half_pitch = math.pi / n_vanes
+    hi = half_l * ((b * b - r * r) * half_pitch + 2.0 * e * b * math.sin(half_pitch) + 0.5 * e * e * math.sin(2.0 * half_pitch))
+    # the antiderivative is odd, so its value at -pi/n is -hi
+    return dead_volume_m3 + (mid + hi), dead_volume_m3 + (hi - mid), slope
 
 
 @njit
-def _swept_integral(w: float, b: float, r: float, e: float, half_l: float) -> float:
-    # antiderivative of (L/2)(rho^2 - r^2) in the wrapped angle
-    return half_l * ((b * b - r * r) * w + 2.0 * e * b * math.sin(w) + 0.5 * e * e * math.sin(2.0 * w))
+def swept_area(phi_rad: float, stator_radius_m: float, rotor_radius_m: float, vane_length_m: float, n_vanes: float) -> float:
+    """dV_A/dphi in m^3/rad = (L/2)(rho^2 - r^2) at the wrapped motor angle."""
+    return chamber_geometry(phi_rad, stator_radius_m, rotor_radius_m, vane_length_m, n_vanes, 0.0)[2]
 
 
 @njit
@@ -52,16 +66,8 @@ def chamber_volumes(phi_rad: float, stator_radius_m: float, rotor_radius_m: floa
     V_A grows from `dead_volume_m3` at the start of a vane pitch while V_B shrinks; V_A + V_B is
     the same at every angle. The rates are +-`swept_area` times the motor speed.
     """
-    b = stator_radius_m
-    r = rotor_radius_m
-    e = b - r
-    half_l = 0.5 * vane_length_m
-    half_pitch = math.pi / n_vanes
-    w = wrap_motor_angle(phi_rad, n_vanes)
-    lo = _swept_integral(-half_pitch, b, r, e, half_l)
-    hi = _swept_integral(half_pitch, b, r, e, half_l)
-    mid = _swept_integral(w, b, r, e, half_l)
-    return dead_volume_m3 + (mid - lo), dead_volume_m3 + (hi - mid)
+    v_a, v_b, _ = chamber_geometry(phi_rad, stator_radius_m, rotor_radius_m, vane_length_m, n_vanes, dead_volume_m3)
+    return v_a, v_b
 
 
 @njit

@@ -20,10 +20,31 @@ from pneumatics._jit import njit
 LINEAR_RATIO = 0.99  # pressure ratio above which the flow is linearised (see module docstring)
 
 
+def _constants_of(k: float) -> tuple[float, float, float, float]:
+    # (C1, C2/C1, critical ratio, f at LINEAR_RATIO) for a gas with ratio of specific heats k
+    c1 = math.sqrt(k * (2.0 / (k + 1.0)) ** ((k + 1.0) / (k - 1.0)))
+    c2_c1 = math.sqrt(2.0 * k / (k - 1.0)) / c1
+    pr_crit = (2.0 / (k + 1.0)) ** (k / (k - 1.0))
+    f_lin = c2_c1 * math.sqrt(LINEAR_RATIO ** (2.0 / k) - LINEAR_RATIO ** ((k + 1.0) / k))
+    return c1, c2_c1, pr_crit, f_lin
+
+
+_AIR_K = 1.4
+_AIR_CONSTANTS = _constants_of(_AIR_K)  # computed once: the plant calls the flow laws ~10^5 times a second
+_constants_jit = njit(_constants_of)
+
+
+@njit
+def _constants(k: float) -> tuple[float, float, float, float]:
+    if k == _AIR_K:
+        return _AIR_CONSTANTS
+    return _constants_jit(k)
+
+
 @njit
 def critical_pressure_ratio(k: float) -> float:
     """Downstream/upstream ratio below which the orifice is choked: (2/(k+1))^(k/(k-1))."""
-    return (2.0 / (k + 1.0)) ** (k / (k - 1.0))
+    return _constants(k)[2]
 
 
 @njit
@@ -34,16 +55,15 @@ def flow_function(pressure_ratio: float, k: float) -> float:
     k = 1.4), linearised to 0 above LINEAR_RATIO. Continuous everywhere.
     """
     pr = pressure_ratio
-    if pr <= critical_pressure_ratio(k):
+    _, c2_c1, pr_crit, f_lin = _constants(k)
+    if pr <= pr_crit:
         return 1.0
-    c1 = math.sqrt(k * (2.0 / (k + 1.0)) ** ((k + 1.0) / (k - 1.0)))
-    c2 = math.sqrt(2.0 * k / (k - 1.0))
     if pr >= 1.0:
         return 0.0
     if pr > LINEAR_RATIO:
-        f_lin = c2 / c1 * math.sqrt(LINEAR_RATIO ** (2.0 / k) - LINEAR_RATIO ** ((k + 1.0) / k))
         return f_lin * (1.0 - pr) / (1.0 - LINEAR_RATIO)
-    return c2 / c1 * math.sqrt(pr ** (2.0 / k) - pr ** ((k + 1.0) / k))
+    log_pr = math.log(pr)
+    return c2_c1 * math.sqrt(math.exp(log_pr * (2.0 / k)) - math.exp(log_pr * ((k + 1.0) / k)))
 
 
 @njit
@@ -64,5 +84,4 @@ def orifice_mass_flow(p_up_pa: float, p_down_pa: float, area_m2: float, t_up_k: 
         sign = -1.0
         pu = p_down_pa
         pd = p_up_pa
-    c1 = math.sqrt(k * (2.0 / (k + 1.0)) ** ((k + 1.0) / (k - 1.0)))
-    return sign * area_m2 * pu * c1 / math.sqrt(r * t_up_k) * flow_function(pd / pu, k)
+    return sign * area_m2 * pu * _constants(k)[0] / math.sqrt(r * t_up_k) * flow_function(pd / pu, k)

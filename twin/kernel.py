@@ -45,3 +45,41 @@ def pneumatic_step(
         tendon_frictionloss[t] = p[P.COULOMB] + brake_holding_torque(x[j, S_BRAKE], p[P.BRAKE_HOLD])
         advance_discrete(x[j], commands[j], supply_pa, dt_s, p)
         advance_pressures(x[j], theta, omega, supply_pa, dt_s, substeps, p)
+
+
+def _mujoco_step_function():
+    """MuJoCo's C `mj_step(const mjModel*, mjData*)` as a ctypes function numba can call, or None.
+
+    Calling it from compiled code lets a whole run of physics steps, air and rigid bodies, go by
+    without returning to Python (`plant_steps`). It is the same library the mujoco package loads,
+    so results are bit-identical to `mujoco.mj_step` (tests/test_plant.py).
+    """
+    import ctypes
+    from pathlib import Path
+
+    import mujoco
+
+    for path in sorted(Path(mujoco.__file__).parent.glob("libmujoco.so*")) + sorted(Path(mujoco.__file__).parent.glob("libmujoco*.dylib")):
+        try:
+            fn = ctypes.CDLL(str(path)).mj_step
+        except (OSError, AttributeError):
+            continue
+        fn.argtypes = [ctypes.c_void_p, ctypes.c_void_p]
+        fn.restype = None
+        return fn
+    return None
+
+
+MJ_STEP = _mujoco_step_function()
+
+if MJ_STEP is not None:
+
+    @njit(cache=False)  # holds the C function's address: compiled once per process, never cached
+    def plant_steps(n, model_address, data_address, x, commands, params, tendon_ids, actuator_ids, ten_length, ten_velocity, ctrl, tendon_frictionloss, supply_pa, dt_s, substeps):
+        """n physics steps of the plant: the air (`pneumatic_step`), then MuJoCo's `mj_step`."""
+        for _ in range(n):
+            pneumatic_step(x, commands, params, tendon_ids, actuator_ids, ten_length, ten_velocity, ctrl, tendon_frictionloss, supply_pa, dt_s, substeps)
+            MJ_STEP(model_address, data_address)
+
+else:  # pragma: no cover - a MuJoCo build without a loadable shared library
+    plant_steps = None

@@ -23,7 +23,7 @@ import assets
 from pneumatics import AIR, Gas, JointParams, load_joint_params, params_row
 from pneumatics import joint as J
 from pneumatics import params as P
-from twin.kernel import pneumatic_step
+from twin.kernel import plant_steps, pneumatic_step
 from twin.model import ids, load_model, raise_on_new_warnings, warning_counts
 
 SUBSTEPS = 1  # Heun sub-steps of the air per physics step; tests/test_plant_accuracy.py shows 1 is enough at 0.5 ms
@@ -95,6 +95,8 @@ class Plant:
         self._apply_brakes()
         mujoco.mj_forward(m, self.data)
         self._state_size = mujoco.mj_stateSize(m, mujoco.mjtState.mjSTATE_INTEGRATION)
+        # views into MuJoCo's buffers, fetched once (each attribute access builds a new view)
+        self._mujoco_arrays = (self.data.ten_length, self.data.ten_velocity, self.data.ctrl, m.tendon_frictionloss)
 
     # -- inputs -------------------------------------------------------------------------------
     def set_supply(self, supply_pa: float) -> None:
@@ -127,13 +129,13 @@ class Plant:
             commands = commands.copy()
             commands[stuck, J.C_DIRECTION] = self.stuck_direction[stuck]
             commands[stuck, J.C_PV_SET_GAUGE_PA] = np.inf  # stuck fully open: the supply passes
-        for _ in range(n):
-            pneumatic_step(
-                self.air, commands, self.params, self.tendon_ids, self.actuator_ids,
-                d.ten_length, d.ten_velocity, d.ctrl, m.tendon_frictionloss,
-                self.supply_pa, self.dt, SUBSTEPS,
-            )
-            mujoco.mj_step(m, d)
+        args = (self.air, commands, self.params, self.tendon_ids, self.actuator_ids, *self._mujoco_arrays, self.supply_pa, self.dt, SUBSTEPS)
+        if plant_steps is not None:
+            plant_steps(n, m._address, d._address, *args)
+        else:
+            for _ in range(n):
+                pneumatic_step(*args)
+                mujoco.mj_step(m, d)
         raise_on_new_warnings(d, before, "while stepping the plant")
 
     def _apply_brakes(self) -> None:

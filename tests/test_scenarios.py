@@ -1,0 +1,132 @@
+"""Scenario files: the schema refuses bad input precisely; runs are deterministic; sweeps too;
+every shipped scenario passes its own criteria; a scenario made to fail says which criterion broke."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+from scenarios.runner import run_file, run_scenario, scenario_files
+from scenarios.schema import ScenarioError, load, parse, with_overrides
+from scenarios.supply import supply_profile
+from scenarios.sweep import child_seeds, parse_grid, sweep, sweep_points
+from twin.cli import main as twin_main
+
+MINIMAL = """
+name = "t"
+model = "wrist_rig"
+duration_s = 0.2
+[start]
+pose = "zero"
+[control]
+mode = "none"
+"""
+
+
+@pytest.mark.parametrize(
+    "extra, field, value",
+    [
+        ("colour = 'red'", "colour", "not a known field"),
+        ("[supply]\npressure_mpa = 1.4", "supply.pressure_mpa", "1.4"),
+        ("[supply]\npressure_mpa = 'high'", "supply.pressure_mpa", "'high'"),
+        ("[supply]\nkind = 'sine'", "supply.kind", "'sine'"),
+        ("[[targets]]\nangles_deg = { elbow_pitch = 10.0 }", "targets[0].angles_deg.elbow_pitch", "not a known field"),
+        ("[[faults]]\nkind = 'supply_lost'\nat_s = 99.0", "faults[0].at_s", "99.0"),
+        ("[reality.effects.wrist_pitch]\nleak_area_m2 = -1.0", "reality.effects.wrist_pitch.leak_area_m2", "-1.0"),
+        ("[reality.effects.wrist_pitch]\nmagic = 1.0", "reality.effects.wrist_pitch.magic", "not a known field"),
+    ],
+)
+def test_bad_fields_are_refused_with_path_field_value_and_allowed(extra, field, value):
+    with pytest.raises(ScenarioError) as e:
+        parse(MINIMAL + extra, "scenarios/bad.toml")
+    message = str(e.value)
+    assert message.startswith("scenarios/bad.toml")
+    assert field in message and value in message and "allowed" in message
+
+
+def test_every_shipped_file_parses_and_nothing_in_it_is_executed():
+    files = scenario_files()
+    assert len(files) >= 15
+    for f in files:
+        s = load(f)
+        assert s.duration_s > 0 and s.text
+
+
+def test_random_supply_matches_the_papers_statistics():
+    s = load("scenarios/wrist_random_supply.toml").supply
+    p = supply_profile(s, 2000.0, np.random.default_rng(3))
+    values = np.array([p(t) for t in np.arange(0, 2000.0, 0.5)]) - 101_325.0
+    assert abs(values.mean() - 0.6e6) < 0.01e6
+    assert abs(values.var() - 5e9) / 5e9 < 0.1  # clipping at 0.4..0.9 MPa removes < 0.5% of draws
+    assert p(0.1) == p(0.4) and p(0.4) != p(0.6)  # each value held 0.5 s
+
+
+def test_overrides_are_checked_like_the_file():
+    s = load("scenarios/wrist_random_supply.toml")
+    assert with_overrides(s, {"supply.mean_mpa": 0.7}).supply.mean_mpa == 0.7
+    with pytest.raises(ScenarioError, match="supply.mean_mpa = 3"):
+        with_overrides(s, {"supply.mean_mpa": 3})
+    with pytest.raises(ScenarioError, match="expected FIELD=VALUE"):
+        parse_grid(["supply.mean_mpa"])
+
+
+def test_child_seeds_are_distinct_and_reproducible():
+    a, b = child_seeds(5, 4), child_seeds(5, 4)
+    assert a == b and len(set(a)) == 4
+    points = sweep_points(load("scenarios/wrist_random_supply.toml"), {"supply.mean_mpa": [0.5, 0.7]}, 3)
+    assert len(points) == 6 and len({p["seed"] for p in points}) == 3
+
+
+def test_same_scenario_and_seed_give_identical_summaries_and_logs():
+    s = load("scenarios/wrist_random_supply.toml")
+    r1 = run_scenario(s, duration_s=1.5)
+    r2 = run_scenario(s, duration_s=1.5)
+    assert r1.summary() == r2.summary()
+    a1, a2 = r1.telemetry.arrays(), r2.telemetry.arrays()
+    for name in a1:
+        assert np.array_equal(a1[name], a2[name], equal_nan=True), name
+    r3 = run_scenario(s, duration_s=1.5, seed=8)
+    assert not np.array_equal(a1["supply_pa"], r3.telemetry.arrays()["supply_pa"])
+
+
+def test_sweep_on_one_and_two_workers_gives_the_same_results():
+    s = load("scenarios/wrist_random_supply.toml")
+    kwargs = dict(grid={"supply.mean_mpa": [0.55, 0.65]}, monte_carlo=2, duration_s=0.6, progress=False)
+    one = sweep(s, workers=1, **kwargs)
+    two = sweep(s, workers=2, **kwargs)
+    assert one == two and len(one) == 4
+
+
+def test_a_scenario_made_to_fail_names_the_broken_criterion(capsys):
+    text = load("scenarios/wrist_closed_loop_60deg.toml").text.replace(
+        "angles_deg = { wrist_pitch = 60.0 }", "angles_deg = { wrist_pitch = 89.0 }"
+    ).replace("max = 3.0", "max = 0.01")
+    s = parse(text, "made_to_fail.toml")
+    result = run_scenario(s)
+    assert not result.passed
+    broken = [v for v in result.verdicts if not v.passed]
+    assert broken and broken[0].kind == "final_error_deg" and broken[0].subject == "wrist_pitch"
+
+
+def test_cli_run_json_and_exit_codes(capsys, tmp_path):
+    assert twin_main(["run", "scenarios/fault_valve_stuck_open.toml", "--json", "--duration", "1.0"]) == 0
+    summary = json.loads(capsys.readouterr().out)
+    assert summary["passed"] is True and set(summary["joints"]) >= {"base_yaw", "wrist_pitch"}
+    assert summary["criteria"][0]["kind"] == "max_travel_deg"
+    bad = tmp_path / "bad.toml"
+    bad.write_text(MINIMAL + "[supply]\npressure_mpa = 1.4\n")
+    assert twin_main(["run", str(bad)]) == 2
+    err = capsys.readouterr().err
+    assert "supply.pressure_mpa = 1.4" in err and "Traceback" not in err
+
+
+@pytest.mark.parametrize("path", scenario_files(), ids=lambda p: p.stem)
+def test_every_scenario_passes_its_criteria(path):
+    result = run_file(path)
+    failed = [v for v in result.verdicts if not v.passed]
+    assert result.passed, (result.error, failed)
+    assert result.verdicts, "a scenario without criteria checks nothing"
+    assert all(math.isfinite(v.value) for v in result.verdicts)
