@@ -5,7 +5,7 @@ volume flow and folded constants; here it is written with the mass flow, so its 
 unit bookkeeping: with v = m / (rho A), dp = 8 lambda L m^2 / (pi^2 rho d^5).
 
 lambda is Blasius' 0.316 Re^-0.25 (paper eq. 3) for turbulent flow. Departure from the paper:
-below Re ~ 1187, where Blasius' lambda would fall under the laminar 64/Re, we take 64/Re
+below Re ~ 1189, where Blasius' lambda would fall under the laminar 64/Re, we take 64/Re
 (Hagen-Poiseuille). lambda = max(64/Re, Blasius) is continuous and gives a finite slope of flow
 against pressure at zero flow, which keeps the integration stable; at the paper's Re = 2497 the
 two agree with the paper.
@@ -17,7 +17,7 @@ import math
 
 from pneumatics._jit import njit
 
-BLASIUS_LAMINAR_RE = (64.0 / 0.316) ** (1.0 / 0.75)  # Re at which 64/Re = 0.316 Re^-0.25 (~1187)
+BLASIUS_LAMINAR_RE = (64.0 / 0.316) ** (1.0 / 0.75)  # Re at which 64/Re = 0.316 Re^-0.25 (~1189)
 
 
 @njit

@@ -157,11 +157,13 @@ def advance_discrete(x: np.ndarray, command: np.ndarray, supply_pa: float, dt_s:
 
 
 @njit
-def at_rest(x: np.ndarray, p: np.ndarray) -> bool:
-    """True when the joint's air is all at atmosphere and its direction valve is closed (nothing moves)."""
+def at_rest(x: np.ndarray, omega: float, p: np.ndarray) -> bool:
+    """True when the joint stands (nearly) still, its air is all at atmosphere and its direction valve is
+    closed: nothing can change its pressures. (A joint moving without air still pumps it.)"""
     atm = p[P.GAS_P_ATM]
     return (
         x[S_DIR] == 0.0
+        and abs(omega) < p[P.STICK_SPEED]
         and abs(x[S_PA_VALVE] - atm) < 1e-6
         and abs(x[S_PA_MOTOR] - atm) < 1e-6
         and abs(x[S_PB_VALVE] - atm) < 1e-6
@@ -176,7 +178,7 @@ def advance_pressures(x: np.ndarray, theta: float, omega: float, supply_pa: floa
     Heun's method (explicit trapezoid) in `substeps` sub-steps; the motor angle advances with
     the joint inside the step so that the quarter-turn chamber switching is resolved.
     """
-    if at_rest(x, p):
+    if at_rest(x, omega, p):
         return
     opening = valve_opening(x[S_PV], p[P.K_U], p[P.DEAD_ZONE])
     direction = x[S_DIR]

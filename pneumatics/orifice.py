@@ -62,8 +62,8 @@ def flow_function(pressure_ratio: float, k: float) -> float:
         return 0.0
     if pr > LINEAR_RATIO:
         return f_lin * (1.0 - pr) / (1.0 - LINEAR_RATIO)
-    log_pr = math.log(pr)
-    return c2_c1 * math.sqrt(math.exp(log_pr * (2.0 / k)) - math.exp(log_pr * ((k + 1.0) / k)))
+    x = math.exp(math.log(pr) / k)  # Pr^(1/k): Pr^(2/k) = x^2 and Pr^((k+1)/k) = Pr x
+    return c2_c1 * math.sqrt(x * x - pr * x)
 
 
 @njit

@@ -22,22 +22,34 @@ def pneumatic_step(
     x: np.ndarray,  # (n_joints, N_STATE) joint states, advanced in place
     commands: np.ndarray,  # (n_joints, N_COMMAND) held over the step
     params: np.ndarray,  # (n_joints, N_COLUMNS)
+    drive_map: np.ndarray,  # (n_joints, k, 3): (qpos address, dof address, coefficient) of each tendon term
     tendon_ids: np.ndarray,  # (n_joints,) int: the drive tendon of each joint
     actuator_ids: np.ndarray,  # (n_joints,) int: the motor on that tendon
-    ten_length: np.ndarray,  # MuJoCo d.ten_length
-    ten_velocity: np.ndarray,  # MuJoCo d.ten_velocity
+    qpos: np.ndarray,  # MuJoCo d.qpos
+    qvel: np.ndarray,  # MuJoCo d.qvel
     ctrl: np.ndarray,  # MuJoCo d.ctrl (written)
     tendon_frictionloss: np.ndarray,  # MuJoCo m.tendon_frictionloss (written)
     supply_pa: float,
     dt_s: float,
     substeps: int,
 ) -> None:
-    """Apply each joint's torque and brake for the coming step, then advance its air over dt."""
+    """Apply each joint's torque and brake for the coming step, then advance its air over dt.
+
+    The drive angle and speed are summed from qpos/qvel through the fixed tendon's coefficients:
+    d.ten_length/ten_velocity after mj_step still describe the step before.
+    """
     for j in range(x.shape[0]):
         p = params[j]
         t = tendon_ids[j]
-        theta = ten_length[t]
-        omega = ten_velocity[t]
+        theta = 0.0
+        omega = 0.0
+        for term in range(drive_map.shape[1]):
+            c = drive_map[j, term, 2]
+            if c != 0.0:
+                theta += c * qpos[int(drive_map[j, term, 0])]
+                omega += c * qvel[int(drive_map[j, term, 1])]
+        # the torque MuJoCo holds over the step, from the pressures at its start (explicit, like
+        # MuJoCo's own semi-implicit Euler; a mid-step torque was tried and was no closer to LSODA)
         torque = joint_torque(x[j, S_PA_MOTOR], x[j, S_PB_MOTOR], p[P.RATIO] * theta, omega, p)
         torque += stribeck_excess_torque(omega, p[P.STRIBECK_EXCESS], p[P.STRIBECK_SPEED], 0.5 * p[P.STRIBECK_SPEED])
         ctrl[actuator_ids[j]] = torque
@@ -75,10 +87,10 @@ MJ_STEP = _mujoco_step_function()
 if MJ_STEP is not None:
 
     @njit(cache=False)  # holds the C function's address: compiled once per process, never cached
-    def plant_steps(n, model_address, data_address, x, commands, params, tendon_ids, actuator_ids, ten_length, ten_velocity, ctrl, tendon_frictionloss, supply_pa, dt_s, substeps):
+    def plant_steps(n, model_address, data_address, x, commands, params, drive_map, tendon_ids, actuator_ids, qpos, qvel, ctrl, tendon_frictionloss, supply_pa, dt_s, substeps):
         """n physics steps of the plant: the air (`pneumatic_step`), then MuJoCo's `mj_step`."""
         for _ in range(n):
-            pneumatic_step(x, commands, params, tendon_ids, actuator_ids, ten_length, ten_velocity, ctrl, tendon_frictionloss, supply_pa, dt_s, substeps)
+            pneumatic_step(x, commands, params, drive_map, tendon_ids, actuator_ids, qpos, qvel, ctrl, tendon_frictionloss, supply_pa, dt_s, substeps)
             MJ_STEP(model_address, data_address)
 
 else:  # pragma: no cover - a MuJoCo build without a loadable shared library

@@ -40,3 +40,26 @@ def raise_on_new_warnings(data: mujoco.MjData, before: np.ndarray, when: str) ->
     if fired.size:
         names = ", ".join(mujoco.mjtWarning(int(i)).name for i in fired)
         raise SimulationError(f"MuJoCo warned {when} (t = {data.time:.4f} s): {names}")
+
+
+def drive_map(model: mujoco.MjModel, tendon_ids) -> np.ndarray:
+    """(n, k, 3) array of (qpos address, dof address, coefficient) for each fixed tendon's joints.
+
+    Unused terms have coefficient 0. Only fixed tendons over hinge or slide joints are drives.
+    """
+    terms = []
+    for t in tendon_ids:
+        adr, num = model.tendon_adr[t], model.tendon_num[t]
+        rows = []
+        for w in range(adr, adr + num):
+            if model.wrap_type[w] != mujoco.mjtWrap.mjWRAP_JOINT:
+                name = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_TENDON, t)
+                raise ValueError(f"tendon {name!r} is not a fixed tendon: it cannot be a joint's drive")
+            jnt = model.wrap_objid[w]
+            rows.append((model.jnt_qposadr[jnt], model.jnt_dofadr[jnt], model.wrap_prm[w]))
+        terms.append(rows)
+    k = max(len(r) for r in terms)
+    out = np.zeros((len(terms), k, 3))
+    for i, rows in enumerate(terms):
+        out[i, : len(rows)] = rows
+    return out

@@ -24,9 +24,9 @@ from pneumatics import AIR, Gas, JointParams, load_joint_params, params_row
 from pneumatics import joint as J
 from pneumatics import params as P
 from twin.kernel import plant_steps, pneumatic_step
-from twin.model import ids, load_model, raise_on_new_warnings, warning_counts
+from twin.model import drive_map, ids, load_model, raise_on_new_warnings, warning_counts
 
-SUBSTEPS = 1  # Heun sub-steps of the air per physics step; tests/test_plant_accuracy.py shows 1 is enough at 0.5 ms
+SUBSTEPS = 1  # Heun sub-steps of the air per physics step; tests/test_plant.py shows 1 is enough at 0.5 ms: the error is the coupling's, not the air's
 
 
 @dataclass(frozen=True)
@@ -78,6 +78,7 @@ class Plant:
         self.tendon_ids = ids(m, mujoco.mjtObj.mjOBJ_TENDON, [assets.drive_tendon(j) for j in joints])
         self.actuator_ids = ids(m, mujoco.mjtObj.mjOBJ_ACTUATOR, joints)
         self.joint_ids = ids(m, mujoco.mjtObj.mjOBJ_JOINT, joints)
+        self.drive_map = drive_map(m, self.tendon_ids)
         self.dt = m.opt.timestep
         # the motor's rotor and wave generator, reflected through the reducer (ratio^2 J_rotor)
         # and the viscous friction act on the drive coordinate
@@ -96,7 +97,7 @@ class Plant:
         mujoco.mj_forward(m, self.data)
         self._state_size = mujoco.mj_stateSize(m, mujoco.mjtState.mjSTATE_INTEGRATION)
         # views into MuJoCo's buffers, fetched once (each attribute access builds a new view)
-        self._mujoco_arrays = (self.data.ten_length, self.data.ten_velocity, self.data.ctrl, m.tendon_frictionloss)
+        self._mujoco_arrays = (self.data.qpos, self.data.qvel, self.data.ctrl, m.tendon_frictionloss)
 
     # -- inputs -------------------------------------------------------------------------------
     def set_supply(self, supply_pa: float) -> None:
@@ -129,7 +130,7 @@ class Plant:
             commands = commands.copy()
             commands[stuck, J.C_DIRECTION] = self.stuck_direction[stuck]
             commands[stuck, J.C_PV_SET_GAUGE_PA] = np.inf  # stuck fully open: the supply passes
-        args = (self.air, commands, self.params, self.tendon_ids, self.actuator_ids, *self._mujoco_arrays, self.supply_pa, self.dt, SUBSTEPS)
+        args = (self.air, commands, self.params, self.drive_map, self.tendon_ids, self.actuator_ids, *self._mujoco_arrays, self.supply_pa, self.dt, SUBSTEPS)
         if plant_steps is not None:
             plant_steps(n, m._address, d._address, *args)
         else:
@@ -157,11 +158,13 @@ class Plant:
 
     def drive_angles(self) -> np.ndarray:
         """True drive-coordinate angle of each joint, rad (for logging and tests, not the controller)."""
-        return self.data.ten_length[self.tendon_ids].copy()
+        q = self.data.qpos[self.drive_map[:, :, 0].astype(int)]
+        return np.sum(self.drive_map[:, :, 2] * q, axis=1)
 
     def drive_speeds(self) -> np.ndarray:
         """True drive-coordinate speed of each joint, rad/s."""
-        return self.data.ten_velocity[self.tendon_ids].copy()
+        v = self.data.qvel[self.drive_map[:, :, 1].astype(int)]
+        return np.sum(self.drive_map[:, :, 2] * v, axis=1)
 
     def joint_torques(self) -> np.ndarray:
         """Pneumatic drive torque applied to each joint in the last step, N·m."""

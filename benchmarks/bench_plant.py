@@ -1,0 +1,144 @@
+"""Cost of the pneumatic actuators: plant steps per second against bare MuJoCo on the same MJCF.
+
+Both sides step assets/scene.xml's model (the very same MjModel, so the same tendon friction,
+armature and damping, hence the same constraint rows). The plant runs `Plant.step` (the air of
+every joint, then mj_step, in compiled code); the baseline runs `mujoco.mj_step(m, d, nstep)` with
+plain motors at a constant ctrl. Two cases: one joint moving (the others braked and idle: the
+usual operation) and all five moving. Moving joints reverse every 0.25 s on both sides so that
+nothing rests on an end stop. Measurements alternate plant/baseline over several rounds and keep
+the best of each, to damp the noise of a shared machine. The goal (DESIGN) is ratio >= 0.8.
+
+Also reported: the air kernel alone (`pneumatic_step` over all joints, without mj_step), so
+that a poor ratio can be traced to the air or to the coupling.
+
+    PYTHONPATH=. python -m benchmarks.bench_plant [--seconds 2] [--rounds 5]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import time
+
+import mujoco
+import numpy as np
+
+import assets
+from pneumatics._jit import njit
+from twin.kernel import pneumatic_step
+from twin.plant import Plant
+
+SUPPLY_PA = 101_325.0 + 0.5e6  # the paper's 0.5 MPa gauge
+REVERSE_S = 0.25  # moving joints reverse this often
+
+
+def _moving(case: str, joints: tuple[str, ...]) -> tuple[str, ...]:
+    return ("wrist_pitch",) if case == "one" else joints
+
+
+def _plant_for(case: str) -> Plant:
+    plant = Plant(assets.SCENE_XML)
+    plant.set_supply(SUPPLY_PA)
+    for j in _moving(case, plant.joints):
+        plant.command(j, +1, 0.5e6, True)
+    plant.step(200)  # brakes released, valves switched: the steady operating condition
+    return plant
+
+
+def _drive(plant: Plant, moving: tuple[str, ...], direction: int) -> None:
+    for j in moving:
+        plant.command(j, direction, 0.5e6, True)
+
+
+def _time_plant(plant: Plant, start, moving, seconds: float) -> tuple[float, int]:
+    plant.restore_state(start)
+    chunk = int(round(REVERSE_S / plant.dt))
+    n_chunks = max(1, int(round(seconds / REVERSE_S)))
+    t0 = time.perf_counter()
+    for c in range(n_chunks):
+        _drive(plant, moving, +1 if c % 2 == 0 else -1)
+        plant.step(chunk)
+    return time.perf_counter() - t0, n_chunks * chunk
+
+
+def _time_bare(m: mujoco.MjModel, d: mujoco.MjData, start: np.ndarray, ctrl: np.ndarray, seconds: float) -> tuple[float, int]:
+    mujoco.mj_setState(m, d, start, mujoco.mjtState.mjSTATE_INTEGRATION)
+    chunk = int(round(REVERSE_S / m.opt.timestep))
+    n_chunks = max(1, int(round(seconds / REVERSE_S)))
+    t0 = time.perf_counter()
+    for c in range(n_chunks):
+        d.ctrl[:] = ctrl if c % 2 == 0 else -ctrl
+        mujoco.mj_step(m, d, chunk)
+    return time.perf_counter() - t0, n_chunks * chunk
+
+
+@njit(cache=False)
+def _kernel_only(n, x, commands, params, drive_map, tendon_ids, actuator_ids, qpos, qvel, ctrl, frictionloss, supply_pa, dt, substeps):
+    for _ in range(n):
+        pneumatic_step(x, commands, params, drive_map, tendon_ids, actuator_ids, qpos, qvel, ctrl, frictionloss, supply_pa, dt, substeps)
+
+
+def _time_kernel(plant: Plant, n: int) -> float:
+    import twin.plant as tp
+
+    x = plant.air.copy()
+    qpos, qvel, ctrl, frictionloss = (a.copy() for a in plant._mujoco_arrays)
+    args = (x, plant.commands, plant.params, plant.drive_map, plant.tendon_ids, plant.actuator_ids, qpos, qvel, ctrl, frictionloss, plant.supply_pa, plant.dt, tp.SUBSTEPS)
+    _kernel_only(10, *args)  # compile
+    t0 = time.perf_counter()
+    _kernel_only(n, *args)
+    return (time.perf_counter() - t0) / n
+
+
+def bench_plant(seconds: float = 2.0, rounds: int = 5) -> dict:
+    """Steps per second of the plant and of bare MuJoCo on the same model, and their ratio."""
+    out: dict = {"seconds_simulated_per_measurement": seconds, "rounds": rounds, "goal_ratio": 0.8}
+    for case in ("one", "all"):
+        plant = _plant_for(case)
+        moving = _moving(case, plant.joints)
+        start = plant.save_state()
+        m = plant.model  # the same model: same frictionloss, armature, damping
+        d = mujoco.MjData(m)
+        mujoco.mj_setState(m, d, start.mujoco_state, mujoco.mjtState.mjSTATE_INTEGRATION)
+        ctrl = np.zeros(m.nu)
+        for j in moving:
+            i = plant.joints.index(j)
+            # enough to overcome the joint's Coulomb friction (the plant's brakes are released)
+            ctrl[plant.actuator_ids[i]] = 2.0 * m.tendon_frictionloss[plant.tendon_ids[i]] + 10.0
+        bare_start = np.empty(mujoco.mj_stateSize(m, mujoco.mjtState.mjSTATE_INTEGRATION))
+        mujoco.mj_getState(m, d, bare_start, mujoco.mjtState.mjSTATE_INTEGRATION)
+        _time_plant(plant, start, moving, REVERSE_S)  # warm-up (compilation)
+        best_plant = best_bare = float("inf")
+        steps = 0
+        for _ in range(rounds):
+            dt_plant, steps = _time_plant(plant, start, moving, seconds)
+            saved_frictionloss = m.tendon_frictionloss.copy()
+            dt_bare, _ = _time_bare(m, d, bare_start, ctrl, seconds)
+            m.tendon_frictionloss[:] = saved_frictionloss
+            best_plant = min(best_plant, dt_plant)
+            best_bare = min(best_bare, dt_bare)
+        kernel_s = _time_kernel(plant, 20_000)
+        out[case] = {
+            "moving_joints": list(moving),
+            "steps": steps,
+            "plant_steps_per_s": steps / best_plant,
+            "bare_mujoco_steps_per_s": steps / best_bare,
+            "ratio": best_bare / best_plant,
+            "plant_us_per_step": 1e6 * best_plant / steps,
+            "bare_us_per_step": 1e6 * best_bare / steps,
+            "air_kernel_us_per_step": 1e6 * kernel_s,
+        }
+    return out
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--seconds", type=float, default=2.0, help="simulated seconds per measurement")
+    parser.add_argument("--rounds", type=int, default=5, help="alternating plant/baseline rounds (best kept)")
+    args = parser.parse_args(argv)
+    print(json.dumps(bench_plant(args.seconds, args.rounds), indent=2))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,90 @@
+"""The joint parameter files: every real file loads; a bad one is refused with a message that
+names the file, the field, the value and what is allowed (STYLE rule 7).
+
+Each bad file is the real assets/joints/wrist_pitch.toml with exactly one edit.
+"""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import pytest
+
+import assets
+from pneumatics import JointParams, ParameterError, load_joint_params
+from pneumatics.params import SPEC
+
+REAL = assets.joint_param_path("wrist_pitch")
+TEXT = REAL.read_text()
+
+
+@pytest.mark.parametrize("joint", assets.JOINTS)
+def test_every_real_file_loads(joint: str) -> None:
+    params = load_joint_params(assets.joint_param_path(joint))
+    assert isinstance(params, JointParams)
+    for field, value in zip(JointParams._fields, params):
+        assert SPEC[field].low <= value <= SPEC[field].high, field
+
+
+def test_wrist_file_holds_the_papers_numbers() -> None:
+    p = load_joint_params(REAL)
+    assert p.ratio == 120  # paper: LHS-17-120
+    assert p.n_vanes == 4  # paper: 4 vanes
+    assert p.valve_time_constant_s == 0.1  # paper Sec. IV
+    assert p.k_u_per_pa == pytest.approx(0.1959e-5)  # paper k_u = 0.1959 per bar
+
+
+def _set_line(field: str, new_line: str) -> str:
+    """TEXT with the line that assigns `field` replaced (comment and all)."""
+    pattern = re.compile(rf"^{field}\s*=.*$", re.M)
+    assert len(pattern.findall(TEXT)) == 1, field
+    return pattern.sub(new_line, TEXT)
+
+
+BAD = {
+    # name: (file text, words the message must hold besides the path)
+    "missing": (_set_line("ratio", ""), ["ratio", "missing", "1..10000"]),
+    "negative": (_set_line("coulomb_nm", "coulomb_nm = -15.0"), ["coulomb_nm", "-15", "0..10000"]),
+    "out_of_range": (_set_line("n_vanes", "n_vanes = 40"), ["n_vanes", "40", "2..12"]),
+    "too_small": (_set_line("inlet_area_m2", "inlet_area_m2 = 5.0e-12"), ["inlet_area_m2", "5e-12", "1e-08..0.001"]),
+    "non_number": (_set_line("ratio", 'ratio = "120"'), ["ratio", "'120'", "not a number", "1..10000"]),
+    "boolean": (_set_line("hose_loss", "hose_loss = true"), ["hose_loss", "True", "not a number", "0..1"]),
+    "nan": (_set_line("viscous_nm_s", "viscous_nm_s = nan"), ["viscous_nm_s", "nan", "0..10000"]),
+    "hose_loss_half": (_set_line("hose_loss", "hose_loss = 0.5"), ["hose_loss", "0.5", "0 or 1"]),
+    "rotor_not_inside_stator": (_set_line("rotor_radius_m", "rotor_radius_m = 0.012"), ["rotor_radius_m", "0.012", "stator_radius_m"]),
+    "unknown_field": (TEXT.replace("[motor]\n", "[motor]\ncolour = 3\n"), ["colour", "not a known field", "stator_radius_m"]),
+    "field_in_wrong_table": (
+        _set_line("ratio", "").replace("[motor]\n", "[motor]\nratio = 120\n"),
+        ["ratio", "[motor]", "not a known field"],
+    ),
+    "unknown_table": (TEXT + "\n[gearbox]\nratio = 120\n", ["[gearbox]", "unknown table", "motor", "effects"]),
+    "effects_out_of_range": (TEXT + "\n[effects]\npolytropic_n = 1.6\n", ["polytropic_n", "1.6", "1..1.4"]),
+    "not_toml": (TEXT.replace("ratio = 120", "ratio = = 120"), ["not valid TOML"]),
+}
+
+
+@pytest.mark.parametrize("case", sorted(BAD))
+def test_bad_file_is_refused_naming_path_field_value_and_allowed(case: str, tmp_path: Path) -> None:
+    text, words = BAD[case]
+    path = tmp_path / f"{case}.toml"
+    path.write_text(text)
+    with pytest.raises(ParameterError) as info:
+        load_joint_params(path)
+    message = str(info.value)
+    assert str(path) in message
+    for word in words:
+        assert word in message, f"{word!r} not in {message!r}"
+
+
+def test_missing_file_is_refused_with_its_path(tmp_path: Path) -> None:
+    path = tmp_path / "nowhere.toml"
+    with pytest.raises(ParameterError, match=re.escape(str(path))):
+        load_joint_params(path)
+
+
+def test_the_unedited_copy_loads(tmp_path: Path) -> None:
+    # so that each refusal above is due to its one edit
+    path = tmp_path / "copy.toml"
+    path.write_text(TEXT)
+    assert load_joint_params(path) == load_joint_params(REAL)

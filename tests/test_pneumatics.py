@@ -1,0 +1,279 @@
+"""Analytic and property tests of the laws in pneumatics/ (STYLE rule 8, first two layers).
+
+Every expected value below is computed here from a textbook formula or a numerical operation
+(quadrature, finite difference, root finding, scipy's ODE solver) that does not call the
+function under test, so a wrong law fails.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from scipy.integrate import quad, solve_ivp
+from scipy.optimize import brentq
+
+import assets
+from pneumatics import (
+    AIR,
+    brake_target,
+    chamber_pressure_rate,
+    chamber_volumes,
+    critical_pressure_ratio,
+    displacement_per_rad,
+    flow_function,
+    friction_factor,
+    hose_mass_flow,
+    hose_pressure_drop,
+    isentropic_temperature,
+    lag_toward,
+    load_joint_params,
+    orifice_mass_flow,
+    reducer_output_torque,
+    solenoid_step,
+    swept_area,
+    vane_torque,
+)
+from pneumatics.hose import BLASIUS_LAMINAR_RE, reynolds_number
+from pneumatics.orifice import LINEAR_RATIO
+
+R, K, T_S, P_ATM, MU = AIR.r_j_per_kg_k, AIR.k, AIR.t_supply_k, AIR.p_atm_pa, AIR.mu_pa_s
+WRIST = load_joint_params(assets.joint_param_path("wrist_pitch"))
+GEOM = (WRIST.stator_radius_m, WRIST.rotor_radius_m, WRIST.vane_length_m, WRIST.n_vanes)
+PITCH = 2.0 * math.pi / WRIST.n_vanes
+
+
+# --- chamber: a sealed chamber is a polytropic process ------------------------------------------
+@pytest.mark.parametrize("n", [1.4, 1.2, 1.0])
+def test_sealed_chamber_keeps_p_v_to_the_n_constant(n: float) -> None:
+    v0, p0 = 1.0e-4, 3.0e5
+
+    def volume(t: float) -> tuple[float, float]:
+        # compressed to 0.4 V0 and expanded to 1.6 V0, twice
+        return v0 * (1.0 + 0.6 * math.sin(4.0 * math.pi * t)), v0 * 0.6 * 4.0 * math.pi * math.cos(4.0 * math.pi * t)
+
+    def rhs(t, y):
+        v, dv = volume(t)
+        return [chamber_pressure_rate(y[0], v, dv, 0.0, T_S, R, n)]
+
+    ts = np.union1d(np.linspace(0.0, 1.0, 101), [0.375])  # 0.375 s: smallest volume
+    sol = solve_ivp(rhs, (0.0, 1.0), [p0], method="LSODA", rtol=1e-10, atol=1e-6, t_eval=ts)
+    assert sol.success
+    v = np.array([volume(t)[0] for t in ts])
+    invariant = sol.y[0] * v**n
+    assert np.max(np.abs(invariant / (p0 * v0**n) - 1.0)) < 1e-7
+    # and it really was compressed: at 0.4 V0 the pressure is 0.4^-n p0
+    assert sol.y[0].max() == pytest.approx(p0 * 0.4**-n, rel=1e-3)
+
+
+def test_inflow_into_a_rigid_chamber_is_isothermal_or_adiabatic_filling() -> None:
+    # dp/dt = n R T m / V for a rigid chamber (Richer & Hurmuzlu 2000, eq. 19)
+    assert chamber_pressure_rate(2e5, 1e-4, 0.0, 1e-3, T_S, R, 1.4) == pytest.approx(1.4 * R * T_S * 1e-3 / 1e-4, rel=1e-12)
+
+
+# --- orifice ------------------------------------------------------------------------------------
+@pytest.mark.parametrize("k", [1.4, 1.3, 1.67])
+def test_critical_pressure_ratio(k: float) -> None:
+    assert critical_pressure_ratio(k) == pytest.approx((2.0 / (k + 1.0)) ** (k / (k - 1.0)), rel=1e-14)
+
+
+def test_critical_ratio_of_air_is_0_528_not_the_papers_typo() -> None:
+    assert critical_pressure_ratio(1.4) == pytest.approx(0.5283, abs=1e-4)
+
+
+def test_choked_flow_does_not_depend_on_downstream_pressure() -> None:
+    p_up, area = 6.0e5, 5.0e-6
+    # textbook choked mass flow: A p sqrt(k/(R T)) (2/(k+1))^((k+1)/(2(k-1)))
+    choked = area * p_up * math.sqrt(K / (R * T_S)) * (2.0 / (K + 1.0)) ** ((K + 1.0) / (2.0 * (K - 1.0)))
+    pr_crit = (2.0 / (K + 1.0)) ** (K / (K - 1.0))
+    for ratio in np.linspace(0.0, pr_crit * (1 - 1e-9), 37):
+        assert orifice_mass_flow(p_up, ratio * p_up, area, T_S, R, K) == pytest.approx(choked, rel=1e-12)
+    # 0.0404 kg K^0.5 / (s m^2 Pa) is the constant Richer & Hurmuzlu quote for air
+    assert choked / (area * p_up) * math.sqrt(T_S) == pytest.approx(0.0404, abs=1e-4)
+
+
+def test_subsonic_flow_is_saint_venant() -> None:
+    # m = A p_u sqrt(2k/((k-1) R T) (Pr^(2/k) - Pr^((k+1)/k))) below the linear zone
+    p_up, area = 5.0e5, 3.0e-6
+    for pr in np.linspace(0.53, LINEAR_RATIO - 1e-6, 23):
+        expected = area * p_up * math.sqrt(2.0 * K / ((K - 1.0) * R * T_S) * (pr ** (2.0 / K) - pr ** ((K + 1.0) / K)))
+        assert orifice_mass_flow(p_up, pr * p_up, area, T_S, R, K) == pytest.approx(expected, rel=1e-10)
+
+
+def test_no_flow_at_equal_pressures_or_zero_area() -> None:
+    for p in (P_ATM, 3e5, 9e5):
+        assert orifice_mass_flow(p, p, 5e-6, T_S, R, K) == 0.0
+    assert orifice_mass_flow(6e5, P_ATM, 0.0, T_S, R, K) == 0.0
+
+
+def test_flow_function_is_continuous_at_the_critical_ratio_and_the_linear_zone() -> None:
+    pr_crit = critical_pressure_ratio(K)
+    eps = 1e-9
+    assert flow_function(pr_crit - eps, K) == 1.0
+    assert flow_function(pr_crit + eps, K) == pytest.approx(1.0, abs=1e-6)
+    assert flow_function(LINEAR_RATIO - eps, K) == pytest.approx(flow_function(LINEAR_RATIO + eps, K), abs=1e-6)
+    assert flow_function(1.0 - eps, K) == pytest.approx(0.0, abs=1e-6)
+    # monotone non-increasing over the whole range
+    f = np.array([flow_function(pr, K) for pr in np.linspace(0.0, 1.0, 2001)])
+    assert np.all(np.diff(f) <= 1e-15)
+
+
+def test_flow_reverses_when_pressures_swap() -> None:
+    for pa, pb in [(6e5, 1.2e5), (6e5, 4e5), (6e5, 5.97e5), (2e5, 1.9999e5)]:
+        forward = orifice_mass_flow(pa, pb, 4e-6, T_S, R, K)
+        assert forward > 0.0
+        assert orifice_mass_flow(pb, pa, 4e-6, T_S, R, K) == -forward
+
+
+# --- vane motor ---------------------------------------------------------------------------------
+ANGLES = np.linspace(-7.0 * math.pi, 7.0 * math.pi, 4001)
+
+
+def test_chamber_volumes_sum_to_a_constant() -> None:
+    sums = np.array([sum(chamber_volumes(phi, *GEOM, WRIST.dead_volume_m3)) for phi in ANGLES])
+    assert np.ptp(sums) < 1e-12 * sums[0]
+    # the total is both dead volumes plus one pitch's swept volume
+    swept = quad(lambda phi: swept_area(phi, *GEOM), -PITCH / 2, PITCH / 2, epsabs=0, epsrel=1e-12)[0]
+    assert sums[0] == pytest.approx(2.0 * WRIST.dead_volume_m3 + swept, rel=1e-10)
+
+
+def test_volumes_stay_between_dead_volume_and_full() -> None:
+    for phi in ANGLES:
+        v_a, v_b = chamber_volumes(phi, *GEOM, WRIST.dead_volume_m3)
+        assert v_a >= WRIST.dead_volume_m3 * (1 - 1e-9) and v_b >= WRIST.dead_volume_m3 * (1 - 1e-9)
+
+
+def test_swept_area_is_the_derivative_of_chamber_a() -> None:
+    h = 1e-6
+    for phi in np.linspace(-PITCH / 2 + 1e-3, PITCH / 2 - 1e-3, 51) + 3 * PITCH:
+        v_plus = chamber_volumes(phi + h, *GEOM, 0.0)[0]
+        v_minus = chamber_volumes(phi - h, *GEOM, 0.0)[0]
+        assert swept_area(phi, *GEOM) == pytest.approx((v_plus - v_minus) / (2 * h), rel=1e-6)
+        vb_plus = chamber_volumes(phi + h, *GEOM, 0.0)[1]
+        vb_minus = chamber_volumes(phi - h, *GEOM, 0.0)[1]
+        assert -swept_area(phi, *GEOM) == pytest.approx((vb_plus - vb_minus) / (2 * h), rel=1e-6)
+
+
+def test_swept_area_is_the_vane_formula() -> None:
+    # (L/2)(rho^2 - r^2), rho^2 = B^2 + 2 e B cos(phi) + e^2 cos(2 phi) (DESIGN, "Torque and volume must agree")
+    b, r, length, _ = GEOM
+    e = b - r
+    for phi in np.linspace(-PITCH / 2, PITCH / 2 * 0.999, 17):
+        rho2 = b * b + 2 * e * b * math.cos(phi) + e * e * math.cos(2 * phi)
+        assert swept_area(phi, *GEOM) == pytest.approx(0.5 * length * (rho2 - r * r), rel=1e-12)
+
+
+@pytest.mark.parametrize("p_a, p_b", [(6.0e5, 1.5e5), (2.0e5, 7.0e5)])
+def test_vane_work_over_a_pitch_equals_pressure_work(p_a: float, p_b: float) -> None:
+    lo, hi = -PITCH / 2 + 1e-12, PITCH / 2 - 1e-12
+    work = quad(lambda phi: vane_torque(p_a, p_b, phi, *GEOM), lo, hi, epsabs=0, epsrel=1e-12)[0]
+    v_lo, v_hi = chamber_volumes(lo, *GEOM, 0.0)[0], chamber_volumes(hi, *GEOM, 0.0)[0]
+    assert work == pytest.approx((p_a - p_b) * (v_hi - v_lo), rel=1e-9)
+
+
+def test_wrist_displacement_is_designs_1_03_cm3_per_rad() -> None:
+    # DESIGN starting set: 1.03e-6 m^3/rad (6.45 cm^3/rev) for B, r, L = 11, 9, 25 mm
+    assert displacement_per_rad(*GEOM) == pytest.approx(1.03e-6, rel=0.01)
+
+
+# --- hose ---------------------------------------------------------------------------------------
+HOSE = (WRIST.hose_length_m, WRIST.hose_diameter_m)
+
+
+def _re_to_mass_flow(re: float) -> float:
+    return re * math.pi * WRIST.hose_diameter_m * MU / 4.0
+
+
+@pytest.mark.parametrize("reynolds", [50.0, 600.0, 1100.0, 1300.0, 2497.0, 8000.0, 30000.0])
+@pytest.mark.parametrize("p_out", [1.2e5, 5.0e5])
+def test_hose_mass_flow_inverts_the_pressure_drop(reynolds: float, p_out: float) -> None:
+    m = _re_to_mass_flow(reynolds)
+    t_mean = 280.0
+
+    def residual(p_in: float) -> float:
+        return p_in - p_out - hose_pressure_drop(m, 0.5 * (p_in + p_out), t_mean, *HOSE, R, MU)
+
+    p_in = brentq(residual, p_out, p_out + 5e6, xtol=1e-9, rtol=1e-15)
+    assert hose_mass_flow(p_in, p_out, t_mean, *HOSE, R, MU) == pytest.approx(m, rel=1e-8)
+    assert hose_mass_flow(p_out, p_in, t_mean, *HOSE, R, MU) == pytest.approx(-m, rel=1e-8)
+
+
+def test_hose_drop_is_darcy_weisbach() -> None:
+    # dp = lambda (L/d) rho v^2 / 2 with v = m/(rho A), written out independently
+    m, p_mean, t = _re_to_mass_flow(2497.0), 4e5, T_S
+    rho = p_mean / (R * t)
+    v = m / (rho * math.pi * WRIST.hose_diameter_m**2 / 4)
+    lam = 0.316 * 2497.0**-0.25
+    expected = lam * WRIST.hose_length_m / WRIST.hose_diameter_m * rho * v * v / 2
+    assert hose_pressure_drop(m, p_mean, t, *HOSE, R, MU) == pytest.approx(expected, rel=1e-9)
+    assert reynolds_number(m, WRIST.hose_diameter_m, MU) == pytest.approx(2497.0, rel=1e-12)
+    assert hose_pressure_drop(0.0, p_mean, t, *HOSE, R, MU) == 0.0
+    assert hose_mass_flow(p_mean, p_mean, t, *HOSE, R, MU) == 0.0
+
+
+def test_friction_factor_is_continuous_and_blasius_at_the_papers_reynolds_number() -> None:
+    assert friction_factor(2497.0) == pytest.approx(0.316 * 2497.0**-0.25, rel=1e-14)  # paper eq. 3, Re = 2497
+    assert friction_factor(2497.0) == pytest.approx(0.0447, abs=1e-4)
+    eps = 1e-7
+    assert friction_factor(BLASIUS_LAMINAR_RE * (1 - eps)) == pytest.approx(friction_factor(BLASIUS_LAMINAR_RE * (1 + eps)), rel=1e-6)
+    assert friction_factor(500.0) == pytest.approx(64.0 / 500.0, rel=1e-14)  # Hagen-Poiseuille
+    assert 64.0 / BLASIUS_LAMINAR_RE == pytest.approx(0.316 * BLASIUS_LAMINAR_RE**-0.25, rel=1e-12)
+
+
+# --- gas, reducer, valves, brake -----------------------------------------------------------------
+def test_isentropic_temperature_is_eq_2() -> None:
+    p_s, p_b = 101325.0 + 0.5e6, 2.0e5
+    assert isentropic_temperature(p_b, p_s, T_S, 1.4) == pytest.approx(T_S * (p_b / p_s) ** (0.4 / 1.4), rel=1e-14)
+    # expansion to the atmosphere from 0.5 MPa gauge: about -90 °C (DESIGN: -30 to -80 °C in the chamber)
+    assert isentropic_temperature(P_ATM, p_s, T_S, 1.4) - 273.15 == pytest.approx(-97.0, abs=2.0)
+    assert isentropic_temperature(p_b, p_s, T_S, 1.0) == T_S  # isothermal limit
+
+
+def test_reducer_efficiency_sign_logic() -> None:
+    i, ef, eb = 120.0, 0.7, 0.5
+    assert reducer_output_torque(0.3, 1.0, i, ef, eb) == pytest.approx(ef * i * 0.3)  # motor drives
+    assert reducer_output_torque(-0.3, -1.0, i, ef, eb) == pytest.approx(-ef * i * 0.3)
+    assert reducer_output_torque(0.3, 0.0, i, ef, eb) == pytest.approx(ef * i * 0.3)  # at rest: forward
+    assert reducer_output_torque(0.3, -1.0, i, ef, eb) == pytest.approx(i * 0.3 / eb)  # load drives the motor
+    assert reducer_output_torque(-0.3, 1.0, i, ef, eb) == pytest.approx(-i * 0.3 / eb)
+    # power balance when driving: out = eta in
+    assert reducer_output_torque(0.3, 1.0, i, ef, eb) * 1.0 == pytest.approx(ef * 0.3 * i * 1.0)
+
+
+def test_solenoid_switches_after_its_delay() -> None:
+    dt, delay = 0.5e-3, 0.015
+    state = (0.0, 0.0, 0.0)
+    steps = 0
+    while state[0] != 1.0:
+        state = solenoid_step(*state, 1.0, delay, dt)
+        steps += 1
+        assert steps < 1000
+    assert steps == round(delay / dt)
+    # a new command restarts the delay; going back before it takes effect cancels it
+    state = solenoid_step(*state, -1.0, delay, dt)
+    for _ in range(10):
+        state = solenoid_step(*state, -1.0, delay, dt)
+    assert state[0] == 1.0
+    for _ in range(100):
+        state = solenoid_step(*state, 1.0, delay, dt)
+    assert state == (1.0, 1.0, pytest.approx(state[2])) and state[0] == 1.0
+    # zero delay: immediate
+    assert solenoid_step(0.0, 0.0, 0.0, -1.0, 0.0, dt)[0] == -1.0
+
+
+def test_lag_toward_is_the_exact_exponential() -> None:
+    tau, dt, v = 0.1, 0.5e-3, 0.0
+    for _ in range(600):
+        v = lag_toward(v, 5e5, dt, tau)
+    assert v == pytest.approx(5e5 * (1.0 - math.exp(-600 * dt / tau)), rel=1e-12)
+    assert lag_toward(1.0, 3.0, dt, 0.0) == 3.0
+
+
+def test_brake_releases_only_when_told_and_the_supply_can_lift_the_springs() -> None:
+    release = 3e5
+    assert brake_target(1.0, 5e5, release) == 0.0
+    assert brake_target(1.0, release, release) == 0.0
+    assert brake_target(1.0, release - 1.0, release) == 1.0  # not enough air: springs hold
+    assert brake_target(0.0, 8e5, release) == 1.0  # not told: springs hold
+    assert brake_target(0.0, 0.0, release) == 1.0
