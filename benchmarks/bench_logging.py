@@ -1,0 +1,129 @@
+"""Cost of logging: a run with both logs on (rerun .rrd and MCAP) against the same run with none.
+
+Both sides run the same plant (assets/scene.xml, supply 0.6 MPa gauge) under the same open-loop
+CommandSchedule (wrist brake released, valve fully open, direction reversed every second) for the
+same simulated time; telemetry is collected on both sides (twin.sim.run always samples), so the
+difference is what the recorders cost: opening the files, the static geometry, the bulk sends, the
+MCAP serialisation and its flushes, closing. Rounds alternate off/on and keep the best of each, to
+damp the noise of a shared machine; the time spent inside each recorder is reported too. Goal
+(issue): ratio <= 1.2.
+
+    PYTHONPATH=. python -m benchmarks.bench_logging [--seconds 5] [--rounds 3]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+import assets
+from twin.mcap_log import McapRecorder
+from twin.plant import Plant
+from twin.rerun_log import RerunRecorder
+from twin.sim import CommandSchedule, run
+
+SUPPLY_PA = 101_325.0 + 0.6e6  # 0.6 MPa gauge, the paper's mean supply
+VALVE_OPEN_GAUGE_PA = 0.52e6  # >= 1/k_u = 5.1e5 Pa gauge: proportional valve fully open
+
+
+def wrist_schedule(joints: tuple[str, ...]) -> CommandSchedule:
+    """Wrist brake released, valve open, direction +1 then -1 every second; others held."""
+    w = joints.index("wrist_pitch")
+
+    def commands_at(t: float) -> np.ndarray:
+        c = np.zeros((len(joints), 3))
+        c[w] = (1.0 if int(t) % 2 == 0 else -1.0, VALVE_OPEN_GAUGE_PA, 1.0)
+        return c
+
+    return CommandSchedule(commands_at, len(joints))
+
+
+class Timed:
+    """A recorder wrapped so that the time spent inside it is counted (the noise-free part)."""
+
+    def __init__(self, make, spent: dict, key: str):
+        self.spent, self.key = spent, key
+        t0 = time.perf_counter()
+        self.inner = make()
+        spent[key] = spent.get(key, 0.0) + time.perf_counter() - t0
+
+    def write(self, telemetry, start: int) -> None:
+        t0 = time.perf_counter()
+        self.inner.write(telemetry, start)
+        self.spent[self.key] += time.perf_counter() - t0
+
+    def close(self) -> None:
+        t0 = time.perf_counter()
+        self.inner.close()
+        self.spent[self.key] += time.perf_counter() - t0
+
+
+def timed_run(seconds: float, out_dir: Path | None, spent: dict | None = None) -> float:
+    """Wall time of one run (plant built outside the timing); `spent` collects the time inside
+    each recorder (open, writes, close)."""
+    plant = Plant(assets.SCENE_XML)
+    plant.set_supply(SUPPLY_PA)
+    spent = {} if spent is None else spent
+    t0 = time.perf_counter()
+    recorders = ()
+    if out_dir is not None:
+        meta = {"seed": 0, "scenario_name": "bench_logging", "scenario_text": ""}
+        recorders = (
+            Timed(lambda: RerunRecorder(out_dir / "bench.rrd", plant.model, plant.joints, meta), spent, "rerun"),
+            Timed(lambda: McapRecorder(out_dir / "bench.mcap", plant.model, plant.joints, meta), spent, "mcap"),
+        )
+    try:
+        run(plant, wrist_schedule(plant.joints), seconds, recorders=recorders)
+    finally:
+        for r in recorders:
+            r.close()
+    return time.perf_counter() - t0
+
+
+def bench_logging(seconds: float = 5.0, rounds: int = 3) -> dict:
+    """Run time with both logs on as a ratio to the same run with logging off."""
+    timed_run(0.2, None)  # warm-up: numba cache, imports
+    with tempfile.TemporaryDirectory() as tmp:
+        timed_run(0.2, Path(tmp))
+        best_off = best_on = float("inf")
+        inside = {"rerun": float("inf"), "mcap": float("inf")}
+        for _ in range(rounds):
+            best_off = min(best_off, timed_run(seconds, None))
+            spent: dict = {}
+            best_on = min(best_on, timed_run(seconds, Path(tmp), spent))
+            inside = {k: min(v, spent[k]) for k, v in inside.items()}
+        sizes = {p.suffix: p.stat().st_size for p in Path(tmp).iterdir()}
+    return {
+        "seconds_simulated": seconds,
+        "rounds": rounds,
+        "goal_ratio": 1.2,
+        "run_s_logging_off": best_off,
+        "run_s_logging_on": best_on,
+        "ratio": best_on / best_off,
+        # the recorders' own time over the run without logs: the same cost, without the noise of
+        # two wall-clock runs (rerun's encoder and file writer run on background threads, so the
+        # wall-clock ratio can exceed 1 + these when the machine has few cores)
+        "rerun_fraction": inside["rerun"] / best_off,
+        "mcap_fraction": inside["mcap"] / best_off,
+        "ratio_from_recorder_time": 1.0 + (inside["rerun"] + inside["mcap"]) / best_off,
+        "rrd_bytes_per_simulated_s": sizes.get(".rrd", 0) / seconds,
+        "mcap_bytes_per_simulated_s": sizes.get(".mcap", 0) / seconds,
+    }
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--seconds", type=float, default=5.0, help="simulated seconds per run")
+    parser.add_argument("--rounds", type=int, default=3, help="alternating off/on rounds (best kept)")
+    args = parser.parse_args(argv)
+    print(json.dumps(bench_logging(args.seconds, args.rounds), indent=2))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,229 @@
+"""A calibration campaign on disk: campaign.toml plus one run file per run, read and checked.
+
+campaign.toml:
+    joint = "wrist_pitch"            # the joint under test (assets.JOINTS)
+    payload_kg = 0.0                 # payload on the rig (the wrist rig turns about a vertical axis: no load torque)
+    hose_length_m = 8.0              # valve -> motor hose, each port
+    rig_inertia_kg_m2 = 0.02         # optional; joint-side inertia of the rig (assets/wrist_rig.xml)
+    [twin]                           # optional: the nominal twin's switches
+    hose_loss = false                # default: as the joint's parameter file
+    [[runs]]
+    file = "run_050_1.csv"           # CSV (or the twin's own .mcap, see read_run_file)
+    supply_mpa = 0.5                 # gauge, the paper's convention
+    start_deg = { wrist_pitch = 0.0, ... }   # start pose of every joint (others stay braked)
+
+Run CSV columns: time_s, direction (-1/0/+1), brake_released (0/1), valve_opening (0..1, optional:
+absent = fully open), supply_pa (absolute), angle_rad (reference instrument, empty/NaN where not
+sampled), optional p_a_pa, p_b_pa. Anything else is refused with the file, the line and what is
+wrong (GapError).
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+import tomllib
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+import assets
+from pneumatics.gas import AIR
+from twin.errors import UserError
+
+REQUIRED_COLUMNS = ("time_s", "direction", "brake_released", "supply_pa", "angle_rad")
+OPTIONAL_COLUMNS = ("valve_opening", "p_a_pa", "p_b_pa")
+WRIST_RIG_INERTIA_KG_M2 = 0.02  # assets/wrist_rig.xml, body rig_load
+
+
+class GapError(UserError):
+    """A campaign or run file that cannot be diagnosed: names the file, the line and what is wrong."""
+
+
+@dataclass
+class Run:
+    name: str
+    path: Path
+    supply_mpa: float
+    start_rad: float  # joint under test
+    time_s: np.ndarray
+    direction: np.ndarray
+    brake_released: np.ndarray
+    valve_opening: np.ndarray
+    supply_pa: np.ndarray
+    angle_rad: np.ndarray  # NaN where not sampled
+    extra: dict[str, np.ndarray] = field(default_factory=dict)
+
+    @property
+    def sampled(self) -> np.ndarray:
+        return np.isfinite(self.angle_rad)
+
+    def signature(self) -> tuple:
+        """Runs with the same commands and supply are repeats of one another."""
+        return (round(self.supply_mpa, 4), round(self.start_rad, 6), self.direction.tobytes(), np.round(self.valve_opening, 3).tobytes(), self.brake_released.tobytes())
+
+
+@dataclass
+class Campaign:
+    folder: Path
+    joint: str
+    payload_kg: float
+    hose_length_m: float
+    rig_inertia_kg_m2: float
+    twin_hose_loss: float | None
+    runs: list[Run]
+
+
+def _number(where: str, table: dict, key: str, low: float, high: float, unit: str, default: float | None = None) -> float:
+    if key not in table:
+        if default is not None:
+            return default
+        raise GapError(f"{where}: {key} is missing; allowed: a number in {low:g}..{high:g} {unit}")
+    v = table[key]
+    if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or not low <= v <= high:
+        raise GapError(f"{where}: {key} = {v!r}; allowed: a number in {low:g}..{high:g} {unit}")
+    return float(v)
+
+
+def _toml_line(text: str, needle: str, occurrence: int = 0) -> int:
+    """1-based line of the `occurrence`-th line containing `needle` (for error messages), 0 if none."""
+    seen = 0
+    for i, line in enumerate(text.splitlines(), 1):
+        if needle in line:
+            if seen == occurrence:
+                return i
+            seen += 1
+    return 0
+
+
+def load_campaign(folder: str | Path) -> Campaign:
+    folder = Path(folder)
+    path = folder / "campaign.toml" if folder.is_dir() else folder
+    folder = path.parent
+    if not path.is_file():
+        raise GapError(f"{path}: no such campaign file (a campaign is a folder with campaign.toml and one file per run)")
+    text = path.read_text()
+    try:
+        doc = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as e:
+        raise GapError(f"{path}: not valid TOML: {e}") from None
+    joint = doc.get("joint")
+    if joint not in assets.JOINTS:
+        raise GapError(f"{path}:{_toml_line(text, 'joint')}: joint = {joint!r} is not a joint of the arm; allowed: {', '.join(assets.JOINTS)}")
+    payload = _number(f"{path}", doc, "payload_kg", 0.0, 100.0, "kg", default=0.0)
+    hose = _number(f"{path}", doc, "hose_length_m", 0.01, 100.0, "m")
+    rig_j = _number(f"{path}", doc, "rig_inertia_kg_m2", 0.0, 100.0, "kg·m^2", default=WRIST_RIG_INERTIA_KG_M2)
+    twin = doc.get("twin", {})
+    hl = twin.get("hose_loss")
+    if hl is not None and not isinstance(hl, bool):
+        raise GapError(f"{path}:{_toml_line(text, 'hose_loss')}: [twin] hose_loss = {hl!r}; allowed: true or false")
+    runs_doc = doc.get("runs")
+    if not isinstance(runs_doc, list) or not runs_doc:
+        raise GapError(f"{path}: no [[runs]]; allowed: one [[runs]] table per run with file, supply_mpa, start_deg")
+    runs = []
+    for i, r in enumerate(runs_doc):
+        line = _toml_line(text, "[[runs]]", i)
+        where = f"{path}:{line} ([[runs]] #{i + 1})"
+        f = r.get("file")
+        if not isinstance(f, str):
+            raise GapError(f"{where}: file is missing; allowed: the name of a run file in {folder}")
+        supply = _number(where, r, "supply_mpa", 0.0, 2.0, "MPa gauge")
+        start = r.get("start_deg")
+        if not isinstance(start, dict) or joint not in start:
+            raise GapError(f"{where}: start_deg must give the start angle of every joint, at least {joint!r}; e.g. start_deg = {{ {joint} = 0.0 }}")
+        for j, v in start.items():
+            if j not in assets.JOINTS:
+                raise GapError(f"{where}: start_deg names unknown joint {j!r}; allowed: {', '.join(assets.JOINTS)}")
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+                raise GapError(f"{where}: start_deg.{j} = {v!r} is not a number (degrees)")
+        runs.append(read_run_file(folder / f, supply, math.radians(start[joint]), where))
+    return Campaign(folder, joint, payload, hose, rig_j, None if hl is None else (1.0 if hl else 0.0), runs)
+
+
+def read_run_file(path: Path, supply_mpa: float, start_rad: float, where: str = "") -> Run:
+    if not path.is_file():
+        raise GapError(f"{where}: run file {path} does not exist")
+    if path.suffix.lower() == ".mcap":
+        return _read_mcap_run(path, supply_mpa, start_rad)
+    with open(path, newline="") as f:
+        reader = csv.reader(f)
+        try:
+            header = [h.strip() for h in next(reader)]
+        except StopIteration:
+            raise GapError(f"{path}:1: empty run file; expected a header with {', '.join(REQUIRED_COLUMNS)}") from None
+        missing = [c for c in REQUIRED_COLUMNS if c not in header]
+        if missing:
+            raise GapError(f"{path}:1: missing column(s) {', '.join(missing)}; required: {', '.join(REQUIRED_COLUMNS)}; optional: {', '.join(OPTIONAL_COLUMNS)}")
+        unknown = [c for c in header if c not in REQUIRED_COLUMNS + OPTIONAL_COLUMNS]
+        if unknown:
+            raise GapError(f"{path}:1: unknown column(s) {', '.join(unknown)}; allowed: {', '.join(REQUIRED_COLUMNS + OPTIONAL_COLUMNS)}")
+        cols = {h: [] for h in header}
+        for line_no, row in enumerate(reader, 2):
+            if not row:
+                continue
+            if len(row) != len(header):
+                raise GapError(f"{path}:{line_no}: {len(row)} fields, the header has {len(header)}")
+            for h, v in zip(header, row):
+                v = v.strip()
+                if v == "" or v.lower() == "nan":
+                    if h in ("angle_rad", "p_a_pa", "p_b_pa"):
+                        cols[h].append(math.nan)
+                        continue
+                    raise GapError(f"{path}:{line_no}: {h} is empty; allowed: a number")
+                try:
+                    x = float(v)
+                except ValueError:
+                    raise GapError(f"{path}:{line_no}: {h} = {v!r} is not a number") from None
+                if not math.isfinite(x):
+                    raise GapError(f"{path}:{line_no}: {h} = {v!r} is not finite")
+                cols[h].append(x)
+            t = cols["time_s"]
+            if len(t) > 1 and not t[-1] > t[-2]:
+                raise GapError(f"{path}:{line_no}: time_s = {t[-1]:g} does not increase (previous {t[-2]:g}); time must be strictly increasing")
+            d = cols["direction"][-1]
+            if d not in (-1.0, 0.0, 1.0):
+                raise GapError(f"{path}:{line_no}: direction = {d:g}; allowed: -1, 0, +1")
+            b = cols["brake_released"][-1]
+            if b not in (0.0, 1.0):
+                raise GapError(f"{path}:{line_no}: brake_released = {b:g}; allowed: 0 or 1")
+            if "valve_opening" in cols and not 0.0 <= cols["valve_opening"][-1] <= 1.0:
+                raise GapError(f"{path}:{line_no}: valve_opening = {cols['valve_opening'][-1]:g}; allowed: 0..1")
+            if not 0.0 < cols["supply_pa"][-1] < 3e6:
+                raise GapError(f"{path}:{line_no}: supply_pa = {cols['supply_pa'][-1]:g}; allowed: absolute Pa in 0..3e6")
+    a = {h: np.asarray(v, dtype=np.float64) for h, v in cols.items()}
+    n = len(a["time_s"])
+    if n < 2 or np.isfinite(a["angle_rad"]).sum() < 2:
+        raise GapError(f"{path}: needs at least 2 rows and 2 angle samples, has {n} rows and {int(np.isfinite(a['angle_rad']).sum())} samples")
+    opening = a.get("valve_opening", np.ones(n))
+    extra = {k: a[k] for k in ("p_a_pa", "p_b_pa") if k in a}
+    return Run(path.stem, path, supply_mpa, start_rad, a["time_s"] - a["time_s"][0], a["direction"], a["brake_released"], opening, a["supply_pa"], a["angle_rad"], extra)
+
+
+def _read_mcap_run(path: Path, supply_mpa: float, start_rad: float) -> Run:
+    # --- HOOK (lead to wire and test): the twin's own MCAP log as a run file -----------------------
+    # twin.mcap_log.read_mcap(path) -> (arrays like Telemetry.arrays(), meta), written by the
+    # logging engineer. Imported lazily so gap/ works without it. Column mapping assumed from
+    # twin/sim.sample(): time_s, direction[:, j], brake_release[:, j], valve_gauge_pa[:, j],
+    # supply_pa, true_angle_rad[:, j]; the joint index comes from meta["joints"] (assumed key).
+    try:
+        from twin.mcap_log import read_mcap  # noqa: PLC0415
+    except ImportError as e:
+        raise GapError(f"{path}: reading MCAP run files needs twin.mcap_log.read_mcap, which is not available ({e})") from None
+    arrays, meta = read_mcap(path)
+    joints = list(meta.get("joints", assets.JOINTS))
+    j = joints.index("wrist_pitch") if "wrist_pitch" in joints else 0
+    k_u = 1.959e-6  # paper k_u per Pa gauge (assets/joints/*.toml)
+    t = np.asarray(arrays["time_s"], dtype=float)
+    return Run(
+        path.stem, path, supply_mpa, start_rad, t - t[0],
+        np.asarray(arrays["direction"])[:, j].astype(float),
+        np.asarray(arrays["brake_release"])[:, j].astype(float),
+        np.clip(k_u * np.asarray(arrays["valve_gauge_pa"])[:, j], 0.0, 1.0),
+        np.asarray(arrays["supply_pa"], dtype=float).reshape(-1),
+        np.asarray(arrays["true_angle_rad"])[:, j].astype(float),
+    )
+
+
+def supply_gauge_pa(run: Run) -> float:
+    return float(np.mean(run.supply_pa)) - AIR.p_atm_pa

@@ -1,0 +1,47 @@
+"""`twin gap diagnose CAMPAIGN --out DIR` and `twin gap bench --out DIR`."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+
+def register(subparsers) -> None:
+    p = subparsers.add_parser("gap", help="sim-to-real gap diagnosis")
+    sub = p.add_subparsers(dest="gap_command", required=True)
+    d = sub.add_parser("diagnose", help="diagnose a calibration campaign into DIR (diagnosis.json, report.md, PNG plots)")
+    d.add_argument("campaign", help="folder with campaign.toml and the run files")
+    d.add_argument("--out", required=True, help="output folder")
+    d.add_argument("--model-tolerance-deg", type=float, default=None, help="twin model tolerance added to the noise floor (default 0.5)")
+    d.add_argument("--jobs", type=int, default=2)
+    d.set_defaults(func=cmd_diagnose)
+    b = sub.add_parser("bench", help="blind check on campaigns generated from the plant with hidden effects (DIR/bench.json)")
+    b.add_argument("--out", required=True)
+    b.add_argument("--quick", action="store_true", help="a few cases only (for tests)")
+    b.add_argument("--jobs", type=int, default=2)
+    b.set_defaults(func=cmd_bench)
+
+
+def run_diagnose(campaign: str | Path, out: str | Path, model_tolerance_deg: float | None = None, jobs: int = 2, progress: bool = True) -> dict:
+    from gap.campaign import load_campaign
+    from gap.diagnose import MODEL_TOLERANCE_DEG, diagnose
+    from gap.report import write
+
+    diag = diagnose(load_campaign(campaign), model_tolerance_deg=MODEL_TOLERANCE_DEG if model_tolerance_deg is None else model_tolerance_deg, n_jobs=jobs, progress=progress)
+    write(diag, out)
+    return diag
+
+
+def cmd_diagnose(args) -> int:
+    diag = run_diagnose(args.campaign, args.out, args.model_tolerance_deg, args.jobs)
+    top = diag["which"]["top"]
+    print(f"verdict: {diag['which']['verdict']}" + (f" ({top['name']}, held-out rms {diag['before_rms_deg']:.2f} -> {top['heldout_rms_deg']:.2f} deg)" if top else ""))
+    print(f"report: {Path(args.out) / 'report.md'}")
+    return 0
+
+
+def cmd_bench(args) -> int:
+    from gap.bench import run_bench
+
+    summary = run_bench(args.out, quick=args.quick, jobs=args.jobs)
+    print({k: v for k, v in summary.items() if k != "cases"})
+    return 0

@@ -1,0 +1,402 @@
+"""The diagnosis: where the twin departs from measured runs, which catalogue effect explains it, and
+how far the gap shrinks on runs withheld from the fit.
+
+Steps (each a plain function of the campaign):
+1. replay every run through the nominal twin (gap.replay) -> residual = measured - twin;
+2. where: break the residual down by motion phase, supply, direction, speed and time since start,
+   beside a noise floor from repeated runs and the twin's own model tolerance;
+3. which: for each catalogue effect, fit its one bounded parameter on training runs (a grid, then
+   a bounded 1-D search around its best point) and score it on withheld runs (leave one supply
+   pressure out; alternating split when there is one pressure); pairs of the best effects when one
+   is not enough; a verdict;
+4. how far: per pressure, mean and max |error| on withheld runs before and after each effect, with
+   bootstrap confidence intervals over runs.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.optimize import minimize_scalar
+
+import assets
+from gap.campaign import Campaign, Run
+from gap.effects import BY_NAME, CATALOGUE, Effect
+from gap.replay import DT_S, replay_at, replay_run
+from pneumatics import JointParams, load_joint_params, params_row
+
+# The one-joint twin and the plant (MuJoCo friction constraint vs Karnopp, explicit coupling) differ
+# by 0.24 deg rms / 0.44 deg max on the bench's no-effect campaigns (measured, gap bench); twice
+# that is the tolerance below which a residual is not called a gap.
+MODEL_TOLERANCE_DEG = 0.5
+SIGNIFICANCE = 2.0  # a gap is significant above SIGNIFICANCE x floor, floor = sqrt(noise^2 + tol^2)
+EXPLAIN_SHRINK = 0.1  # ... or an effect explains it if it brings the held-out rms below this x before
+PHASE_WINDOW_S = 0.3  # start / reversal / braking: this long after the command change
+N_BOOT = 1000
+
+
+@dataclass
+class Prepared:
+    run: Run
+    args: tuple  # cmd arrays for replay
+    ts: np.ndarray  # sample times
+    meas: np.ndarray  # measured angle at ts
+
+
+def nominal_params(campaign: Campaign) -> JointParams:
+    p = load_joint_params(assets.joint_param_path(campaign.joint))
+    p = p._replace(hose_length_m=campaign.hose_length_m)
+    if campaign.twin_hose_loss is not None:
+        p = p._replace(hose_loss=campaign.twin_hose_loss)
+    return p
+
+
+def nominal_inertia(campaign: Campaign, p: JointParams) -> float:
+    """Rig inertia + ratio^2 x rotor inertia (assets/wrist_rig.xml comment)."""
+    return campaign.rig_inertia_kg_m2 + p.ratio**2 * p.rotor_inertia_kg_m2
+
+
+def prepare(run: Run) -> Prepared:
+    m = run.sampled
+    args = (run.time_s, run.direction, run.valve_opening, run.brake_released, run.supply_pa)
+    return Prepared(run, args, run.time_s[m], run.angle_rad[m])
+
+
+class Twin:
+    """The nominal twin of one campaign and how to replay a run with an effect added."""
+
+    def __init__(self, campaign: Campaign):
+        self.campaign = campaign
+        self.params = nominal_params(campaign)
+        self.inertia = nominal_inertia(campaign, self.params)
+        self.runs = [prepare(r) for r in campaign.runs]
+
+    def predict(self, params: JointParams, inertia_scale: float, k: int) -> np.ndarray:
+        pr = self.runs[k]
+        return replay_at(params_row(params), *pr.args, pr.run.start_rad, self.inertia * inertia_scale, 0.0, pr.ts, DT_S)
+
+    def predict_with(self, effects: list[tuple[Effect, float]], k: int) -> np.ndarray:
+        p, s = self.params, 1.0
+        for e, v in effects:
+            p, s2 = e.apply(p, v)
+            s *= s2
+        return self.predict(p, s, k)
+
+    def sse(self, effects, idx) -> float:
+        return float(sum(np.sum((self.runs[k].meas - self.predict_with(effects, k)) ** 2) for k in idx))
+
+
+def folds_of(campaign: Campaign) -> list[tuple[list[int], list[int]]]:
+    """Leave one supply pressure out; with a single pressure, an alternating split (both ways)."""
+    pressures = sorted({round(r.supply_mpa, 4) for r in campaign.runs})
+    n = len(campaign.runs)
+    if len(pressures) >= 2:
+        return [([k for k in range(n) if round(campaign.runs[k].supply_mpa, 4) != q], [k for k in range(n) if round(campaign.runs[k].supply_mpa, 4) == q]) for q in pressures]
+    even = list(range(0, n, 2))
+    odd = list(range(1, n, 2))
+    return [(even, odd), (odd, even)] if odd else [(even, even)]
+
+
+def _grid(e: Effect, n: int = 8) -> np.ndarray:
+    if e.discrete_value is not None:
+        return np.array([e.discrete_value])
+    if e.log:
+        lo = e.low if e.low > 0 else e.high / 100.0
+        g = np.geomspace(lo, e.high, n)
+        return np.concatenate([[0.0], g]) if e.low == 0 else g
+    return np.linspace(e.low, e.high, n + 1)
+
+
+def _fit_1d(twin: Twin, e: Effect, fixed: list[tuple[Effect, float]], idx: list[int], grid: np.ndarray, grid_sse: np.ndarray | None, maxiter: int = 10) -> float:
+    """Bounded 1-D fit of effect `e` (others `fixed`) on runs `idx`: best grid point, then Brent's
+    bounded search between its neighbours."""
+    if e.discrete_value is not None:
+        return e.discrete_value
+    if grid_sse is None:
+        grid_sse = np.array([twin.sse(fixed + [(e, v)], idx) for v in grid])
+    j = int(np.argmin(grid_sse))
+    lo = grid[max(j - 1, 0)]
+    hi = grid[min(j + 1, len(grid) - 1)]
+    if hi <= lo:
+        return float(grid[j])
+    res = minimize_scalar(lambda v: twin.sse(fixed + [(e, v)], idx), bounds=(lo, hi), method="bounded", options={"xatol": (hi - lo) * 2e-3, "maxiter": maxiter})
+    return float(res.x) if res.fun < grid_sse[j] else float(grid[j])
+
+
+@dataclass
+class Candidate:
+    name: str  # effect name, or "a+b" for a pair
+    effects: list[str]
+    fold_values: list[list[float]]  # per fold, fitted value of each effect
+    full_values: list[float]  # fitted on all runs
+    heldout: list[np.ndarray] = field(default_factory=list)  # per run: withheld residual (rad)
+
+
+def fit_single(twin: Twin, e: Effect, folds) -> Candidate:
+    n = len(twin.runs)
+    grid = _grid(e)
+    # residual SSE of every run at every grid value, shared by all folds
+    per_run = np.array([[np.sum((twin.runs[k].meas - twin.predict_with([(e, v)], k)) ** 2) for k in range(n)] for v in grid])
+    heldout: list[np.ndarray | None] = [None] * n
+    fold_values = []
+    for train, test in folds:
+        v = _fit_1d(twin, e, [], train, grid, per_run[:, train].sum(axis=1))
+        fold_values.append([v])
+        for k in test:
+            heldout[k] = twin.runs[k].meas - twin.predict_with([(e, v)], k)
+    full = _fit_1d(twin, e, [], list(range(n)), grid, per_run.sum(axis=1))
+    return Candidate(e.name, [e.name], fold_values, [full], heldout)
+
+
+def fit_pair(twin: Twin, a: Candidate, b: Candidate, folds) -> Candidate:
+    ea, eb = BY_NAME[a.name], BY_NAME[b.name]
+    n = len(twin.runs)
+    heldout: list[np.ndarray | None] = [None] * n
+    fold_values = []
+
+    def coord(idx, va, vb):
+        for _ in range(2):  # coordinate descent, two rounds
+            va = _fit_1d(twin, ea, [(eb, vb)], idx, _grid(ea, 5), None, 8)
+            vb = _fit_1d(twin, eb, [(ea, va)], idx, _grid(eb, 5), None, 8)
+        return va, vb
+
+    for f, (train, test) in enumerate(folds):
+        va, vb = coord(train, a.fold_values[f][0], b.fold_values[f][0])
+        fold_values.append([va, vb])
+        for k in test:
+            heldout[k] = twin.runs[k].meas - twin.predict_with([(ea, va), (eb, vb)], k)
+    full = coord(list(range(n)), a.full_values[0], b.full_values[0])
+    return Candidate(f"{a.name}+{b.name}", [a.name, b.name], fold_values, list(full), heldout)
+
+
+# --- statistics ----------------------------------------------------------------------------
+def rms_deg(residuals: list[np.ndarray]) -> float:
+    return float(np.rad2deg(math.sqrt(np.mean(np.concatenate(residuals) ** 2))))
+
+
+def run_ms(residuals: list[np.ndarray]) -> np.ndarray:
+    return np.array([np.mean(r**2) for r in residuals])
+
+
+def bootstrap_ci(values_per_run: list[np.ndarray], stat, rng: np.random.Generator, n_boot: int = N_BOOT) -> tuple[float, float]:
+    """95% interval of stat(concatenated samples) resampling whole runs with replacement."""
+    n = len(values_per_run)
+    if n == 0:
+        return (math.nan, math.nan)
+    out = np.empty(n_boot)
+    for b in range(n_boot):
+        pick = rng.integers(0, n, n)
+        out[b] = stat(np.concatenate([values_per_run[i] for i in pick]))
+    return float(np.quantile(out, 0.025)), float(np.quantile(out, 0.975))
+
+
+def noise_floor_deg(twin: Twin) -> tuple[float, int]:
+    """Measurement noise (deg rms) from repeated runs: sigma = rms(difference of repeats)/sqrt(2);
+    (nan, 0) when the campaign has no repeats."""
+    groups: dict[tuple, list[int]] = {}
+    for k, pr in enumerate(twin.runs):
+        groups.setdefault(pr.run.signature(), []).append(k)
+    diffs = []
+    for ks in groups.values():
+        for a, b in zip(ks, ks[1:]):
+            ra, rb = twin.runs[a], twin.runs[b]
+            if len(ra.ts) == len(rb.ts) and np.allclose(ra.ts, rb.ts):
+                diffs.append(ra.meas - rb.meas)
+            else:
+                diffs.append(ra.meas - np.interp(ra.ts, rb.ts, rb.meas))
+    if not diffs:
+        return math.nan, 0
+    return float(np.rad2deg(np.sqrt(np.mean(np.concatenate(diffs) ** 2) / 2.0))), len(diffs)
+
+
+# --- where -----------------------------------------------------------------------------------
+def phases(run: Run, ts: np.ndarray) -> np.ndarray:
+    """Motion phase of each sample from the commands: start, moving, reversal, braking, holding."""
+    d = run.direction
+    change_t = [0.0]
+    prev_nonzero = [0.0]
+    last_nz = 0.0
+    out_idx = np.searchsorted(run.time_s, ts, side="right") - 1
+    labels = np.empty(len(ts), dtype=object)
+    # walk the command rows once, remembering the last direction change
+    t_change = np.zeros(len(d))
+    before = np.zeros(len(d))
+    tc, prev, lnz = 0.0, 0.0, 0.0
+    for i in range(len(d)):
+        if i > 0 and d[i] != d[i - 1]:
+            tc, prev = run.time_s[i], d[i - 1]
+            if d[i - 1] != 0:
+                lnz = d[i - 1]
+        t_change[i] = tc
+        before[i] = prev if prev != 0 else (lnz if d[i] == 0 else prev)
+    del change_t, prev_nonzero, last_nz
+    for j, i in enumerate(np.clip(out_idx, 0, len(d) - 1)):
+        since = ts[j] - t_change[i]
+        recent = since < PHASE_WINDOW_S and t_change[i] > 0
+        if d[i] != 0:
+            if recent and before[i] == -d[i]:
+                labels[j] = "reversal"
+            elif recent:
+                labels[j] = "start"
+            else:
+                labels[j] = "moving"
+        else:
+            labels[j] = "braking" if recent and before[i] != 0 else "holding"
+    return labels
+
+
+def breakdown(twin: Twin, residuals: list[np.ndarray]) -> dict:
+    """Residual rms (deg) and count per bin of each factor."""
+    rows = {"phase": [], "supply_mpa": [], "direction": [], "speed_rad_s": [], "time_since_start_s": []}
+    res_all = []
+    for pr, r in zip(twin.runs, residuals):
+        run = pr.run
+        idx = np.clip(np.searchsorted(run.time_s, pr.ts, side="right") - 1, 0, len(run.time_s) - 1)
+        t, _, om = replay_run(params_row(twin.params), *pr.args, run.start_rad, twin.inertia, 0.0, pr.ts[-1] + DT_S, DT_S)
+        speed = np.abs(np.interp(pr.ts, t, om))
+        moving = np.nonzero(run.direction)[0]
+        t0 = run.time_s[moving[0]] if len(moving) else 0.0
+        rows["phase"] += list(phases(run, pr.ts))
+        rows["supply_mpa"] += [f"{run.supply_mpa:.2f}"] * len(pr.ts)
+        rows["direction"] += [{-1.0: "-1", 0.0: "0", 1.0: "+1"}[float(x)] for x in run.direction[idx]]
+        rows["speed_rad_s"] += list(np.array(["<0.1", "0.1-0.5", "0.5-1", ">1"])[np.digitize(speed, [0.1, 0.5, 1.0])])
+        rows["time_since_start_s"] += [f"{max(0.0, math.floor((x - t0) / 0.5) * 0.5):.1f}+" if x >= t0 else "before" for x in pr.ts]
+        res_all.append(r)
+    res = np.rad2deg(np.concatenate(res_all))
+    out = {}
+    for factor, labels in rows.items():
+        labels = np.asarray(labels)
+        out[factor] = {}
+        for lab in sorted(set(labels), key=str):
+            m = labels == lab
+            out[factor][str(lab)] = {"rms_deg": float(np.sqrt(np.mean(res[m] ** 2))), "mean_deg": float(np.mean(res[m])), "max_abs_deg": float(np.max(np.abs(res[m]))), "n": int(m.sum())}
+    return out
+
+
+# --- the whole diagnosis ---------------------------------------------------------------------
+def diagnose(campaign: Campaign, catalogue: tuple[Effect, ...] = CATALOGUE, model_tolerance_deg: float = MODEL_TOLERANCE_DEG, n_jobs: int = 2, progress: bool = True, seed: int = 0) -> dict:
+    from joblib import Parallel, delayed
+    from tqdm import tqdm
+
+    twin = Twin(campaign)
+    folds = folds_of(campaign)
+    rng = np.random.default_rng(seed)
+    n = len(twin.runs)
+    before = [pr.meas - twin.predict(twin.params, 1.0, k) for k, pr in enumerate(twin.runs)]
+    noise, n_pairs = noise_floor_deg(twin)
+    floor = math.sqrt((0.0 if math.isnan(noise) else noise) ** 2 + model_tolerance_deg**2)
+    threshold = SIGNIFICANCE * floor
+    before_rms = rms_deg(before)
+
+    # effects already in the nominal twin at their catalogue value are not candidates
+    effects = [e for e in catalogue if not (e.discrete_value is not None and e.value_of(twin.params) == e.discrete_value)]
+    skipped = [e.name for e in catalogue if e not in effects]
+    bar = tqdm(total=len(effects), desc="gap: effects", file=__import__("sys").stderr, disable=not progress)
+
+    def job(e):
+        c = fit_single(twin, e, folds)
+        bar.update(1)
+        return c
+
+    singles: list[Candidate] = Parallel(n_jobs=n_jobs, backend="threading")(delayed(job)(e) for e in effects)
+    bar.close()
+    singles.sort(key=lambda c: rms_deg(c.heldout))
+    significant = before_rms > threshold
+
+    def explains(c: Candidate) -> bool:
+        return rms_deg(c.heldout) <= max(threshold, EXPLAIN_SHRINK * before_rms)
+
+    pairs: list[Candidate] = []
+    best = singles[0] if singles else None
+    if significant and best is not None and not explains(best):
+        tops = singles[:3]
+        combos = [(a, b) for i, a in enumerate(tops) for b in tops[i + 1 :]]
+        bar = tqdm(total=len(combos), desc="gap: pairs", file=__import__("sys").stderr, disable=not progress)
+
+        def pjob(ab):
+            c = fit_pair(twin, ab[0], ab[1], folds)
+            bar.update(1)
+            return c
+
+        pairs = Parallel(n_jobs=n_jobs, backend="threading")(delayed(pjob)(ab) for ab in combos)
+        bar.close()
+        pairs.sort(key=lambda c: rms_deg(c.heldout))
+
+    # rivals: explain too, and the best is not clearly better (bootstrap over runs, 95% one-sided)
+    def rivals_of(c: Candidate, pool: list[Candidate]) -> list[str]:
+        out = []
+        ms_c = run_ms(c.heldout)
+        for o in pool:
+            if o is c or not explains(o):
+                continue
+            diff = run_ms(o.heldout) - ms_c
+            boots = np.array([np.mean(diff[rng.integers(0, n, n)]) for _ in range(400)])
+            if np.quantile(boots, 0.05) <= 0.0 or rms_deg(o.heldout) <= 1.1 * rms_deg(c.heldout):
+                out.append(o.name)
+        return out
+
+    if not significant:
+        verdict, top, rivals = "no significant gap", None, []
+    elif best is not None and explains(best):
+        rivals = rivals_of(best, singles)
+        verdict, top = ("ambiguous" if rivals else "explained"), best
+    elif pairs and explains(pairs[0]) and rms_deg(pairs[0].heldout) < 0.8 * rms_deg(best.heldout):
+        rivals = rivals_of(pairs[0], pairs)
+        verdict, top = ("ambiguous" if rivals else "explained"), pairs[0]
+    else:
+        verdict, top, rivals = "outside the catalogue", (pairs[0] if pairs and rms_deg(pairs[0].heldout) < rms_deg(best.heldout) else best), []
+
+    def summary(c: Candidate) -> dict:
+        lo, hi = bootstrap_ci(c.heldout, lambda x: np.rad2deg(np.sqrt(np.mean(x**2))), rng, 300)
+        return {
+            "name": c.name,
+            "effects": c.effects,
+            "labels": [BY_NAME[x].label for x in c.effects],
+            "fields": [BY_NAME[x].field for x in c.effects],
+            "nominal_values": [BY_NAME[x].value_of(twin.params) for x in c.effects],
+            "fitted_values": c.full_values,
+            "fold_values": c.fold_values,
+            "heldout_rms_deg": rms_deg(c.heldout),
+            "heldout_rms_ci95_deg": [lo, hi],
+            "shrink": rms_deg(c.heldout) / before_rms if before_rms > 0 else math.nan,
+            "explains": explains(c),
+        }
+
+    pressures = sorted({round(r.supply_mpa, 4) for r in campaign.runs})
+
+    def per_pressure(res: list[np.ndarray]) -> dict:
+        out = {}
+        for q in pressures:
+            ks = [k for k in range(n) if round(campaign.runs[k].supply_mpa, 4) == q]
+            vals = [np.rad2deg(np.abs(res[k])) for k in ks]
+            allv = np.concatenate(vals)
+            lo, hi = bootstrap_ci(vals, np.mean, rng, 300)
+            out[f"{q:.2f}"] = {"mean_deg": float(allv.mean()), "max_deg": float(allv.max()), "mean_ci95_deg": [lo, hi], "runs": len(ks)}
+        return out
+
+    how_far = {"before": per_pressure(before)}
+    for c in singles + pairs:
+        how_far[c.name] = per_pressure(c.heldout)
+    return {
+        "campaign": str(campaign.folder),
+        "joint": campaign.joint,
+        "runs": [r.name for r in campaign.runs],
+        "twin": {"hose_loss": twin.params.hose_loss, "inertia_kg_m2": twin.inertia},
+        "folds": "leave one supply pressure out" if len({round(r.supply_mpa, 4) for r in campaign.runs}) > 1 else "alternating split",
+        "noise_floor": {"measurement_deg": noise, "repeat_pairs": n_pairs, "model_tolerance_deg": model_tolerance_deg, "floor_deg": floor, "significance_threshold_deg": threshold},
+        "before_rms_deg": before_rms,
+        "before_rms_ci95_deg": list(bootstrap_ci(before, lambda x: np.rad2deg(np.sqrt(np.mean(x**2))), rng, 300)),
+        "where": breakdown(twin, before),
+        "which": {
+            "verdict": verdict,
+            "top": summary(top) if top is not None else None,
+            "rivals": rivals,
+            "ranking": [summary(c) for c in singles],
+            "pairs": [summary(c) for c in pairs],
+            "skipped_already_in_twin": skipped,
+        },
+        "how_far": how_far,
+        "_residuals": {"before": before, "top": top.heldout if top is not None else None, "times": [pr.ts for pr in twin.runs]},
+    }

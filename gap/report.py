@@ -1,0 +1,129 @@
+"""Write a diagnosis to a folder: diagnosis.json, report.md and PNG plots (matplotlib Agg)."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+
+from gap.effects import NOT_IN_CATALOGUE
+
+
+def _clean(x):
+    if isinstance(x, dict):
+        return {k: _clean(v) for k, v in x.items() if not k.startswith("_")}
+    if isinstance(x, (list, tuple)):
+        return [_clean(v) for v in x]
+    if isinstance(x, (np.floating, float)):
+        return None if not math.isfinite(float(x)) else float(x)
+    if isinstance(x, np.integer):
+        return int(x)
+    return x
+
+
+def write(diag: dict, out: str | Path) -> dict[str, Path]:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    paths = {"json": out / "diagnosis.json", "report": out / "report.md"}
+    paths["json"].write_text(json.dumps(_clean(diag), indent=1))
+
+    res = diag["_residuals"]
+    fig, ax = plt.subplots(figsize=(8, 4))
+    for k, (t, r) in enumerate(zip(res["times"], res["before"])):
+        ax.plot(t, np.rad2deg(r), color="tab:red", alpha=0.5, lw=1, label="nominal twin" if k == 0 else None)
+    if res["top"] is not None:
+        for k, (t, r) in enumerate(zip(res["times"], res["top"])):
+            ax.plot(t, np.rad2deg(r), color="tab:blue", alpha=0.6, lw=1, label=f"+ {diag['which']['top']['name']} (withheld)" if k == 0 else None)
+    ax.axhspan(-diag["noise_floor"]["significance_threshold_deg"], diag["noise_floor"]["significance_threshold_deg"], color="0.85", label="significance band")
+    ax.set_xlabel("time since run start, s")
+    ax.set_ylabel("measured - twin, deg")
+    ax.legend()
+    ax.set_title("residual per run")
+    fig.tight_layout()
+    paths["residual_png"] = out / "residual.png"
+    fig.savefig(paths["residual_png"], dpi=90)
+    plt.close(fig)
+
+    fig, axes = plt.subplots(1, 3, figsize=(11, 3.5))
+    for ax, factor in zip(axes, ("phase", "speed_rad_s", "supply_mpa")):
+        b = diag["where"][factor]
+        ax.bar(list(b), [v["rms_deg"] for v in b.values()], color="tab:red")
+        ax.axhline(diag["noise_floor"]["floor_deg"], color="k", ls="--", lw=1, label="floor")
+        ax.set_title(f"residual rms by {factor}")
+        ax.set_ylabel("deg")
+        ax.tick_params(axis="x", rotation=30)
+    axes[0].legend()
+    fig.tight_layout()
+    paths["where_png"] = out / "where.png"
+    fig.savefig(paths["where_png"], dpi=90)
+    plt.close(fig)
+
+    fig, ax = plt.subplots(figsize=(8, 4))
+    ranking = diag["which"]["ranking"] + diag["which"]["pairs"]
+    ax.barh([c["name"] for c in ranking][::-1], [c["heldout_rms_deg"] for c in ranking][::-1], color="tab:blue")
+    ax.axvline(diag["before_rms_deg"], color="tab:red", label="nominal twin")
+    ax.axvline(diag["noise_floor"]["significance_threshold_deg"], color="k", ls="--", label="significance")
+    ax.set_xscale("log")
+    ax.set_xlabel("held-out residual rms, deg")
+    ax.legend()
+    fig.tight_layout()
+    paths["ranking_png"] = out / "ranking.png"
+    fig.savefig(paths["ranking_png"], dpi=90)
+    plt.close(fig)
+
+    top = diag["which"]["top"]
+    hf = diag["how_far"]
+    fig, ax = plt.subplots(figsize=(6, 3.5))
+    qs = list(hf["before"])
+    x = np.arange(len(qs))
+    ax.bar(x - 0.2, [hf["before"][q]["mean_deg"] for q in qs], 0.4, label="before", color="tab:red")
+    if top is not None:
+        ax.bar(x + 0.2, [hf[top["name"]][q]["mean_deg"] for q in qs], 0.4, label=f"+ {top['name']}", color="tab:blue")
+    ax.set_xticks(x, [f"{q} MPa" for q in qs])
+    ax.set_ylabel("mean |error| on withheld runs, deg")
+    ax.legend()
+    fig.tight_layout()
+    paths["how_far_png"] = out / "how_far.png"
+    fig.savefig(paths["how_far_png"], dpi=90)
+    plt.close(fig)
+
+    nf = diag["noise_floor"]
+    w = diag["which"]
+    lines = [
+        f"# Sim-to-real gap diagnosis: {diag['campaign']}",
+        "",
+        f"Joint `{diag['joint']}`, {len(diag['runs'])} runs, validation: {diag['folds']}.",
+        f"Nominal twin residual {diag['before_rms_deg']:.2f} deg rms (95% CI {diag['before_rms_ci95_deg'][0]:.2f}..{diag['before_rms_ci95_deg'][1]:.2f}); "
+        f"noise floor {nf['floor_deg']:.2f} deg (measurement {nf['measurement_deg'] if nf['measurement_deg'] is None else round(nf['measurement_deg'], 3)} deg from {nf['repeat_pairs']} repeat pairs, model tolerance {nf['model_tolerance_deg']} deg); "
+        f"significant above {nf['significance_threshold_deg']:.2f} deg.",
+        "",
+        f"## Verdict: **{w['verdict']}**",
+        "",
+    ]
+    if top is not None:
+        vals = ", ".join(f"{f} = {v:.4g} (nominal {n:.4g})" for f, v, n in zip(top["fields"], top["fitted_values"], top["nominal_values"]))
+        lines += [f"Best: **{top['name']}** ({' + '.join(top['labels'])}): {vals}; held-out rms {top['heldout_rms_deg']:.2f} deg, shrink {top['shrink']:.2f}.", ""]
+    if w["rivals"]:
+        lines += [f"Rivals that fit the withheld runs as well: {', '.join(w['rivals'])}.", ""]
+    lines += ["## Where", "", "![where](where.png) ![residual](residual.png)", ""]
+    for factor, bins in diag["where"].items():
+        lines += [f"**{factor}**: " + "; ".join(f"{k}: {v['rms_deg']:.2f} deg rms (n={v['n']})" for k, v in bins.items()), ""]
+    lines += ["## Which (held-out rms per candidate)", "", "| candidate | held-out rms deg (95% CI) | shrink | fitted |", "|---|---|---|---|"]
+    for c in w["ranking"] + w["pairs"]:
+        lines.append(f"| {c['name']} | {c['heldout_rms_deg']:.3f} ({c['heldout_rms_ci95_deg'][0]:.3f}..{c['heldout_rms_ci95_deg'][1]:.3f}) | {c['shrink']:.3f} | " + ", ".join(f"{f}={v:.4g}" for f, v in zip(c["fields"], c["fitted_values"])) + " |")
+    if w["skipped_already_in_twin"]:
+        lines += ["", f"Already in the nominal twin (not candidates): {', '.join(w['skipped_already_in_twin'])}."]
+    lines += ["", "Not yet in the catalogue: " + "; ".join(NOT_IN_CATALOGUE) + ".", "", "## How far (withheld runs, mean / max |error| deg per supply)", "", "![how far](how_far.png) ![ranking](ranking.png)", ""]
+    qs = list(hf["before"])
+    lines += ["| model | " + " | ".join(f"{q} MPa" for q in qs) + " |", "|---|" + "---|" * len(qs)]
+    for name, table in hf.items():
+        lines.append(f"| {name} | " + " | ".join(f"{table[q]['mean_deg']:.2f} / {table[q]['max_deg']:.2f} (CI {table[q]['mean_ci95_deg'][0]:.2f}..{table[q]['mean_ci95_deg'][1]:.2f})" for q in qs) + " |")
+    paths["report"].write_text("\n".join(lines) + "\n")
+    return paths

@@ -1,0 +1,142 @@
+"""Synthetic calibration campaigns: the plant (MuJoCo + pneumatics) with hidden effects plays the
+real arm, and its runs are written to disk exactly as a user's measured campaign would be.
+
+Each run is one motion with every phase the diagnosis breaks the residual into: brake released
+and a start from rest, a move with the valve fully open, a direct reversal at a partial opening
+(so that a valve dead zone and a conductance error look different), braking, and holding.
+"""
+
+from __future__ import annotations
+
+import csv
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+import assets
+from pneumatics import JointParams, load_joint_params
+from pneumatics.gas import AIR
+
+JOINT = "wrist_pitch"
+PRESSURES_MPA = (0.5, 0.6, 0.7, 0.8)  # paper Fig. 10-16: the supplies of the model validation
+SAMPLE_PERIOD_S = 0.02  # the reference instrument: 50 Hz (slower than the 1 ms commands)
+NOISE_RAD = np.deg2rad(0.05)  # assumed: an encoder-class reference instrument, 0.05 deg rms
+
+
+@dataclass(frozen=True)
+class Motion:
+    """Command timeline of one run (times in s, openings 0..1)."""
+
+    direction: int = 1  # first move's direction
+    t_release_s: float = 0.1  # brake release + first move starts
+    t_move_s: float = 0.5  # duration of the first move (fully open)
+    opening_1: float = 1.0
+    t_reverse_s: float = 0.6  # duration of the reversed move
+    opening_2: float = 0.6
+    t_hold_s: float = 0.6  # braking + holding
+    duration_s: float = 0.0  # 0: the sum of the phases
+
+    def total_s(self) -> float:
+        return self.duration_s or self.t_release_s + self.t_move_s + self.t_reverse_s + self.t_hold_s
+
+    def commands(self, t_s: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(direction, opening, brake_release) at the given times."""
+        t1 = self.t_release_s
+        t2 = t1 + self.t_move_s
+        t3 = t2 + self.t_reverse_s
+        d = np.zeros_like(t_s)
+        u = np.zeros_like(t_s)
+        b = np.zeros_like(t_s)
+        first = (t_s >= t1 - 1e-9) & (t_s < t2 - 1e-9)
+        second = (t_s >= t2 - 1e-9) & (t_s < t3 - 1e-9)
+        d[first] = self.direction
+        u[first] = self.opening_1
+        d[second] = -self.direction
+        u[second] = self.opening_2
+        b[first | second] = 1.0
+        return d, u, b
+
+
+def wrist_params() -> JointParams:
+    return load_joint_params(assets.joint_param_path(JOINT))
+
+
+def simulate_run(reality: JointParams, supply_mpa: float, motion: Motion, start_rad: float = 0.0) -> dict[str, np.ndarray]:
+    """Run the plant (twin.plant.Plant on the wrist rig) through `motion`; 1 ms command rows and
+    the true angle every SAMPLE_PERIOD_S (NaN between samples)."""
+    from twin.plant import Plant
+    from twin.sim import CommandSchedule, run
+
+    plant = Plant(assets.WRIST_RIG_XML, joint_params={JOINT: reality})
+    i = plant.joints.index(JOINT)
+    plant.data.qpos[plant.model.joint(JOINT).qposadr[0]] = start_rad
+    import mujoco
+
+    mujoco.mj_forward(plant.model, plant.data)
+    supply_pa = AIR.p_atm_pa + supply_mpa * 1e6
+    plant.set_supply(supply_pa)
+    k_u = reality.k_u_per_pa
+    n = len(plant.joints)
+
+    def commands_at(t: float) -> np.ndarray:
+        d, u, b = motion.commands(np.array([t]))
+        c = np.zeros((n, 3))
+        c[i] = (d[0], u[0] / k_u, b[0])
+        return c
+
+    tel = run(plant, CommandSchedule(commands_at, n), motion.total_s(), supply_pa_at=lambda t: supply_pa, log_period_s=SAMPLE_PERIOD_S)
+    arr = tel.arrays()
+    t_cmd = np.round(np.arange(0.0, motion.total_s() + 1e-9, 1e-3), 6)
+    d, u, b = motion.commands(t_cmd)
+    angle = np.full(t_cmd.shape, np.nan)
+    idx = np.round(np.asarray(arr["time_s"]) / 1e-3).astype(int)
+    ok = idx < len(t_cmd)
+    angle[idx[ok]] = np.asarray(arr["true_angle_rad"])[ok, i]
+    return {"time_s": t_cmd, "direction": d, "brake_released": b, "valve_opening": u, "supply_pa": np.full(t_cmd.shape, supply_pa), "angle_rad": angle}
+
+
+def write_run_csv(path: Path, run: dict[str, np.ndarray], rng: np.random.Generator | None = None, noise_rad: float = NOISE_RAD) -> None:
+    """Write a run file (columns as the campaign format), adding seeded measurement noise."""
+    angle = run["angle_rad"].copy()
+    if rng is not None and noise_rad > 0:
+        m = np.isfinite(angle)
+        angle[m] += rng.normal(0.0, noise_rad, m.sum())
+    with open(path, "w", newline="") as f:
+        w = csv.writer(f)
+        w.writerow(["time_s", "direction", "brake_released", "valve_opening", "supply_pa", "angle_rad"])
+        for k in range(len(run["time_s"])):
+            a = angle[k]
+            w.writerow([f"{run['time_s'][k]:.4f}", int(run["direction"][k]), int(run["brake_released"][k]), f"{run['valve_opening'][k]:.4f}", f"{run['supply_pa'][k]:.1f}", "" if not np.isfinite(a) else f"{a:.7f}"])
+
+
+def motions_for(repeat: int) -> Motion:
+    """The motion of each repeat: the same motion, so repeats give the noise floor."""
+    return Motion(direction=1)
+
+
+def make_campaign(folder: str | Path, reality: JointParams, seed: int = 0, pressures_mpa=PRESSURES_MPA, repeats: int = 2, twin_hose_loss: bool | None = None, motion: Motion | None = None, noise_rad: float = NOISE_RAD, description: str = "") -> Path:
+    """Write campaign.toml and one CSV per run (pressure x repeat) from the plant with `reality`."""
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    rng = np.random.default_rng(seed)
+    motion = motion or Motion()
+    lines = [
+        f"# synthetic campaign generated by gap.synth from the plant {description}".rstrip(),
+        f'joint = "{JOINT}"',
+        "payload_kg = 0.0  # the wrist rig turns about a vertical axis: no gravity load",
+        f"hose_length_m = {reality.hose_length_m}",
+        "rig_inertia_kg_m2 = 0.02  # assets/wrist_rig.xml rig_load",
+    ]
+    if twin_hose_loss is not None:
+        lines += ["", "[twin]", f"hose_loss = {'true' if twin_hose_loss else 'false'}"]
+    cache: dict[float, dict] = {}
+    for mpa in pressures_mpa:
+        for r in range(repeats):
+            name = f"run_{int(round(mpa * 100)):03d}_{r + 1}.csv"
+            if mpa not in cache:  # the plant is deterministic: repeats differ by measurement noise
+                cache[mpa] = simulate_run(reality, mpa, motion)
+            write_run_csv(folder / name, cache[mpa], rng, noise_rad)
+            lines += ["", "[[runs]]", f'file = "{name}"', f"supply_mpa = {mpa}", f"start_deg = {{ {', '.join(f'{j} = 0.0' for j in assets.JOINTS)} }}"]
+    (folder / "campaign.toml").write_text("\n".join(lines) + "\n")
+    return folder

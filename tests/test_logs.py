@@ -1,0 +1,296 @@
+"""Logs: MCAP round trip and recovery after SIGKILL, the rerun recording read back by rerun's own
+reader, `twin replay` on good, cut and corrupt files, the pictures."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import assets
+from benchmarks.bench_logging import SUPPLY_PA, wrist_schedule
+from twin.cli import main as twin_main
+from twin.errors import UserError
+from twin.mcap_log import LogError, McapRecorder, read_mcap
+from twin.plant import Plant
+from twin.rerun_log import RerunRecorder
+from twin.sim import run
+
+ROOT = Path(__file__).resolve().parents[1]
+META = {"seed": 1234, "scenario_name": "logs_test", "scenario_path": "scenarios/x.toml", "scenario_text": 'name = "logs_test"\n[supply]\npressure_mpa = 0.6\n'}
+
+
+class Predicting:
+    """A stand-in controller with a prediction and a target (a scaled copy of the schedule's
+    time), so that the predicted/target channels carry numbers and NaN both."""
+
+    def __init__(self, joints):
+        self.schedule = wrist_schedule(joints)
+        self.n = len(joints)
+        self.t = 0.0
+
+    def tick(self, sensors):
+        self.t = sensors.time_s
+        return self.schedule.tick(sensors)
+
+    def predicted_angles(self):
+        p = np.full(self.n, np.nan)
+        p[3] = 0.5 + 0.1 * self.t  # wrist only: other joints have no prediction (NaN)
+        return p
+
+    def target_angles(self):
+        return np.array([0.0, 0.1, -0.2, 1.0, np.nan])
+
+
+def logged_run(tmp_path: Path, seconds: float, mcap=True, rrd=True):
+    plant = Plant(assets.SCENE_XML)
+    plant.set_supply(SUPPLY_PA)
+    recorders = []
+    if mcap:
+        recorders.append(McapRecorder(tmp_path / "run.mcap", plant.model, plant.joints, META))
+    if rrd:
+        recorders.append(RerunRecorder(tmp_path / "run.rrd", plant.model, plant.joints, META))
+    try:
+        telemetry = run(plant, Predicting(plant.joints), seconds, recorders=tuple(recorders))
+    finally:
+        for r in recorders:
+            r.close()
+    return telemetry
+
+
+@pytest.fixture(scope="module")
+def logged(tmp_path_factory):
+    tmp = tmp_path_factory.mktemp("logs")
+    return tmp, logged_run(tmp, 1.5)
+
+
+def test_mcap_round_trip_is_exact(logged):
+    tmp, telemetry = logged
+    arrays, meta = read_mcap(tmp / "run.mcap")
+    expected = telemetry.arrays()
+    assert set(arrays) == set(expected)
+    for name, value in expected.items():
+        assert arrays[name].shape == value.shape, name
+        # bit-exact, NaN where NaN was logged
+        assert np.array_equal(arrays[name], value, equal_nan=True), name
+    assert np.isnan(arrays["predicted_angle_rad"][:, 0]).all() and np.isfinite(arrays["predicted_angle_rad"][:, 3]).all()
+    # the wrist really moved, so the comparison is not between constants
+    assert np.ptp(arrays["true_angle_rad"][:, 3]) > np.radians(5)
+    assert meta["seed"] == 1234 and meta["scenario_text"] == META["scenario_text"]
+    assert meta["versions"]["mcap"] and meta["versions"]["rerun-sdk"]
+    assert meta["recovery"] == {"complete": True, "samples": len(telemetry), "duration_s": pytest.approx(1.5), "stopped_by": None}
+
+
+def test_mcap_uses_foxglove_schemas(logged):
+    from mcap.reader import make_reader
+
+    tmp, _ = logged
+    with open(tmp / "run.mcap", "rb") as f:
+        summary = make_reader(f).get_summary()
+    by_topic = {c.topic: summary.schemas[c.schema_id].name for c in summary.channels.values()}
+    assert by_topic["/joint_states/true"] == "foxglove.JointStates"
+    assert by_topic["/joint_states/predicted"] == "foxglove.JointStates"
+    assert by_topic["/tf"] == "foxglove.FrameTransforms"
+    assert by_topic["/scene"] == "foxglove.SceneUpdate"
+    assert "/joint/wrist_pitch" in by_topic and "/arm" in by_topic
+    # the scene carries every drawable geom: a cylinder per cylinder or capsule, a cube per box/plane
+    import mujoco
+    from foxglove_schemas_protobuf.SceneUpdate_pb2 import SceneUpdate
+
+    m = mujoco.MjModel.from_xml_path(str(assets.SCENE_XML))
+    types = [int(t) for t in m.geom_type]
+    G = mujoco.mjtGeom
+    with open(tmp / "run.mcap", "rb") as f:
+        scene = next(SceneUpdate.FromString(msg.data) for _, ch, msg in make_reader(f).iter_messages(topics=["/scene"]))
+    assert sum(len(e.cylinders) for e in scene.entities) == types.count(int(G.mjGEOM_CYLINDER)) + types.count(int(G.mjGEOM_CAPSULE))
+    assert sum(len(e.cubes) for e in scene.entities) == types.count(int(G.mjGEOM_BOX)) + types.count(int(G.mjGEOM_PLANE))
+
+
+CHILD = """
+import sys
+import assets
+from benchmarks.bench_logging import SUPPLY_PA, wrist_schedule
+from twin.mcap_log import McapRecorder
+from twin.plant import Plant
+from twin.sim import run
+plant = Plant(assets.SCENE_XML)
+plant.set_supply(SUPPLY_PA)
+rec = McapRecorder(sys.argv[1], plant.model, plant.joints, {"seed": 7, "scenario_text": "killed"})
+run(plant, wrist_schedule(plant.joints), 120.0, recorders=(rec,))
+"""
+
+
+def test_sigkill_leaves_a_readable_mcap(tmp_path):
+    n_s = 3.0
+    path = tmp_path / "killed.mcap"
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    proc = subprocess.Popen([sys.executable, "-c", CHILD, str(path)], cwd=ROOT, env=env)
+    try:
+        deadline = time.monotonic() + 120
+        seen = 0.0
+        while seen < n_s:
+            assert proc.poll() is None, "the child run ended before it was killed"
+            assert time.monotonic() < deadline, "the child never logged 3 s"
+            time.sleep(0.2)
+            if path.exists():
+                try:
+                    seen = read_mcap(path)[1]["recovery"]["duration_s"]
+                except LogError:
+                    seen = 0.0  # header not yet flushed
+        proc.send_signal(signal.SIGKILL)
+        proc.wait(timeout=30)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    arrays, meta = read_mcap(path)
+    rec = meta["recovery"]
+    assert not rec["complete"]
+    assert rec["duration_s"] >= n_s - 1.0
+    assert rec["samples"] == len(arrays["time_s"]) and meta["seed"] == 7
+    # what was recovered is what the run computed: rerun the same thing and compare the prefix
+    plant = Plant(assets.SCENE_XML)
+    plant.set_supply(SUPPLY_PA)
+    again = run(plant, wrist_schedule(plant.joints), float(arrays["time_s"][-1]) + 0.02).arrays()
+    m = rec["samples"]
+    for name in ("time_s", "true_angle_rad", "pressure_a_pa", "body_quat_wxyz"):
+        np.testing.assert_array_equal(arrays[name], again[name][:m], err_msg=name)
+
+
+def rrd_entities(path: Path) -> tuple[set[str], dict[str, np.ndarray], list]:
+    """Entity paths and the scalar series of a .rrd, read with rerun's own reader."""
+    import rerun as rr
+
+    reader = rr.chunk.RrdReader(path)
+    paths, series = set(), {}
+    for chunk in reader.stream():
+        paths.add(chunk.entity_path)
+        batch = chunk.to_record_batch()
+        if "Scalars:scalars" in batch.schema.names and not chunk.is_static:
+            t = np.asarray(batch.column("time").cast("int64").to_numpy()) * 1e-9
+            v = np.array([x[0] for x in batch.column("Scalars:scalars").to_pylist()])
+            old = series.get(chunk.entity_path, np.empty((0, 2)))
+            series[chunk.entity_path] = np.vstack([old, np.column_stack([t, v])])
+    return paths, {k: v[np.argsort(v[:, 0], kind="stable")] for k, v in series.items()}, reader.blueprints()
+
+
+def test_rrd_holds_the_entities(logged):
+    tmp, telemetry = logged
+    paths, series, blueprints = rrd_entities(tmp / "run.rrd")
+    expected = {f"/world/arm/{b}" for b in telemetry.bodies}
+    expected |= {f"/world/string/disc_{i}" for i in range(1, 9)} | {"/world/arm/brush/brush", "/world/scene/floor"}
+    for j in telemetry.joints:
+        expected |= {f"/joints/{j}/angle_deg/{s}" for s in ("true", "predicted", "target")}
+        expected |= {f"/joints/{j}/error_deg/predicted_minus_true", f"/joints/{j}/pressure_pa/chamber_a", f"/joints/{j}/pressure_pa/chamber_b"}
+        expected |= {f"/joints/{j}/valve/direction", f"/joints/{j}/valve/gauge_pa", f"/joints/{j}/brake/release", f"/joints/{j}/brake/engagement"}
+    expected |= {"/supply/pressure_pa", "/brush/force_n"}
+    import mujoco
+
+    m = mujoco.MjModel.from_xml_path(str(assets.SCENE_XML))
+    geoms = {mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_GEOM, g) for g in range(m.ngeom)}
+    assert geoms <= {p.rsplit("/", 1)[1] for p in paths if p.startswith("/world/")}, "a geom of the model is missing"
+    expected |= {"/world/arm/upper_arm/upper_arm", "/world/arm/base/pedestal", "/world/arm/forearm/shed_1"}
+    assert expected <= paths, sorted(expected - paths)
+    assert blueprints, "the recording carries no blueprint"
+    a = telemetry.arrays()
+    true = series["/joints/wrist_pitch/angle_deg/true"]
+    np.testing.assert_allclose(true[:, 0], a["time_s"], atol=1e-8)
+    np.testing.assert_array_equal(true[:, 1], np.degrees(a["true_angle_rad"][:, 3]))
+    err = series["/joints/wrist_pitch/error_deg/predicted_minus_true"][:, 1]
+    np.testing.assert_allclose(err, np.degrees(a["predicted_angle_rad"][:, 3]) - np.degrees(a["true_angle_rad"][:, 3]))
+    np.testing.assert_array_equal(series["/supply/pressure_pa"][:, 1], a["supply_pa"])
+    # one transform per body per sample: 50 per simulated second (>= 30 frames/s)
+    assert len(a["time_s"]) / 1.5 >= 30
+
+
+def test_replay_makes_a_recording(logged, tmp_path, capsys):
+    tmp, telemetry = logged
+    assert twin_main(["replay", str(tmp / "run.mcap"), "--rrd", str(tmp_path / "replayed.rrd")]) == 0
+    assert "from the whole file" in capsys.readouterr().out
+    paths, series, _ = rrd_entities(tmp_path / "replayed.rrd")
+    assert "/world/arm/wrist" in paths and "/world/string/disc_8" in paths
+    np.testing.assert_array_equal(series["/joints/wrist_pitch/angle_deg/true"][:, 1], np.degrees(telemetry.arrays()["true_angle_rad"][:, 3]))
+
+
+def test_replay_of_a_cut_file_says_how_much(logged, tmp_path, capsys):
+    tmp, telemetry = logged
+    data = (tmp / "run.mcap").read_bytes()
+    cut = tmp_path / "cut.mcap"
+    cut.write_bytes(data[: len(data) * 2 // 3])
+    assert twin_main(["replay", str(cut), "--rrd", str(tmp_path / "cut.rrd")]) == 0
+    out = capsys.readouterr().out
+    assert "cut short" in out
+    arrays, meta = read_mcap(cut)
+    m = meta["recovery"]["samples"]
+    assert 0 < m < len(telemetry)
+    np.testing.assert_array_equal(arrays["true_angle_rad"], telemetry.arrays()["true_angle_rad"][:m])
+
+
+@pytest.mark.parametrize("content", [b"", b"this is not an mcap file\n", b"\x89MCAP0\r\n\x01\x05\x00\x00"], ids=["empty", "text", "header-only"])
+def test_replay_of_a_bad_file_is_a_user_error(tmp_path, capsys, content):
+    bad = tmp_path / "bad.mcap"
+    bad.write_bytes(content)
+    with pytest.raises(LogError) as info:
+        read_mcap(bad)
+    assert isinstance(info.value, UserError) and str(bad) in str(info.value)
+    assert twin_main(["replay", str(bad), "--rrd", str(tmp_path / "x.rrd")]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("twin: error:") and "Traceback" not in err
+
+
+def test_replay_of_a_missing_file_and_view_of_a_bad_rrd(tmp_path, capsys):
+    assert twin_main(["replay", str(tmp_path / "none.mcap"), "--rrd", str(tmp_path / "x.rrd")]) == 2
+    bad = tmp_path / "bad.rrd"
+    bad.write_bytes(b"nope")
+    assert twin_main(["view", str(bad)]) == 2
+    assert "not a readable rerun recording" in capsys.readouterr().err
+
+
+def test_angle_plot(logged, tmp_path):
+    from twin.pictures import plot_angles_png
+
+    _, telemetry = logged
+    out = plot_angles_png(telemetry.arrays(), tmp_path / "angles.png")
+    assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_arm_picture_without_gl_falls_back(tmp_path, monkeypatch):
+    """The matplotlib fallback (no GL backend) still draws the arm: forced by a bogus backend."""
+    from twin.pictures import render_arm_png
+
+    monkeypatch.setenv("MUJOCO_GL", "no-such-backend")
+    used = render_arm_png(tmp_path / "arm.png", width=160, height=120)
+    assert used == "matplotlib"
+    assert (tmp_path / "arm.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_body_poses_place_every_geom_as_mujoco_does(logged):
+    """The log's body poses plus each geom's pose in its body (what the rerun entities chain)
+    put every geom where MuJoCo's own kinematics put it."""
+    import mujoco
+
+    from twin.pictures import pose_geoms
+
+    m = mujoco.MjModel.from_xml_path(str(assets.SCENE_XML))
+    plant = Plant(assets.SCENE_XML)
+    plant.set_supply(SUPPLY_PA)
+    telemetry = run(plant, wrist_schedule(plant.joints), 0.6)
+    a = telemetry.arrays()
+    d = mujoco.MjData(m)
+    pose_geoms(m, d, a["body_pos_m"][-1], a["body_quat_wxyz"][-1])
+    arm = m.geom_bodyid > 0
+    np.testing.assert_allclose(d.geom_xpos[arm], plant.data.geom_xpos[arm], atol=1e-12)
+    np.testing.assert_allclose(d.geom_xmat[arm], plant.data.geom_xmat[arm], atol=1e-12)
+
+
+def test_mcap_is_deterministic(tmp_path):
+    """Same run, same metadata: byte-identical MCAP files (DESIGN rule 5)."""
+    (tmp_path / "a").mkdir(), (tmp_path / "b").mkdir()
+    logged_run(tmp_path / "a", 0.5, rrd=False)
+    logged_run(tmp_path / "b", 0.5, rrd=False)
+    assert (tmp_path / "a" / "run.mcap").read_bytes() == (tmp_path / "b" / "run.mcap").read_bytes()

@@ -1,0 +1,292 @@
+"""MCAP log of a run: the telemetry as channels Foxglove plots without set-up, and a reader back
+to numpy arrays (the gap diagnosis reads measured and simulated runs with it).
+
+Channels, one message per telemetry sample (50 per simulated second), `sequence` = sample index:
+
+    /joint_states/true       foxglove.JointStates   position = true drive angle, rad
+    /joint_states/predicted  foxglove.JointStates   position = controller's predicted angle, rad
+    /joint_states/target     foxglove.JointStates   position = set point, rad (NaN: none)
+    /tf                      foxglove.FrameTransforms  world -> <body>, one per body
+    /scene                   foxglove.SceneUpdate   each body's geoms, once, frame-locked
+    /joint/<joint>           JSON  pressure_a_pa, pressure_b_pa (abs), valve_gauge_pa, direction,
+                                   brake_release, brake_engagement, predicted_minus_true_rad
+    /arm                     JSON  time_s, supply_pa (abs), brush_force_n
+
+foxglove-schemas-protobuf 0.4.0 has JointStates/JointState (name, position, velocity,
+acceleration, effort) and FrameTransforms; it has no schema for a pressure or a valve, so those
+are JSON (Foxglove plots JSON fields too). JSON floats are written with Python's repr, which
+reads back bit-exact; NaN is written as null (JSON has no NaN) and read back as NaN.
+
+The file opens with a metadata record "twin" (joints, bodies, seed, scenario name and path,
+overrides, package versions, all JSON strings) and an attachment "scenario.toml" holding the
+scenario file text. Chunks are small (32 KB) and every `write` ends with a flush, so a run killed
+mid-way leaves a file whose every flushed sample can be read back (DESIGN "What we measured":
+`make_reader` rejects a cut file; a streaming reader reads it up to the cut).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+
+from twin.errors import UserError
+from twin.telemetry import SIGNALS
+
+CHUNK_SIZE = 32 * 1024  # bytes: ~0.3 s of telemetry, within DESIGN's 4-64 KB
+JOINT_FIELDS = ("pressure_a_pa", "pressure_b_pa", "valve_gauge_pa", "direction", "brake_release", "brake_engagement")
+ANGLE_CHANNELS = {"true_angle_rad": "/joint_states/true", "predicted_angle_rad": "/joint_states/predicted", "target_angle_rad": "/joint_states/target"}
+
+
+class LogError(UserError):
+    """An MCAP file cannot be written, or is not a readable log of this project."""
+
+
+class McapRecorder:
+    """Writes an MCAP file while a run goes (Recorder protocol of twin.sim).
+
+    `plant_model` is the run's MjModel (body names and geometry), `joints` the joint names in
+    telemetry order, `meta` the run's metadata (twin.provenance.run_metadata: scenario_text,
+    seed, versions, ...).
+    """
+
+    def __init__(self, path, plant_model, joints, meta: dict | None = None, *, chunk_size: int = CHUNK_SIZE):
+        from foxglove_schemas_protobuf.FrameTransforms_pb2 import FrameTransforms
+        from foxglove_schemas_protobuf.JointStates_pb2 import JointStates
+        from foxglove_schemas_protobuf.SceneUpdate_pb2 import SceneUpdate
+        from mcap.writer import CompressionType, Writer
+        from mcap_protobuf.schema import build_file_descriptor_set
+
+        from twin.rerun_log import body_name
+        from twin.provenance import package_versions
+
+        self.path = Path(path)
+        self.joints = tuple(joints)
+        self.bodies = tuple(body_name(plant_model, b) for b in range(1, plant_model.nbody))
+        meta = dict(meta or {})
+        try:
+            self._file = open(self.path, "wb")
+        except OSError as e:
+            raise LogError(f"{self.path}: cannot write the MCAP log: {e.strerror}") from e
+        self._writer = Writer(self._file, chunk_size=chunk_size, compression=CompressionType.ZSTD)
+        self._writer.start(profile="", library="pneumatic-arm-twin")
+
+        def proto_channel(topic: str, cls) -> int:
+            schema = self._writer.register_schema(
+                name=cls.DESCRIPTOR.full_name, encoding="protobuf", data=build_file_descriptor_set(cls).SerializeToString()
+            )
+            return self._writer.register_channel(topic=topic, message_encoding="protobuf", schema_id=schema)
+
+        def json_channel(topic: str, fields: dict[str, str]) -> int:
+            schema = {"type": "object", "properties": {k: {"type": ["number", "null"], "description": d} for k, d in fields.items()}}
+            sid = self._writer.register_schema(name=topic.strip("/").replace("/", "."), encoding="jsonschema", data=json.dumps(schema).encode())
+            return self._writer.register_channel(topic=topic, message_encoding="json", schema_id=sid)
+
+        self._JointStates, self._FrameTransforms = JointStates, FrameTransforms
+        self._angle_ch = {sig: proto_channel(topic, JointStates) for sig, topic in ANGLE_CHANNELS.items()}
+        self._tf_ch = proto_channel("/tf", FrameTransforms)
+        scene_ch = proto_channel("/scene", SceneUpdate)
+        joint_doc = {f: f for f in JOINT_FIELDS} | {"predicted_minus_true_rad": "predicted - true angle, rad"}
+        self._joint_ch = [json_channel(f"/joint/{j}", joint_doc) for j in self.joints]
+        self._arm_ch = json_channel("/arm", {"time_s": "simulated time, s", "supply_pa": "supply, Pa abs", "brush_force_n": "brush normal force, N"})
+
+        info = {
+            "joints": json.dumps(self.joints),
+            "bodies": json.dumps(self.bodies),
+            "seed": json.dumps(meta.get("seed")),
+            "scenario_name": json.dumps(meta.get("scenario_name")),
+            "scenario_path": json.dumps(meta.get("scenario_path")),
+            "overrides": json.dumps(meta.get("overrides", {}), default=str),
+            "versions": json.dumps(meta.get("versions") or package_versions()),
+        }
+        self._writer.add_metadata("twin", info)
+        if meta.get("scenario_text") is not None:
+            self._writer.add_attachment(0, 0, "scenario.toml", "application/toml", str(meta["scenario_text"]).encode())
+        self._writer.add_message(scene_ch, 0, _scene_update(plant_model).SerializeToString(), 0, sequence=0)
+        self._writer.flush()
+        self._closed = False
+
+    def write(self, telemetry, start: int) -> None:
+        """Append telemetry samples `start`.. and flush them to the file."""
+        a = telemetry.arrays(start)
+        times = a["time_s"]
+        if len(times) == 0:
+            return
+        add = self._writer.add_message
+        JointStates, FrameTransforms = self._JointStates, self._FrameTransforms
+        lists = {k: v.tolist() for k, v in a.items() if k not in ("body_pos_m", "body_quat_wxyz")}
+        err = (a["predicted_angle_rad"] - a["true_angle_rad"]).tolist()
+        pos, quat = a["body_pos_m"], a["body_quat_wxyz"]
+        for k, t in enumerate(lists["time_s"]):
+            seq = start + k
+            ns = int(round(t * 1e9))
+            sec, nsec = divmod(ns, 1_000_000_000)
+            for sig, ch in self._angle_ch.items():
+                msg = JointStates()
+                msg.timestamp.seconds, msg.timestamp.nanos = sec, nsec
+                for name, value in zip(self.joints, lists[sig][k]):
+                    msg.joints.add(name=name, position=value)
+                add(ch, ns, msg.SerializeToString(), ns, sequence=seq)
+            tf = FrameTransforms()
+            for b, body in enumerate(self.bodies):
+                x = tf.transforms.add(parent_frame_id="world", child_frame_id=body)
+                x.timestamp.seconds, x.timestamp.nanos = sec, nsec
+                px, py, pz = pos[k, b].tolist()
+                qw, qx, qy, qz = quat[k, b].tolist()
+                x.translation.x, x.translation.y, x.translation.z = px, py, pz
+                x.rotation.w, x.rotation.x, x.rotation.y, x.rotation.z = qw, qx, qy, qz
+            add(self._tf_ch, ns, tf.SerializeToString(), ns, sequence=seq)
+            for j, ch in enumerate(self._joint_ch):
+                rec = {f: lists[f][k][j] for f in JOINT_FIELDS}
+                rec["predicted_minus_true_rad"] = err[k][j]
+                rec = {f: (None if v != v else v) for f, v in rec.items()}
+                add(ch, ns, json.dumps(rec).encode(), ns, sequence=seq)
+            arm = {"time_s": t, "supply_pa": lists["supply_pa"][k], "brush_force_n": lists["brush_force_n"][k]}
+            add(self._arm_ch, ns, json.dumps({f: (None if v != v else v) for f, v in arm.items()}).encode(), ns, sequence=seq)
+        self._writer.flush()  # ends the chunk and flushes the file: a kill now loses nothing
+
+    def close(self) -> None:
+        if self._closed:
+            return
+        self._closed = True
+        self._writer.finish()
+        self._file.close()
+
+
+def _scene_update(model):
+    """Each geom as a foxglove primitive in its body's frame (world geoms in "world")."""
+    import mujoco
+    from foxglove_schemas_protobuf.SceneUpdate_pb2 import SceneUpdate
+
+    from twin.rerun_log import body_name, geom_rgba
+
+    G = mujoco.mjtGeom
+    update = SceneUpdate()
+    entities = {}
+    for g in range(model.ngeom):
+        b = model.geom_bodyid[g]
+        frame = "world" if b == 0 else body_name(model, b)
+        if frame not in entities:
+            entities[frame] = update.entities.add(frame_id=frame, id=f"geoms/{frame}", frame_locked=True)
+        ent = entities[frame]
+        t, s = int(model.geom_type[g]), model.geom_size[g]  # int: enum `in` tuple fails on numpy ints
+        p, q = model.geom_pos[g], model.geom_quat[g]
+        r, gr, bl, al = (float(c) for c in geom_rgba(model, g))
+
+        def place(prim, offset=(0.0, 0.0, 0.0)):
+            R = np.empty(9)
+            mujoco.mju_quat2Mat(R, q)
+            c = p + R.reshape(3, 3) @ np.asarray(offset)
+            prim.pose.position.x, prim.pose.position.y, prim.pose.position.z = (float(v) for v in c)
+            prim.pose.orientation.w, prim.pose.orientation.x, prim.pose.orientation.y, prim.pose.orientation.z = (float(v) for v in q)
+            prim.color.r, prim.color.g, prim.color.b, prim.color.a = r, gr, bl, al
+
+        if t == G.mjGEOM_BOX:
+            c = ent.cubes.add()
+            c.size.x, c.size.y, c.size.z = (2 * float(v) for v in s[:3])
+            place(c)
+        elif t == G.mjGEOM_PLANE:
+            c = ent.cubes.add()
+            c.size.x, c.size.y, c.size.z = 2 * float(s[0] or 2), 2 * float(s[1] or 2), 0.002
+            place(c, (0, 0, -0.001))
+        elif t in (int(G.mjGEOM_CYLINDER), int(G.mjGEOM_CAPSULE)):
+            c = ent.cylinders.add(bottom_scale=1.0, top_scale=1.0)
+            c.size.x = c.size.y = 2 * float(s[0])
+            c.size.z = 2 * float(s[1])
+            place(c)
+            if t == G.mjGEOM_CAPSULE:
+                for end in (-1, 1):
+                    sp = ent.spheres.add()
+                    sp.size.x = sp.size.y = sp.size.z = 2 * float(s[0])
+                    place(sp, (0, 0, end * float(s[1])))
+        elif t == G.mjGEOM_SPHERE:
+            sp = ent.spheres.add()
+            sp.size.x = sp.size.y = sp.size.z = 2 * float(s[0])
+            place(sp)
+        else:
+            continue
+    return update
+
+
+def read_mcap(path) -> tuple[dict[str, np.ndarray], dict]:
+    """Read a log written by McapRecorder back into arrays shaped like Telemetry.arrays().
+
+    Works on a file cut short (a run killed mid-way): it streams records up to the cut and keeps
+    every sample whose messages all arrived. `meta` holds the metadata record (joints, bodies,
+    seed, versions, ...), "scenario_text" from the attachment, and "recovery": complete (the file
+    was closed properly), samples, duration_s (simulated seconds recovered), stopped_by (why
+    reading stopped early, or None).
+    Raises LogError when the file is missing, is not MCAP, or is not a log of this project.
+    """
+    from foxglove_schemas_protobuf.FrameTransforms_pb2 import FrameTransforms
+    from foxglove_schemas_protobuf.JointStates_pb2 import JointStates
+    from mcap.records import Attachment, Channel, Footer, Message, Metadata
+    from mcap.stream_reader import StreamReader
+
+    path = Path(path)
+    try:
+        f = open(path, "rb")
+    except OSError as e:
+        raise LogError(f"{path}: cannot open the MCAP log: {e.strerror}") from e
+    topics: dict[int, str] = {}
+    samples: dict[int, dict[str, object]] = {}
+    meta: dict = {}
+    complete, stopped_by = False, None
+    with f:
+        try:
+            for rec in StreamReader(f, skip_magic=False).records:
+                if isinstance(rec, Channel):
+                    topics[rec.id] = rec.topic
+                elif isinstance(rec, Message):
+                    topic = topics.get(rec.channel_id)
+                    if topic is None or topic == "/scene":
+                        continue
+                    samples.setdefault(rec.sequence, {})[topic] = rec.data
+                elif isinstance(rec, Metadata) and rec.name == "twin":
+                    meta.update({k: json.loads(v) for k, v in rec.metadata.items()})
+                elif isinstance(rec, Attachment) and rec.name == "scenario.toml":
+                    meta["scenario_text"] = rec.data.decode("utf-8", errors="replace")
+                elif isinstance(rec, Footer):
+                    complete = True
+        except Exception as e:  # a cut or damaged file surfaces as any decoding error (struct, zstd, CRC, mcap)
+            if not topics:
+                raise LogError(f"{path}: not a readable MCAP file ({type(e).__name__}: {e})") from e
+            where = f"at byte {f.tell()} of {path.stat().st_size}"
+            stopped_by = f"cut short or damaged {where}: {type(e).__name__}: {e}" if str(e) else f"cut short or damaged {where}: {type(e).__name__}"
+    if "joints" not in meta or "bodies" not in meta:
+        raise LogError(f"{path}: an MCAP file, but not a log of this project (no 'twin' metadata record with joints and bodies)")
+    joints, bodies = tuple(meta["joints"]), tuple(meta["bodies"])
+    needed = set(ANGLE_CHANNELS.values()) | {"/tf", "/arm"} | {f"/joint/{j}" for j in joints}
+    seqs = sorted(s for s, msgs in samples.items() if needed <= msgs.keys())
+    n, nb, m = len(joints), len(bodies), len(seqs)
+    out = {"time_s": np.empty(m)}
+    for name, shape in SIGNALS.items():
+        dims = tuple(n if s == "n" else nb if s == "b" else s for s in shape)
+        out[name] = np.empty((m,) + dims)
+    try:
+        for i, s in enumerate(seqs):
+            msgs = samples[s]
+            for sig, topic in ANGLE_CHANNELS.items():
+                js = JointStates.FromString(msgs[topic])
+                by_name = {x.name: x.position for x in js.joints}
+                out[sig][i] = [by_name[j] for j in joints]
+            tf = FrameTransforms.FromString(msgs["/tf"])
+            by_body = {x.child_frame_id: x for x in tf.transforms}
+            for b, body in enumerate(bodies):
+                x = by_body[body]
+                out["body_pos_m"][i, b] = (x.translation.x, x.translation.y, x.translation.z)
+                out["body_quat_wxyz"][i, b] = (x.rotation.w, x.rotation.x, x.rotation.y, x.rotation.z)
+            for j, joint in enumerate(joints):
+                rec = json.loads(msgs[f"/joint/{joint}"])
+                for fld in JOINT_FIELDS:
+                    out[fld][i, j] = math.nan if rec[fld] is None else rec[fld]
+            arm = json.loads(msgs["/arm"])
+            for fld in ("time_s", "supply_pa", "brush_force_n"):
+                out[fld][i] = math.nan if arm[fld] is None else arm[fld]
+    except (KeyError, ValueError, TypeError) as e:
+        raise LogError(f"{path}: sample {s} is malformed ({type(e).__name__}: {e})") from e
+    duration = float(out["time_s"][-1] - out["time_s"][0]) if m else 0.0
+    meta["recovery"] = {"complete": complete, "samples": m, "duration_s": duration, "stopped_by": stopped_by}
+    return out, meta
