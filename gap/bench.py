@@ -19,7 +19,7 @@ import numpy as np
 from gap import synth
 from gap.campaign import load_campaign
 from gap.diagnose import diagnose
-from gap.effects import CATALOGUE
+from gap.effects import BY_NAME, CATALOGUE
 
 
 @dataclass
@@ -48,8 +48,11 @@ def cases(quick: bool) -> list[Case]:
         Case("droop", "single", {"supply_droop_pa_s_per_kg": 2e7}, ("supply_droop",), truth={"supply_droop": 2e7}),
         Case("inertia", "single", {"rotor_inertia_kg_m2": 2e-5}, ("inertia_error",), truth={"inertia_error": (0.02 + 120**2 * 2e-5) / (0.02 + 120**2 * p0.rotor_inertia_kg_m2)}),
         Case("stribeck_as_coulomb", "form", {"stribeck_excess_nm": 40.0, "stribeck_speed_rad_s": 0.2}, ("coulomb_friction", "viscous_friction"), exclude=("stribeck_friction",)),
+        Case("stribeck_as_coulomb_20", "form", {"stribeck_excess_nm": 20.0, "stribeck_speed_rad_s": 0.2}, ("coulomb_friction", "viscous_friction"), exclude=("stribeck_friction",)),
         Case("lag_as_dead_time", "form", {"valve_time_constant_s": 0.3}, ("valve_dead_time",), exclude=("valve_lag",)),
+        Case("lag_as_dead_time_02", "form", {"valve_time_constant_s": 0.2}, ("valve_dead_time",), exclude=("valve_lag",)),
         Case("leak+coulomb", "pair", {"leak_area_m2": 3e-7, "coulomb_nm": 30.0}, ("vane_leakage", "coulomb_friction")),
+        Case("leak+coulomb_b", "pair", {"leak_area_m2": 2e-7, "coulomb_nm": 25.0}, ("vane_leakage", "coulomb_friction")),
         Case("ripple", "outside", {"ripple_fraction": 0.5}),
         Case("none_a", "none", {}),
         Case("none_b", "none", {}),
@@ -80,6 +83,15 @@ def run_bench(out: str | Path, quick: bool = False, jobs: int = 2) -> dict:
         if case.kind in ("single", "form", "pair"):
             if case.kind == "pair":
                 r["top1"] = set(named) == set(case.expect)
+            elif case.kind == "form":
+                # scored at FAMILY level: the hidden form is withheld from the catalogue, so the right
+                # answer is the nearest catalogue family (Stribeck -> friction: Coulomb/viscous;
+                # valve lag -> valve timing: dead time). The call is the top candidate's first effect
+                # when the verdict is explained/ambiguous, else the diagnosis's "nearest" single.
+                call = named[0] if named and w["verdict"] in ("explained", "ambiguous") else (w["nearest"]["effect"] if w["nearest"] else None)
+                fam = {BY_NAME[e].family for e in case.expect}
+                r["call"] = call
+                r["top1"] = call is not None and BY_NAME[call].family in fam and (BY_NAME[call].family != "friction" or call in case.expect)
             else:
                 r["top1"] = len(named) >= 1 and named[0] in case.expect and w["verdict"] in ("explained", "ambiguous")
             r["shrink"] = top["heldout_rms_deg"] / diag["before_rms_deg"] if top else None
@@ -103,6 +115,7 @@ def run_bench(out: str | Path, quick: bool = False, jobs: int = 2) -> dict:
         "wall_time_s": time.perf_counter() - t0,
         "top1_rate_exact_form": rate(exact),
         "top1_rate_form_differs": rate(form),
+        "form_differs_scoring": "family level: the nearest catalogue family of the withheld form (Stribeck -> Coulomb/viscous friction, valve lag -> valve dead time)",
         "median_shrink": float(np.median([r["shrink"] for r in att if r["shrink"] is not None])) if att else None,
         "false_alarm_rate": sum(r["verdict"] != "no significant gap" for r in none) / len(none) if none else None,
         "confident_wrong_rate_outside": sum(r["verdict"] == "explained" for r in outside) / len(outside) if outside else None,

@@ -12,8 +12,10 @@ campaign.toml:
     supply_mpa = 0.5                 # gauge, the paper's convention
     start_deg = { wrist_pitch = 0.0, ... }   # start pose of every joint (others stay braked)
 
-Run CSV columns: time_s, direction (-1/0/+1), brake_released (0/1), valve_opening (0..1, optional:
-absent = fully open), supply_pa (absolute), angle_rad (reference instrument, empty/NaN where not
+Run CSV columns: time_s, direction (-1/0/+1), brake_released (0/1), valve_set_gauge_pa (the
+proportional valve's set point P_v, gauge Pa, optional) or valve_opening (0..1, optional: the set
+point u / k_u; at most one of the two; neither = the set point equals the supply, i.e. the valve
+wide open delivering the supply), supply_pa (absolute), angle_rad (reference instrument, empty/NaN where not
 sampled), optional p_a_pa, p_b_pa. Anything else is refused with the file, the line and what is
 wrong (GapError).
 """
@@ -29,11 +31,12 @@ from pathlib import Path
 import numpy as np
 
 import assets
+from pneumatics import load_joint_params
 from pneumatics.gas import AIR
 from twin.errors import UserError
 
 REQUIRED_COLUMNS = ("time_s", "direction", "brake_released", "supply_pa", "angle_rad")
-OPTIONAL_COLUMNS = ("valve_opening", "p_a_pa", "p_b_pa")
+OPTIONAL_COLUMNS = ("valve_set_gauge_pa", "valve_opening", "p_a_pa", "p_b_pa")
 WRIST_RIG_INERTIA_KG_M2 = 0.02  # assets/wrist_rig.xml, body rig_load
 
 
@@ -50,10 +53,13 @@ class Run:
     time_s: np.ndarray
     direction: np.ndarray
     brake_released: np.ndarray
-    valve_opening: np.ndarray
+    valve_gauge_pa: np.ndarray  # proportional valve set point (or logged output, see valve_is_output), gauge Pa
     supply_pa: np.ndarray
     angle_rad: np.ndarray  # NaN where not sampled
     extra: dict[str, np.ndarray] = field(default_factory=dict)
+    # False: valve_gauge_pa is the valve's set point (CSV runs); True: it is the valve's logged
+    # OUTPUT pressure (the twin's MCAP logs), which the replay imposes on the valve state directly.
+    valve_is_output: bool = False
 
     @property
     def sampled(self) -> np.ndarray:
@@ -61,7 +67,7 @@ class Run:
 
     def signature(self) -> tuple:
         """Runs with the same commands and supply are repeats of one another."""
-        return (round(self.supply_mpa, 4), round(self.start_rad, 6), self.direction.tobytes(), np.round(self.valve_opening, 3).tobytes(), self.brake_released.tobytes())
+        return (round(self.supply_mpa, 4), round(self.start_rad, 6), self.direction.tobytes(), np.round(self.valve_gauge_pa, -2).tobytes(), self.brake_released.tobytes())
 
 
 @dataclass
@@ -137,15 +143,19 @@ def load_campaign(folder: str | Path) -> Campaign:
                 raise GapError(f"{where}: start_deg names unknown joint {j!r}; allowed: {', '.join(assets.JOINTS)}")
             if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
                 raise GapError(f"{where}: start_deg.{j} = {v!r} is not a number (degrees)")
-        runs.append(read_run_file(folder / f, supply, math.radians(start[joint]), where))
+        runs.append(read_run_file(folder / f, supply, math.radians(start[joint]), where, joint))
     return Campaign(folder, joint, payload, hose, rig_j, None if hl is None else (1.0 if hl else 0.0), runs)
 
 
-def read_run_file(path: Path, supply_mpa: float, start_rad: float, where: str = "") -> Run:
+def read_run_file(path: Path, supply_mpa: float, start_rad: float, where: str = "", joint: str = "wrist_pitch") -> Run:
     if not path.is_file():
         raise GapError(f"{where}: run file {path} does not exist")
     if path.suffix.lower() == ".mcap":
-        return _read_mcap_run(path, supply_mpa, start_rad)
+        return _read_mcap_run(path, supply_mpa, start_rad, joint)
+    return _read_csv_run(path, supply_mpa, start_rad, joint)
+
+
+def _read_csv_run(path: Path, supply_mpa: float, start_rad: float, joint: str) -> Run:
     with open(path, newline="") as f:
         reader = csv.reader(f)
         try:
@@ -158,6 +168,8 @@ def read_run_file(path: Path, supply_mpa: float, start_rad: float, where: str = 
         unknown = [c for c in header if c not in REQUIRED_COLUMNS + OPTIONAL_COLUMNS]
         if unknown:
             raise GapError(f"{path}:1: unknown column(s) {', '.join(unknown)}; allowed: {', '.join(REQUIRED_COLUMNS + OPTIONAL_COLUMNS)}")
+        if "valve_opening" in header and "valve_set_gauge_pa" in header:
+            raise GapError(f"{path}:1: both valve_opening and valve_set_gauge_pa; allowed: at most one of them")
         cols = {h: [] for h in header}
         for line_no, row in enumerate(reader, 2):
             if not row:
@@ -187,6 +199,8 @@ def read_run_file(path: Path, supply_mpa: float, start_rad: float, where: str = 
             b = cols["brake_released"][-1]
             if b not in (0.0, 1.0):
                 raise GapError(f"{path}:{line_no}: brake_released = {b:g}; allowed: 0 or 1")
+            if "valve_set_gauge_pa" in cols and not 0.0 <= cols["valve_set_gauge_pa"][-1] <= 3e6:
+                raise GapError(f"{path}:{line_no}: valve_set_gauge_pa = {cols['valve_set_gauge_pa'][-1]:g}; allowed: gauge Pa in 0..3e6")
             if "valve_opening" in cols and not 0.0 <= cols["valve_opening"][-1] <= 1.0:
                 raise GapError(f"{path}:{line_no}: valve_opening = {cols['valve_opening'][-1]:g}; allowed: 0..1")
             if not 0.0 < cols["supply_pa"][-1] < 3e6:
@@ -195,33 +209,44 @@ def read_run_file(path: Path, supply_mpa: float, start_rad: float, where: str = 
     n = len(a["time_s"])
     if n < 2 or np.isfinite(a["angle_rad"]).sum() < 2:
         raise GapError(f"{path}: needs at least 2 rows and 2 angle samples, has {n} rows and {int(np.isfinite(a['angle_rad']).sum())} samples")
-    opening = a.get("valve_opening", np.ones(n))
+    if "valve_set_gauge_pa" in a:
+        valve = a["valve_set_gauge_pa"]
+    elif "valve_opening" in a:
+        valve = a["valve_opening"] / load_joint_params(assets.joint_param_path(joint)).k_u_per_pa
+    else:
+        valve = a["supply_pa"] - AIR.p_atm_pa
     extra = {k: a[k] for k in ("p_a_pa", "p_b_pa") if k in a}
-    return Run(path.stem, path, supply_mpa, start_rad, a["time_s"] - a["time_s"][0], a["direction"], a["brake_released"], opening, a["supply_pa"], a["angle_rad"], extra)
+    return Run(path.stem, path, supply_mpa, start_rad, a["time_s"] - a["time_s"][0], a["direction"], a["brake_released"], valve, a["supply_pa"], a["angle_rad"], extra)
 
 
-def _read_mcap_run(path: Path, supply_mpa: float, start_rad: float) -> Run:
-    # --- HOOK (lead to wire and test): the twin's own MCAP log as a run file -----------------------
-    # twin.mcap_log.read_mcap(path) -> (arrays like Telemetry.arrays(), meta), written by the
-    # logging engineer. Imported lazily so gap/ works without it. Column mapping assumed from
-    # twin/sim.sample(): time_s, direction[:, j], brake_release[:, j], valve_gauge_pa[:, j],
-    # supply_pa, true_angle_rad[:, j]; the joint index comes from meta["joints"] (assumed key).
-    try:
-        from twin.mcap_log import read_mcap  # noqa: PLC0415
-    except ImportError as e:
-        raise GapError(f"{path}: reading MCAP run files needs twin.mcap_log.read_mcap, which is not available ({e})") from None
+def _read_mcap_run(path: Path, supply_mpa: float, start_rad: float, joint: str = "wrist_pitch") -> Run:
+    """A run logged by the twin itself (twin.mcap_log.McapRecorder): commands, supply, valve output
+    pressure and true angle of `joint` at every log sample (20 ms by default).
+
+    The logged valve_gauge_pa is the proportional valve's OUTPUT (plant.sensors(): S_PV + sensor
+    bias), not its set point: the run is marked valve_is_output so the replay sets the valve state
+    from it instead of lagging it a second time. Direction and brake_release are the commands (the
+    solenoid delay and the brake act on them in the replay, as in the plant). Commands are held
+    between log samples, so command changes between samples are seen up to one log period late.
+    """
+    from twin.mcap_log import read_mcap  # noqa: PLC0415  (twin.mcap_log needs the mcap packages)
+
     arrays, meta = read_mcap(path)
-    joints = list(meta.get("joints", assets.JOINTS))
-    j = joints.index("wrist_pitch") if "wrist_pitch" in joints else 0
-    k_u = 1.959e-6  # paper k_u per Pa gauge (assets/joints/*.toml)
+    joints = list(meta["joints"])
+    if joint not in joints:
+        raise GapError(f"{path}: the log has joints {', '.join(joints)}, not the campaign's joint {joint!r}")
+    j = joints.index(joint)
     t = np.asarray(arrays["time_s"], dtype=float)
+    if len(t) < 2:
+        raise GapError(f"{path}: {len(t)} log sample(s); a run needs at least 2")
     return Run(
         path.stem, path, supply_mpa, start_rad, t - t[0],
         np.asarray(arrays["direction"])[:, j].astype(float),
         np.asarray(arrays["brake_release"])[:, j].astype(float),
-        np.clip(k_u * np.asarray(arrays["valve_gauge_pa"])[:, j], 0.0, 1.0),
-        np.asarray(arrays["supply_pa"], dtype=float).reshape(-1),
+        np.asarray(arrays["valve_gauge_pa"])[:, j].astype(float),
+        np.broadcast_to(np.asarray(arrays["supply_pa"], dtype=float).reshape(-1), t.shape).copy(),
         np.asarray(arrays["true_angle_rad"])[:, j].astype(float),
+        valve_is_output=True,
     )
 
 

@@ -11,7 +11,7 @@ def register(subparsers) -> None:
     d = sub.add_parser("diagnose", help="diagnose a calibration campaign into DIR (diagnosis.json, report.md, PNG plots)")
     d.add_argument("campaign", help="folder with campaign.toml and the run files")
     d.add_argument("--out", required=True, help="output folder")
-    d.add_argument("--model-tolerance-deg", type=float, default=None, help="twin model tolerance added to the noise floor (default 0.5)")
+    d.add_argument("--model-tolerance-deg", type=float, default=None, help="twin model tolerance added to the noise floor (default: gap.diagnose.MODEL_TOLERANCE_DEG)")
     d.add_argument("--jobs", type=int, default=2)
     d.set_defaults(func=cmd_diagnose)
     b = sub.add_parser("bench", help="blind check on campaigns generated from the plant with hidden effects (DIR/bench.json)")

@@ -35,10 +35,11 @@ class Effect:
 
 
 # Bounds: physically plausible ranges for the wrist class (assets/joints/wrist_pitch.toml values
-# are the nominal: coulomb 15 N·m, viscous 3 N·m·s/rad, solenoid 15 ms, valve tau 0.1 s).
+# are the nominal: coulomb 15 N·m, viscous 3 N·m·s/rad, solenoid 15 ms, valve tau 0.1 s). The leak
+# area's grid is logarithmic: a worn vane's gap area spans orders of magnitude.
 CATALOGUE: tuple[Effect, ...] = (
     Effect("hose_loss", "hose pressure loss", "hose_loss", 0.0, 1.0, discrete_value=1.0, family="hose", equation="Darcy-Weisbach hose resistance on both ports (paper eq. 1-5)"),
-    Effect("vane_leakage", "vane leakage", "leak_area_m2", 0.0, 2.0e-6, family="leakage", equation="orifice A->B past the vanes, area fitted (m^2)"),
+    Effect("vane_leakage", "vane leakage", "leak_area_m2", 0.0, 2.0e-6, log=True, family="leakage", equation="orifice A->B past the vanes, area fitted (m^2)"),
     Effect("coulomb_friction", "Coulomb friction", "coulomb_nm", 0.0, 60.0, family="friction", equation="Coulomb level C_s (N·m), Karnopp stick rule"),
     Effect("stribeck_friction", "Stribeck friction", "stribeck_excess_nm", 0.0, 60.0, family="friction", equation="static-minus-Coulomb excess (N·m), exp(-(w/ws)^2)"),
     Effect("viscous_friction", "viscous friction", "viscous_nm_s", 0.0, 20.0, family="friction", equation="C_f (N·m·s/rad)"),

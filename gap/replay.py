@@ -36,7 +36,6 @@ from pneumatics.joint import (
     advance_discrete,
     single_joint_rk4,
 )
-from pneumatics.valves import valve_opening
 
 DT_S = 1e-3  # integration step: the platform's 1 ms control period (DESIGN: RK4 at 1 ms is within 0.01 deg)
 
@@ -46,9 +45,10 @@ def replay_run(
     p: np.ndarray,  # params_row of the twin's joint
     cmd_time_s: np.ndarray,  # (n,) times of the command rows, increasing
     direction: np.ndarray,  # (n,) -1/0/+1
-    opening: np.ndarray,  # (n,) commanded valve opening 0..1
+    valve_gauge_pa: np.ndarray,  # (n,) proportional valve set point (or output, see below), gauge Pa
     brake_release: np.ndarray,  # (n,) 0/1
     supply_pa: np.ndarray,  # (n,) absolute supply pressure
+    valve_is_output: bool,
     theta0_rad: float,
     inertia_kg_m2: float,
     load_torque_nm: float,
@@ -58,8 +58,12 @@ def replay_run(
     """Twin angle and speed on a grid t_k = k dt, k = 0..floor(t_end/dt); returns (t, theta, omega).
 
     Commands are held from one row to the next (zero-order hold, as the platform sends them).
-    The opening is turned into the proportional valve's set point P_v = u / k_u (gauge Pa), so the
-    valve's lag, supply cap and dead zone act on it as they do on the real platform.
+    With valve_is_output False (a command log) valve_gauge_pa is the proportional valve's set
+    point, so the valve's lag, supply cap and dead zone act on it as they do on the real platform.
+    With valve_is_output True (the twin's own MCAP log, whose valve_gauge_pa is the valve's OUTPUT
+    pressure) the valve state S_PV is set from the logged output, linearly interpolated between log
+    samples (it is a continuous state), so the valve lag is not applied a second time; the dead
+    zone still acts on it.
     """
     n_steps = int(t_end_s / dt_s + 1e-9)
     t_out = np.empty(n_steps + 1)
@@ -79,7 +83,6 @@ def replay_run(
     y[R_PB_VALVE] = atm
     y[R_PB_MOTOR] = atm
     cmd = np.zeros(N_COMMAND)
-    k_u = p[P.K_U]
     row = 0
     n_rows = cmd_time_s.shape[0]
     t_out[0] = 0.0
@@ -90,12 +93,21 @@ def replay_run(
         while row + 1 < n_rows and cmd_time_s[row + 1] <= t + 1e-9:
             row += 1
         cmd[C_DIRECTION] = direction[row]
-        cmd[C_PV_SET_GAUGE_PA] = opening[row] / k_u
+        cmd[C_PV_SET_GAUGE_PA] = valve_gauge_pa[row]
         cmd[C_BRAKE_RELEASE] = brake_release[row]
         s = supply_pa[row]
         advance_discrete(x, cmd, s, dt_s, p)
-        u = valve_opening(x[S_PV], k_u, p[P.DEAD_ZONE])
-        single_joint_rk4(y, x[S_DIR], u, s, load_torque_nm, inertia_kg_m2, x[S_BRAKE], dt_s, p)
+        if valve_is_output:
+            t1 = t + dt_s  # the step integrates with the valve state at its end, as the plant does
+            r = row
+            while r + 1 < n_rows and cmd_time_s[r + 1] <= t1 + 1e-9:
+                r += 1
+            if r + 1 < n_rows:
+                w = (t1 - cmd_time_s[r]) / (cmd_time_s[r + 1] - cmd_time_s[r])
+                x[S_PV] = (1.0 - w) * valve_gauge_pa[r] + w * valve_gauge_pa[r + 1]
+            else:
+                x[S_PV] = valve_gauge_pa[r]
+        single_joint_rk4(y, x[S_DIR], x[S_PV], s, load_torque_nm, inertia_kg_m2, x[S_BRAKE], dt_s, p)
         t_out[k + 1] = (k + 1) * dt_s
         th_out[k + 1] = y[R_THETA]
         om_out[k + 1] = y[R_OMEGA]
@@ -107,9 +119,10 @@ def replay_at(
     p: np.ndarray,
     cmd_time_s: np.ndarray,
     direction: np.ndarray,
-    opening: np.ndarray,
+    valve_gauge_pa: np.ndarray,
     brake_release: np.ndarray,
     supply_pa: np.ndarray,
+    valve_is_output: bool,
     theta0_rad: float,
     inertia_kg_m2: float,
     load_torque_nm: float,
@@ -118,5 +131,5 @@ def replay_at(
 ) -> np.ndarray:
     """Twin angle at the measured sample times (linear interpolation on the 1 ms grid)."""
     t_end = sample_time_s[-1] if sample_time_s.shape[0] > 0 else 0.0
-    t, th, _ = replay_run(p, cmd_time_s, direction, opening, brake_release, supply_pa, theta0_rad, inertia_kg_m2, load_torque_nm, t_end + dt_s, dt_s)
+    t, th, _ = replay_run(p, cmd_time_s, direction, valve_gauge_pa, brake_release, supply_pa, valve_is_output, theta0_rad, inertia_kg_m2, load_torque_nm, t_end + dt_s, dt_s)
     return np.interp(sample_time_s, t, th)

@@ -110,6 +110,9 @@ def write(diag: dict, out: str | Path) -> dict[str, Path]:
     if top is not None:
         vals = ", ".join(f"{f} = {v:.4g} (nominal {n:.4g})" for f, v, n in zip(top["fields"], top["fitted_values"], top["nominal_values"]))
         lines += [f"Best: **{top['name']}** ({' + '.join(top['labels'])}): {vals}; held-out rms {top['heldout_rms_deg']:.2f} deg, shrink {top['shrink']:.2f}.", ""]
+    if w.get("nearest"):
+        nb = w["nearest"]
+        lines += [f"No catalogue entry or pair explains the gap. Nearest (family-level attribution): the **{nb['family']}** family, best single {nb['effect']} (shrink {nb['shrink']:.2f}); the hidden effect may be a different form of it or something not catalogued.", ""]
     if w["rivals"]:
         lines += [f"Rivals that fit the withheld runs as well: {', '.join(w['rivals'])}.", ""]
     lines += ["## Where", "", "![where](where.png) ![residual](residual.png)", ""]

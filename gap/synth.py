@@ -26,12 +26,13 @@ NOISE_RAD = np.deg2rad(0.05)  # assumed: an encoder-class reference instrument, 
 
 @dataclass(frozen=True)
 class Motion:
-    """Command timeline of one run (times in s, openings 0..1)."""
+    """Command timeline of one run (times in s). The first move's valve set point is the supply
+    itself (fully open, delivering the supply); the reversal's is opening_2 / k_u (a partial
+    opening that also regulates the delivered pressure down to it)."""
 
     direction: int = 1  # first move's direction
     t_release_s: float = 0.1  # brake release + first move starts
     t_move_s: float = 0.5  # duration of the first move (fully open)
-    opening_1: float = 1.0
     t_reverse_s: float = 0.6  # duration of the reversed move
     opening_2: float = 0.6
     t_hold_s: float = 0.6  # braking + holding
@@ -40,8 +41,8 @@ class Motion:
     def total_s(self) -> float:
         return self.duration_s or self.t_release_s + self.t_move_s + self.t_reverse_s + self.t_hold_s
 
-    def commands(self, t_s: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """(direction, opening, brake_release) at the given times."""
+    def commands(self, t_s: np.ndarray, supply_gauge_pa: float, k_u_per_pa: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(direction, valve set point gauge Pa, brake_release) at the given times."""
         t1 = self.t_release_s
         t2 = t1 + self.t_move_s
         t3 = t2 + self.t_reverse_s
@@ -51,9 +52,9 @@ class Motion:
         first = (t_s >= t1 - 1e-9) & (t_s < t2 - 1e-9)
         second = (t_s >= t2 - 1e-9) & (t_s < t3 - 1e-9)
         d[first] = self.direction
-        u[first] = self.opening_1
+        u[first] = supply_gauge_pa
         d[second] = -self.direction
-        u[second] = self.opening_2
+        u[second] = self.opening_2 / k_u_per_pa
         b[first | second] = 1.0
         return d, u, b
 
@@ -62,38 +63,61 @@ def wrist_params() -> JointParams:
     return load_joint_params(assets.joint_param_path(JOINT))
 
 
-def simulate_run(reality: JointParams, supply_mpa: float, motion: Motion, start_rad: float = 0.0) -> dict[str, np.ndarray]:
-    """Run the plant (twin.plant.Plant on the wrist rig) through `motion`; 1 ms command rows and
-    the true angle every SAMPLE_PERIOD_S (NaN between samples)."""
+def _plant_and_schedule(reality: JointParams, supply_mpa: float, motion: Motion, start_rad: float):
+    import mujoco
+
     from twin.plant import Plant
-    from twin.sim import CommandSchedule, run
+    from twin.sim import CommandSchedule
 
     plant = Plant(assets.WRIST_RIG_XML, joint_params={JOINT: reality})
     i = plant.joints.index(JOINT)
     plant.data.qpos[plant.model.joint(JOINT).qposadr[0]] = start_rad
-    import mujoco
-
     mujoco.mj_forward(plant.model, plant.data)
-    supply_pa = AIR.p_atm_pa + supply_mpa * 1e6
-    plant.set_supply(supply_pa)
+    plant.set_supply(AIR.p_atm_pa + supply_mpa * 1e6)
     k_u = reality.k_u_per_pa
     n = len(plant.joints)
 
     def commands_at(t: float) -> np.ndarray:
-        d, u, b = motion.commands(np.array([t]))
+        d, u, b = motion.commands(np.array([t]), supply_mpa * 1e6, k_u)
         c = np.zeros((n, 3))
-        c[i] = (d[0], u[0] / k_u, b[0])
+        c[i] = (d[0], u[0], b[0])
         return c
 
-    tel = run(plant, CommandSchedule(commands_at, n), motion.total_s(), supply_pa_at=lambda t: supply_pa, log_period_s=SAMPLE_PERIOD_S)
+    return plant, CommandSchedule(commands_at, n), i
+
+
+def simulate_run(reality: JointParams, supply_mpa: float, motion: Motion, start_rad: float = 0.0) -> dict[str, np.ndarray]:
+    """Run the plant (twin.plant.Plant on the wrist rig) through `motion`; 1 ms command rows and
+    the true angle every SAMPLE_PERIOD_S (NaN between samples)."""
+    from twin.sim import run
+
+    plant, schedule, i = _plant_and_schedule(reality, supply_mpa, motion, start_rad)
+    supply_pa = plant.supply_pa
+    tel = run(plant, schedule, motion.total_s(), supply_pa_at=lambda t: supply_pa, log_period_s=SAMPLE_PERIOD_S)
     arr = tel.arrays()
     t_cmd = np.round(np.arange(0.0, motion.total_s() + 1e-9, 1e-3), 6)
-    d, u, b = motion.commands(t_cmd)
+    d, u, b = motion.commands(t_cmd, supply_mpa * 1e6, reality.k_u_per_pa)
     angle = np.full(t_cmd.shape, np.nan)
     idx = np.round(np.asarray(arr["time_s"]) / 1e-3).astype(int)
     ok = idx < len(t_cmd)
     angle[idx[ok]] = np.asarray(arr["true_angle_rad"])[ok, i]
-    return {"time_s": t_cmd, "direction": d, "brake_released": b, "valve_opening": u, "supply_pa": np.full(t_cmd.shape, supply_pa), "angle_rad": angle}
+    return {"time_s": t_cmd, "direction": d, "brake_released": b, "valve_set_gauge_pa": u, "supply_pa": np.full(t_cmd.shape, supply_pa), "angle_rad": angle}
+
+
+def write_mcap_run(path: Path, reality: JointParams, supply_mpa: float, motion: Motion | None = None, start_rad: float = 0.0) -> Path:
+    """Run the plant through `motion` and log it with the twin's own MCAP recorder
+    (twin.mcap_log.McapRecorder, a sample every 20 ms): a run file the campaign reader accepts."""
+    from twin.mcap_log import McapRecorder
+    from twin.sim import run
+
+    motion = motion or Motion()
+    plant, schedule, _ = _plant_and_schedule(reality, supply_mpa, motion, start_rad)
+    rec = McapRecorder(path, plant.model, plant.joints, {"scenario_name": "gap synthetic run", "seed": 0})
+    try:
+        run(plant, schedule, motion.total_s(), recorders=(rec,))
+    finally:
+        rec.close()
+    return Path(path)
 
 
 def write_run_csv(path: Path, run: dict[str, np.ndarray], rng: np.random.Generator | None = None, noise_rad: float = NOISE_RAD) -> None:
@@ -104,10 +128,10 @@ def write_run_csv(path: Path, run: dict[str, np.ndarray], rng: np.random.Generat
         angle[m] += rng.normal(0.0, noise_rad, m.sum())
     with open(path, "w", newline="") as f:
         w = csv.writer(f)
-        w.writerow(["time_s", "direction", "brake_released", "valve_opening", "supply_pa", "angle_rad"])
+        w.writerow(["time_s", "direction", "brake_released", "valve_set_gauge_pa", "supply_pa", "angle_rad"])
         for k in range(len(run["time_s"])):
             a = angle[k]
-            w.writerow([f"{run['time_s'][k]:.4f}", int(run["direction"][k]), int(run["brake_released"][k]), f"{run['valve_opening'][k]:.4f}", f"{run['supply_pa'][k]:.1f}", "" if not np.isfinite(a) else f"{a:.7f}"])
+            w.writerow([f"{run['time_s'][k]:.4f}", int(run["direction"][k]), int(run["brake_released"][k]), f"{run['valve_set_gauge_pa'][k]:.1f}", f"{run['supply_pa'][k]:.1f}", "" if not np.isfinite(a) else f"{a:.7f}"])
 
 
 def motions_for(repeat: int) -> Motion:

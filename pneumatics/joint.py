@@ -36,7 +36,7 @@ from pneumatics.gas import isentropic_temperature
 from pneumatics.hose import hose_mass_flow, hose_volume
 from pneumatics.motor import chamber_geometry, vane_torque
 from pneumatics.orifice import orifice_mass_flow
-from pneumatics.valves import lag_toward, proportional_valve_target, solenoid_step, valve_opening
+from pneumatics.valves import lag_toward, proportional_valve_target, regulated_pressure, solenoid_step, valve_opening
 
 S_PA_VALVE, S_PA_MOTOR, S_PB_VALVE, S_PB_MOTOR, S_PV, S_BRAKE, S_DIR, S_DIR_PENDING, S_DIR_REMAINING = range(9)
 N_STATE = 9
@@ -92,16 +92,18 @@ def _hose_flow(p_valve: float, p_motor: float, supply_pa: float, p: np.ndarray) 
 
 
 @njit
-def pressure_rates(pa_valve: float, pa_motor: float, pb_valve: float, pb_motor: float, phi_motor: float, omega_motor: float, direction: float, opening: float, supply_pa: float, p: np.ndarray) -> tuple[float, float, float, float]:
+def pressure_rates(pa_valve: float, pa_motor: float, pb_valve: float, pb_motor: float, phi_motor: float, omega_motor: float, direction: float, valve_gauge_pa: float, supply_pa: float, p: np.ndarray) -> tuple[float, float, float, float]:
     """Rates (Pa/s) of the four node pressures, paper eq. 7 rows 3-4 with the hose on both ports.
 
     `direction` +1 pressurises port A (motor turns positive), -1 port B, 0 exhausts both.
-    `opening` is the proportional valve's u in [0, 1]; `supply_pa` is absolute.
+    `valve_gauge_pa` is the proportional valve's output pressure P_v: the pressure it delivers
+    (capped by the absolute `supply_pa`) and, through u = k_u P_v, its opening (paper Sec. IV).
     """
     r = p[P.GAS_R]
     t_s = p[P.GAS_T]
     n = p[P.POLY_N]
-    p_s = effective_supply(supply_pa, opening, direction, p)
+    opening = valve_opening(valve_gauge_pa, p[P.K_U], p[P.DEAD_ZONE])
+    p_s = regulated_pressure(effective_supply(supply_pa, opening, direction, p), valve_gauge_pa, p[P.GAS_P_ATM])
     inlet_area = p[P.A_IN] * p[P.COND_SCALE] * opening
     m_a_valve = _port_valve_flow(pa_valve, direction > 0.0, p_s, inlet_area, p)
     m_b_valve = _port_valve_flow(pb_valve, direction < 0.0, p_s, inlet_area, p)
@@ -180,7 +182,7 @@ def advance_pressures(x: np.ndarray, theta: float, omega: float, supply_pa: floa
     """
     if at_rest(x, omega, p):
         return
-    opening = valve_opening(x[S_PV], p[P.K_U], p[P.DEAD_ZONE])
+    valve = x[S_PV]
     direction = x[S_DIR]
     ratio = p[P.RATIO]
     h = dt_s / substeps
@@ -191,8 +193,8 @@ def advance_pressures(x: np.ndarray, theta: float, omega: float, supply_pa: floa
     b_m = x[S_PB_MOTOR]
     for i in range(substeps):
         phi0 = ratio * (theta + omega * i * h)
-        k1 = pressure_rates(a_v, a_m, b_v, b_m, phi0, w_m, direction, opening, supply_pa, p)
-        k2 = pressure_rates(a_v + h * k1[0], a_m + h * k1[1], b_v + h * k1[2], b_m + h * k1[3], phi0 + w_m * h, w_m, direction, opening, supply_pa, p)
+        k1 = pressure_rates(a_v, a_m, b_v, b_m, phi0, w_m, direction, valve, supply_pa, p)
+        k2 = pressure_rates(a_v + h * k1[0], a_m + h * k1[1], b_v + h * k1[2], b_m + h * k1[3], phi0 + w_m * h, w_m, direction, valve, supply_pa, p)
         a_v += 0.5 * h * (k1[0] + k2[0])
         a_m += 0.5 * h * (k1[1] + k2[1])
         b_v += 0.5 * h * (k1[2] + k2[2])
@@ -210,7 +212,7 @@ N_RIGID = 6
 
 
 @njit
-def single_joint_rates(y: np.ndarray, direction: float, opening: float, supply_pa: float, load_torque_nm: float, inertia_kg_m2: float, brake_engagement: float, p: np.ndarray, out: np.ndarray) -> None:
+def single_joint_rates(y: np.ndarray, direction: float, valve_gauge_pa: float, supply_pa: float, load_torque_nm: float, inertia_kg_m2: float, brake_engagement: float, p: np.ndarray, out: np.ndarray) -> None:
     """Time derivative of the one-joint state y (paper eq. 7), written into `out`.
 
     J dw/dt = T_drive - T_load + T_friction, with T_drive from `joint_torque`, the load torque
@@ -231,7 +233,7 @@ def single_joint_rates(y: np.ndarray, direction: float, opening: float, supply_p
     else:
         out[R_THETA] = omega
         out[R_OMEGA] = (drive + friction) / inertia_kg_m2
-    rates = pressure_rates(y[R_PA_VALVE], y[R_PA_MOTOR], y[R_PB_VALVE], y[R_PB_MOTOR], phi, p[P.RATIO] * omega, direction, opening, supply_pa, p)
+    rates = pressure_rates(y[R_PA_VALVE], y[R_PA_MOTOR], y[R_PB_VALVE], y[R_PB_MOTOR], phi, p[P.RATIO] * omega, direction, valve_gauge_pa, supply_pa, p)
     out[R_PA_VALVE] = rates[0]
     out[R_PA_MOTOR] = rates[1]
     out[R_PB_VALVE] = rates[2]
@@ -239,7 +241,7 @@ def single_joint_rates(y: np.ndarray, direction: float, opening: float, supply_p
 
 
 @njit
-def single_joint_rk4(y: np.ndarray, direction: float, opening: float, supply_pa: float, load_torque_nm: float, inertia_kg_m2: float, brake_engagement: float, dt_s: float, p: np.ndarray) -> None:
+def single_joint_rk4(y: np.ndarray, direction: float, valve_gauge_pa: float, supply_pa: float, load_torque_nm: float, inertia_kg_m2: float, brake_engagement: float, dt_s: float, p: np.ndarray) -> None:
     """One classical Runge-Kutta step of `single_joint_rates` over dt, in place (the paper
     integrates its predictor with Runge-Kutta, Sec. III-B)."""
     k1 = np.empty(N_RIGID)
@@ -247,16 +249,16 @@ def single_joint_rk4(y: np.ndarray, direction: float, opening: float, supply_pa:
     k3 = np.empty(N_RIGID)
     k4 = np.empty(N_RIGID)
     tmp = np.empty(N_RIGID)
-    single_joint_rates(y, direction, opening, supply_pa, load_torque_nm, inertia_kg_m2, brake_engagement, p, k1)
+    single_joint_rates(y, direction, valve_gauge_pa, supply_pa, load_torque_nm, inertia_kg_m2, brake_engagement, p, k1)
     for i in range(N_RIGID):
         tmp[i] = y[i] + 0.5 * dt_s * k1[i]
-    single_joint_rates(tmp, direction, opening, supply_pa, load_torque_nm, inertia_kg_m2, brake_engagement, p, k2)
+    single_joint_rates(tmp, direction, valve_gauge_pa, supply_pa, load_torque_nm, inertia_kg_m2, brake_engagement, p, k2)
     for i in range(N_RIGID):
         tmp[i] = y[i] + 0.5 * dt_s * k2[i]
-    single_joint_rates(tmp, direction, opening, supply_pa, load_torque_nm, inertia_kg_m2, brake_engagement, p, k3)
+    single_joint_rates(tmp, direction, valve_gauge_pa, supply_pa, load_torque_nm, inertia_kg_m2, brake_engagement, p, k3)
     for i in range(N_RIGID):
         tmp[i] = y[i] + dt_s * k3[i]
-    single_joint_rates(tmp, direction, opening, supply_pa, load_torque_nm, inertia_kg_m2, brake_engagement, p, k4)
+    single_joint_rates(tmp, direction, valve_gauge_pa, supply_pa, load_torque_nm, inertia_kg_m2, brake_engagement, p, k4)
     omega_before = y[R_OMEGA]
     for i in range(N_RIGID):
         y[i] += dt_s / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
@@ -267,6 +269,6 @@ def single_joint_rk4(y: np.ndarray, direction: float, opening: float, supply_pa:
         y[R_OMEGA] = 0.0
     if abs(y[R_OMEGA]) < p[P.STICK_SPEED]:
         # Karnopp: a joint that has come to rest and is not pushed past friction stays put
-        single_joint_rates(y, direction, opening, supply_pa, load_torque_nm, inertia_kg_m2, brake_engagement, p, tmp)
+        single_joint_rates(y, direction, valve_gauge_pa, supply_pa, load_torque_nm, inertia_kg_m2, brake_engagement, p, tmp)
         if tmp[R_THETA] == 0.0:
             y[R_OMEGA] = 0.0

@@ -2,10 +2,14 @@
 
 Proportional valve (paper Sec. IV): a pressure-regulating valve whose output pressure P_v follows
 its set point as a first-order lag of 0.1 s (the paper's "response time of the proportional
-valve is 0.1 s"), never above the supply. Its pressure sensor is what the platform reads, and the
-paper turns it into the valve body's opening by u = k_u P_v with k_u = 0.1959. The paper gives no
-unit; with P_v in bar (gauge) that puts full opening at 5.1 bar, inside the 0.5-0.8 MPa working
-range, so we take k_u = 0.1959 / bar = 1.959e-6 / Pa (gauge) and clip u to [0, 1].
+valve is 0.1 s"), never above the supply. Its pressure sensor is what the platform reads: the
+paper feeds it to the model both as the motor's input pressure ("the input pressure P_s is
+measured by the pressure sensor installed on the proportional valve") and, through u = k_u P_v
+with k_u = 0.1959, as the valve body's opening. The paper gives no unit for k_u; with P_v in bar
+(gauge) full opening falls at 5.1 bar, inside the 0.5-0.8 MPa working range, so we take
+k_u = 0.1959 / bar = 1.959e-6 / Pa (gauge) and clip u to [0, 1]. A small set point thus means
+both a small opening and a low pressure: the motor cannot lift its load on a small command,
+which is the paper's explanation of its minimum rotation (Fig. 21).
 
 Solenoid direction valves (paper Fig. 3): 5/3 valves that connect one motor port to the supply
 and the other to exhaust, or both to exhaust in the centre position (our assumption: an exhaust
@@ -32,6 +36,12 @@ def lag_toward(value: float, target: float, dt_s: float, time_constant_s: float)
 def proportional_valve_target(set_point_gauge_pa: float, supply_gauge_pa: float) -> float:
     """Output pressure (gauge, Pa) the proportional valve settles at: its set point, capped by the supply."""
     return max(0.0, min(set_point_gauge_pa, supply_gauge_pa))
+
+
+@njit
+def regulated_pressure(supply_pa: float, p_v_gauge_pa: float, p_atm_pa: float) -> float:
+    """Absolute pressure the proportional valve delivers: its output P_v, never above the supply."""
+    return min(supply_pa, p_atm_pa + max(0.0, p_v_gauge_pa))
 
 
 @njit

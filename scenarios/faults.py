@@ -44,4 +44,4 @@ def apply_fault(plant: Plant, fault: Fault) -> None:
     elif fault.kind == "sensor_bias":
         plant.sensor_bias_pa[j] = fault.value
     elif fault.kind == "valve_stuck_open":
-        plant.stuck_direction[j] = 1.0
+        plant.stick_valve(fault.joint, +1.0)

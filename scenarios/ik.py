@@ -53,14 +53,22 @@ def tool_drive_angles(model: mujoco.MjModel, tip_target: np.ndarray, tool_pitch_
 
 def disc_drive_angles(model: mujoco.MjModel, disc: int, standoff_m: float = -0.006) -> dict[str, float]:
     """Drive angles for the brush on disc `disc`'s rim: the tool level where the arm reaches,
-    tilted up in 5 deg steps (up to 45 deg) where it does not (the top discs)."""
+    else tilted in 5 deg steps (up to 45 deg, up or down: the top and the bottom discs), with
+    every joint inside its range."""
     target = disc_rim_target(model, disc, standoff_m)
-    for tilt_deg in range(0, 50, 5):
+    for tilt_deg in sorted(range(-45, 50, 5), key=lambda t: (abs(t), -t)):
         try:
-            return tool_drive_angles(model, target, math.radians(tilt_deg))
+            drive = tool_drive_angles(model, target, math.radians(tilt_deg))
         except ValueError:
             continue
-    raise ValueError(f"disc_{disc} is out of the brush's reach")
+        if _within_ranges(model, drive_to_qpos(drive)):
+            return drive
+    raise ValueError(f"disc_{disc} is out of the brush's reach (standoff {standoff_m} m)")
+
+
+def _within_ranges(model: mujoco.MjModel, qpos: dict[str, float]) -> bool:
+    margin = math.radians(2.0)
+    return all(model.joint(j).range[0] + margin <= q <= model.joint(j).range[1] - margin for j, q in qpos.items())
 
 
 def disc_rim_target(model: mujoco.MjModel, disc: int, standoff_m: float) -> np.ndarray:

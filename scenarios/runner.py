@@ -7,7 +7,7 @@ draw comes from `np.random.default_rng(scenario.seed)`.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import mujoco
@@ -33,6 +33,8 @@ class Result:
     verdicts: list[Verdict]
     targets_rad: list[dict[str, float]]
     error: str = ""
+    refusal: str = ""  # the controller refused the plan (e.g. below the minimum rotation): arm left braked
+    events: list[str] = field(default_factory=list)  # what the controller reported (arrivals, faults)
 
     @property
     def passed(self) -> bool:
@@ -61,6 +63,8 @@ class Result:
             "duration_s": float(a["time_s"][-1]) if len(a["time_s"]) else 0.0,
             "passed": self.passed,
             "error": self.error or None,
+            "refused": self.refusal or None,
+            "controller_events": self.events,
             "joints": joints,
             "criteria": as_dicts(self.verdicts),
         }
@@ -94,7 +98,7 @@ def resolve_targets(scenario: Scenario, plant: Plant) -> list[dict[str, float]]:
     for t in scenario.targets:
         target = {j: math.radians(v) for j, v in t.angles_deg.items()}
         if t.brush_at_disc:
-            target = {**disc_drive_angles(plant.model, t.brush_at_disc), **target}
+            target = {**disc_drive_angles(plant.model, t.brush_at_disc, t.standoff_m), **target}
         out.append(target)
     return out
 
@@ -112,7 +116,7 @@ def run_scenario(
     plant = build_plant(scenario)
     targets = resolve_targets(scenario, plant)
     base = {j: load_joint_params(assets.joint_param_path(j)) for j in scenario.joints}
-    controller = controllers.build(scenario, plant, joint_params_for(base, scenario.predictor), targets)
+    controller, refusal = controllers.build(scenario, plant, joint_params_for(base, scenario.predictor), targets)
     duration = scenario.duration_s if duration_s is None else min(duration_s, scenario.duration_s)
     supply = supply_profile(scenario.supply, duration, rng)
     events, _ = fault_events(scenario.faults)
@@ -127,7 +131,8 @@ def run_scenario(
             raise
         error = str(e)
     verdicts = judge(scenario, telemetry.arrays(), plant.joints, telemetry.bodies, plant.model) if len(telemetry) else []
-    return Result(scenario, telemetry, verdicts, targets, error)
+    events = list(getattr(controller, "events", []))
+    return Result(scenario, telemetry, verdicts, targets, error, refusal, events)
 
 
 def run_file(path: str | Path, **kwargs) -> Result:

@@ -17,7 +17,8 @@ Top level:            name (str), description (str), model ("arm" | "wrist_rig")
                       "together"), min_rotation_deg (0..90), tolerance_deg (0.05..10),
                       move_timeout_s (0.1..600)
 [[targets]]           angles_deg {joint: deg} (drive angles) | brush_at_disc (1..8, the brush on
-                      that disc's rim by inverse kinematics) ; dwell_s (0..600)
+                      that disc's rim by inverse kinematics), standoff_m (-0.02..0.5: brush face
+                      to rim; negative presses, default -0.006) ; dwell_s (0..600)
 [[faults]]            kind ("supply_lost" | "hose_leak" | "valve_stuck_open" | "brake_fails" |
                       "sensor_bias"), at_s, joint, value (area m^2 for hose_leak, Pa for sensor_bias)
 [[criteria]]          kind ("final_error_deg" | "max_error_deg" | "brush_on_disc" |
@@ -72,6 +73,7 @@ class Target:
     angles_deg: dict = field(default_factory=dict)
     brush_at_disc: int = 0
     dwell_s: float = 0.0
+    standoff_m: float = -0.006  # brush face to the disc's rim (negative: pressed into it)
 
 
 @dataclass(frozen=True)
@@ -258,14 +260,17 @@ def parse_doc(doc: dict, path: str, text: str, overrides: dict | None = None) ->
 
     targets = []
     for i, t in enumerate(top.array_of_tables("targets")):
-        tr = _Reader(path, t, f"targets[{i}]", {"angles_deg", "brush_at_disc", "dwell_s"})
+        tr = _Reader(path, t, f"targets[{i}]", {"angles_deg", "brush_at_disc", "dwell_s", "standoff_m"})
         angles = _joint_angles(path, f"targets[{i}].angles_deg", tr.table_of("angles_deg"), joints)
         disc = tr.integer("brush_at_disc", 0, 0, 8)
         if not angles and not disc:
             tr.fail("angles_deg", {}, "angles_deg for at least one joint, or brush_at_disc 1..8")
         if disc and model != "arm":
             tr.fail("brush_at_disc", disc, "only with model = 'arm' (the rig has no brush)")
-        targets.append(Target(angles, disc, tr.number("dwell_s", 0.0, 0.0, 600.0, "s")))
+        standoff = tr.number("standoff_m", -0.006, -0.02, 0.5, "m")
+        if "standoff_m" in tr.table and not disc:
+            tr.fail("standoff_m", standoff, "only with brush_at_disc")
+        targets.append(Target(angles, disc, tr.number("dwell_s", 0.0, 0.0, 600.0, "s"), standoff))
 
     duration = top.number("duration_s", 10.0, 1e-3, 7200.0, "s")
     faults = []

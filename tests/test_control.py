@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 
 import assets
-from control import ArmController, ArmModel, MotionRefused, closed_vs_open_loop, minimum_rotation_limit, random_supply, run_until_done
+from control import ArmController, ArmModel, MotionRefused, closed_vs_open_loop, minimum_rotation_limit, random_supply, random_supply_moves, run_until_done
 from pneumatics import load_joint_params
 from twin.plant import Plant, Sensors
 
@@ -148,23 +148,15 @@ def test_closed_loop_beats_open_loop_20_to_90_deg():
 def test_random_supply_keeps_the_pose_error_small():
     """Paper Fig. 18-19 (max 4.33 deg over 30 s): moves 0 -> 45 -> 0 -> -45 -> 0 deg under a supply
     jumping at random every 0.5 s (mean 0.6 MPa, variance 5e9 Pa^2); shortened to ~10 s."""
-    plant = rig_plant()
-    c = ArmController({"wrist_pitch": 0.0}, assets.WRIST_RIG_XML, predictor_params={"wrist_pitch": NOMINAL})
-    supply = random_supply(seed=7)
-    errors = []
-    for tgt in (45.0, 0.0, -45.0, 0.0):
-        c.set_targets({"wrist_pitch": math.radians(tgt)})
-        run_until_done(c, plant, lambda t, t0=plant.time: supply(t0 + t), max_s=6.0)
-        assert c.done and not c.faulted, c.events
-        errors.append(abs(math.degrees(plant.drive_angles()[0]) - tgt))
-    assert plant.time > 4.0
+    errors, t = random_supply_moves(rig_plant, NOMINAL, seed=7)
+    assert t > 4.0
     assert max(errors) < 4.33, errors
 
 
 def test_minimum_rotation_limit_exists():
     """Paper Fig. 21: below ~20 deg the loop loses its ability to adjust. The twin's limit lies
     between a few degrees and 40 deg, and small moves below it really fail."""
-    limit = minimum_rotation_limit(angles_deg=(4, 8, 16, 24, 32, 40))
+    limit = minimum_rotation_limit(rig_plant, predictor_params=NOMINAL, angles_deg=(4, 8, 16, 24, 32, 40))
     assert 8 < limit <= 40, limit
 
 
@@ -185,7 +177,7 @@ def test_arm_moves_joints_one_after_another_and_is_deterministic():
     err = np.degrees(np.abs(final - target))
     assert err.max() < 3.0, err
     arrivals = [e for e in c.events if "predicted" in e]
-    assert [a.split()[3] for a in arrivals] == ["base_yaw", "wrist_pitch"]
+    assert [a.split()[4] for a in arrivals] == ["base_yaw", "wrist_pitch"]
     final2, _, c2 = run_arm("one_after_another")
     np.testing.assert_array_equal(final, final2)
     assert c.events == c2.events

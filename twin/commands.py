@@ -96,6 +96,10 @@ def print_summary(summary: dict) -> None:
     print(f"{summary['scenario']}: {state} after {summary['duration_s']:.2f} s simulated")
     if summary.get("error"):
         print(f"  stopped: {summary['error']}")
+    if summary.get("refused"):
+        print(f"  refused, arm left braked: {summary['refused']}")
+    for event in summary.get("controller_events", []):
+        print(f"  controller: {event}")
     print(f"  {'joint':<16}{'target':>9}{'true':>9}{'predicted':>11}{'error':>9}")
     for joint, j in summary["joints"].items():
         cells = [j["target_deg"], j["true_final_deg"], j["predicted_final_deg"], j["error_deg"]]

@@ -30,7 +30,7 @@ def ids(model: mujoco.MjModel, kind: mujoco.mjtObj, names) -> np.ndarray:
 
 def warning_counts(data: mujoco.MjData) -> np.ndarray:
     """How often each MuJoCo warning has fired so far."""
-    return np.array([w.number for w in data.warning], dtype=np.int64)
+    return data.warning.number.astype(np.int64)
 
 
 def raise_on_new_warnings(data: mujoco.MjData, before: np.ndarray, when: str) -> None:

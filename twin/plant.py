@@ -91,11 +91,13 @@ class Plant:
         self.sensor_bias_pa = np.zeros(len(joints))
         # a valve stuck open in one direction (a fault): NaN where the valves obey
         self.stuck_direction = np.full(len(joints), np.nan)
+        self._any_stuck = False
         if keyframe is not None and mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_KEY, keyframe) >= 0:
             mujoco.mj_resetDataKeyframe(m, self.data, mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_KEY, keyframe))
         self._apply_brakes()
         mujoco.mj_forward(m, self.data)
         self._state_size = mujoco.mj_stateSize(m, mujoco.mjtState.mjSTATE_INTEGRATION)
+        self._warnings_seen = warning_counts(self.data)
         # views into MuJoCo's buffers, fetched once (each attribute access builds a new view)
         self._mujoco_arrays = (self.data.qpos, self.data.qvel, self.data.ctrl, m.tendon_frictionloss)
 
@@ -112,6 +114,11 @@ class Plant:
         self.commands[i, J.C_PV_SET_GAUGE_PA] = float(valve_set_gauge_pa)
         self.commands[i, J.C_BRAKE_RELEASE] = 1.0 if brake_release else 0.0
 
+    def stick_valve(self, joint: str, direction: float) -> None:
+        """A fault: the joint's valves stick open in `direction` (+1/-1), whatever is commanded."""
+        self.stuck_direction[self.joints.index(joint)] = float(np.sign(direction))
+        self._any_stuck = True
+
     def set_joint_params(self, joint: str, params: JointParams) -> None:
         """Change one joint's parameters mid-run (faults: a leak, a stuck valve, ...)."""
         i = self.joints.index(joint)
@@ -120,13 +127,13 @@ class Plant:
         self.model.tendon_damping[self.tendon_ids[i]] = params.viscous_nm_s
 
     # -- stepping -----------------------------------------------------------------------------
-    def step(self, n: int = 1) -> None:
-        """Advance n physics steps with the inputs held. SimulationError if MuJoCo warns."""
+    def step(self, n: int = 1, check_warnings: bool = True) -> None:
+        """Advance n physics steps with the inputs held. SimulationError if MuJoCo warns (a caller
+        that steps in many small pieces may pass check_warnings=False and call `check_warnings()`)."""
         m, d = self.model, self.data
-        before = warning_counts(d)
         commands = self.commands
-        stuck = ~np.isnan(self.stuck_direction)
-        if stuck.any():
+        if self._any_stuck:
+            stuck = ~np.isnan(self.stuck_direction)
             commands = commands.copy()
             commands[stuck, J.C_DIRECTION] = self.stuck_direction[stuck]
             commands[stuck, J.C_PV_SET_GAUGE_PA] = np.inf  # stuck fully open: the supply passes
@@ -137,7 +144,14 @@ class Plant:
             for _ in range(n):
                 pneumatic_step(*args)
                 mujoco.mj_step(m, d)
-        raise_on_new_warnings(d, before, "while stepping the plant")
+        if check_warnings:
+            self.check_warnings()
+
+    def check_warnings(self) -> None:
+        """SimulationError if MuJoCo warned since the last check (STYLE rule 7)."""
+        before = self._warnings_seen
+        self._warnings_seen = warning_counts(self.data)
+        raise_on_new_warnings(self.data, before, "while stepping the plant")
 
     def _apply_brakes(self) -> None:
         for row, x, t in zip(self.params, self.air, self.tendon_ids):
@@ -150,11 +164,7 @@ class Plant:
 
     def sensors(self) -> Sensors:
         """What the platform can measure. The true angles are not in here, by design."""
-        return Sensors(
-            time_s=self.time,
-            supply_pa=self.supply_pa,
-            valve_gauge_pa=self.air[:, J.S_PV] + self.sensor_bias_pa,
-        )
+        return Sensors(self.data.time, self.supply_pa, self.air[:, J.S_PV] + self.sensor_bias_pa)
 
     def drive_angles(self) -> np.ndarray:
         """True drive-coordinate angle of each joint, rad (for logging and tests, not the controller)."""
@@ -192,10 +202,12 @@ class Plant:
 
     def restore_state(self, state: PlantState) -> None:
         mujoco.mj_setState(self.model, self.data, state.mujoco_state, mujoco.mjtState.mjSTATE_INTEGRATION)
+        self._warnings_seen = warning_counts(self.data)
         self.air[:] = state.air
         self.commands[:] = state.commands
         self.supply_pa = state.supply_pa
         self.sensor_bias_pa[:] = state.sensor_bias_pa
         self.stuck_direction[:] = state.stuck_direction
+        self._any_stuck = bool((~np.isnan(self.stuck_direction)).any())
         self._apply_brakes()
         mujoco.mj_forward(self.model, self.data)

@@ -133,10 +133,12 @@ def run(
                 events(plant, t)
             plant.commands[:] = controller.tick(plant.sensors())
             if k % ticks_per_log == 0:
+                plant.check_warnings()
                 telemetry.append(t, sample(plant, controller))
-            plant.step(steps_per_tick)
+            plant.step(steps_per_tick, check_warnings=False)
             if k % ticks_per_flush == ticks_per_flush - 1:
                 flush()
+        plant.check_warnings()
         telemetry.append(plant.time, sample(plant, controller))
     finally:
         flush()

@@ -1,0 +1,141 @@
+"""The arm the controller believes in: Pinocchio built from the same MJCF as the plant (DESIGN, rule 3).
+
+Drive coordinates. Each joint's motor turns a fixed tendon `drive_<joint>` (assets/arm.xml):
+drive = C q, with C read from the tendons' joint coefficients in the MJCF (for the parallelogram,
+drive_elbow_pitch = shoulder_pitch + elbow_pitch). Power balance f·d(drive) = tau·dq gives the
+joint-space torque tau = C^T f, so the load torque each drive must hold is f = C^-T g(q), g from
+`pin.computeGeneralizedGravity`; for the parallelogram: f_elbow = G_elbow, f_shoulder =
+G_shoulder - G_elbow. The drive-space mass matrix is C^-T M(q) C^-1.
+
+No MuJoCo here: the tendons are read from the XML with xml.etree.
+"""
+
+from __future__ import annotations
+
+import os
+import tempfile
+import xml.etree.ElementTree as ET
+from pathlib import Path
+
+import numpy as np
+import pinocchio as pin
+
+import assets
+
+
+def _read_xml(path: Path) -> ET.Element:
+    """Parse an MJCF file, splicing in the children of every <include file=...> (relative paths)."""
+    root = ET.parse(path).getroot()
+
+    def splice(elem: ET.Element, base: Path) -> None:
+        for i, child in enumerate(list(elem)):
+            if child.tag == "include":
+                inc_path = base / child.attrib["file"]
+                inc_root = ET.parse(inc_path).getroot()
+                splice(inc_root, inc_path.parent)
+                elem.remove(child)
+                for k, sub in enumerate(list(inc_root)):
+                    elem.insert(i + k, sub)
+            else:
+                splice(child, base)
+
+    splice(root, path.parent)
+    return root
+
+
+def drive_coefficients(xml_path: str | Path, joints: tuple[str, ...]) -> dict[str, dict[str, float]]:
+    """{joint: {model joint name: coefficient}} of each joint's drive tendon `drive_<joint>`."""
+    root = _read_xml(Path(xml_path))
+    tendons = {t.attrib.get("name"): t for t in root.iter("fixed")}
+    out = {}
+    for j in joints:
+        name = assets.drive_tendon(j)
+        if name not in tendons:
+            raise ValueError(f"{xml_path}: no fixed tendon {name!r} (the drive of joint {j!r})")
+        out[j] = {e.attrib["joint"]: float(e.attrib.get("coef", "1")) for e in tendons[name].iter("joint")}
+    return out
+
+
+def _pinocchio_model(xml_path: Path, payload_kg: float | None) -> pin.Model:
+    if payload_kg is None:
+        return pin.buildModelFromMJCF(str(xml_path))
+    # the payload's mass as the scenario says: the same MJCF with <body name="payload"><inertial mass>
+    root = _read_xml(xml_path)
+    found = False
+    for body in root.iter("body"):
+        if body.attrib.get("name") == "payload":
+            inertial = body.find("inertial")
+            if inertial is not None:
+                # ~0 rather than 0: an MJCF body needs mass (same convention as the tests' variant)
+                inertial.set("mass", repr(max(float(payload_kg), 1e-9)))
+                found = True
+    if not found:
+        raise ValueError(f"{xml_path}: no body 'payload' with an <inertial> to set payload_kg = {payload_kg:g}")
+    fd, tmp = tempfile.mkstemp(suffix=".xml", dir=str(xml_path.parent))
+    try:
+        with os.fdopen(fd, "wb") as f:
+            ET.ElementTree(root).write(f)
+        return pin.buildModelFromMJCF(tmp)
+    finally:
+        os.unlink(tmp)
+
+
+class ArmModel:
+    """Gravity load and inertia of each drive at a configuration given in drive angles.
+
+    `joints` are the driven joints, in the controller's order (default: those of assets.JOINTS
+    present in the model). Constant model, mutable data (Pinocchio's own split).
+    """
+
+    def __init__(self, xml_path: str | Path = assets.ARM_XML, joints: tuple[str, ...] | None = None, payload_kg: float | None = None):
+        xml_path = Path(xml_path)
+        self.xml_path = xml_path
+        self.model = _pinocchio_model(xml_path, payload_kg)
+        self.data = self.model.createData()
+        m = self.model
+        names = [m.names[i] for i in range(1, m.njoints)]
+        if joints is None:
+            joints = tuple(j for j in assets.JOINTS if j in names)
+        self.joints = tuple(joints)
+        n = len(self.joints)
+        if m.nq != m.nv or m.nv != n:
+            raise ValueError(f"{xml_path}: {m.nv} degrees of freedom but {n} drives {self.joints}: the drive map must be square")
+        coefs = drive_coefficients(xml_path, self.joints)
+        C = np.zeros((n, m.nv))
+        for i, j in enumerate(self.joints):
+            for name, c in coefs[j].items():
+                if not m.existJointName(name):
+                    raise ValueError(f"{xml_path}: tendon drive_{j} names joint {name!r}, which the model lacks")
+                C[i, m.joints[m.getJointId(name)].idx_v] = c
+        if abs(np.linalg.det(C)) < 1e-9:
+            raise ValueError(f"{xml_path}: the drive tendons {self.joints} do not determine the joint angles")
+        self.C = C  # drive = C q
+        self.C_inv = np.linalg.inv(C)  # q = C^-1 drive
+        self.C_inv_T = np.ascontiguousarray(self.C_inv.T)  # f = C^-T tau
+        self._q = np.zeros(m.nq)
+        lo, hi = m.lowerPositionLimit, m.upperPositionLimit
+        self.joint_lower = np.array(lo, dtype=float)
+        self.joint_upper = np.array(hi, dtype=float)
+
+    def joint_positions(self, drive_angles: np.ndarray) -> np.ndarray:
+        """Pinocchio q (rad) from the drive angles (rad)."""
+        return self.C_inv @ np.asarray(drive_angles, dtype=float)
+
+    def load_torques(self, drive_angles: np.ndarray) -> np.ndarray:
+        """Load torque on each drive (N·m) from gravity, payload included, f = C^-T g(q).
+
+        Positive when the load pulls the drive negative (it adds to the torque the drive must make,
+        `single_joint_rates`'s `load_torque_nm`)."""
+        g = pin.computeGeneralizedGravity(self.model, self.data, self.C_inv @ drive_angles)
+        return self.C_inv_T @ g
+
+    def drive_inertias(self, drive_angles: np.ndarray) -> np.ndarray:
+        """Diagonal of the drive-space mass matrix C^-T M(q) C^-1 (kg·m²), links only (no rotor)."""
+        M = pin.crba(self.model, self.data, self.C_inv @ np.asarray(drive_angles, dtype=float))
+        M = np.triu(M) + np.triu(M, 1).T  # crba fills the upper triangle
+        return np.diag(self.C_inv_T @ M @ self.C_inv).copy()
+
+    def joints_within_limits(self, drive_angles: np.ndarray) -> np.ndarray:
+        """Joint positions q (rad) for the drive angles and whether each joint is inside its range."""
+        q = self.joint_positions(drive_angles)
+        return q, (q >= self.joint_lower - 1e-9) & (q <= self.joint_upper + 1e-9)

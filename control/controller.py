@@ -1,0 +1,313 @@
+"""The operator's platform: predictor-feedback control of every joint (paper Sec. IV, Fig. 17).
+
+`ArmController` implements twin/sim.py's Controller protocol: each control period it is handed
+the sensors the real platform has (time, supply pressure, each proportional valve's pressure) and
+returns the commands for the valves and brakes. It never sees the true joint angles: it is told
+the start pose once (the operator homes the arm) and from then on predicts.
+
+Per tick: fault checks -> plan sequencing (which joints move toward which targets) -> PID on the
+predicted angles (control/pid.py) -> the predictor advances over the period with the commands
+just issued (control/predictor.py), the load torques from Pinocchio at the predicted
+configuration (control/arm_model.py, one gravity call for all joints, only while something moves).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+
+import numpy as np
+
+import assets
+from control.arm_model import ArmModel
+from control.open_loop import open_loop_duration
+from control.pid import ARRIVED, CLOSED, IDLE, OPEN, TIMED_OUT, PidGains, control_step, gains_row
+from control.predictor import initial_rigid_state, initial_valve_state, predict_step
+from pneumatics import AIR, Gas, JointParams, load_joint_params, params_row
+from pneumatics import params as P
+from pneumatics.joint import C_BRAKE_RELEASE, N_COMMAND, R_OMEGA, R_THETA
+from pneumatics.motor import displacement_per_rad
+
+MODES = ("closed_loop", "open_loop")
+SEQUENCES = ("one_after_another", "together")
+
+
+class MotionRefused(ValueError):
+    """A requested motion the controller will not make (outside the limits, not a number, or
+    smaller than the minimum rotation). The arm is left braked."""
+
+
+class ArmController:
+    """Predictor-feedback controller of the arm's joints (or the wrist rig's one joint).
+
+    start_angles_rad: the start pose in drive angles, {joint: rad} or a sequence in `joints` order.
+    xml_path: the MJCF Pinocchio reads (assets.ARM_XML for the arm and its scene, assets.WRIST_RIG_XML).
+    predictor_params: the predictor's JointParams per joint (default: the parameter files).
+    mode: "closed_loop" (PID on the prediction) or "open_loop" (valve open for a nominal time).
+    min_rotation_rad: smaller requested rotations are refused (paper Sec. IV: 20 deg).
+    move_timeout_s: a move not finished by then is stopped, braked and reported as a fault.
+    open_loop_set_point_pa: the open loop's proportional-valve set point (default: full opening, 1/k_u).
+    """
+
+    def __init__(
+        self,
+        start_angles_rad: Mapping[str, float] | Sequence[float],
+        xml_path: str | Path = assets.ARM_XML,
+        joints: tuple[str, ...] | None = None,
+        predictor_params: Mapping[str, JointParams] | None = None,
+        gains: PidGains = PidGains(),
+        mode: str = "closed_loop",
+        min_rotation_rad: float = math.radians(20.0),
+        move_timeout_s: float = 20.0,
+        open_loop_set_point_pa: float | None = None,
+        payload_kg: float | None = None,
+        control_period_s: float = 1e-3,
+        gas: Gas = AIR,
+    ):
+        if mode not in MODES:
+            raise ValueError(f"controller mode = {mode!r}; allowed: {', '.join(MODES)}")
+        self.arm = ArmModel(xml_path, joints, payload_kg)
+        self.joints = self.arm.joints
+        n = len(self.joints)
+        params = dict(predictor_params or {})
+        for j in self.joints:
+            if j not in params:
+                params[j] = load_joint_params(assets.joint_param_path(j))
+        self.joint_params = {j: params[j] for j in self.joints}
+        self.params = np.vstack([params_row(self.joint_params[j], gas) for j in self.joints])
+        self.gas = gas
+        self.mode_name = mode
+        self.gains = gains
+        self._g = gains_row(gains)
+        self.min_rotation_rad = float(min_rotation_rad)
+        self.move_timeout_s = float(move_timeout_s)
+        self.dt = float(control_period_s)
+        # the proportional valve's largest set point, gauge Pa: fully open, it passes the supply
+        # (updated every tick from the measured supply; 1/k_u, full opening, until then)
+        self.pv_full = 1.0 / self.params[:, P.K_U]
+        self.open_loop_set_point_pa = open_loop_set_point_pa
+        self.rotor_inertia = self.params[:, P.RATIO] ** 2 * self.params[:, P.ROTOR_J]
+        # joint torque per gauge Pa of valve pressure at stall: mean displacement x ratio x efficiency
+        self.torque_per_pa = np.array([
+            displacement_per_rad(pr.stator_radius_m, pr.rotor_radius_m, pr.vane_length_m, pr.n_vanes) * pr.ratio * pr.efficiency_forward
+            for pr in self.joint_params.values()
+        ])
+        self.breakaway_pa = np.zeros((n, 2))
+
+        start = self._as_array(start_angles_rad, "start pose")
+        bad = [f"{j} = {v!r}" for j, v in zip(self.joints, start) if not math.isfinite(v)]
+        if bad:
+            raise MotionRefused(f"start pose: {', '.join(bad)} is not a number; allowed: a finite drive angle in rad")
+        atm = gas.p_atm_pa
+        self.y = np.vstack([initial_rigid_state(a, atm) for a in start])
+        self.x = np.vstack([initial_valve_state(atm) for _ in start])
+        self.commands = np.zeros((n, N_COMMAND))
+        self.mode = np.zeros(n, dtype=np.int64)
+        self.target = start.copy()
+        self.integral = np.zeros(n)
+        self.elapsed = np.zeros(n)
+        self.timeout = np.full(n, self.move_timeout_s)
+        self.open_time = np.zeros(n)
+        self.open_set_point = np.zeros(n)
+        self.retries = np.zeros(n)
+        self.outcome = np.zeros(n, dtype=np.int64)
+        self.load = self.arm.load_torques(start)
+        self.inertia = self.arm.drive_inertias(start) + self.rotor_inertia
+        self._plan: list[tuple[np.ndarray, float]] = []  # (targets with NaN = stays, dwell_s)
+        self._step_joints = np.zeros(n, dtype=bool)
+        self._stepping = False  # == self._step_joints.any(), kept as a bool for the tick's speed
+        self._brake_release_pa = float(np.max(self.params[:, P.BRAKE_RELEASE_PA]))
+        self._dwell_left = 0.0
+        self._last_supply = atm
+        self.faulted = False
+        self.events: list[str] = []  # what happened, for the operator (refusals, arrivals, faults)
+        self.time_s = 0.0
+
+    # -- the operator's requests ------------------------------------------------------------
+    def _as_array(self, angles, what: str) -> np.ndarray:
+        if isinstance(angles, Mapping):
+            unknown = [k for k in angles if k not in self.joints]
+            if unknown:
+                raise MotionRefused(f"{what}: unknown joint {unknown[0]!r}; allowed: {', '.join(self.joints)}")
+            return np.array([float(angles.get(j, np.nan)) for j in self.joints])
+        a = np.asarray(angles, dtype=float)
+        if a.shape != (len(self.joints),):
+            raise MotionRefused(f"{what}: {a.shape[0] if a.ndim else 0} angles for the joints {self.joints}")
+        return a.copy()
+
+    def set_targets(self, targets: Sequence[Mapping[str, float]] | Mapping[str, float], sequence: str = "one_after_another", dwell_s: float | Sequence[float] = 0.0) -> None:
+        """Plan a motion: a sequence of joint-space targets ({joint: drive angle rad}, joints not
+        named stay), each reached with its joints moved one after another (base to tool, as linemen
+        operate) or together, then held `dwell_s`. Replaces any plan; a move under way is stopped.
+
+        MotionRefused (a ValueError) for a NaN, a target outside a joint's range, or a rotation
+        smaller than the minimum; the arm is then braked and the plan empty.
+        """
+        if sequence not in SEQUENCES:
+            raise ValueError(f"sequence = {sequence!r}; allowed: {', '.join(SEQUENCES)}")
+        if isinstance(targets, Mapping):
+            targets = [targets]
+        dwells = [float(dwell_s)] * len(targets) if np.isscalar(dwell_s) else [float(d) for d in dwell_s]
+        self._stop_all()
+        try:
+            plan = self._validated_plan(targets, dwells, sequence)
+        except MotionRefused as e:
+            self.events.append(f"t = {self.time_s:.3f} s: refused: {e}")
+            raise
+        self._plan = plan
+
+    def _validated_plan(self, targets, dwells, sequence) -> list[tuple[np.ndarray, float]]:
+        here = self.y[:, R_THETA].copy()
+        plan = []
+        lo, hi = self.arm.joint_lower, self.arm.joint_upper
+        for k, (tgt, dwell) in enumerate(zip(targets, dwells)):
+            raw = self._as_array(tgt, f"target {k + 1}")
+            named = [j for j in tgt] if isinstance(tgt, Mapping) else list(self.joints)
+            for j in named:
+                v = raw[self.joints.index(j)]
+                if not math.isfinite(v):
+                    raise MotionRefused(f"target {k + 1}: {j} = {v!r} is not a number; allowed: a finite drive angle in rad")
+            full = np.where(np.isnan(raw), here, raw)
+            q, ok = self.arm.joints_within_limits(full)
+            if not ok.all():
+                i = int(np.flatnonzero(~ok)[0])
+                name = self.arm.model.names[i + 1]
+                raise MotionRefused(
+                    f"target {k + 1}: joint {name} would be at {math.degrees(q[i]):.2f} deg; allowed: "
+                    f"{math.degrees(lo[i]):.2f}..{math.degrees(hi[i]):.2f} deg (drive angles {np.round(np.degrees(full), 2).tolist()} deg)"
+                )
+            delta = full - here
+            tol = self.gains.tolerance_rad
+            small = (np.abs(delta) > tol) & (np.abs(delta) < self.min_rotation_rad)
+            if small.any():
+                i = int(np.flatnonzero(small)[0])
+                raise MotionRefused(
+                    f"target {k + 1}: {self.joints[i]} rotation {math.degrees(delta[i]):.2f} deg (to {math.degrees(full[i]):.2f} deg) is below "
+                    f"the minimum rotation; allowed: 0 or |rotation| >= {math.degrees(self.min_rotation_rad):.1f} deg; jog it by hand"
+                )
+            moving = np.abs(delta) > tol
+            if sequence == "together":
+                plan.append((np.where(moving, full, np.nan), dwell))
+            else:
+                idx = np.flatnonzero(moving)
+                for m, i in enumerate(idx):
+                    step = np.full(len(self.joints), np.nan)
+                    step[i] = full[i]
+                    plan.append((step, dwell if m == len(idx) - 1 else 0.0))
+                if len(idx) == 0:
+                    plan.append((np.full(len(self.joints), np.nan), dwell))
+            here = full
+        return plan
+
+    def _stop_all(self) -> None:
+        self.mode[:] = IDLE
+        self._plan = []
+        self._step_joints[:] = False
+        self._stepping = False
+        self._dwell_left = 0.0
+        self.commands[:] = 0.0  # valves shut, brakes engaged (spring-applied)
+
+    # -- the control period ------------------------------------------------------------------
+    def tick(self, sensors) -> np.ndarray:
+        """Commands (n, 3) for the coming control period from the platform's sensors
+        (`time_s`, `supply_pa` absolute, `valve_gauge_pa` per joint). The returned array is reused."""
+        self.time_s = t = float(sensors.time_s)
+        supply = float(sensors.supply_pa)
+        pv = np.asarray(sensors.valve_gauge_pa, dtype=float)
+        if not math.isfinite(supply + pv.sum()):  # a NaN or inf anywhere propagates into the sum
+            self._fault(f"sensor reading not a number (supply {supply!r}, valves {pv.tolist()})")
+            supply = self._last_supply
+            pv = np.where(np.isfinite(pv), pv, 0.0)
+        else:
+            self._last_supply = supply
+        self.pv_full[:] = max(supply - self.gas.p_atm_pa, 0.0)
+        if (self._plan or self._stepping) and not self.faulted:
+            gauge = supply - self.gas.p_atm_pa
+            if gauge < self._brake_release_pa:
+                self._fault(f"supply {gauge / 1e6:.3f} MPa gauge is below the brake release pressure {self._brake_release_pa / 1e6:.3f} MPa")
+        if not self.faulted:
+            self._sequence(supply)
+        # the valve pressure that just overcomes friction and the predicted load, turning + and -
+        coulomb = self.params[:, P.COULOMB]
+        self.breakaway_pa[:, 0] = np.maximum(coulomb + self.load, 0.0) / self.torque_per_pa
+        self.breakaway_pa[:, 1] = np.maximum(coulomb - self.load, 0.0) / self.torque_per_pa
+        moving, timed_out = control_step(self.mode, self.target, self.integral, self.elapsed, self.timeout, self.open_time, self.open_set_point,
+                                         self.retries, self.y, self.x, self.pv_full, self.breakaway_pa, self._g, self.dt, self.commands, self.outcome)
+        if self.faulted:
+            self.commands[:] = 0.0
+        if moving:
+            self.load = self.arm.load_torques(self.y[:, R_THETA])
+            if timed_out >= 0:
+                i = timed_out
+                self._fault(f"{self.joints[i]} did not reach {math.degrees(self.target[i]):.2f} deg within {self.timeout[i]:g} s "
+                            f"(predicted {math.degrees(self.y[i, R_THETA]):.2f} deg)")
+                self.commands[:] = 0.0
+        predict_step(self.y, self.x, self.commands, pv, supply, self.load, self.inertia, self.params, self.dt)
+        return self.commands
+
+    def _fault(self, why: str) -> None:
+        if not self.faulted:
+            self.events.append(f"t = {self.time_s:.3f} s: fault, all brakes engaged: {why}")
+        self.faulted = True
+        self._stop_all()
+
+    def _sequence(self, supply_pa: float) -> None:
+        """Start the next step of the plan when the current one is done (and its dwell is over)."""
+        if self._stepping:
+            if (self.mode[self._step_joints] != IDLE).any():
+                return
+            for i in np.flatnonzero(self._step_joints):
+                self.events.append(f"t = {self.time_s:.3f} s: {self.joints[i]} at {math.degrees(self.y[i, R_THETA]):.2f} deg (predicted), "
+                                   f"target {math.degrees(self.target[i]):.2f} deg")
+            self._step_joints[:] = False
+            self._stepping = False
+        if self._dwell_left > 0.0:
+            self._dwell_left -= self.dt
+            return
+        if not self._plan:
+            return
+        step, dwell = self._plan.pop(0)
+        self._dwell_left = dwell
+        moving = ~np.isnan(step)
+        if not moving.any():
+            return
+        theta = self.y[:, R_THETA]
+        self.inertia = self.arm.drive_inertias(theta) + self.rotor_inertia
+        self.load = self.arm.load_torques(theta)
+        for i in np.flatnonzero(moving):
+            self.target[i] = step[i]
+            self.integral[i] = 0.0
+            self.elapsed[i] = 0.0
+            self.retries[i] = 0.0
+            self.timeout[i] = self.move_timeout_s
+            if self.mode_name == "open_loop":
+                sp = self.pv_full[i] if self.open_loop_set_point_pa is None else self.open_loop_set_point_pa
+                self.open_time[i] = open_loop_duration(self.params[i], theta[i], step[i], sp, supply_pa, self.load[i], self.inertia[i], self.dt)
+                self.open_set_point[i] = math.copysign(sp, step[i] - theta[i])
+                self.mode[i] = OPEN
+            else:
+                self.mode[i] = CLOSED
+        self._step_joints = moving
+        self._stepping = True
+
+    # -- what the controller believes (Controller protocol) ------------------------------------
+    def predicted_angles(self) -> np.ndarray:
+        """Predicted drive angles, rad."""
+        return self.y[:, R_THETA].copy()
+
+    def predicted_speeds(self) -> np.ndarray:
+        return self.y[:, R_OMEGA].copy()
+
+    def target_angles(self) -> np.ndarray:
+        """Current target drive angles, rad (the predicted start pose for joints never moved)."""
+        return self.target.copy()
+
+    @property
+    def done(self) -> bool:
+        """True when the plan is finished (or abandoned on a fault) and every joint is braked."""
+        return not self._plan and not self._stepping and self._dwell_left <= 0.0 and bool((self.mode == IDLE).all())
+
+    @property
+    def brakes_released(self) -> np.ndarray:
+        return self.commands[:, C_BRAKE_RELEASE] > 0.5

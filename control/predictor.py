@@ -1,0 +1,89 @@
+"""The angle predictor (paper Sec. III-IV, eq. 7 with the hose loss of eq. 5), one control tick at a time.
+
+Per joint the predictor integrates the one-joint model `pneumatics.joint.single_joint_rk4` (RK4,
+the paper's integrator) over the control period from what the operator's platform really has:
+
+* the commands the controller issued, run through the predictor's own copy of the valves and the
+  brake (`advance_discrete`): the direction valve's switching delay and the brake's engagement are
+  what the predictor believes from its command history;
+* the measured supply pressure;
+* the proportional valve's pressure sensor P_v: the motor's input pressure and, through
+  u = k_u P_v, the valve's opening (paper Sec. IV; `pressure_rates` does both);
+* the load torque on the joint (gravity and payload at the predicted configuration, from Pinocchio,
+  control/arm_model.py) and the joint-side inertia.
+
+It calls the same functions as the plant; it differs from the plant only by its JointParams.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from pneumatics import params as P
+from pneumatics._jit import njit
+from pneumatics.joint import (
+    N_RIGID,
+    R_OMEGA,
+    R_PA_MOTOR,
+    R_PA_VALVE,
+    R_PB_MOTOR,
+    R_PB_VALVE,
+    R_THETA,
+    S_BRAKE,
+    S_DIR,
+    advance_discrete,
+    initial_state,
+    single_joint_rk4,
+)
+
+
+def initial_rigid_state(theta_rad: float, p_atm_pa: float) -> np.ndarray:
+    """One-joint state y6 at rest at `theta_rad`, air at atmosphere."""
+    y = np.zeros(N_RIGID)
+    y[R_THETA] = theta_rad
+    y[R_PA_VALVE] = y[R_PA_MOTOR] = y[R_PB_VALVE] = y[R_PB_MOTOR] = p_atm_pa
+    return y
+
+
+@njit
+def predictor_at_rest(y: np.ndarray, x: np.ndarray, command: np.ndarray, p: np.ndarray) -> bool:
+    """True when nothing can change the joint's prediction this tick: standing still, brake fully
+    engaged and commanded so, no direction valve open or pending, all air at atmosphere."""
+    atm = p[P.GAS_P_ATM]
+    return (
+        y[R_OMEGA] == 0.0
+        and x[S_DIR] == 0.0
+        and command[0] == 0.0
+        and command[2] == 0.0
+        and x[S_BRAKE] >= 0.999999
+        and abs(y[R_PA_VALVE] - atm) < 1e-6
+        and abs(y[R_PA_MOTOR] - atm) < 1e-6
+        and abs(y[R_PB_VALVE] - atm) < 1e-6
+        and abs(y[R_PB_MOTOR] - atm) < 1e-6
+    )
+
+
+@njit
+def predict_step(
+    y: np.ndarray,  # (n, 6) one-joint states, advanced in place
+    x: np.ndarray,  # (n, 9) the predictor's valve/brake states (pneumatics.joint S_* columns), in place
+    commands: np.ndarray,  # (n, 3) the commands just issued, held over dt
+    valve_gauge_pa: np.ndarray,  # (n,) measured proportional-valve pressures, gauge Pa
+    supply_pa: float,  # measured supply, absolute Pa
+    load_nm: np.ndarray,  # (n,) load torque on each drive, N·m
+    inertia_kg_m2: np.ndarray,  # (n,) joint-side inertia incl. reflected rotor
+    params: np.ndarray,  # (n, N_COLUMNS) the predictor's parameter rows
+    dt_s: float,
+) -> None:
+    """Advance every joint's prediction over one control period (in place)."""
+    for j in range(y.shape[0]):
+        p = params[j]
+        if predictor_at_rest(y[j], x[j], commands[j], p):
+            continue
+        advance_discrete(x[j], commands[j], supply_pa, dt_s, p)
+        single_joint_rk4(y[j], x[j, S_DIR], valve_gauge_pa[j], supply_pa, load_nm[j], inertia_kg_m2[j], x[j, S_BRAKE], dt_s, p)
+
+
+def initial_valve_state(p_atm_pa: float) -> np.ndarray:
+    """Valve/brake state row of a joint at rest with its brake engaged."""
+    return initial_state(p_atm_pa, brake_engaged=True)
