@@ -85,7 +85,7 @@ def timed_run(seconds: float, out_dir: Path | None, spent: dict | None = None) -
     return time.perf_counter() - t0
 
 
-def bench_logging(seconds: float = 5.0, rounds: int = 3) -> dict:
+def bench_logging(seconds: float = 20.0, rounds: int = 2) -> dict:
     """Run time with both logs on as a ratio to the same run with logging off."""
     timed_run(0.2, None)  # warm-up: numba cache, imports
     with tempfile.TemporaryDirectory() as tmp:

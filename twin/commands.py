@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import sys
 from pathlib import Path
@@ -140,7 +141,8 @@ def cmd_paper(args) -> int:
 def cmd_bench(args) -> int:
     from benchmarks.all import run_all
 
-    results = run_all(quick=args.quick)
+    with contextlib.redirect_stdout(sys.stderr):  # the benchmarks' own chatter stays off the JSON
+        results = run_all(quick=args.quick)
     if args.json:
         json.dump(results, sys.stdout, indent=2)
         print()

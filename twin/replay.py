@@ -26,6 +26,10 @@ class LoggedRun:
     def __len__(self) -> int:
         return len(self._arrays["time_s"])
 
+    @property
+    def time_s(self) -> np.ndarray:
+        return self._arrays["time_s"]
+
     def arrays(self, start: int = 0) -> dict[str, np.ndarray]:
         return {k: v[start:] for k, v in self._arrays.items()}
 

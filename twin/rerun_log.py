@@ -178,6 +178,9 @@ class RerunRecorder:
         log_static_geometry(self.rec, plant_model)
         self._log_series_styles()
         self.camera_fps = float(camera_fps)
+        self.batch_s = 2.0  # simulated seconds per bulk send
+        self._pending: int | None = None  # first telemetry sample not yet sent
+        self._telemetry = None
         self._camera = None
         self._next_frame_t = 0.0
         self._closed = False
@@ -205,7 +208,16 @@ class RerunRecorder:
         self.rec.log("brush/force_n", rr.SeriesLines(names=["brush force"]), static=True)
 
     def write(self, telemetry, start: int) -> None:
-        """Send telemetry samples `start`.. in bulk."""
+        """Queue telemetry samples `start`..; they are sent in bulk once `batch_s` of simulated
+        time has gathered (fewer, larger columns: rerun's cost is per call) and at close."""
+        if self._pending is None:
+            self._pending = start
+        self._telemetry = telemetry
+        if len(telemetry) > self._pending and telemetry.time_s[-1] - telemetry.time_s[self._pending] >= self.batch_s:
+            self._send(telemetry, self._pending)
+            self._pending = None
+
+    def _send(self, telemetry, start: int) -> None:
         import rerun as rr
 
         a = telemetry.arrays(start)
@@ -269,6 +281,8 @@ class RerunRecorder:
         if self._closed:
             return
         self._closed = True
+        if self._pending is not None:
+            self._send(self._telemetry, self._pending)
         if self._camera is not None:
             self._camera.close()
         self.rec.flush()
