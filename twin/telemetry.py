@@ -6,8 +6,6 @@ columns in bulk. Names carry units; angles in rad, pressures absolute Pa unless 
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
-
 import numpy as np
 
 # signal name -> shape of one sample, given n joints and b bodies ("n", "b" are placeholders)
@@ -28,29 +26,40 @@ SIGNALS: dict[str, tuple] = {
 }
 
 
-@dataclass
 class Telemetry:
-    """Growable column buffers for one run."""
+    """Column buffers for one run: one preallocated float64 array per signal, doubled when full,
+    so a long run holds its record at 8 bytes per value and nothing more."""
 
-    joints: tuple[str, ...]
-    bodies: tuple[str, ...]
-    time_s: list = field(default_factory=list)
-    columns: dict[str, list] = field(default_factory=dict)
+    def __init__(self, joints: tuple[str, ...], bodies: tuple[str, ...], capacity: int = 1024):
+        self.joints, self.bodies = tuple(joints), tuple(bodies)
+        n, b = len(self.joints), len(self.bodies)
+        self._dims = {name: tuple(n if d == "n" else b if d == "b" else d for d in shape) for name, shape in SIGNALS.items()}
+        self._n = 0
+        self._time = np.empty(capacity)
+        self._cols = {name: np.empty((capacity,) + dims) for name, dims in self._dims.items()}
 
     def append(self, time_s: float, sample: dict[str, np.ndarray]) -> None:
-        self.time_s.append(float(time_s))
-        for name in SIGNALS:
-            self.columns.setdefault(name, []).append(np.asarray(sample[name], dtype=np.float64).copy())
+        if self._n == len(self._time):
+            self._time = np.resize(self._time, 2 * self._n)
+            self._cols = {k: np.concatenate([v, np.empty_like(v)]) for k, v in self._cols.items()}
+        self._time[self._n] = time_s
+        for name, col in self._cols.items():
+            col[self._n] = sample[name]
+        self._n += 1
 
     def __len__(self) -> int:
-        return len(self.time_s)
+        return self._n
+
+    @property
+    def time_s(self) -> np.ndarray:
+        """Sample times so far (a read-only view)."""
+        v = self._time[: self._n]
+        v.flags.writeable = False
+        return v
 
     def arrays(self, start: int = 0) -> dict[str, np.ndarray]:
-        """Columns from sample `start` on as arrays, with "time_s" among them."""
-        out = {"time_s": np.asarray(self.time_s[start:], dtype=np.float64)}
-        n, b = len(self.joints), len(self.bodies)
-        for name, shape in SIGNALS.items():
-            dims = tuple(n if s == "n" else b if s == "b" else s for s in shape)
-            rows = self.columns.get(name, [])[start:]
-            out[name] = np.asarray(rows, dtype=np.float64).reshape((len(rows),) + dims)
+        """Columns from sample `start` on as arrays (copies), with "time_s" among them."""
+        out = {"time_s": self._time[start : self._n].copy()}
+        for name, col in self._cols.items():
+            out[name] = col[start : self._n].copy()
         return out
