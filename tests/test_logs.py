@@ -48,12 +48,12 @@ class Predicting:
         return np.array([0.0, 0.1, -0.2, 1.0, np.nan])
 
 
-def logged_run(tmp_path: Path, seconds: float, mcap=True, rrd=True):
+def logged_run(tmp_path: Path, seconds: float, mcap=True, rrd=True, background=True):
     plant = Plant(assets.SCENE_XML)
     plant.set_supply(SUPPLY_PA)
     recorders = []
     if mcap:
-        recorders.append(McapRecorder(tmp_path / "run.mcap", plant.model, plant.joints, META))
+        recorders.append(McapRecorder(tmp_path / "run.mcap", plant.model, plant.joints, META, background=background))
     if rrd:
         recorders.append(RerunRecorder(tmp_path / "run.rrd", plant.model, plant.joints, META))
     try:
@@ -289,8 +289,44 @@ def test_body_poses_place_every_geom_as_mujoco_does(logged):
 
 
 def test_mcap_is_deterministic(tmp_path):
-    """Same run, same metadata: byte-identical MCAP files (DESIGN rule 5)."""
-    (tmp_path / "a").mkdir(), (tmp_path / "b").mkdir()
+    """Same run, same metadata: byte-identical MCAP files (DESIGN rule 5), whether the writer
+    process or the run's own process encodes them."""
+    (tmp_path / "a").mkdir(), (tmp_path / "b").mkdir(), (tmp_path / "c").mkdir()
     logged_run(tmp_path / "a", 0.5, rrd=False)
     logged_run(tmp_path / "b", 0.5, rrd=False)
-    assert (tmp_path / "a" / "run.mcap").read_bytes() == (tmp_path / "b" / "run.mcap").read_bytes()
+    logged_run(tmp_path / "c", 0.5, rrd=False, background=False)
+    a = (tmp_path / "a" / "run.mcap").read_bytes()
+    assert a == (tmp_path / "b" / "run.mcap").read_bytes() == (tmp_path / "c" / "run.mcap").read_bytes()
+
+
+def test_a_failing_mcap_writer_is_a_log_error(tmp_path):
+    """The writer process's failure reaches the run as a LogError naming the file."""
+    plant = Plant(assets.SCENE_XML)
+    rec = McapRecorder(tmp_path / "run.mcap", plant.model, plant.joints, META)
+    rec._proc.kill()  # the writer dies under the run
+    rec._proc.wait()
+    telemetry = run(plant, Predicting(plant.joints), 0.1)
+    with pytest.raises(LogError, match="run.mcap: the MCAP writer failed"):
+        for _ in range(50):  # the pipe may take a few writes to report that nobody reads it
+            rec.write(telemetry, 0)
+    rec.close()  # nothing more to do, no second error
+
+
+def test_telemetry_blocks_give_back_what_was_appended():
+    from twin.telemetry import SIGNALS, Telemetry
+
+    joints, bodies = ("a", "b"), ("x", "y", "z")
+    tel = Telemetry(joints, bodies, block=3)
+    rng = np.random.default_rng(1)
+    shape = {"n": 2, "b": 3}
+    samples = [{k: rng.normal(size=tuple(shape.get(d, d) for d in dims)) for k, dims in SIGNALS.items()} for _ in range(10)]
+    for i, s in enumerate(samples):
+        tel.append(0.1 * i, s)
+    assert len(tel) == 10 and tel.time_at(-1) == pytest.approx(0.9) and tel.time_at(4) == pytest.approx(0.4)
+    for start in (0, 2, 3, 7, 10):
+        a = tel.arrays(start)
+        np.testing.assert_array_equal(a["time_s"], 0.1 * np.arange(start, 10))
+        for k in SIGNALS:
+            np.testing.assert_array_equal(a[k], np.array([s[k] for s in samples[start:]]).reshape((10 - start,) + a[k].shape[1:]))
+    with pytest.raises(IndexError):
+        tel.time_at(10)

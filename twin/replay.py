@@ -30,6 +30,9 @@ class LoggedRun:
     def time_s(self) -> np.ndarray:
         return self._arrays["time_s"]
 
+    def time_at(self, i: int) -> float:
+        return float(self._arrays["time_s"][i])
+
     def arrays(self, start: int = 0) -> dict[str, np.ndarray]:
         return {k: v[start:] for k, v in self._arrays.items()}
 

@@ -178,7 +178,7 @@ class RerunRecorder:
         log_static_geometry(self.rec, plant_model)
         self._log_series_styles()
         self.camera_fps = float(camera_fps)
-        self.batch_s = 2.0  # simulated seconds per bulk send
+        self.batch_s = 5.0  # simulated seconds per bulk send
         self._pending: int | None = None  # first telemetry sample not yet sent
         self._telemetry = None
         self._camera = None
@@ -213,7 +213,7 @@ class RerunRecorder:
         if self._pending is None:
             self._pending = start
         self._telemetry = telemetry
-        if len(telemetry) > self._pending and telemetry.time_s[-1] - telemetry.time_s[self._pending] >= self.batch_s:
+        if len(telemetry) > self._pending and telemetry.time_at(-1) - telemetry.time_at(self._pending) >= self.batch_s:
             self._send(telemetry, self._pending)
             self._pending = None
 
