@@ -42,6 +42,20 @@ JOINT_FIELDS = ("pressure_a_pa", "pressure_b_pa", "valve_gauge_pa", "direction",
 ANGLE_CHANNELS = {"true_angle_rad": "/joint_states/true", "predicted_angle_rad": "/joint_states/predicted", "target_angle_rad": "/joint_states/target"}
 
 
+JOINT_JSON = "{" + ",".join(f'"{f}":%r' for f in (*JOINT_FIELDS, "predicted_minus_true_rad")) + "}"
+ARM_JSON = '{"time_s":%r,"supply_pa":%r,"brush_force_n":%r}'
+
+
+def _json_object(template: str, values: list[float]) -> bytes:
+    """One JSON object of floats by a %r template: Python's float repr is JSON's number (and reads
+    back bit-exact); NaN and infinities, which JSON lacks, become null (read back as NaN).
+    Templated rather than json.dumps of a dict: this runs several times a sample."""
+    text = template % tuple(values)
+    if "nan" in text or "inf" in text:  # no field name holds either
+        text = template.replace("%r", "%s") % tuple(repr(v) if math.isfinite(v) else "null" for v in values)
+    return text.encode()
+
+
 class LogError(UserError):
     """An MCAP file cannot be written, or is not a readable log of this project."""
 
@@ -116,8 +130,10 @@ class McapWriter:
             return
         add = self._writer.add_message
         JointStates, FrameTransforms = self._JointStates, self._FrameTransforms
-        lists = {k: v.tolist() for k, v in a.items() if k not in ("body_pos_m", "body_quat_wxyz")}
-        err = (a["predicted_angle_rad"] - a["true_angle_rad"]).tolist()
+        lists = {k: a[k].tolist() for k in ("time_s", *ANGLE_CHANNELS)}
+        # per joint and sample, the JSON fields in order: (T, n, fields) -> nested lists
+        rows = np.stack([a[f] for f in JOINT_FIELDS] + [a["predicted_angle_rad"] - a["true_angle_rad"]], axis=-1).tolist()
+        arm_rows = np.stack([a["time_s"], a["supply_pa"], a["brush_force_n"]], axis=-1).tolist()
         pos, quat = a["body_pos_m"], a["body_quat_wxyz"]
         for k, t in enumerate(lists["time_s"]):
             seq = start + k
@@ -138,13 +154,9 @@ class McapWriter:
                 x.translation.x, x.translation.y, x.translation.z = px, py, pz
                 x.rotation.w, x.rotation.x, x.rotation.y, x.rotation.z = qw, qx, qy, qz
             add(self._tf_ch, ns, tf.SerializeToString(), ns, sequence=seq)
-            for j, ch in enumerate(self._joint_ch):
-                rec = {f: lists[f][k][j] for f in JOINT_FIELDS}
-                rec["predicted_minus_true_rad"] = err[k][j]
-                rec = {f: (None if v != v else v) for f, v in rec.items()}
-                add(ch, ns, json.dumps(rec).encode(), ns, sequence=seq)
-            arm = {"time_s": t, "supply_pa": lists["supply_pa"][k], "brush_force_n": lists["brush_force_n"][k]}
-            add(self._arm_ch, ns, json.dumps({f: (None if v != v else v) for f, v in arm.items()}).encode(), ns, sequence=seq)
+            for ch, row in zip(self._joint_ch, rows[k]):
+                add(ch, ns, _json_object(JOINT_JSON, row), ns, sequence=seq)
+            add(self._arm_ch, ns, _json_object(ARM_JSON, arm_rows[k]), ns, sequence=seq)
         self._writer.flush()  # ends the chunk and flushes the file: a kill now loses nothing
 
     def close(self) -> None:
