@@ -1,6 +1,6 @@
 """A 1-hour simulated insulator-cleaning cycle (the task repeated back to back), logging off, with
 the process's resident memory sampled as it runs. The run's own record (the telemetry columns
-that the criteria and logs read, 30 samples per simulated second) grows by design; everything
+that the criteria and logs read, 50 samples per simulated second) grows by design; everything
 else must not. Prints RSS over time, the telemetry's size, and the growth that is not telemetry.
 
     python -m benchmarks.long_run [--hours 1.0]
