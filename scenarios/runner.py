@@ -18,7 +18,7 @@ from pneumatics import load_joint_params
 from scenarios import controllers
 from scenarios.criteria import Verdict, as_dicts, judge
 from scenarios.faults import fault_events
-from scenarios.ik import disc_drive_angles, drive_to_qpos
+from scenarios.ik import disc_drive_angles
 from scenarios.schema import Scenario, joint_params_for, load
 from scenarios.supply import supply_profile
 from twin.plant import Plant

@@ -330,3 +330,41 @@ def test_telemetry_blocks_give_back_what_was_appended():
             np.testing.assert_array_equal(a[k], np.array([s[k] for s in samples[start:]]).reshape((10 - start,) + a[k].shape[1:]))
     with pytest.raises(IndexError):
         tel.time_at(10)
+
+
+def test_recording_holds_camera_frames_or_says_why(tmp_path, capsys):
+    """`camera_fps` frames of the global camera, rendered by twin.camera's process: where offscreen
+    GL works, one JPEG per 1/fps simulated seconds at the right times; where it does not, none,
+    and a note that names the reason."""
+    plant = Plant(assets.SCENE_XML)
+    plant.set_supply(SUPPLY_PA)
+    rec = RerunRecorder(tmp_path / "cam.rrd", plant.model, plant.joints, META, camera_fps=4.0)
+    try:
+        run(plant, Predicting(plant.joints), 1.0, recorders=(rec,))
+    finally:
+        rec.close()
+    import rerun as rr
+
+    times = []
+    for chunk in rr.chunk.RrdReader(tmp_path / "cam.rrd").stream():
+        if chunk.entity_path.strip("/") == "camera/global_view" and not chunk.is_static:
+            batch = chunk.to_record_batch()
+            times += list(np.asarray(batch.column("time").cast("int64").to_numpy()) * 1e-9)
+            blobs = [b[0] for b in batch.column("EncodedImage:blob").to_pylist() if b]  # one blob per row
+            assert blobs and all(bytes(b[:2]) == b"\xff\xd8" for b in blobs)  # JPEG start-of-image
+    if rec._camera.error:
+        assert times == [] and "no camera frames" in capsys.readouterr().err
+    else:
+        lag = np.sort(times) - np.arange(0.0, 1.0 + 1e-9, 0.25)  # the first sample (every 20 ms) at or after each tick
+        assert len(times) == 5 and np.all((lag > -1e-9) & (lag < 0.02))
+
+
+def test_camera_without_a_working_backend_says_why():
+    """A GL backend that cannot work: no frames, and the reason, from the child's own error."""
+    from twin.camera import CameraProcess
+
+    plant = Plant(assets.SCENE_XML)
+    cam = CameraProcess(plant.model, backends=("no-such-backend",))
+    cam.request(np.array([0.0]), plant.data.xpos[1:][None], plant.data.xquat[1:][None])
+    assert cam.close() == []
+    assert cam.error.startswith("offscreen rendering failed (MUJOCO_GL=no-such-backend: ") and "MUJOCO_GL" in cam.error[40:]

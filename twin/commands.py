@@ -10,6 +10,8 @@ from pathlib import Path
 
 from twin.errors import UserError
 
+CAMERA_FPS = 2.0  # the operator's global-camera view in recordings: "a few frames per second"
+
 
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("run", help="run a scenario file; exit 1 if a pass criterion broke")
@@ -17,6 +19,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--json", action="store_true", help="print the summary as JSON on stdout")
     p.add_argument("--rrd", type=Path, help="write a rerun recording here")
     p.add_argument("--mcap", type=Path, help="write an MCAP log here")
+    p.add_argument("--camera-fps", type=float, default=CAMERA_FPS, metavar="N", help=f"global-camera frames per simulated second in the recording (default {CAMERA_FPS:g}; 0: none)")
     p.add_argument("--duration", type=float, help="stop after this many simulated seconds")
     p.add_argument("--seed", type=int, help="override the scenario's seed")
     p.set_defaults(func=cmd_run)
@@ -51,7 +54,9 @@ def cmd_run(args) -> int:
         scenario = with_overrides(scenario, {"seed": args.seed})
     if args.duration is not None and args.duration <= 0:
         raise UserError(f"--duration {args.duration}: must be > 0 s")
-    recorders = open_recorders(scenario, args.rrd, args.mcap)
+    if args.camera_fps < 0:
+        raise UserError(f"--camera-fps {args.camera_fps}: must be >= 0 (0: no camera frames)")
+    recorders = open_recorders(scenario, args.rrd, args.mcap, args.camera_fps)
     try:
         result = run_scenario(scenario, recorders=recorders, duration_s=args.duration)
     finally:
@@ -69,7 +74,7 @@ def cmd_run(args) -> int:
     return 0 if result.passed else 1
 
 
-def open_recorders(scenario, rrd: Path | None, mcap: Path | None) -> list:
+def open_recorders(scenario, rrd: Path | None, mcap: Path | None, camera_fps: float = CAMERA_FPS) -> list:
     """The log writers a run asked for, told what they need to know about the scenario."""
     recorders = []
     if not (rrd or mcap):
@@ -83,7 +88,7 @@ def open_recorders(scenario, rrd: Path | None, mcap: Path | None) -> list:
         from twin.rerun_log import RerunRecorder
 
         rrd.parent.mkdir(parents=True, exist_ok=True)
-        recorders.append(RerunRecorder(rrd, plant.model, plant.joints, meta))
+        recorders.append(RerunRecorder(rrd, plant.model, plant.joints, meta, camera_fps=camera_fps))
     if mcap:
         from twin.mcap_log import McapRecorder
 

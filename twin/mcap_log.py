@@ -217,7 +217,6 @@ class McapRecorder:
 
     def __init__(self, path, plant_model, joints, meta: dict | None = None, *, chunk_size: int = CHUNK_SIZE, background: bool = True):
         import os
-        import pickle
         import subprocess
         import sys
 

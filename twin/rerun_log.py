@@ -26,6 +26,8 @@ Timeline: "time" (simulated seconds, as a duration).
 from __future__ import annotations
 
 import json
+import math
+import sys
 from pathlib import Path
 
 import mujoco
@@ -155,9 +157,9 @@ class RerunRecorder:
 
     `plant_model` is the run's MjModel (geometry is read from it once); `joints` the joint names in
     telemetry order; `meta` the run's metadata (scenario, seed, versions), stored as a text entity
-    `meta`. `camera_fps` > 0 renders the scene's `global_view` camera at that rate when offscreen
-    GL works (twin.pictures.PoseRenderer; start Python with MUJOCO_GL=egl or osmesa, MuJoCo reads it
-    at import); it is off by default and never required.
+    `meta`. `camera_fps` > 0 logs the scene's `global_view` camera (the operator's aid in the
+    paper) at that rate as JPEG frames, rendered by twin.camera's process where offscreen GL
+    (egl or osmesa) works; where none does, the recording goes on without frames and says so.
     """
 
     def __init__(self, path, plant_model: mujoco.MjModel, joints, meta: dict | None = None, *, camera_fps: float = 0.0):
@@ -178,12 +180,18 @@ class RerunRecorder:
         log_static_geometry(self.rec, plant_model)
         self._log_series_styles()
         self.camera_fps = float(camera_fps)
+        if self.camera_fps < 0:
+            raise RerunLogError(f"camera_fps {camera_fps}: must be >= 0 (0: no camera frames)")
         # simulated seconds per bulk send: rerun's cost is per call (~0.1 ms), so fewer, longer
         # columns; a killed run loses up to this much of its .rrd (the MCAP archive loses < 1 s)
         self.batch_s = 10.0
         self._pending: int | None = None  # first telemetry sample not yet sent
         self._telemetry = None
         self._camera = None
+        if self.camera_fps > 0:
+            from twin.camera import CameraProcess
+
+            self._camera = CameraProcess(plant_model, camera="global_view", width=480, height=360)
         self._next_frame_t = 0.0
         self._closed = False
 
@@ -255,29 +263,26 @@ class RerunRecorder:
             scalars(f"{p}/brake/engagement", a["brake_engagement"][:, k])
         scalars("supply/pressure_pa", a["supply_pa"])
         scalars("brush/force_n", a["brush_force_n"])
-        if self.camera_fps > 0:
-            self._render_frames(a)
+        if self._camera is not None:
+            self._request_frames(a)
 
-    def _render_frames(self, a: dict) -> None:
-        """Log `global_view` frames at `camera_fps`; disables itself if offscreen GL fails."""
+    def _request_frames(self, a: dict) -> None:
+        """Queue `global_view` frames at `camera_fps` with the camera process, and log those it
+        has rendered so far (the run does not wait for them)."""
+        keep = []
+        for k, t in enumerate(a["time_s"]):
+            if t + 1e-9 >= self._next_frame_t:  # the first sample at or after each 1/fps tick
+                self._next_frame_t = (math.floor(t * self.camera_fps + 1e-9) + 1) / self.camera_fps
+                keep.append(k)
+        self._camera.request(a["time_s"][keep], a["body_pos_m"][keep], a["body_quat_wxyz"][keep])
+        self._log_frames(self._camera.collect())
+
+    def _log_frames(self, frames: list[tuple[float, bytes]]) -> None:
         import rerun as rr
 
-        from twin.pictures import PoseRenderer
-
-        if self._camera is None:
-            try:
-                self._camera = PoseRenderer(self.model, camera="global_view", width=480, height=360)
-            except Exception as e:  # no GL backend: the recording goes on without frames
-                print(f"twin: note: no camera frames in {self.path}: offscreen rendering failed ({e})")
-                self.camera_fps = 0.0
-                return
-        for k, t in enumerate(a["time_s"]):
-            if t + 1e-9 < self._next_frame_t:
-                continue
-            self._next_frame_t = t + 1.0 / self.camera_fps
-            self.rec.set_time(TIMELINE, duration=float(t))
-            img = self._camera.render(a["body_pos_m"][k], a["body_quat_wxyz"][k])
-            self.rec.log("camera/global_view", rr.Image(img))
+        for t, jpeg in frames:
+            self.rec.set_time(TIMELINE, duration=t)
+            self.rec.log("camera/global_view", rr.EncodedImage(contents=jpeg, media_type="image/jpeg"))
 
     def close(self) -> None:
         if self._closed:
@@ -286,6 +291,8 @@ class RerunRecorder:
         if self._pending is not None:
             self._send(self._telemetry, self._pending)
         if self._camera is not None:
-            self._camera.close()
+            self._log_frames(self._camera.close())
+            if self._camera.error:  # the recording holds everything else
+                print(f"twin: note: no camera frames in {self.path}: {self._camera.error}", file=sys.stderr)
         self.rec.flush()
         self.rec.disconnect()

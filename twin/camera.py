@@ -1,0 +1,152 @@
+"""Frames of a scene camera for a recording, rendered offscreen in a process of its own.
+
+The paper's operators steer by a global camera on the arm's platform; a recording shows that view
+beside the 3D scene. MuJoCo picks its GL backend (MUJOCO_GL=egl or osmesa) once, when it is
+imported, and the run's process has imported it long before, usually with none; so the frames
+are rendered by `python -m twin.camera` started with the backend set (DESIGN "Headless pictures").
+The run queues body poses and goes on; a worker thread hands them to the child (pickled) and
+gathers the JPEG frames, which the run collects at its next batch or at close; so the run never
+waits for the renderer except at the very end.
+
+    cam = CameraProcess(model)               # starts at once; `cam.error` says if GL failed
+    cam.request(times, body_pos, body_quat)  # poses of bodies 1.. (Telemetry order)
+    for t, jpeg in cam.collect(): ...
+    for t, jpeg in cam.close(): ...          # waits for the frames still being rendered
+"""
+
+from __future__ import annotations
+
+import os
+import pickle
+import queue
+import subprocess
+import sys
+import tempfile
+import threading
+from pathlib import Path
+
+import mujoco
+import numpy as np
+
+JPEG_QUALITY = 85  # a 480x360 frame in ~25 KB instead of 518 KB raw
+
+
+class CameraProcess:
+    """A child process rendering `camera` of `model` at given body poses, as JPEG bytes.
+
+    A worker thread starts the child (trying the GL backends in turn), hands it each request and
+    reads back its frames; the run only queues requests and collects frames. If no backend
+    renders, or the child dies, `error` says why and later requests are dropped.
+    """
+
+    def __init__(self, model: mujoco.MjModel, camera: str = "global_view", width: int = 480, height: int = 360, backends: tuple[str, ...] | None = None):
+        self._dir = tempfile.TemporaryDirectory(prefix="twin-camera-")
+        self._mjb = Path(self._dir.name) / "model.mjb"
+        mujoco.mj_saveModel(model, str(self._mjb), None)  # the exact compiled model, no XML paths needed
+        self._args = [camera, str(width), str(height)]
+        self._backends = backends or ((os.environ["MUJOCO_GL"],) if "MUJOCO_GL" in os.environ else ("egl", "osmesa"))
+        self.backend: str | None = None
+        self.error: str | None = None
+        self._requests: queue.Queue = queue.Queue()
+        self._frames: list[tuple[float, bytes]] = []
+        self._lock = threading.Lock()
+        self._thread = threading.Thread(target=self._work, name="camera frames", daemon=True)
+        self._thread.start()
+
+    def _start(self) -> subprocess.Popen | None:
+        root = str(Path(__file__).resolve().parent.parent)
+        tried = []
+        for backend in self._backends:
+            env = dict(os.environ, MUJOCO_GL=backend, PYOPENGL_PLATFORM=backend)
+            env["PYTHONPATH"] = os.pathsep.join([root, os.environ.get("PYTHONPATH", "")]).rstrip(os.pathsep)
+            err_path = Path(self._dir.name) / f"stderr-{backend}.txt"
+            with open(err_path, "wb") as err:
+                proc = subprocess.Popen([sys.executable, "-m", "twin.camera", str(self._mjb), *self._args], stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=err, env=env)
+            if proc.stdout.readline().strip() == b"ready":
+                self.backend = backend
+                return proc
+            proc.kill()
+            proc.wait()
+            lines = err_path.read_text(errors="replace").strip().splitlines()
+            tried.append(f"MUJOCO_GL={backend}: {lines[-1] if lines else f'exit code {proc.returncode}'}")
+        self.error = "offscreen rendering failed (" + "; ".join(tried) + ")"
+        return None
+
+    def _work(self) -> None:
+        proc = self._start()
+        while True:
+            req = self._requests.get()
+            if req is None:
+                break
+            if proc is None:
+                continue
+            try:
+                pickle.dump(req, proc.stdin, protocol=pickle.HIGHEST_PROTOCOL)
+                proc.stdin.flush()
+                batch = pickle.load(proc.stdout)
+            except (BrokenPipeError, EOFError, OSError, pickle.UnpicklingError) as e:
+                self.error = f"the camera process ended ({type(e).__name__})"
+                proc.kill()
+                proc.wait()
+                proc = None
+                continue
+            with self._lock:
+                self._frames.extend(batch)
+        if proc is not None:
+            try:
+                proc.stdin.close()
+            except OSError:
+                pass
+            proc.wait()
+
+    def request(self, times: np.ndarray, body_pos: np.ndarray, body_quat_wxyz: np.ndarray) -> None:
+        """Ask for one frame per time, of the bodies at these poses; returns at once."""
+        if len(times):
+            self._requests.put((np.asarray(times), np.asarray(body_pos), np.asarray(body_quat_wxyz)))
+
+    def collect(self) -> list[tuple[float, bytes]]:
+        """The frames rendered so far, as (time, JPEG bytes)."""
+        with self._lock:
+            out, self._frames = self._frames, []
+        return out
+
+    def close(self) -> list[tuple[float, bytes]]:
+        """Wait for the frames still being rendered; returns them."""
+        self._requests.put(None)
+        self._thread.join()
+        self._dir.cleanup()
+        return self.collect()
+
+
+def _serve(argv: list[str]) -> None:
+    """The camera process: `python -m twin.camera MODEL.mjb CAMERA WIDTH HEIGHT`."""
+    import io
+
+    from PIL import Image
+
+    from twin.pictures import PoseRenderer
+
+    model = mujoco.MjModel.from_binary_path(argv[0])
+    renderer = PoseRenderer(model, camera=argv[1], width=int(argv[2]), height=int(argv[3]), plain=True)
+    out = sys.stdout.buffer
+    out.write(b"ready\n")
+    out.flush()
+    try:
+        while True:
+            try:
+                times, pos, quat = pickle.load(sys.stdin.buffer)
+            except EOFError:
+                break
+            batch = []
+            for t, p, q in zip(times, pos, quat):
+                buf = io.BytesIO()
+                Image.fromarray(renderer.render(p, q)).save(buf, format="JPEG", quality=JPEG_QUALITY)
+                batch.append((float(t), buf.getvalue()))
+            pickle.dump(batch, out, protocol=pickle.HIGHEST_PROTOCOL)
+            out.flush()
+    finally:
+        renderer.close()
+
+
+if __name__ == "__main__":
+    _serve(sys.argv[1:])
