@@ -127,6 +127,11 @@ def _serve(argv: list[str]) -> None:
     from twin.pictures import PoseRenderer
 
     model = mujoco.MjModel.from_binary_path(argv[0])
+    # a software GL's costs, measured at 480x360: 82 ms a frame as the model asks, 14 without
+    # shadows and reflections (PoseRenderer plain), 7.7 without 4x multisampling, 5.1 with 12
+    # slices a cylinder instead of 28; an operator's view, not a README picture
+    model.vis.quality.offsamples = 0
+    model.vis.quality.numslices = 12
     renderer = PoseRenderer(model, camera=argv[1], width=int(argv[2]), height=int(argv[3]), plain=True)
     out = sys.stdout.buffer
     out.write(b"ready\n")
