@@ -100,6 +100,17 @@ def test_sweep_on_one_and_two_workers_gives_the_same_results():
     assert one == two and len(one) == 4
 
 
+def test_sweep_on_a_dask_cluster_gives_the_local_results():
+    """`twin sweep --scheduler ADDRESS`: the same points on a Dask cluster (here a local one of
+    two worker processes) give the summaries of the local run."""
+    distributed = pytest.importorskip("dask.distributed", reason="the cluster extra is not installed")
+    s = load("scenarios/wrist_random_supply.toml")
+    kwargs = dict(monte_carlo=2, duration_s=0.4, progress=False)
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
+        remote = sweep(s, scheduler=cluster.scheduler_address, **kwargs)
+    assert remote == sweep(s, workers=1, **kwargs) and len(remote) == 2
+
+
 def test_a_scenario_made_to_fail_names_the_broken_criterion(capsys):
     text = load("scenarios/wrist_closed_loop_60deg.toml").text.replace(
         "angles_deg = { wrist_pitch = 60.0 }", "angles_deg = { wrist_pitch = 89.0 }"
