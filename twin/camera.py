@@ -60,8 +60,8 @@ class CameraProcess:
             env = dict(os.environ, MUJOCO_GL=backend, PYOPENGL_PLATFORM=backend)
             env["PYTHONPATH"] = os.pathsep.join([root, os.environ.get("PYTHONPATH", "")]).rstrip(os.pathsep)
             err_path = Path(self._dir.name) / f"stderr-{backend}.txt"
-            with open(err_path, "wb") as err:
-                proc = subprocess.Popen([sys.executable, "-m", "twin.camera", str(self._mjb), *self._args], stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=err, env=env)
+            with open(err_path, "wb") as err:  # own session: a terminal's Ctrl-C is the run's to handle
+                proc = subprocess.Popen([sys.executable, "-m", "twin.camera", str(self._mjb), *self._args], stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=err, env=env, start_new_session=True)
             if proc.stdout.readline().strip() == b"ready":
                 self.backend = backend
                 return proc

@@ -234,7 +234,8 @@ class McapRecorder:
             return
         root = str(Path(__file__).resolve().parent.parent)  # where `twin` is importable from
         env = dict(os.environ, PYTHONPATH=os.pathsep.join([root, os.environ.get("PYTHONPATH", "")]).rstrip(os.pathsep))
-        self._proc = subprocess.Popen([sys.executable, "-m", "twin.mcap_log"], stdin=subprocess.PIPE, stdout=subprocess.PIPE, env=env)
+        # a session of its own: Ctrl-C in a terminal reaches the run, which then finishes the file
+        self._proc = subprocess.Popen([sys.executable, "-m", "twin.mcap_log"], stdin=subprocess.PIPE, stdout=subprocess.PIPE, env=env, start_new_session=True)
         self._send((args, kwargs))
 
     def _send(self, obj) -> None:
