@@ -368,3 +368,39 @@ def test_camera_without_a_working_backend_says_why():
     cam.request(np.array([0.0]), plant.data.xpos[1:][None], plant.data.xquat[1:][None])
     assert cam.close() == []
     assert cam.error.startswith("offscreen rendering failed (MUJOCO_GL=no-such-backend: ") and "MUJOCO_GL" in cam.error[40:]
+
+
+def test_ctrl_c_finishes_the_logs(tmp_path):
+    """Ctrl-C in a terminal signals the whole foreground process group: the run stops with exit
+    status 130 and a note, and its logs are finished, not cut (DESIGN rule 6), although the MCAP
+    writer and the camera run in processes of their own."""
+    text = (ROOT / "scenarios" / "insulator_cleaning.toml").read_text()
+    long = tmp_path / "long.toml"
+    long.write_text(text.replace("duration_s = 90.0", "duration_s = 900.0"))
+    mcap, rrd = tmp_path / "run.mcap", tmp_path / "run.rrd"
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "twin.cli", "run", str(long), "--mcap", str(mcap), "--rrd", str(rrd)],
+        cwd=ROOT, env=env, start_new_session=True, stderr=subprocess.PIPE, stdout=subprocess.DEVNULL,
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),  # as an interactive shell leaves it
+    )
+    try:
+        deadline = time.monotonic() + 120
+        seen = 0.0
+        while seen < 2.0:
+            assert proc.poll() is None and time.monotonic() < deadline
+            time.sleep(0.2)
+            try:
+                seen = read_mcap(mcap)[1]["recovery"]["duration_s"] if mcap.exists() else 0.0
+            except LogError:
+                seen = 0.0
+        os.killpg(proc.pid, signal.SIGINT)
+        _, err = proc.communicate(timeout=60)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    assert proc.returncode == 130 and "interrupted; the logs written so far are kept" in err.decode()
+    arrays, meta = read_mcap(mcap)
+    assert meta["recovery"]["complete"] and meta["recovery"]["duration_s"] >= 2.0
+    paths, _, _ = rrd_entities(rrd)
+    assert any(p.strip("/").startswith("joints/") for p in paths)
