@@ -404,3 +404,43 @@ def test_ctrl_c_finishes_the_logs(tmp_path):
     assert meta["recovery"]["complete"] and meta["recovery"]["duration_s"] >= 2.0
     paths, _, _ = rrd_entities(rrd)
     assert any(p.strip("/").startswith("joints/") for p in paths)
+
+
+def test_brush_contact_is_logged_where_and_how_hard_it_pushes(tmp_path):
+    """The first 10.1 s of the cleaning task press the brush on disc 1: each sample in contact has
+    its point on the disc's rim and a push into the disc (MuJoCo's contact frame read the right way
+    round), no smaller than the normal force; MCAP gives the vectors back exactly, and the
+    recording draws one arrow per sample in contact."""
+    from scenarios.runner import build_plant, run_scenario
+    from scenarios.schema import load
+
+    scenario = load(ROOT / "scenarios" / "insulator_cleaning.toml")
+    plant = build_plant(scenario)
+    recs = (McapRecorder(tmp_path / "c.mcap", plant.model, plant.joints, META), RerunRecorder(tmp_path / "c.rrd", plant.model, plant.joints, META))
+    try:
+        a = run_scenario(scenario, recorders=recs, duration_s=10.1).telemetry.arrays()
+    finally:
+        for r in recs:
+            r.close()
+    touching = np.isfinite(a["brush_contact_m"][:, 0])
+    assert touching.sum() >= 5 and np.all(a["brush_force_n"][~touching] == 0.0)
+    g = plant.model.geom("disc_1")
+    centre, radius = plant.data.geom_xpos[g.id], g.size[0]  # the string does not move
+    p, push = a["brush_contact_m"][touching], a["brush_push_n"][touching]
+    radial = np.hypot(p[:, 0] - centre[0], p[:, 1] - centre[1])
+    assert np.all(np.abs(radial - radius) < 0.01) and np.all(np.abs(p[:, 2] - centre[2]) < 0.02)
+    inward = np.einsum("ij,ij->i", push[:, :2], (centre[:2] - p[:, :2]) / radial[:, None])
+    # the brush pushes the disc away from it: inward always, and mostly so once pressed (the first
+    # touch lands on the rim's top edge, so it pushes down as well)
+    assert np.all(inward > 0) and np.median(inward / np.linalg.norm(push, axis=1)) > 0.9
+    assert np.all(np.linalg.norm(push, axis=1) >= a["brush_force_n"][touching] - 1e-9)
+    back, _ = read_mcap(tmp_path / "c.mcap")
+    for name in ("brush_contact_m", "brush_push_n"):
+        assert np.array_equal(back[name], a[name], equal_nan=True), name
+    import rerun as rr
+
+    arrows = 0
+    for chunk in rr.chunk.RrdReader(tmp_path / "c.rrd").stream():
+        if chunk.entity_path.strip("/") == "world/brush_contact":
+            arrows += sum(len(v or []) for v in chunk.to_record_batch().column("Arrows3D:vectors").to_pylist())
+    assert arrows == touching.sum()

@@ -10,7 +10,8 @@ Channels, one message per telemetry sample (50 per simulated second), `sequence`
     /scene                   foxglove.SceneUpdate   each body's geoms, once, frame-locked
     /joint/<joint>           JSON  pressure_a_pa, pressure_b_pa (abs), valve_gauge_pa, direction,
                                    brake_release, brake_engagement, predicted_minus_true_rad
-    /arm                     JSON  time_s, supply_pa (abs), brush_force_n
+    /arm                     JSON  time_s, supply_pa (abs), brush_force_n, brush_contact_{x,y,z}_m
+                                   (world, null: no contact), brush_push_{x,y,z}_n (world)
 
 foxglove-schemas-protobuf 0.4.0 has JointStates/JointState (name, position, velocity,
 acceleration, effort) and FrameTransforms; it has no schema for a pressure or a valve, so those
@@ -43,7 +44,11 @@ ANGLE_CHANNELS = {"true_angle_rad": "/joint_states/true", "predicted_angle_rad":
 
 
 JOINT_JSON = "{" + ",".join(f'"{f}":%r' for f in (*JOINT_FIELDS, "predicted_minus_true_rad")) + "}"
-ARM_JSON = '{"time_s":%r,"supply_pa":%r,"brush_force_n":%r}'
+# /arm fields: scalars, then each 3-vector of the brush contact as _x, _y, _z
+ARM_SCALARS = ("time_s", "supply_pa", "brush_force_n")
+ARM_VECTORS = {"brush_contact_m": "brush_contact_{}_m", "brush_push_n": "brush_push_{}_n"}
+ARM_FIELDS = ARM_SCALARS + tuple(f.format(x) for f in ARM_VECTORS.values() for x in "xyz")
+ARM_JSON = "{" + ",".join(f'"{f}":%r' for f in ARM_FIELDS) + "}"
 
 
 def _json_object(template: str, values: list[float]) -> bytes:
@@ -101,7 +106,10 @@ class McapWriter:
         scene_ch = proto_channel("/scene", SceneUpdate)
         joint_doc = {f: f for f in JOINT_FIELDS} | {"predicted_minus_true_rad": "predicted - true angle, rad"}
         self._joint_ch = [json_channel(f"/joint/{j}", joint_doc) for j in self.joints]
-        self._arm_ch = json_channel("/arm", {"time_s": "simulated time, s", "supply_pa": "supply, Pa abs", "brush_force_n": "brush normal force, N"})
+        arm_doc = {"time_s": "simulated time, s", "supply_pa": "supply, Pa abs", "brush_force_n": "brush normal force, N"}
+        arm_doc |= {f"brush_contact_{x}_m": f"brush contact point {x}, world, m (null: no contact)" for x in "xyz"}
+        arm_doc |= {f"brush_push_{x}_n": f"force of the brush on what it touches, {x}, world, N" for x in "xyz"}
+        self._arm_ch = json_channel("/arm", arm_doc)
 
         info = {
             "joints": json.dumps(self.joints),
@@ -133,7 +141,7 @@ class McapWriter:
         lists = {k: a[k].tolist() for k in ("time_s", *ANGLE_CHANNELS)}
         # per joint and sample, the JSON fields in order: (T, n, fields) -> nested lists
         rows = np.stack([a[f] for f in JOINT_FIELDS] + [a["predicted_angle_rad"] - a["true_angle_rad"]], axis=-1).tolist()
-        arm_rows = np.stack([a["time_s"], a["supply_pa"], a["brush_force_n"]], axis=-1).tolist()
+        arm_rows = np.concatenate([np.stack([a[f] for f in ARM_SCALARS], axis=-1)] + [a[v] for v in ARM_VECTORS], axis=-1).tolist()
         pos, quat = a["body_pos_m"], a["body_quat_wxyz"]
         for k, t in enumerate(lists["time_s"]):
             seq = start + k
@@ -405,8 +413,10 @@ def read_mcap(path) -> tuple[dict[str, np.ndarray], dict]:
                 for fld in JOINT_FIELDS:
                     out[fld][i, j] = math.nan if rec[fld] is None else rec[fld]
             arm = json.loads(msgs["/arm"])
-            for fld in ("time_s", "supply_pa", "brush_force_n"):
+            for fld in ARM_SCALARS:
                 out[fld][i] = math.nan if arm[fld] is None else arm[fld]
+            for sig, fmt in ARM_VECTORS.items():  # absent from logs written before they existed: NaN
+                out[sig][i] = [math.nan if arm.get(fmt.format(x)) is None else arm[fmt.format(x)] for x in "xyz"]
     except (KeyError, ValueError, TypeError) as e:
         raise LogError(f"{path}: sample {s} is malformed ({type(e).__name__}: {e})") from e
     duration = float(out["time_s"][-1] - out["time_s"][0]) if m else 0.0

@@ -18,6 +18,7 @@ Entity paths (angles in degrees: the recording is a user-facing edge, STYLE rule
     joints/<joint>/brake/{release,engagement}            release command 0/1, true engagement
     supply/pressure_pa                 absolute
     brush/force_n                      brush normal force on the discs
+    world/brush_contact                the brush's push on the string at its contact point (arrow, 1 mm/N)
     camera/global_view                 optional rendered frames (`camera_fps` > 0 and GL works)
 
 Timeline: "time" (simulated seconds, as a duration).
@@ -263,6 +264,14 @@ class RerunRecorder:
             scalars(f"{p}/brake/engagement", a["brake_engagement"][:, k])
         scalars("supply/pressure_pa", a["supply_pa"])
         scalars("brush/force_n", a["brush_force_n"])
+        # the brush's push on the string, drawn where it touches: an arrow per sample in contact,
+        # none otherwise (rows of length 0 clear it); 1 mm per N
+        touching = np.isfinite(a["brush_contact_m"][:, 0])
+        send(
+            "world/brush_contact",
+            indexes=idx,
+            columns=rr.Arrows3D.columns(origins=a["brush_contact_m"][touching], vectors=1e-3 * a["brush_push_n"][touching]).partition(touching.astype(np.int32)),
+        )
         if self._camera is not None:
             self._request_frames(a)
 

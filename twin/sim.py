@@ -51,25 +51,34 @@ class CommandSchedule:
         return np.full(self.n_joints, np.nan)
 
 
-def brush_contact_force(plant: Plant) -> float:
-    """Sum of the normal forces between the brush and anything it touches, N."""
+def brush_contact(plant: Plant) -> tuple[float, np.ndarray, np.ndarray]:
+    """The brush's contacts: (sum of their normal forces N, force-weighted contact point m (NaN
+    without contact), total force the brush exerts on what it touches N), world frame.
+
+    MuJoCo's contact frame has the normal first, pointing from geom1 to geom2; the contact force
+    in that frame (mj_contactForce) acts on geom2, its opposite on geom1.
+    """
     m, d = plant.model, plant.data
     brush = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, "brush")
-    if brush < 0:
-        return 0.0
-    total = 0.0
-    f = np.zeros(6)
-    for i in range(d.ncon):
-        c = d.contact[i]
-        if c.geom1 == brush or c.geom2 == brush:
+    normal, point, push = 0.0, np.zeros(3), np.zeros(3)
+    if brush >= 0:
+        f = np.zeros(6)
+        for i in range(d.ncon):
+            c = d.contact[i]
+            if c.geom1 != brush and c.geom2 != brush:
+                continue
             mujoco.mj_contactForce(m, d, i, f)
-            total += f[0]
-    return total
+            on_geom2 = c.frame.reshape(3, 3).T @ f[:3]
+            push += on_geom2 if c.geom1 == brush else -on_geom2
+            normal += f[0]
+            point += f[0] * c.pos
+    return normal, (point / normal if normal > 0.0 else np.full(3, np.nan)), push
 
 
 def sample(plant: Plant, controller: Controller) -> dict[str, np.ndarray]:
     """One telemetry sample of the plant's truth beside the controller's belief."""
     d = plant.data
+    contact = brush_contact(plant)
     return {
         "true_angle_rad": plant.drive_angles(),
         "predicted_angle_rad": controller.predicted_angles(),
@@ -81,7 +90,9 @@ def sample(plant: Plant, controller: Controller) -> dict[str, np.ndarray]:
         "brake_release": plant.commands[:, 2],
         "brake_engagement": plant.brake_engagement(),
         "supply_pa": np.asarray(plant.supply_pa),
-        "brush_force_n": np.asarray(brush_contact_force(plant)),
+        "brush_force_n": np.asarray(contact[0]),
+        "brush_contact_m": contact[1],
+        "brush_push_n": contact[2],
         "body_pos_m": d.xpos[1:],
         "body_quat_wxyz": d.xquat[1:],
     }
