@@ -9,7 +9,6 @@ import math
 import time
 
 import mujoco
-import numpy as np
 
 import assets
 from control import ArmController, run_until_done

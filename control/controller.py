@@ -22,7 +22,7 @@ import numpy as np
 import assets
 from control.arm_model import ArmModel
 from control.open_loop import open_loop_duration
-from control.pid import ARRIVED, CLOSED, IDLE, OPEN, TIMED_OUT, PidGains, control_step, gains_row
+from control.pid import CLOSED, IDLE, OPEN, PidGains, control_step, gains_row
 from control.predictor import initial_rigid_state, initial_valve_state, predict_step
 from pneumatics import AIR, Gas, JointParams, load_joint_params, params_row
 from pneumatics import params as P
@@ -212,7 +212,7 @@ class ArmController:
     def tick(self, sensors) -> np.ndarray:
         """Commands (n, 3) for the coming control period from the platform's sensors
         (`time_s`, `supply_pa` absolute, `valve_gauge_pa` per joint). The returned array is reused."""
-        self.time_s = t = float(sensors.time_s)
+        self.time_s = float(sensors.time_s)
         supply = float(sensors.supply_pa)
         pv = np.asarray(sensors.valve_gauge_pa, dtype=float)
         if not math.isfinite(supply + pv.sum()):  # a NaN or inf anywhere propagates into the sum
