@@ -33,6 +33,9 @@ class LoggedRun:
     def time_at(self, i: int) -> float:
         return float(self._arrays["time_s"][i])
 
+    def column(self, name: str, start: int = 0) -> np.ndarray:
+        return self._arrays[name][start:]
+
     def arrays(self, start: int = 0) -> dict[str, np.ndarray]:
         return {k: v[start:] for k, v in self._arrays.items()}
 

@@ -224,6 +224,10 @@ class RerunRecorder:
         if self._pending is None:
             self._pending = start
         self._telemetry = telemetry
+        if self._camera is not None and len(telemetry) > start:
+            # frames are asked for at every write, not every batch: the camera process renders
+            # them while the run goes on, and close has next to nothing left to wait for
+            self._request_frames({k: telemetry.column(k, start) for k in ("time_s", "body_pos_m", "body_quat_wxyz")})
         if len(telemetry) > self._pending and telemetry.time_at(-1) - telemetry.time_at(self._pending) >= self.batch_s:
             self._send(telemetry, self._pending)
             self._pending = None
@@ -272,8 +276,6 @@ class RerunRecorder:
             indexes=idx,
             columns=rr.Arrows3D.columns(origins=a["brush_contact_m"][touching], vectors=1e-3 * a["brush_push_n"][touching]).partition(touching.astype(np.int32)),
         )
-        if self._camera is not None:
-            self._request_frames(a)
 
     def _request_frames(self, a: dict) -> None:
         """Queue `global_view` frames at `camera_fps` with the camera process, and log those it
