@@ -61,6 +61,33 @@ def test_drive_load_torque_equals_mujoco_bias_through_tendon_jacobian():
         assert f["shoulder_pitch"] == pytest.approx(g["shoulder_pitch"] - g["elbow_pitch"], abs=1e-9)
 
 
+
+def test_shoulder_load_depends_on_the_shoulder_angle_alone_and_falls_as_it_rises():
+    """Why a shoulder prediction error grows move by move (insulator_cleaning: +3.5 deg after the
+    brush press, +25 deg at t = 51 s) and why elbow/wrist errors cannot feed it. Through the
+    parallelogram the shoulder drive's gravity load is A cos(shoulder) whatever the elbow and wrist
+    do, so the predictor's load error is exactly -A sin(theta) x (its own angle error), about
+    3 N·m per degree at 20 kg: negative slope from 0 to 180 deg, so an error makes the predicted
+    load wrong in the direction that makes the next move's error larger."""
+    arm = ArmModel(assets.ARM_XML, payload_kg=20.0)
+    i = arm.joints.index("shoulder_pitch")
+    rng = np.random.default_rng(2)
+    for shoulder in np.radians([35.0, 55.0, 75.0, 95.0]):
+        loads = []
+        for _ in range(4):
+            drive = np.radians(rng.uniform(-90.0, 90.0, len(arm.joints)))
+            drive[i] = shoulder
+            loads.append(arm.load_torques(drive)[i])
+        assert np.ptp(loads) == pytest.approx(0.0, abs=1e-9)  # elbow, wrist, base, roll: no effect
+        h = 1e-6
+        up, down = drive.copy(), drive.copy()
+        up[i] += h
+        down[i] -= h
+        slope = (arm.load_torques(up)[i] - arm.load_torques(down)[i]) / (2 * h)
+        a = arm.load_torques(np.where(np.arange(len(drive)) == i, 0.0, drive))[i]  # A: the load horizontal
+        assert slope == pytest.approx(-a * math.sin(shoulder), rel=1e-6)
+        assert slope < -100.0  # N·m/rad: > 1.7 N·m of load error per degree of angle error
+
 def test_wrist_rig_has_no_gravity_load():
     arm = ArmModel(assets.WRIST_RIG_XML)
     assert arm.joints == ("wrist_pitch",)
