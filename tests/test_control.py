@@ -61,7 +61,6 @@ def test_drive_load_torque_equals_mujoco_bias_through_tendon_jacobian():
         assert f["shoulder_pitch"] == pytest.approx(g["shoulder_pitch"] - g["elbow_pitch"], abs=1e-9)
 
 
-
 def test_shoulder_load_depends_on_the_shoulder_angle_alone_and_falls_as_it_rises():
     """Why a shoulder prediction error grows move by move (insulator_cleaning: +3.5 deg after the
     brush press, +25 deg at t = 51 s) and why elbow/wrist errors cannot feed it. Through the
@@ -87,6 +86,7 @@ def test_shoulder_load_depends_on_the_shoulder_angle_alone_and_falls_as_it_rises
         a = arm.load_torques(np.where(np.arange(len(drive)) == i, 0.0, drive))[i]  # A: the load horizontal
         assert slope == pytest.approx(-a * math.sin(shoulder), rel=1e-6)
         assert slope < -100.0  # N·m/rad: > 1.7 N·m of load error per degree of angle error
+
 
 def test_wrist_rig_has_no_gravity_load():
     arm = ArmModel(assets.WRIST_RIG_XML)
