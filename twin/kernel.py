@@ -8,6 +8,8 @@ fraction of MuJoCo's own step (see benchmarks/).
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
 from pneumatics import params as P
@@ -84,14 +86,18 @@ def _mujoco_step_function():
 
 MJ_STEP = _mujoco_step_function()
 
+
+@njit
+def _plant_steps(mj_step, n, model_address, data_address, x, commands, params, drive_map, tendon_ids, actuator_ids, qpos, qvel, ctrl, tendon_frictionloss, supply_pa, dt_s, substeps):
+    # `mj_step` arrives as an argument (numba passes a ctypes function's address at run time), so
+    # this compiles once and is cached on disk like the rest, instead of at every process start
+    for _ in range(n):
+        pneumatic_step(x, commands, params, drive_map, tendon_ids, actuator_ids, qpos, qvel, ctrl, tendon_frictionloss, supply_pa, dt_s, substeps)
+        mj_step(model_address, data_address)
+
+
 if MJ_STEP is not None:
-
-    @njit(cache=False)  # holds the C function's address: compiled once per process, never cached
-    def plant_steps(n, model_address, data_address, x, commands, params, drive_map, tendon_ids, actuator_ids, qpos, qvel, ctrl, tendon_frictionloss, supply_pa, dt_s, substeps):
-        """n physics steps of the plant: the air (`pneumatic_step`), then MuJoCo's `mj_step`."""
-        for _ in range(n):
-            pneumatic_step(x, commands, params, drive_map, tendon_ids, actuator_ids, qpos, qvel, ctrl, tendon_frictionloss, supply_pa, dt_s, substeps)
-            MJ_STEP(model_address, data_address)
-
+    # n physics steps of the plant: the air (`pneumatic_step`), then MuJoCo's `mj_step`
+    plant_steps = functools.partial(_plant_steps, MJ_STEP)
 else:  # pragma: no cover - a MuJoCo build without a loadable shared library
     plant_steps = None

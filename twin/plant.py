@@ -97,7 +97,8 @@ class Plant:
         self._apply_brakes()
         mujoco.mj_forward(m, self.data)
         self._state_size = mujoco.mj_stateSize(m, mujoco.mjtState.mjSTATE_INTEGRATION)
-        self._warnings_seen = warning_counts(self.data)
+        self._warning_numbers = self.data.warning.number  # a view: MuJoCo's counters as they change
+        self._note_warnings()
         # views into MuJoCo's buffers, fetched once (each attribute access builds a new view)
         self._mujoco_arrays = (self.data.qpos, self.data.qvel, self.data.ctrl, m.tendon_frictionloss)
 
@@ -149,9 +150,15 @@ class Plant:
 
     def check_warnings(self) -> None:
         """SimulationError if MuJoCo warned since the last check (STYLE rule 7)."""
+        if self._warning_numbers.tobytes() == self._warnings_seen_bytes:
+            return  # no counter changed (the usual case, checked without numpy arithmetic)
         before = self._warnings_seen
-        self._warnings_seen = warning_counts(self.data)
+        self._note_warnings()
         raise_on_new_warnings(self.data, before, "while stepping the plant")
+
+    def _note_warnings(self) -> None:
+        self._warnings_seen = warning_counts(self.data)
+        self._warnings_seen_bytes = self._warning_numbers.tobytes()
 
     def _apply_brakes(self) -> None:
         for row, x, t in zip(self.params, self.air, self.tendon_ids):
@@ -202,7 +209,7 @@ class Plant:
 
     def restore_state(self, state: PlantState) -> None:
         mujoco.mj_setState(self.model, self.data, state.mujoco_state, mujoco.mjtState.mjSTATE_INTEGRATION)
-        self._warnings_seen = warning_counts(self.data)
+        self._note_warnings()
         self.air[:] = state.air
         self.commands[:] = state.commands
         self.supply_pa = state.supply_pa
