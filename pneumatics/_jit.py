@@ -29,16 +29,25 @@ def _source_hash() -> str:
     return h.hexdigest()[:16]
 
 
-if os.environ.get("TWIN_NO_JIT") == "1":
+NO_JIT = os.environ.get("TWIN_NO_JIT") == "1"
+
+if NO_JIT:
 
     def njit(fn=None, **_kwargs):
         return fn if fn is not None else (lambda f: f)
+
+    def intrinsic(fn):  # compiled-code helpers have no Python form; callers check NO_JIT
+        return fn
+
+    types = None
 
 else:
     if "NUMBA_CACHE_DIR" not in os.environ:
         cache_root = Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache"))
         os.environ["NUMBA_CACHE_DIR"] = str(cache_root / "pneumatic-arm-twin" / _source_hash())
     import numba
+    from numba import types
+    from numba.core.extending import intrinsic
 
     def njit(fn=None, **kwargs):
         options = {"cache": True, "fastmath": False, "error_model": "numpy", **kwargs}

@@ -8,12 +8,14 @@ fraction of MuJoCo's own step (see benchmarks/).
 
 from __future__ import annotations
 
+import ctypes
 import functools
 
 import numpy as np
+from llvmlite import ir
 
 from pneumatics import params as P
-from pneumatics._jit import njit
+from pneumatics._jit import NO_JIT, intrinsic, njit, types
 from pneumatics.brake import brake_holding_torque
 from pneumatics.friction import stribeck_excess_torque
 from pneumatics.joint import S_BRAKE, S_PA_MOTOR, S_PB_MOTOR, advance_discrete, advance_pressures, joint_torque
@@ -68,7 +70,6 @@ def _mujoco_step_function():
     without returning to Python (`plant_steps`). It is the same library the mujoco package loads,
     so results are bit-identical to `mujoco.mj_step` (tests/test_plant.py).
     """
-    import ctypes
     from pathlib import Path
 
     import mujoco
@@ -87,17 +88,36 @@ def _mujoco_step_function():
 MJ_STEP = _mujoco_step_function()
 
 
+@intrinsic
+def _call_mj_step(typingctx, function_address, model_address, data_address):
+    """Call `void f(void*, void*)` at an address known only at run time (MuJoCo's mj_step).
+
+    The address is an ordinary integer argument, so the code that calls it compiles once and is
+    cached on disk like the rest of the physics (a ctypes function held as a global is baked into
+    the machine code, and a ctypes function passed as an argument costs ~1 us per call to type).
+    """
+    sig = types.void(types.intp, types.intp, types.intp)
+
+    def codegen(context, builder, signature, args):
+        fn_address, model, data = args
+        ptr = ir.IntType(8).as_pointer()
+        fn_type = ir.FunctionType(ir.VoidType(), [ptr, ptr])
+        fn = builder.inttoptr(fn_address, fn_type.as_pointer())
+        builder.call(fn, [builder.inttoptr(model, ptr), builder.inttoptr(data, ptr)])
+        return context.get_dummy_value()
+
+    return sig, codegen
+
+
 @njit
-def _plant_steps(mj_step, n, model_address, data_address, x, commands, params, drive_map, tendon_ids, actuator_ids, qpos, qvel, ctrl, tendon_frictionloss, supply_pa, dt_s, substeps):
-    # `mj_step` arrives as an argument (numba passes a ctypes function's address at run time), so
-    # this compiles once and is cached on disk like the rest, instead of at every process start
+def _plant_steps(mj_step_address, n, model_address, data_address, x, commands, params, drive_map, tendon_ids, actuator_ids, qpos, qvel, ctrl, tendon_frictionloss, supply_pa, dt_s, substeps):
     for _ in range(n):
         pneumatic_step(x, commands, params, drive_map, tendon_ids, actuator_ids, qpos, qvel, ctrl, tendon_frictionloss, supply_pa, dt_s, substeps)
-        mj_step(model_address, data_address)
+        _call_mj_step(mj_step_address, model_address, data_address)
 
 
-if MJ_STEP is not None:
+if MJ_STEP is not None and not NO_JIT:
     # n physics steps of the plant: the air (`pneumatic_step`), then MuJoCo's `mj_step`
-    plant_steps = functools.partial(_plant_steps, MJ_STEP)
-else:  # pragma: no cover - a MuJoCo build without a loadable shared library
+    plant_steps = functools.partial(_plant_steps, ctypes.cast(MJ_STEP, ctypes.c_void_p).value)
+else:  # a MuJoCo build without a loadable shared library, or TWIN_NO_JIT=1: Plant.step loops in Python
     plant_steps = None
