@@ -215,25 +215,22 @@ class ArmController:
         self.time_s = t = float(sensors.time_s)
         supply = float(sensors.supply_pa)
         pv = np.asarray(sensors.valve_gauge_pa, dtype=float)
-        if not math.isfinite(supply + pv.sum()):  # a NaN or inf anywhere propagates into the sum
+        if not math.isfinite(supply + sum(pv.tolist())):  # a NaN or inf anywhere propagates into the sum
             self._fault(f"sensor reading not a number (supply {supply!r}, valves {pv.tolist()})")
             supply = self._last_supply
             pv = np.where(np.isfinite(pv), pv, 0.0)
         else:
             self._last_supply = supply
-        self.pv_full[:] = max(supply - self.gas.p_atm_pa, 0.0)
+        self.pv_full.fill(max(supply - self.gas.p_atm_pa, 0.0))
         if (self._plan or self._stepping) and not self.faulted:
             gauge = supply - self.gas.p_atm_pa
             if gauge < self._brake_release_pa:
                 self._fault(f"supply {gauge / 1e6:.3f} MPa gauge is below the brake release pressure {self._brake_release_pa / 1e6:.3f} MPa")
         if not self.faulted:
             self._sequence(supply)
-        # the valve pressure that just overcomes friction and the predicted load, turning + and -
-        coulomb = self.params[:, P.COULOMB]
-        self.breakaway_pa[:, 0] = np.maximum(coulomb + self.load, 0.0) / self.torque_per_pa
-        self.breakaway_pa[:, 1] = np.maximum(coulomb - self.load, 0.0) / self.torque_per_pa
         moving, timed_out = control_step(self.mode, self.target, self.integral, self.elapsed, self.timeout, self.open_time, self.open_set_point,
-                                         self.retries, self.y, self.x, self.pv_full, self.breakaway_pa, self._g, self.dt, self.commands, self.outcome)
+                                         self.retries, self.y, self.x, self.pv_full, self.breakaway_pa, self.load, self.torque_per_pa, self.params,
+                                         self._g, self.dt, self.commands, self.outcome)
         if self.faulted:
             self.commands[:] = 0.0
         if moving:

@@ -22,6 +22,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from pneumatics import params as P
 from pneumatics.joint import C_BRAKE_RELEASE, C_DIRECTION, C_PV_SET_GAUGE_PA, R_OMEGA, R_THETA, S_BRAKE, S_DIR
 from pneumatics._jit import njit
 
@@ -83,7 +84,10 @@ def control_step(
     y: np.ndarray,  # (n, 6) predicted one-joint states
     x: np.ndarray,  # (n, 9) the predictor's valve/brake states
     pv_full: np.ndarray,  # (n,) set point of full opening, gauge Pa (the supply)
-    breakaway_pa: np.ndarray,  # (n, 2) valve pressure at which the joint breaks free turning +, -; gauge Pa
+    breakaway_pa: np.ndarray,  # (n, 2) written: valve pressure at which the joint breaks free turning +, -; gauge Pa
+    load_nm: np.ndarray,  # (n,) predicted load torque on each drive, N·m
+    torque_per_pa: np.ndarray,  # (n,) joint torque per gauge Pa of valve pressure at stall, N·m/Pa
+    params: np.ndarray,  # (n, N_COLUMNS) the predictor's parameter rows (Coulomb friction)
     g: np.ndarray,  # gains_row
     dt_s: float,
     commands: np.ndarray,  # (n, 3) written
@@ -91,11 +95,16 @@ def control_step(
 ) -> tuple[bool, int]:
     """One control period of every joint's move: the commands to issue now.
 
-    Returns (whether any joint was moving, the first joint that timed out or -1).
+    The breakaway pressure of a joint is the valve pressure whose stall torque just overcomes its
+    Coulomb friction and the predicted load, turning + and -. Returns (whether any joint was
+    moving, the first joint that timed out or -1).
     """
     any_moving = False
     timed_out = -1
     for j in range(mode.shape[0]):
+        coulomb = params[j, P.COULOMB]
+        breakaway_pa[j, 0] = max(coulomb + load_nm[j], 0.0) / torque_per_pa[j]
+        breakaway_pa[j, 1] = max(coulomb - load_nm[j], 0.0) / torque_per_pa[j]
         outcome[j] = BUSY
         m = mode[j]
         if m != IDLE:
