@@ -15,7 +15,7 @@ import numpy as np
 from llvmlite import ir
 
 from pneumatics import params as P
-from pneumatics._jit import NO_JIT, intrinsic, njit, types
+from pneumatics._jit import NO_JIT, borrowed, intrinsic, njit, types
 from pneumatics.brake import brake_holding_torque
 from pneumatics.friction import stribeck_excess_torque
 from pneumatics.joint import S_BRAKE, S_PA_MOTOR, S_PB_MOTOR, advance_discrete, advance_pressures, joint_torque
@@ -111,6 +111,10 @@ def _call_mj_step(typingctx, function_address, model_address, data_address):
 
 @njit
 def _plant_steps(mj_step_address, n, model_address, data_address, x, commands, params, drive_map, tendon_ids, actuator_ids, qpos, qvel, ctrl, tendon_frictionloss, supply_pa, dt_s, substeps):
+    # the caller holds every array for the whole call: no reference counting in the loop (see `borrowed`)
+    x, commands, params, drive_map = borrowed(x), borrowed(commands), borrowed(params), borrowed(drive_map)
+    tendon_ids, actuator_ids = borrowed(tendon_ids), borrowed(actuator_ids)
+    qpos, qvel, ctrl, tendon_frictionloss = borrowed(qpos), borrowed(qvel), borrowed(ctrl), borrowed(tendon_frictionloss)
     for _ in range(n):
         pneumatic_step(x, commands, params, drive_map, tendon_ids, actuator_ids, qpos, qvel, ctrl, tendon_frictionloss, supply_pa, dt_s, substeps)
         _call_mj_step(mj_step_address, model_address, data_address)
