@@ -24,7 +24,7 @@ import numpy as np
 
 from pneumatics import params as P
 from pneumatics.joint import C_BRAKE_RELEASE, C_DIRECTION, C_PV_SET_GAUGE_PA, R_OMEGA, R_THETA, S_BRAKE, S_DIR
-from pneumatics._jit import njit
+from pneumatics._jit import borrowed, njit
 
 IDLE, CLOSED, SETTLE, OPEN = 0, 1, 2, 3
 # per-tick outcome of a joint's move
@@ -99,6 +99,11 @@ def control_step(
     Coulomb friction and the predicted load, turning + and -. Returns (whether any joint was
     moving, the first joint that timed out or -1).
     """
+    # the caller holds every array for the whole call: no reference counting (see `borrowed`)
+    mode, target, integral, elapsed, timeout = borrowed(mode), borrowed(target), borrowed(integral), borrowed(elapsed), borrowed(timeout)
+    open_time, open_set_point, retries, y, x = borrowed(open_time), borrowed(open_set_point), borrowed(retries), borrowed(y), borrowed(x)
+    pv_full, breakaway_pa, load_nm, torque_per_pa = borrowed(pv_full), borrowed(breakaway_pa), borrowed(load_nm), borrowed(torque_per_pa)
+    params, g, commands, outcome = borrowed(params), borrowed(g), borrowed(commands), borrowed(outcome)
     any_moving = False
     timed_out = -1
     for j in range(mode.shape[0]):
