@@ -101,6 +101,9 @@ class Plant:
         self._note_warnings()
         # views into MuJoCo's buffers, fetched once (each attribute access builds a new view)
         self._mujoco_arrays = (self.data.qpos, self.data.qvel, self.data.ctrl, m.tendon_frictionloss)
+        # what every step passes along unchanged (fetched once: Plant.step runs every control tick)
+        self._fixed_arrays = (self.drive_map, self.tendon_ids, self.actuator_ids, *self._mujoco_arrays)
+        self._addresses = (m._address, self.data._address)
 
     # -- inputs -------------------------------------------------------------------------------
     def set_supply(self, supply_pa: float) -> None:
@@ -138,10 +141,10 @@ class Plant:
             commands = commands.copy()
             commands[stuck, J.C_DIRECTION] = self.stuck_direction[stuck]
             commands[stuck, J.C_PV_SET_GAUGE_PA] = np.inf  # stuck fully open: the supply passes
-        args = (self.air, commands, self.params, self.drive_map, self.tendon_ids, self.actuator_ids, *self._mujoco_arrays, self.supply_pa, self.dt, SUBSTEPS)
         if plant_steps is not None:
-            plant_steps(n, m._address, d._address, *args)
+            plant_steps(n, *self._addresses, self.air, commands, self.params, *self._fixed_arrays, self.supply_pa, self.dt, SUBSTEPS)
         else:
+            args = (self.air, commands, self.params, *self._fixed_arrays, self.supply_pa, self.dt, SUBSTEPS)
             for _ in range(n):
                 pneumatic_step(*args)
                 mujoco.mj_step(m, d)
