@@ -92,19 +92,23 @@ def control_step(
     dt_s: float,
     commands: np.ndarray,  # (n, 3) written
     outcome: np.ndarray,  # (n,) int64 written: BUSY, ARRIVED, TIMED_OUT
-) -> tuple[bool, int]:
+    load_theta: np.ndarray,  # (n,) predicted drive angles at which `load_nm` was computed, rad
+    load_update_rad: float,  # how far a predicted angle may move before the load is stale, rad
+) -> tuple[bool, int, bool]:
     """One control period of every joint's move: the commands to issue now.
 
     The breakaway pressure of a joint is the valve pressure whose stall torque just overcomes its
     Coulomb friction and the predicted load, turning + and -. Returns (whether any joint was
-    moving, the first joint that timed out or -1).
+    moving, the first joint that timed out or -1, whether a predicted angle has moved more than
+    `load_update_rad` from `load_theta`).
     """
     # the caller holds every array for the whole call: no reference counting (see `borrowed`)
     mode, target, integral, elapsed, timeout = borrowed(mode), borrowed(target), borrowed(integral), borrowed(elapsed), borrowed(timeout)
     open_time, open_set_point, retries, y, x = borrowed(open_time), borrowed(open_set_point), borrowed(retries), borrowed(y), borrowed(x)
     pv_full, breakaway_pa, load_nm, torque_per_pa = borrowed(pv_full), borrowed(breakaway_pa), borrowed(load_nm), borrowed(torque_per_pa)
-    params, g, commands, outcome = borrowed(params), borrowed(g), borrowed(commands), borrowed(outcome)
+    params, g, commands, outcome, load_theta = borrowed(params), borrowed(g), borrowed(commands), borrowed(outcome), borrowed(load_theta)
     any_moving = False
+    load_stale = False
     timed_out = -1
     for j in range(mode.shape[0]):
         coulomb = params[j, P.COULOMB]
@@ -127,6 +131,8 @@ def control_step(
                     timed_out = j
         theta = y[j, R_THETA]
         omega = y[j, R_OMEGA]
+        if not abs(theta - load_theta[j]) <= load_update_rad:  # (a NaN counts as moved)
+            load_stale = True
         error = target[j] - theta
         if m == CLOSED:
             if abs(error) < g[G_TOL]:  # in the band: brake now (a joint still coasting is caught by it)
@@ -162,4 +168,4 @@ def control_step(
         commands[j, C_DIRECTION] = direction
         commands[j, C_PV_SET_GAUGE_PA] = set_point
         commands[j, C_BRAKE_RELEASE] = release
-    return any_moving, timed_out
+    return any_moving, timed_out, load_stale
