@@ -24,7 +24,7 @@ import mujoco
 import numpy as np
 
 import assets
-from pneumatics._jit import njit
+from pneumatics._jit import borrowed, njit
 from twin.kernel import pneumatic_step
 from twin.plant import Plant
 
@@ -74,6 +74,10 @@ def _time_bare(m: mujoco.MjModel, d: mujoco.MjData, start: np.ndarray, ctrl: np.
 
 @njit(cache=False)
 def _kernel_only(n, x, commands, params, drive_map, tendon_ids, actuator_ids, qpos, qvel, ctrl, frictionloss, supply_pa, dt, substeps):
+    # as twin/kernel.py's plant_steps runs it: the arrays borrowed, without reference counting
+    x, commands, params, drive_map = borrowed(x), borrowed(commands), borrowed(params), borrowed(drive_map)
+    tendon_ids, actuator_ids = borrowed(tendon_ids), borrowed(actuator_ids)
+    qpos, qvel, ctrl, frictionloss = borrowed(qpos), borrowed(qvel), borrowed(ctrl), borrowed(frictionloss)
     for _ in range(n):
         pneumatic_step(x, commands, params, drive_map, tendon_ids, actuator_ids, qpos, qvel, ctrl, frictionloss, supply_pa, dt, substeps)
 

@@ -48,6 +48,8 @@ class ArmController:
     min_rotation_rad: smaller requested rotations are refused (paper Sec. IV: 20 deg).
     move_timeout_s: a move not finished by then is stopped, braked and reported as a fault.
     open_loop_set_point_pa: the open loop's proportional-valve set point (default: full opening, 1/k_u).
+    load_update_rad: the load torques are taken from Pinocchio again once a predicted drive angle has
+        moved more than this since they were last taken (0: whenever any has moved at all).
     """
 
     def __init__(
@@ -63,6 +65,7 @@ class ArmController:
         open_loop_set_point_pa: float | None = None,
         payload_kg: float | None = None,
         control_period_s: float = 1e-3,
+        load_update_rad: float = 0.0,
         gas: Gas = AIR,
     ):
         if mode not in MODES:
@@ -112,7 +115,8 @@ class ArmController:
         self.open_set_point = np.zeros(n)
         self.retries = np.zeros(n)
         self.outcome = np.zeros(n, dtype=np.int64)
-        self.load = self.arm.load_torques(start)
+        self.load_update_rad = float(load_update_rad)
+        self._set_load(start)
         self.inertia = self.arm.drive_inertias(start) + self.rotor_inertia
         self._plan: list[tuple[np.ndarray, float]] = []  # (targets with NaN = stays, dwell_s)
         self._step_joints = np.zeros(n, dtype=bool)
@@ -215,29 +219,27 @@ class ArmController:
         self.time_s = float(sensors.time_s)
         supply = float(sensors.supply_pa)
         pv = np.asarray(sensors.valve_gauge_pa, dtype=float)
-        if not math.isfinite(supply + pv.sum()):  # a NaN or inf anywhere propagates into the sum
+        if not math.isfinite(supply + sum(pv.tolist())):  # a NaN or inf anywhere propagates into the sum
             self._fault(f"sensor reading not a number (supply {supply!r}, valves {pv.tolist()})")
             supply = self._last_supply
             pv = np.where(np.isfinite(pv), pv, 0.0)
         else:
             self._last_supply = supply
-        self.pv_full[:] = max(supply - self.gas.p_atm_pa, 0.0)
+        self.pv_full.fill(max(supply - self.gas.p_atm_pa, 0.0))
         if (self._plan or self._stepping) and not self.faulted:
             gauge = supply - self.gas.p_atm_pa
             if gauge < self._brake_release_pa:
                 self._fault(f"supply {gauge / 1e6:.3f} MPa gauge is below the brake release pressure {self._brake_release_pa / 1e6:.3f} MPa")
         if not self.faulted:
             self._sequence(supply)
-        # the valve pressure that just overcomes friction and the predicted load, turning + and -
-        coulomb = self.params[:, P.COULOMB]
-        self.breakaway_pa[:, 0] = np.maximum(coulomb + self.load, 0.0) / self.torque_per_pa
-        self.breakaway_pa[:, 1] = np.maximum(coulomb - self.load, 0.0) / self.torque_per_pa
-        moving, timed_out = control_step(self.mode, self.target, self.integral, self.elapsed, self.timeout, self.open_time, self.open_set_point,
-                                         self.retries, self.y, self.x, self.pv_full, self.breakaway_pa, self._g, self.dt, self.commands, self.outcome)
+        moving, timed_out, load_stale = control_step(self.mode, self.target, self.integral, self.elapsed, self.timeout, self.open_time, self.open_set_point,
+                                         self.retries, self.y, self.x, self.pv_full, self.breakaway_pa, self.load, self.torque_per_pa, self.params,
+                                         self._g, self.dt, self.commands, self.outcome, self._load_theta, self.load_update_rad)
         if self.faulted:
             self.commands[:] = 0.0
         if moving:
-            self.load = self.arm.load_torques(self.y[:, R_THETA])
+            if load_stale:
+                self._set_load(self.y[:, R_THETA])
             if timed_out >= 0:
                 i = timed_out
                 self._fault(f"{self.joints[i]} did not reach {math.degrees(self.target[i]):.2f} deg within {self.timeout[i]:g} s "
@@ -245,6 +247,11 @@ class ArmController:
                 self.commands[:] = 0.0
         predict_step(self.y, self.x, self.commands, pv, supply, self.load, self.inertia, self.params, self.dt)
         return self.commands
+
+    def _set_load(self, theta: np.ndarray) -> None:
+        # the load torques from Pinocchio at the predicted configuration, and where they were taken
+        self.load = self.arm.load_torques(theta)
+        self._load_theta = np.array(theta, dtype=float)
 
     def _fault(self, why: str) -> None:
         if not self.faulted:
@@ -255,7 +262,8 @@ class ArmController:
     def _sequence(self, supply_pa: float) -> None:
         """Start the next step of the plan when the current one is done (and its dwell is over)."""
         if self._stepping:
-            if (self.mode[self._step_joints] != IDLE).any():
+            # any joint of the step still busy? (lists: a numpy mask costs ~1.5 us, every tick of a move)
+            if any(m != IDLE for m, in_step in zip(self.mode.tolist(), self._step_joints.tolist()) if in_step):
                 return
             for i in np.flatnonzero(self._step_joints):
                 self.events.append(f"t = {self.time_s:.3f} s: {self.joints[i]} at {math.degrees(self.y[i, R_THETA]):.2f} deg (predicted), "
@@ -274,7 +282,7 @@ class ArmController:
             return
         theta = self.y[:, R_THETA]
         self.inertia = self.arm.drive_inertias(theta) + self.rotor_inertia
-        self.load = self.arm.load_torques(theta)
+        self._set_load(theta)
         for i in np.flatnonzero(moving):
             self.target[i] = step[i]
             self.integral[i] = 0.0

@@ -22,8 +22,9 @@ from typing import NamedTuple
 
 import numpy as np
 
+from pneumatics import params as P
 from pneumatics.joint import C_BRAKE_RELEASE, C_DIRECTION, C_PV_SET_GAUGE_PA, R_OMEGA, R_THETA, S_BRAKE, S_DIR
-from pneumatics._jit import njit
+from pneumatics._jit import borrowed, njit
 
 IDLE, CLOSED, SETTLE, OPEN = 0, 1, 2, 3
 # per-tick outcome of a joint's move
@@ -83,19 +84,36 @@ def control_step(
     y: np.ndarray,  # (n, 6) predicted one-joint states
     x: np.ndarray,  # (n, 9) the predictor's valve/brake states
     pv_full: np.ndarray,  # (n,) set point of full opening, gauge Pa (the supply)
-    breakaway_pa: np.ndarray,  # (n, 2) valve pressure at which the joint breaks free turning +, -; gauge Pa
+    breakaway_pa: np.ndarray,  # (n, 2) written: valve pressure at which the joint breaks free turning +, -; gauge Pa
+    load_nm: np.ndarray,  # (n,) predicted load torque on each drive, N·m
+    torque_per_pa: np.ndarray,  # (n,) joint torque per gauge Pa of valve pressure at stall, N·m/Pa
+    params: np.ndarray,  # (n, N_COLUMNS) the predictor's parameter rows (Coulomb friction)
     g: np.ndarray,  # gains_row
     dt_s: float,
     commands: np.ndarray,  # (n, 3) written
     outcome: np.ndarray,  # (n,) int64 written: BUSY, ARRIVED, TIMED_OUT
-) -> tuple[bool, int]:
+    load_theta: np.ndarray,  # (n,) predicted drive angles at which `load_nm` was computed, rad
+    load_update_rad: float,  # how far a predicted angle may move before the load is stale, rad
+) -> tuple[bool, int, bool]:
     """One control period of every joint's move: the commands to issue now.
 
-    Returns (whether any joint was moving, the first joint that timed out or -1).
+    The breakaway pressure of a joint is the valve pressure whose stall torque just overcomes its
+    Coulomb friction and the predicted load, turning + and -. Returns (whether any joint was
+    moving, the first joint that timed out or -1, whether a predicted angle has moved more than
+    `load_update_rad` from `load_theta`).
     """
+    # the caller holds every array for the whole call: no reference counting (see `borrowed`)
+    mode, target, integral, elapsed, timeout = borrowed(mode), borrowed(target), borrowed(integral), borrowed(elapsed), borrowed(timeout)
+    open_time, open_set_point, retries, y, x = borrowed(open_time), borrowed(open_set_point), borrowed(retries), borrowed(y), borrowed(x)
+    pv_full, breakaway_pa, load_nm, torque_per_pa = borrowed(pv_full), borrowed(breakaway_pa), borrowed(load_nm), borrowed(torque_per_pa)
+    params, g, commands, outcome, load_theta = borrowed(params), borrowed(g), borrowed(commands), borrowed(outcome), borrowed(load_theta)
     any_moving = False
+    load_stale = False
     timed_out = -1
     for j in range(mode.shape[0]):
+        coulomb = params[j, P.COULOMB]
+        breakaway_pa[j, 0] = max(coulomb + load_nm[j], 0.0) / torque_per_pa[j]
+        breakaway_pa[j, 1] = max(coulomb - load_nm[j], 0.0) / torque_per_pa[j]
         outcome[j] = BUSY
         m = mode[j]
         if m != IDLE:
@@ -113,6 +131,8 @@ def control_step(
                     timed_out = j
         theta = y[j, R_THETA]
         omega = y[j, R_OMEGA]
+        if not abs(theta - load_theta[j]) <= load_update_rad:  # (a NaN counts as moved)
+            load_stale = True
         error = target[j] - theta
         if m == CLOSED:
             if abs(error) < g[G_TOL]:  # in the band: brake now (a joint still coasting is caught by it)
@@ -148,4 +168,4 @@ def control_step(
         commands[j, C_DIRECTION] = direction
         commands[j, C_PV_SET_GAUGE_PA] = set_point
         commands[j, C_BRAKE_RELEASE] = release
-    return any_moving, timed_out
+    return any_moving, timed_out, load_stale

@@ -20,7 +20,7 @@ from __future__ import annotations
 import numpy as np
 
 from pneumatics import params as P
-from pneumatics._jit import njit
+from pneumatics._jit import borrowed, njit
 from pneumatics.joint import (
     N_RIGID,
     R_OMEGA,
@@ -76,6 +76,9 @@ def predict_step(
     dt_s: float,
 ) -> None:
     """Advance every joint's prediction over one control period (in place)."""
+    # the caller holds every array for the whole call: no reference counting (see `borrowed`)
+    y, x, commands, valve_gauge_pa = borrowed(y), borrowed(x), borrowed(commands), borrowed(valve_gauge_pa)
+    load_nm, inertia_kg_m2, params = borrowed(load_nm), borrowed(inertia_kg_m2), borrowed(params)
     for j in range(y.shape[0]):
         p = params[j]
         if predictor_at_rest(y[j], x[j], commands[j], p):

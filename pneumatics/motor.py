@@ -73,6 +73,8 @@ def chamber_volumes(phi_rad: float, stator_radius_m: float, rotor_radius_m: floa
 @njit
 def vane_torque(p_a_pa: float, p_b_pa: float, phi_rad: float, stator_radius_m: float, rotor_radius_m: float, vane_length_m: float, n_vanes: float) -> float:
     """Motor shaft torque in N·m from the chamber pressures: (p_A - p_B) dV_A/dphi."""
+    if p_a_pa == p_b_pa:
+        return 0.0  # an idle motor, every step: exactly the product below (dV_A/dphi > 0), without the geometry
     return (p_a_pa - p_b_pa) * swept_area(phi_rad, stator_radius_m, rotor_radius_m, vane_length_m, n_vanes)
 
 

@@ -29,6 +29,10 @@ def lag_toward(value: float, target: float, dt_s: float, time_constant_s: float)
     """Exact step of a first-order lag dv/dt = (target - v)/tau over dt (for a constant target)."""
     if time_constant_s <= 0.0:
         return target
+    if value == target:
+        # settled (an idle valve or brake, every step): the formula below gives exactly this, + 0.0
+        # included (it turns a -0.0 into 0.0 as the formula does), without its exp
+        return target + 0.0
     return target + (value - target) * math.exp(-dt_s / time_constant_s)
 
 

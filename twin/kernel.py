@@ -8,10 +8,14 @@ fraction of MuJoCo's own step (see benchmarks/).
 
 from __future__ import annotations
 
+import ctypes
+import functools
+
 import numpy as np
+from llvmlite import ir
 
 from pneumatics import params as P
-from pneumatics._jit import njit
+from pneumatics._jit import NO_JIT, borrowed, intrinsic, njit, types
 from pneumatics.brake import brake_holding_torque
 from pneumatics.friction import stribeck_excess_torque
 from pneumatics.joint import S_BRAKE, S_PA_MOTOR, S_PB_MOTOR, advance_discrete, advance_pressures, joint_torque
@@ -66,7 +70,6 @@ def _mujoco_step_function():
     without returning to Python (`plant_steps`). It is the same library the mujoco package loads,
     so results are bit-identical to `mujoco.mj_step` (tests/test_plant.py).
     """
-    import ctypes
     from pathlib import Path
 
     import mujoco
@@ -84,14 +87,41 @@ def _mujoco_step_function():
 
 MJ_STEP = _mujoco_step_function()
 
-if MJ_STEP is not None:
 
-    @njit(cache=False)  # holds the C function's address: compiled once per process, never cached
-    def plant_steps(n, model_address, data_address, x, commands, params, drive_map, tendon_ids, actuator_ids, qpos, qvel, ctrl, tendon_frictionloss, supply_pa, dt_s, substeps):
-        """n physics steps of the plant: the air (`pneumatic_step`), then MuJoCo's `mj_step`."""
-        for _ in range(n):
-            pneumatic_step(x, commands, params, drive_map, tendon_ids, actuator_ids, qpos, qvel, ctrl, tendon_frictionloss, supply_pa, dt_s, substeps)
-            MJ_STEP(model_address, data_address)
+@intrinsic
+def _call_mj_step(typingctx, function_address, model_address, data_address):
+    """Call `void f(void*, void*)` at an address known only at run time (MuJoCo's mj_step).
 
-else:  # pragma: no cover - a MuJoCo build without a loadable shared library
+    The address is an ordinary integer argument, so the code that calls it compiles once and is
+    cached on disk like the rest of the physics (a ctypes function held as a global is baked into
+    the machine code, and a ctypes function passed as an argument costs ~1 us per call to type).
+    """
+    sig = types.void(types.intp, types.intp, types.intp)
+
+    def codegen(context, builder, signature, args):
+        fn_address, model, data = args
+        ptr = ir.IntType(8).as_pointer()
+        fn_type = ir.FunctionType(ir.VoidType(), [ptr, ptr])
+        fn = builder.inttoptr(fn_address, fn_type.as_pointer())
+        builder.call(fn, [builder.inttoptr(model, ptr), builder.inttoptr(data, ptr)])
+        return context.get_dummy_value()
+
+    return sig, codegen
+
+
+@njit
+def _plant_steps(mj_step_address, n, model_address, data_address, x, commands, params, drive_map, tendon_ids, actuator_ids, qpos, qvel, ctrl, tendon_frictionloss, supply_pa, dt_s, substeps):
+    # the caller holds every array for the whole call: no reference counting in the loop (see `borrowed`)
+    x, commands, params, drive_map = borrowed(x), borrowed(commands), borrowed(params), borrowed(drive_map)
+    tendon_ids, actuator_ids = borrowed(tendon_ids), borrowed(actuator_ids)
+    qpos, qvel, ctrl, tendon_frictionloss = borrowed(qpos), borrowed(qvel), borrowed(ctrl), borrowed(tendon_frictionloss)
+    for _ in range(n):
+        pneumatic_step(x, commands, params, drive_map, tendon_ids, actuator_ids, qpos, qvel, ctrl, tendon_frictionloss, supply_pa, dt_s, substeps)
+        _call_mj_step(mj_step_address, model_address, data_address)
+
+
+if MJ_STEP is not None and not NO_JIT:
+    # n physics steps of the plant: the air (`pneumatic_step`), then MuJoCo's `mj_step`
+    plant_steps = functools.partial(_plant_steps, ctypes.cast(MJ_STEP, ctypes.c_void_p).value)
+else:  # a MuJoCo build without a loadable shared library, or TWIN_NO_JIT=1: Plant.step loops in Python
     plant_steps = None

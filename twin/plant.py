@@ -97,9 +97,13 @@ class Plant:
         self._apply_brakes()
         mujoco.mj_forward(m, self.data)
         self._state_size = mujoco.mj_stateSize(m, mujoco.mjtState.mjSTATE_INTEGRATION)
-        self._warnings_seen = warning_counts(self.data)
+        self._warning_numbers = self.data.warning.number  # a view: MuJoCo's counters as they change
+        self._note_warnings()
         # views into MuJoCo's buffers, fetched once (each attribute access builds a new view)
         self._mujoco_arrays = (self.data.qpos, self.data.qvel, self.data.ctrl, m.tendon_frictionloss)
+        # what every step passes along unchanged (fetched once: Plant.step runs every control tick)
+        self._fixed_arrays = (self.drive_map, self.tendon_ids, self.actuator_ids, *self._mujoco_arrays)
+        self._addresses = (m._address, self.data._address)
 
     # -- inputs -------------------------------------------------------------------------------
     def set_supply(self, supply_pa: float) -> None:
@@ -137,10 +141,10 @@ class Plant:
             commands = commands.copy()
             commands[stuck, J.C_DIRECTION] = self.stuck_direction[stuck]
             commands[stuck, J.C_PV_SET_GAUGE_PA] = np.inf  # stuck fully open: the supply passes
-        args = (self.air, commands, self.params, self.drive_map, self.tendon_ids, self.actuator_ids, *self._mujoco_arrays, self.supply_pa, self.dt, SUBSTEPS)
         if plant_steps is not None:
-            plant_steps(n, m._address, d._address, *args)
+            plant_steps(n, *self._addresses, self.air, commands, self.params, *self._fixed_arrays, self.supply_pa, self.dt, SUBSTEPS)
         else:
+            args = (self.air, commands, self.params, *self._fixed_arrays, self.supply_pa, self.dt, SUBSTEPS)
             for _ in range(n):
                 pneumatic_step(*args)
                 mujoco.mj_step(m, d)
@@ -149,9 +153,15 @@ class Plant:
 
     def check_warnings(self) -> None:
         """SimulationError if MuJoCo warned since the last check (STYLE rule 7)."""
+        if self._warning_numbers.tobytes() == self._warnings_seen_bytes:
+            return  # no counter changed (the usual case, checked without numpy arithmetic)
         before = self._warnings_seen
-        self._warnings_seen = warning_counts(self.data)
+        self._note_warnings()
         raise_on_new_warnings(self.data, before, "while stepping the plant")
+
+    def _note_warnings(self) -> None:
+        self._warnings_seen = warning_counts(self.data)
+        self._warnings_seen_bytes = self._warning_numbers.tobytes()
 
     def _apply_brakes(self) -> None:
         for row, x, t in zip(self.params, self.air, self.tendon_ids):
@@ -202,7 +212,7 @@ class Plant:
 
     def restore_state(self, state: PlantState) -> None:
         mujoco.mj_setState(self.model, self.data, state.mujoco_state, mujoco.mjtState.mjSTATE_INTEGRATION)
-        self._warnings_seen = warning_counts(self.data)
+        self._note_warnings()
         self.air[:] = state.air
         self.commands[:] = state.commands
         self.supply_pa = state.supply_pa
