@@ -121,6 +121,7 @@ class ArmController:
         self._plan: list[tuple[np.ndarray, float]] = []  # (targets with NaN = stays, dwell_s)
         self._step_joints = np.zeros(n, dtype=bool)
         self._stepping = False  # == self._step_joints.any(), kept as a bool for the tick's speed
+        self._step_index: list[int] = []  # == np.flatnonzero(self._step_joints).tolist(), likewise
         self._brake_release_pa = float(np.max(self.params[:, P.BRAKE_RELEASE_PA]))
         self._dwell_left = 0.0
         self._last_supply = atm
@@ -208,6 +209,7 @@ class ArmController:
         self.mode[:] = IDLE
         self._plan = []
         self._step_joints[:] = False
+        self._step_index = []
         self._stepping = False
         self._dwell_left = 0.0
         self.commands[:] = 0.0  # valves shut, brakes engaged (spring-applied)
@@ -262,13 +264,16 @@ class ArmController:
     def _sequence(self, supply_pa: float) -> None:
         """Start the next step of the plan when the current one is done (and its dwell is over)."""
         if self._stepping:
-            # any joint of the step still busy? (lists: a numpy mask costs ~1.5 us, every tick of a move)
-            if any(m != IDLE for m, in_step in zip(self.mode.tolist(), self._step_joints.tolist()) if in_step):
-                return
+            # any joint of the step still busy? (a list: a numpy mask costs ~1.5 us, every tick of a move)
+            mode = self.mode.tolist()
+            for i in self._step_index:
+                if mode[i] != IDLE:
+                    return
             for i in np.flatnonzero(self._step_joints):
                 self.events.append(f"t = {self.time_s:.3f} s: {self.joints[i]} at {math.degrees(self.y[i, R_THETA]):.2f} deg (predicted), "
                                    f"target {math.degrees(self.target[i]):.2f} deg")
             self._step_joints[:] = False
+            self._step_index = []
             self._stepping = False
         if self._dwell_left > 0.0:
             self._dwell_left -= self.dt
@@ -297,6 +302,7 @@ class ArmController:
             else:
                 self.mode[i] = CLOSED
         self._step_joints = moving
+        self._step_index = np.flatnonzero(moving).tolist()
         self._stepping = True
 
     # -- what the controller believes (Controller protocol) ------------------------------------
