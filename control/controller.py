@@ -122,7 +122,7 @@ class ArmController:
         self._step_joints = np.zeros(n, dtype=bool)
         self._stepping = False  # == self._step_joints.any(), kept as a bool for the tick's speed
         self._step_index: list[int] = []  # == np.flatnonzero(self._step_joints).tolist(), likewise
-        self._brake_release_pa = float(np.max(self.params[:, P.BRAKE_RELEASE_PA]))
+        self._brake_release_pa = float(np.max(self.params[:, P.BRAKE_START_PA]))  # below it a brake cannot lift at all
         self._dwell_left = 0.0
         self._last_supply = atm
         self.faulted = False

@@ -2,7 +2,7 @@
 
 Open the valve for the time a nominal model says the move takes, then shut it and brake. The time
 comes from simulating the one-joint model with the nominal parameters (the same
-`single_joint_rk4` / `advance_discrete` the predictor uses) from rest until the angle reaches the
+`single_joint_step` / `advance_discrete` the predictor uses) from rest until the angle reaches the
 target; the coast after the valve shuts is not anticipated, as by an operator with a stopwatch.
 """
 
@@ -12,7 +12,7 @@ import numpy as np
 
 from pneumatics import params as P
 from pneumatics._jit import njit
-from pneumatics.joint import N_COMMAND, R_THETA, S_BRAKE, S_DIR, S_PV, advance_discrete, initial_state, single_joint_rk4
+from pneumatics.joint import N_COMMAND, R_THETA, S_PV, advance_discrete, initial_state, single_joint_step
 
 from control.predictor import initial_rigid_state
 
@@ -28,7 +28,7 @@ def _duration(y: np.ndarray, x: np.ndarray, target: float, set_point: float, sup
     t = 0.0
     while t < max_s:
         advance_discrete(x, cmd, supply_pa, dt_s, p)
-        single_joint_rk4(y, x[S_DIR], x[S_PV], supply_pa, load_nm, inertia, x[S_BRAKE], dt_s, p)  # the valve as the model believes it
+        single_joint_step(y, x, cmd, x[S_PV], supply_pa, load_nm, inertia, dt_s, p)  # the valve as the model believes it
         t += dt_s
         if sign * (y[R_THETA] - target) >= 0.0:
             return t

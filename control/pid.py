@@ -44,7 +44,8 @@ class PidGains(NamedTuple):
     max_retries: float = 3.0
     # floor of the set point while moving, as a multiple of the joint's breakaway pressure (the
     # valve pressure whose stall torque equals Coulomb friction plus the predicted load): below
-    # it the motor cannot move the joint, the loop would only wind up (0: no floor)
+    # it the motor cannot move the joint, the loop would only wind up (0: no floor). A brake fed
+    # by the motor's port (pneumatics/brake.py) also floors it at its full-release pressure.
     breakaway_margin: float = 1.2
 
 
@@ -144,7 +145,9 @@ def control_step(
                     direction = 1.0 if u > 0.0 else -1.0
                     set_point = min(abs(u), pv_full[j])
                     breakaway = breakaway_pa[j, 0] if direction > 0.0 else breakaway_pa[j, 1]
-                    set_point = max(set_point, min(g[G_MARGIN] * breakaway, pv_full[j]))
+                    # a brake fed by the motor's port drags below its full-release pressure
+                    floor = max(g[G_MARGIN] * breakaway, params[j, P.BRAKE_FED_BY_MOTOR] * params[j, P.BRAKE_RELEASE_PA])
+                    set_point = max(set_point, min(floor, pv_full[j]))
                 release = 1.0
         elif m == OPEN:
             if elapsed[j] < open_time[j]:

@@ -1,11 +1,12 @@
 """The angle predictor (paper Sec. III-IV, eq. 7 with the hose loss of eq. 5), one control tick at a time.
 
-Per joint the predictor integrates the one-joint model `pneumatics.joint.single_joint_rk4` (RK4,
+Per joint the predictor integrates the one-joint model `pneumatics.joint.single_joint_step` (RK4,
 the paper's integrator) over the control period from what the operator's platform really has:
 
 * the commands the controller issued, run through the predictor's own copy of the valves and the
-  brake (`advance_discrete`): the direction valve's switching delay and the brake's engagement are
-  what the predictor believes from its command history;
+  brake (`advance_discrete`, `advance_brake`): the direction valve's switching delay and the
+  brake's engagement are what the predictor believes from its command history and its own
+  predicted port pressures (a brake fed by the motor, pneumatics/brake.py);
 * the measured supply pressure;
 * the proportional valve's pressure sensor P_v: the motor's input pressure and, through
   u = k_u P_v, the valve's opening (paper Sec. IV; `pressure_rates` does both);
@@ -33,7 +34,7 @@ from pneumatics.joint import (
     S_DIR,
     advance_discrete,
     initial_state,
-    single_joint_rk4,
+    single_joint_step,
 )
 
 
@@ -84,7 +85,7 @@ def predict_step(
         if predictor_at_rest(y[j], x[j], commands[j], p):
             continue
         advance_discrete(x[j], commands[j], supply_pa, dt_s, p)
-        single_joint_rk4(y[j], x[j, S_DIR], valve_gauge_pa[j], supply_pa, load_nm[j], inertia_kg_m2[j], x[j, S_BRAKE], dt_s, p)
+        single_joint_step(y[j], x[j], commands[j], valve_gauge_pa[j], supply_pa, load_nm[j], inertia_kg_m2[j], dt_s, p)
 
 
 def initial_valve_state(p_atm_pa: float) -> np.ndarray:

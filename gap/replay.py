@@ -1,9 +1,9 @@
 """Replay a run's commands through the one-joint twin (paper eq. 7), compiled in one loop.
 
-The twin used for fitting is `pneumatics.joint.single_joint_rk4` (the predictor's model) driven by
-the run's own command rows: per 1 ms step the valves and brake advance with `advance_discrete`
-(solenoid delay, proportional valve lag, brake), then the rigid body and the four node pressures
-take one RK4 step. The whole run is one @njit call, so a run of a few seconds replays in a few ms
+The twin used for fitting is `pneumatics.joint.single_joint_step` (the predictor's model) driven
+by the run's own command rows: per 1 ms step the valves advance with `advance_discrete`
+(solenoid delay, proportional valve lag), then the rigid body and the four node pressures take
+one RK4 step and the brake follows its air. The whole run is one @njit call, so a run of a few seconds replays in a few ms
 and the effect search can afford thousands of replays.
 """
 
@@ -27,14 +27,13 @@ from pneumatics.joint import (
     R_PB_VALVE,
     R_THETA,
     S_BRAKE,
-    S_DIR,
     S_PA_MOTOR,
     S_PA_VALVE,
     S_PB_MOTOR,
     S_PB_VALVE,
     S_PV,
     advance_discrete,
-    single_joint_rk4,
+    single_joint_step,
 )
 
 DT_S = 1e-3  # integration step: the platform's 1 ms control period (DESIGN: RK4 at 1 ms is within 0.01 deg)
@@ -107,7 +106,7 @@ def replay_run(
                 x[S_PV] = (1.0 - w) * valve_gauge_pa[r] + w * valve_gauge_pa[r + 1]
             else:
                 x[S_PV] = valve_gauge_pa[r]
-        single_joint_rk4(y, x[S_DIR], x[S_PV], s, load_torque_nm, inertia_kg_m2, x[S_BRAKE], dt_s, p)
+        single_joint_step(y, x, cmd, x[S_PV], s, load_torque_nm, inertia_kg_m2, dt_s, p)
         t_out[k + 1] = (k + 1) * dt_s
         th_out[k + 1] = y[R_THETA]
         om_out[k + 1] = y[R_OMEGA]

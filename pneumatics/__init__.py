@@ -4,7 +4,7 @@ Each law is written once here and used by the plant (twin/), the angle predictor
 and the gap diagnosis (gap/). Pressures are absolute Pa unless a name says `gauge`.
 """
 
-from pneumatics.brake import brake_holding_torque, brake_step, brake_target
+from pneumatics.brake import brake_feed_gauge_pa, brake_holding_torque, brake_step, brake_target
 from pneumatics.chamber import chamber_pressure_rate
 from pneumatics.friction import coulomb_viscous_torque, reducer_output_torque, stribeck_excess_torque
 from pneumatics.gas import AIR, Gas, isentropic_temperature
@@ -16,7 +16,7 @@ from pneumatics.valves import lag_toward, proportional_valve_target, solenoid_st
 
 __all__ = [
     "AIR", "Gas", "JointParams", "ParameterError",
-    "brake_holding_torque", "brake_step", "brake_target", "chamber_pressure_rate", "chamber_volumes",
+    "brake_feed_gauge_pa", "brake_holding_torque", "brake_step", "brake_target", "chamber_pressure_rate", "chamber_volumes",
     "coulomb_viscous_torque", "critical_pressure_ratio", "displacement_per_rad", "flow_function",
     "friction_factor", "hose_mass_flow", "hose_pressure_drop", "hose_volume", "isentropic_temperature",
     "lag_toward", "load_joint_params", "orifice_mass_flow", "params_row", "proportional_valve_target",

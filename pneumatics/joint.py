@@ -29,7 +29,7 @@ import numpy as np
 
 from pneumatics import params as P
 from pneumatics._jit import njit
-from pneumatics.brake import brake_step
+from pneumatics.brake import brake_feed_gauge_pa, brake_step, brake_target
 from pneumatics.chamber import chamber_pressure_rate
 from pneumatics.friction import coulomb_viscous_torque, reducer_output_torque, stribeck_excess_torque
 from pneumatics.gas import isentropic_temperature
@@ -146,16 +146,26 @@ def joint_torque(pa_motor: float, pb_motor: float, phi_motor: float, omega_joint
 
 @njit
 def advance_discrete(x: np.ndarray, command: np.ndarray, supply_pa: float, dt_s: float, p: np.ndarray) -> None:
-    """Advance the valves and the brake of one joint over dt, in place (exact for held inputs)."""
+    """Advance the valves of one joint over dt, in place (exact for held inputs)."""
     supply_gauge = supply_pa - p[P.GAS_P_ATM]
     x[S_DIR], x[S_DIR_PENDING], x[S_DIR_REMAINING] = solenoid_step(
         x[S_DIR], x[S_DIR_PENDING], x[S_DIR_REMAINING], command[C_DIRECTION], p[P.SOLENOID_DELAY], dt_s
     )
     target = proportional_valve_target(command[C_PV_SET_GAUGE_PA], supply_gauge)
     x[S_PV] = lag_toward(x[S_PV], target, dt_s, p[P.VALVE_TAU])
-    x[S_BRAKE] = brake_step(
-        x[S_BRAKE], command[C_BRAKE_RELEASE], supply_gauge, p[P.BRAKE_RELEASE_PA], p[P.BRAKE_TAU_ON], p[P.BRAKE_TAU_OFF], dt_s
-    )
+
+
+@njit
+def advance_brake(x: np.ndarray, command: np.ndarray, supply_pa: float, pa_motor_pa: float, pb_motor_pa: float, dt_s: float, p: np.ndarray) -> None:
+    """Advance the brake's engagement over dt, in place, toward the target its air gives now.
+
+    The brake's air is the supply or the higher motor-end port pressure (`brake_feed_gauge_pa`):
+    the caller passes the motor-node pressures it has just integrated over the step (the plant's
+    or the predictor's own), so the brake follows them without a step's lag.
+    """
+    feed = brake_feed_gauge_pa(p[P.BRAKE_FED_BY_MOTOR], supply_pa, pa_motor_pa, pb_motor_pa, p[P.GAS_P_ATM])
+    engage = brake_target(command[C_BRAKE_RELEASE], feed, p[P.BRAKE_START_PA], p[P.BRAKE_RELEASE_PA])
+    x[S_BRAKE] = brake_step(x[S_BRAKE], engage, p[P.BRAKE_TAU_ON], p[P.BRAKE_TAU_OFF], dt_s)
 
 
 @njit
@@ -272,3 +282,12 @@ def single_joint_rk4(y: np.ndarray, direction: float, valve_gauge_pa: float, sup
         single_joint_rates(y, direction, valve_gauge_pa, supply_pa, load_torque_nm, inertia_kg_m2, brake_engagement, p, tmp)
         if tmp[R_THETA] == 0.0:
             y[R_OMEGA] = 0.0
+
+
+@njit
+def single_joint_step(y: np.ndarray, x: np.ndarray, command: np.ndarray, valve_gauge_pa: float, supply_pa: float, load_torque_nm: float, inertia_kg_m2: float, dt_s: float, p: np.ndarray) -> None:
+    """The one-joint model over dt after its valves have advanced (`advance_discrete`): the rigid
+    body and the air by RK4 (`single_joint_rk4`) with the brake held, then the brake toward what
+    its air gives at the step's end (`advance_brake`). In place on y and x."""
+    single_joint_rk4(y, x[S_DIR], valve_gauge_pa, supply_pa, load_torque_nm, inertia_kg_m2, x[S_BRAKE], dt_s, p)
+    advance_brake(x, command, supply_pa, y[R_PA_MOTOR], y[R_PB_MOTOR], dt_s, p)

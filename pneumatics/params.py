@@ -51,7 +51,9 @@ class JointParams(NamedTuple):
     solenoid_delay_s: float  # direction valve switching delay
     # [brake]
     brake_holding_nm: float
-    brake_release_gauge_pa: float
+    brake_release_gauge_pa: float  # full release: the lining is clear from this feed pressure on
+    brake_release_start_gauge_pa: float  # the lining begins to lift (the springs' preload)
+    brake_fed_by_motor: float  # 1: air from the motor's pressurised port at the arm; 0: the supply (pneumatics/brake.py)
     brake_engage_time_constant_s: float
     brake_release_time_constant_s: float
     # [friction] joint side
@@ -99,6 +101,8 @@ SPEC: dict[str, FieldSpec] = {
     "solenoid_delay_s": FieldSpec("valves", 0.0, 1.0, "s"),
     "brake_holding_nm": FieldSpec("brake", 0.0, 1e5, "N·m"),
     "brake_release_gauge_pa": FieldSpec("brake", 0.0, 1.0e6, "Pa"),
+    "brake_release_start_gauge_pa": FieldSpec("brake", 0.0, 1.0e6, "Pa"),
+    "brake_fed_by_motor": FieldSpec("brake", 0.0, 1.0, "0 or 1"),
     "brake_engage_time_constant_s": FieldSpec("brake", 0.0, 1.0, "s"),
     "brake_release_time_constant_s": FieldSpec("brake", 0.0, 1.0, "s"),
     "coulomb_nm": FieldSpec("friction", 0.0, 1e4, "N·m"),
@@ -143,8 +147,15 @@ def validated(params: JointParams, source: str = "<parameters>") -> JointParams:
             f"{source}: [motor] rotor_radius_m = {params.rotor_radius_m:g} must be smaller than "
             f"stator_radius_m = {params.stator_radius_m:g}"
         )
-    if params.hose_loss not in (0.0, 1.0):
-        raise ParameterError(f"{source}: [hose] hose_loss = {params.hose_loss:g}; allowed: 0 or 1")
+    if params.brake_release_start_gauge_pa > params.brake_release_gauge_pa:
+        raise ParameterError(
+            f"{source}: [brake] brake_release_start_gauge_pa = {params.brake_release_start_gauge_pa:g} must not exceed "
+            f"brake_release_gauge_pa = {params.brake_release_gauge_pa:g} (the lining lifts before it is clear)"
+        )
+    for section, field in (("hose", "hose_loss"), ("brake", "brake_fed_by_motor")):
+        value = getattr(params, field)
+        if value not in (0.0, 1.0):
+            raise ParameterError(f"{source}: [{section}] {field} = {value:g}; allowed: 0 or 1")
     return params
 
 
@@ -187,8 +198,8 @@ STATOR, ROTOR, VANE_L, N_VANES, DEAD_V, ROTOR_J = (_COLUMNS[f] for f in JointPar
 RATIO, ETA_F, ETA_B = (_COLUMNS[f] for f in JointParams._fields[6:9])
 HOSE_L, HOSE_D, HOSE_LOSS = (_COLUMNS[f] for f in JointParams._fields[9:12])
 A_IN, A_EX, K_U, VALVE_TAU, SOLENOID_DELAY = (_COLUMNS[f] for f in JointParams._fields[12:17])
-BRAKE_HOLD, BRAKE_RELEASE_PA, BRAKE_TAU_ON, BRAKE_TAU_OFF = (_COLUMNS[f] for f in JointParams._fields[17:21])
-COULOMB, VISCOUS, STICK_SPEED = (_COLUMNS[f] for f in JointParams._fields[21:24])
-LEAK_A, STRIBECK_EXCESS, STRIBECK_SPEED, DEAD_ZONE, COND_SCALE, POLY_N, RIPPLE, DROOP, HOSE_LEAK_A = (_COLUMNS[f] for f in JointParams._fields[24:33])
+BRAKE_HOLD, BRAKE_RELEASE_PA, BRAKE_START_PA, BRAKE_FED_BY_MOTOR, BRAKE_TAU_ON, BRAKE_TAU_OFF = (_COLUMNS[f] for f in JointParams._fields[17:23])
+COULOMB, VISCOUS, STICK_SPEED = (_COLUMNS[f] for f in JointParams._fields[23:26])
+LEAK_A, STRIBECK_EXCESS, STRIBECK_SPEED, DEAD_ZONE, COND_SCALE, POLY_N, RIPPLE, DROOP, HOSE_LEAK_A = (_COLUMNS[f] for f in JointParams._fields[26:35])
 GAS_R, GAS_K, GAS_T, GAS_P_ATM, GAS_MU = (_COLUMNS["gas_" + f] for f in Gas._fields)
 N_COLUMNS = len(_COLUMNS)

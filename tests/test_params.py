@@ -52,6 +52,11 @@ BAD = {
     "boolean": (_set_line("hose_loss", "hose_loss = true"), ["hose_loss", "True", "not a number", "0..1"]),
     "nan": (_set_line("viscous_nm_s", "viscous_nm_s = nan"), ["viscous_nm_s", "nan", "0..10000"]),
     "hose_loss_half": (_set_line("hose_loss", "hose_loss = 0.5"), ["hose_loss", "0.5", "0 or 1"]),
+    "brake_fed_half": (_set_line("brake_fed_by_motor", "brake_fed_by_motor = 0.5"), ["brake_fed_by_motor", "0.5", "0 or 1"]),
+    "brake_band_inverted": (
+        _set_line("brake_release_start_gauge_pa", "brake_release_start_gauge_pa = 6.0e5"),
+        ["brake_release_start_gauge_pa", "600000", "brake_release_gauge_pa", "must not exceed"],
+    ),
     "rotor_not_inside_stator": (_set_line("rotor_radius_m", "rotor_radius_m = 0.012"), ["rotor_radius_m", "0.012", "stator_radius_m"]),
     "unknown_field": (TEXT.replace("[motor]\n", "[motor]\ncolour = 3\n"), ["colour", "not a known field", "stator_radius_m"]),
     "field_in_wrong_table": (

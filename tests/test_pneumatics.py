@@ -17,6 +17,7 @@ from scipy.optimize import brentq
 import assets
 from pneumatics import (
     AIR,
+    brake_feed_gauge_pa,
     brake_target,
     chamber_pressure_rate,
     chamber_volumes,
@@ -30,12 +31,15 @@ from pneumatics import (
     lag_toward,
     load_joint_params,
     orifice_mass_flow,
+    params_row,
     reducer_output_torque,
     solenoid_step,
     swept_area,
     vane_torque,
 )
+from pneumatics import params as P
 from pneumatics.hose import BLASIUS_LAMINAR_RE, reynolds_number
+from pneumatics.joint import S_BRAKE, advance_brake, initial_state
 from pneumatics.orifice import LINEAR_RATIO
 
 R, K, T_S, P_ATM, MU = AIR.r_j_per_kg_k, AIR.k, AIR.t_supply_k, AIR.p_atm_pa, AIR.mu_pa_s
@@ -270,10 +274,47 @@ def test_lag_toward_is_the_exact_exponential() -> None:
     assert lag_toward(1.0, 3.0, dt, 0.0) == 3.0
 
 
-def test_brake_releases_only_when_told_and_the_supply_can_lift_the_springs() -> None:
+def test_brake_releases_only_when_told_and_its_air_can_lift_the_springs() -> None:
     release = 3e5
-    assert brake_target(1.0, 5e5, release) == 0.0
-    assert brake_target(1.0, release, release) == 0.0
-    assert brake_target(1.0, release - 1.0, release) == 1.0  # not enough air: springs hold
-    assert brake_target(0.0, 8e5, release) == 1.0  # not told: springs hold
-    assert brake_target(0.0, 0.0, release) == 1.0
+    assert brake_target(1.0, 5e5, release, release) == 0.0
+    assert brake_target(1.0, release, release, release) == 0.0
+    assert brake_target(1.0, release - 1.0, release, release) == 1.0  # not enough air: springs hold
+    assert brake_target(0.0, 8e5, release, release) == 1.0  # not told: springs hold
+    assert brake_target(0.0, 0.0, release, release) == 1.0
+
+
+def test_brake_lifts_linearly_across_its_band() -> None:
+    # the springs' force is linear in their compression: between the preload (start) and full
+    # release the lining presses with the springs' force less the air's
+    start, full = 3.75e5, 4.75e5
+    feeds = np.linspace(start, full, 11)
+    targets = np.array([brake_target(1.0, f, start, full) for f in feeds])
+    assert targets[0] == 1.0 and targets[-1] == 0.0
+    assert np.allclose(targets, (full - feeds) / (full - start), rtol=0, atol=1e-12)
+    assert brake_target(1.0, start - 1.0, start, full) == 1.0
+    assert brake_target(0.0, full + 1e5, start, full) == 1.0
+
+
+def test_brake_feed_is_the_supply_or_the_higher_motor_port() -> None:
+    atm = 101_325.0
+    assert brake_feed_gauge_pa(0.0, atm + 6e5, atm + 1e5, atm + 2e5, atm) == 6e5  # a line of its own
+    assert brake_feed_gauge_pa(1.0, atm + 6e5, atm + 1e5, atm + 4e5, atm) == 4e5  # shuttle valve: port B
+    assert brake_feed_gauge_pa(1.0, atm + 6e5, atm + 4.5e5, atm + 2e5, atm) == 4.5e5  # port A
+    assert brake_feed_gauge_pa(1.0, atm + 6e5, atm, atm, atm) == 0.0  # motor not driven: no air
+
+
+def test_brake_fed_by_the_motor_follows_the_hose_end_pressure() -> None:
+    """The wrist's brake takes its air from the driven port at the arm: while the port still fills
+    it stays engaged, and it lifts only as far as the motor-end pressure allows."""
+    p = params_row(load_joint_params(assets.joint_param_path("wrist_pitch")))
+    atm = p[P.GAS_P_ATM]
+    x = initial_state(atm, brake_engaged=True)
+    command = np.array([1.0, 5e5, 1.0])
+    advance_brake(x, command, atm + 6e5, atm + 2e5, atm, 1.0, p)  # 1 s at 0.2 MPa: under the start
+    assert x[S_BRAKE] == 1.0
+    start, full = p[P.BRAKE_START_PA], p[P.BRAKE_RELEASE_PA]
+    assert p[P.BRAKE_FED_BY_MOTOR] == 1.0 and 2e5 < start < full <= 5e5  # inside the paper's 0.5 MPa
+    advance_brake(x, command, atm + 6e5, atm + 0.5 * (start + full), atm, 1.0, p)  # mid-band
+    assert x[S_BRAKE] == pytest.approx(0.5, abs=1e-6)
+    advance_brake(x, command, atm + 6e5, atm + full, atm, 1.0, p)
+    assert x[S_BRAKE] == pytest.approx(0.0, abs=1e-6)

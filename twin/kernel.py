@@ -18,7 +18,7 @@ from pneumatics import params as P
 from pneumatics._jit import NO_JIT, borrowed, intrinsic, njit, types
 from pneumatics.brake import brake_holding_torque
 from pneumatics.friction import stribeck_excess_torque
-from pneumatics.joint import S_BRAKE, S_PA_MOTOR, S_PB_MOTOR, advance_discrete, advance_pressures, joint_torque
+from pneumatics.joint import S_BRAKE, S_PA_MOTOR, S_PB_MOTOR, advance_brake, advance_discrete, advance_pressures, joint_torque
 
 
 @njit
@@ -61,6 +61,7 @@ def pneumatic_step(
         tendon_frictionloss[t] = p[P.COULOMB] + brake_holding_torque(x[j, S_BRAKE], p[P.BRAKE_HOLD])
         advance_discrete(x[j], commands[j], supply_pa, dt_s, p)
         advance_pressures(x[j], theta, omega, supply_pa, dt_s, substeps, p)
+        advance_brake(x[j], commands[j], supply_pa, x[j, S_PA_MOTOR], x[j, S_PB_MOTOR], dt_s, p)
 
 
 def _mujoco_step_function():
