@@ -27,7 +27,7 @@ import assets
 import twin.plant
 from pneumatics import joint as J
 from pneumatics import params as P
-from pneumatics.brake import brake_target
+from pneumatics.brake import brake_feed_gauge_pa, brake_target
 from twin.model import warning_counts
 from twin.plant import Plant
 
@@ -90,7 +90,7 @@ def reference_solution(plant: Plant, t_eval: np.ndarray):
         dry = coulomb + engagement * p[P.BRAKE_HOLD]
         d_omega = (tau - dry - viscous * omega) / inertia if (omega > 0.0 or tau > dry) else 0.0
         rates = J.pressure_rates(y[2], y[3], y[4], y[5], ratio * theta, ratio * omega, 1.0, valve, SUPPLY_05, p)
-        feed = max(y[3], y[5]) - P_ATM
+        feed = brake_feed_gauge_pa(p[P.BRAKE_FED_BY_MOTOR], SUPPLY_05, y[3], y[5], P_ATM)
         target = brake_target(1.0, feed, p[P.BRAKE_START_PA], p[P.BRAKE_RELEASE_PA])
         tau_brake = p[P.BRAKE_TAU_ON] if target > engagement else p[P.BRAKE_TAU_OFF]
         return [omega, d_omega, *rates, (target - engagement) / tau_brake]
