@@ -18,6 +18,7 @@ def register(subparsers) -> None:
     b.add_argument("--out", required=True)
     b.add_argument("--quick", action="store_true", help="a few cases only (for tests)")
     b.add_argument("--jobs", type=int, default=2)
+    b.add_argument("--angle-only", action="store_true", help="campaigns without chamber-pressure transducers (the angle instrument alone)")
     b.set_defaults(func=cmd_bench)
 
 
@@ -42,6 +43,6 @@ def cmd_diagnose(args) -> int:
 def cmd_bench(args) -> int:
     from gap.bench import run_bench
 
-    summary = run_bench(args.out, quick=args.quick, jobs=args.jobs)
+    summary = run_bench(args.out, quick=args.quick, jobs=args.jobs, chamber_pressures=not args.angle_only)
     print({k: v for k, v in summary.items() if k != "cases"})
     return 0

@@ -11,7 +11,7 @@ Steps (each a plain function of the campaign):
    gap, all pairs are screened
    in-sample on a coarse 2-D grid and the best N_PAIRS_CV are fitted per fold (grid point, then
    bounded Nelder-Mead) and scored on withheld runs; a verdict, and for a gap outside the catalogue
-   the nearest family (the best single's);
+   the nearest family (the best candidate's leading effect's, by held-out misfit);
 4. how far: per pressure, mean and max |error| on withheld runs before and after each effect, with
    bootstrap confidence intervals over runs.
 """
@@ -27,13 +27,16 @@ from scipy.optimize import minimize, minimize_scalar
 import assets
 from gap.campaign import Campaign, Run
 from gap.effects import BY_NAME, CATALOGUE, Effect
-from gap.replay import DT_S, replay_at, replay_run
+from gap.replay import DT_S, replay_at, replay_run, replay_with_pressures
 from pneumatics import JointParams, load_joint_params, params_row
 
 # The one-joint twin and the plant (MuJoCo friction constraint vs Karnopp, explicit coupling) differ
 # by 0.20 deg rms on the bench's no-effect campaigns (measured, gap bench, after the valve model
 # became pressure-regulating); twice that is the tolerance below which a residual is not a gap.
 MODEL_TOLERANCE_DEG = 0.4
+# The same for the motor-chamber pressures, where a campaign measured them: the two models differ by
+# 3.0 kPa rms on the bench's no-effect campaigns (measured, gap bench); twice that is the tolerance.
+MODEL_TOLERANCE_KPA = 6.0
 SIGNIFICANCE = 2.0  # a gap is significant above SIGNIFICANCE x floor, floor = sqrt(noise^2 + tol^2)
 EXPLAIN_SHRINK = 0.1  # ... or an effect explains it if it brings the held-out rms below this x before
 PHASE_WINDOW_S = 0.3  # start / reversal / braking: this long after the command change
@@ -47,6 +50,9 @@ class Prepared:
     args: tuple  # cmd arrays for replay
     ts: np.ndarray  # sample times
     meas: np.ndarray  # measured angle at ts
+    tp: np.ndarray  # times of the pressure samples (empty: the run measured no chamber pressure)
+    pmask: np.ndarray  # (2, len(tp)) bool: which of p_a, p_b was measured at each time
+    pmeas: np.ndarray  # measured chamber pressures (Pa), flattened over pmask
 
 
 def nominal_params(campaign: Campaign) -> JointParams:
@@ -65,7 +71,11 @@ def nominal_inertia(campaign: Campaign, p: JointParams) -> float:
 def prepare(run: Run) -> Prepared:
     m = run.sampled
     args = (run.time_s, run.direction, run.valve_gauge_pa, run.brake_released, run.supply_pa, run.valve_is_output)
-    return Prepared(run, args, run.time_s[m], run.angle_rad[m])
+    nan = np.full(run.time_s.shape, np.nan)
+    pres = np.stack([run.extra.get("p_a_pa", nan), run.extra.get("p_b_pa", nan)])
+    rows = np.isfinite(pres).any(axis=0)
+    pmask = np.isfinite(pres[:, rows])
+    return Prepared(run, args, run.time_s[m], run.angle_rad[m], run.time_s[rows], pmask, pres[:, rows][pmask])
 
 
 class Twin:
@@ -76,20 +86,37 @@ class Twin:
         self.params = nominal_params(campaign)
         self.inertia = nominal_inertia(campaign, self.params)
         self.runs = [prepare(r) for r in campaign.runs]
+        self.has_pressure = any(pr.pmeas.size for pr in self.runs)
+        # the fit's weight on squared pressure residuals, (angle floor / pressure floor)^2 in
+        # rad^2/Pa^2: both channels count in units of their own floor (set by `diagnose`)
+        self.pressure_weight = 0.0
 
     def predict(self, params: JointParams, inertia_scale: float, k: int) -> np.ndarray:
         pr = self.runs[k]
         return replay_at(params_row(params), *pr.args, pr.run.start_rad, self.inertia * inertia_scale, 0.0, pr.ts, DT_S)
 
-    def predict_with(self, effects: list[tuple[Effect, float]], k: int) -> np.ndarray:
+    def residuals(self, params: JointParams, inertia_scale: float, k: int) -> tuple[np.ndarray, np.ndarray]:
+        """(measured - twin angle at the angle samples, measured - twin chamber pressures where measured)."""
+        pr = self.runs[k]
+        if not pr.pmeas.size:
+            return pr.meas - self.predict(params, inertia_scale, k), pr.pmeas
+        th, pa, pb = replay_with_pressures(params_row(params), *pr.args, pr.run.start_rad, self.inertia * inertia_scale, 0.0, pr.ts, pr.tp, DT_S)
+        return pr.meas - th, pr.pmeas - np.stack([pa, pb])[pr.pmask]
+
+    def residuals_with(self, effects: list[tuple[Effect, float]], k: int) -> tuple[np.ndarray, np.ndarray]:
         p, s = self.params, 1.0
         for e, v in effects:
             p, s2 = e.apply(p, v)
             s *= s2
-        return self.predict(p, s, k)
+        return self.residuals(p, s, k)
+
+    def run_sse(self, effects, k: int) -> float:
+        """The fit's objective on run k: squared angle residuals plus weighted squared pressure residuals."""
+        ra, rp = self.residuals_with(effects, k)
+        return float(np.sum(ra**2) + self.pressure_weight * np.sum(rp**2))
 
     def sse(self, effects, idx) -> float:
-        return float(sum(np.sum((self.runs[k].meas - self.predict_with(effects, k)) ** 2) for k in idx))
+        return sum(self.run_sse(effects, k) for k in idx)
 
 
 def folds_of(campaign: Campaign) -> list[tuple[list[int], list[int]]]:
@@ -135,23 +162,25 @@ class Candidate:
     effects: list[str]
     fold_values: list[list[float]]  # per fold, fitted value of each effect
     full_values: list[float]  # fitted on all runs
-    heldout: list[np.ndarray] = field(default_factory=list)  # per run: withheld residual (rad)
+    heldout: list[np.ndarray] = field(default_factory=list)  # per run: withheld angle residual (rad)
+    heldout_p: list[np.ndarray] = field(default_factory=list)  # per run: withheld pressure residual (Pa; empty where not measured)
 
 
 def fit_single(twin: Twin, e: Effect, folds) -> Candidate:
     n = len(twin.runs)
     grid = _grid(e)
     # residual SSE of every run at every grid value, shared by all folds
-    per_run = np.array([[np.sum((twin.runs[k].meas - twin.predict_with([(e, v)], k)) ** 2) for k in range(n)] for v in grid])
-    heldout: list[np.ndarray | None] = [None] * n
+    per_run = np.array([[twin.run_sse([(e, v)], k) for k in range(n)] for v in grid])
+    heldout: list = [None] * n
+    heldout_p: list = [None] * n
     fold_values = []
     for train, test in folds:
         v = _fit_1d(twin, e, [], train, grid, per_run[:, train].sum(axis=1))
         fold_values.append([v])
         for k in test:
-            heldout[k] = twin.runs[k].meas - twin.predict_with([(e, v)], k)
+            heldout[k], heldout_p[k] = twin.residuals_with([(e, v)], k)
     full = _fit_1d(twin, e, [], list(range(n)), grid, per_run.sum(axis=1))
-    return Candidate(e.name, [e.name], fold_values, [full], heldout)
+    return Candidate(e.name, [e.name], fold_values, [full], heldout, heldout_p)
 
 
 def _coord_fit(twin: Twin, ea: Effect, eb: Effect, idx: list[int], va: float, vb: float, rounds: int = 2, n_grid: int = 5, maxiter: int = 8) -> tuple[float, float]:
@@ -191,7 +220,7 @@ def pair_grid(twin: Twin, a: Candidate, b: Candidate, runs: list[int] | None = N
     ea, eb = BY_NAME[a.name], BY_NAME[b.name]
     ga, gb = _grid(ea, n_grid), _grid(eb, n_grid)
     runs = list(range(len(twin.runs))) if runs is None else runs
-    sse = np.array([[[np.sum((twin.runs[k].meas - twin.predict_with([(ea, va), (eb, vb)], k)) ** 2) for k in runs] for vb in gb] for va in ga])
+    sse = np.array([[[twin.run_sse([(ea, va), (eb, vb)], k) for k in runs] for vb in gb] for va in ga])
     return ga, gb, sse
 
 
@@ -208,15 +237,16 @@ def fit_pair(twin: Twin, a: Candidate, b: Candidate, folds, grid: tuple[np.ndarr
         i, j = np.unravel_index(int(np.argmin(s)), s.shape)
         return _nm_fit(twin, ea, eb, idx, float(ga[i]), float(gb[j]), float(s[i, j]))
 
-    heldout: list[np.ndarray | None] = [None] * n
+    heldout: list = [None] * n
+    heldout_p: list = [None] * n
     fold_values = []
     for train, test in folds:
         va, vb = fit(train)
         fold_values.append([va, vb])
         for k in test:
-            heldout[k] = twin.runs[k].meas - twin.predict_with([(ea, va), (eb, vb)], k)
+            heldout[k], heldout_p[k] = twin.residuals_with([(ea, va), (eb, vb)], k)
     full = fit(list(range(n)))
-    return Candidate(f"{a.name}+{b.name}", [a.name, b.name], fold_values, list(full), heldout)
+    return Candidate(f"{a.name}+{b.name}", [a.name, b.name], fold_values, list(full), heldout, heldout_p)
 
 
 # --- statistics ----------------------------------------------------------------------------
@@ -224,8 +254,34 @@ def rms_deg(residuals: list[np.ndarray]) -> float:
     return float(np.rad2deg(math.sqrt(np.mean(np.concatenate(residuals) ** 2))))
 
 
-def run_ms(residuals: list[np.ndarray]) -> np.ndarray:
-    return np.array([np.mean(r**2) for r in residuals])
+def nearest_families(c: Candidate, singles: list[Candidate], before_rms: float) -> dict:
+    """The family-level call for a gap outside the catalogue: the best candidate's leading effect
+    (of a pair, the one that alone fits the withheld runs better; `singles` is ranked best first)
+    and its family, with the other families the candidate needed."""
+    rank = {s.name: i for i, s in enumerate(singles)}
+    lead = min(c.effects, key=lambda e: rank.get(e, len(rank)))
+    families = list(dict.fromkeys([BY_NAME[lead].family] + [BY_NAME[e].family for e in c.effects]))
+    return {"candidate": c.name, "effects": c.effects, "lead": lead, "family": BY_NAME[lead].family, "families": families, "shrink": rms_deg(c.heldout) / before_rms}
+
+
+def rms_kpa(residuals: list[np.ndarray]) -> float | None:
+    """Pressure residual rms in kPa over the runs that measured it (None if none did)."""
+    r = np.concatenate(residuals) if residuals else np.empty(0)
+    return float(math.sqrt(np.mean(r**2)) / 1e3) if r.size else None
+
+
+def _in_floors(angle: np.ndarray, pressure: np.ndarray, floor_deg: float, floor_kpa: float) -> np.ndarray:
+    return np.concatenate([np.rad2deg(angle) / floor_deg, pressure / (floor_kpa * 1e3)])
+
+
+def run_ms(angle: list[np.ndarray], pressure: list[np.ndarray], floor_deg: float, floor_kpa: float) -> np.ndarray:
+    """Per run: mean square misfit in units of the floors (angle samples and pressure samples)."""
+    return np.array([np.mean(_in_floors(a, p, floor_deg, floor_kpa) ** 2) for a, p in zip(angle, pressure)])
+
+
+def normalised_rms(angle: list[np.ndarray], pressure: list[np.ndarray], floor_deg: float, floor_kpa: float) -> float:
+    """rms misfit of all samples, angle and pressure, each in units of its own floor."""
+    return float(math.sqrt(np.mean(np.concatenate([_in_floors(a, p, floor_deg, floor_kpa) for a, p in zip(angle, pressure)]) ** 2)))
 
 
 def bootstrap_ci(values_per_run: list[np.ndarray], stat, rng: np.random.Generator, n_boot: int = N_BOOT) -> tuple[float, float]:
@@ -240,23 +296,37 @@ def bootstrap_ci(values_per_run: list[np.ndarray], stat, rng: np.random.Generato
     return float(np.quantile(out, 0.025)), float(np.quantile(out, 0.975))
 
 
-def noise_floor_deg(twin: Twin) -> tuple[float, int]:
-    """Measurement noise (deg rms) from repeated runs: sigma = rms(difference of repeats)/sqrt(2);
-    (nan, 0) when the campaign has no repeats."""
+def repeat_noise(twin: Twin, series) -> tuple[float, int]:
+    """Measurement noise (rms, in the series' unit) from repeated runs: sigma = rms(difference of
+    repeats)/sqrt(2), with `series(prepared) -> (times, values)`; (nan, 0) without repeats."""
     groups: dict[tuple, list[int]] = {}
     for k, pr in enumerate(twin.runs):
         groups.setdefault(pr.run.signature(), []).append(k)
     diffs = []
     for ks in groups.values():
         for a, b in zip(ks, ks[1:]):
-            ra, rb = twin.runs[a], twin.runs[b]
-            if len(ra.ts) == len(rb.ts) and np.allclose(ra.ts, rb.ts):
-                diffs.append(ra.meas - rb.meas)
+            (ta, va), (tb, vb) = series(twin.runs[a]), series(twin.runs[b])
+            if len(ta) < 2 or len(tb) < 2:
+                continue
+            if len(ta) == len(tb) and np.allclose(ta, tb):
+                diffs.append(va - vb)
             else:
-                diffs.append(ra.meas - np.interp(ra.ts, rb.ts, rb.meas))
+                diffs.append(va - np.interp(ta, tb, vb))
     if not diffs:
         return math.nan, 0
-    return float(np.rad2deg(np.sqrt(np.mean(np.concatenate(diffs) ** 2) / 2.0))), len(diffs)
+    return float(np.sqrt(np.mean(np.concatenate(diffs) ** 2) / 2.0)), len(diffs)
+
+
+def noise_floor_deg(twin: Twin) -> tuple[float, int]:
+    """Angle noise (deg rms) of the reference instrument, from repeated runs."""
+    sigma, n = repeat_noise(twin, lambda pr: (pr.ts, pr.meas))
+    return float(np.rad2deg(sigma)), n
+
+
+def pressure_noise_kpa(twin: Twin) -> tuple[float, int]:
+    """Chamber-pressure noise (kPa rms) of the transducers (port A), from repeated runs."""
+    sigma, n = repeat_noise(twin, lambda pr: (pr.tp[pr.pmask[0]], pr.pmeas[: int(pr.pmask[0].sum())]))
+    return sigma / 1e3, n
 
 
 # --- where -----------------------------------------------------------------------------------
@@ -302,7 +372,7 @@ def breakdown(twin: Twin, residuals: list[np.ndarray]) -> dict:
     for pr, r in zip(twin.runs, residuals):
         run = pr.run
         idx = np.clip(np.searchsorted(run.time_s, pr.ts, side="right") - 1, 0, len(run.time_s) - 1)
-        t, _, om = replay_run(params_row(twin.params), *pr.args, run.start_rad, twin.inertia, 0.0, pr.ts[-1] + DT_S, DT_S)
+        t, _, om, _, _ = replay_run(params_row(twin.params), *pr.args, run.start_rad, twin.inertia, 0.0, pr.ts[-1] + DT_S, DT_S)
         speed = np.abs(np.interp(pr.ts, t, om))
         moving = np.nonzero(run.direction)[0]
         t0 = run.time_s[moving[0]] if len(moving) else 0.0
@@ -332,11 +402,20 @@ def diagnose(campaign: Campaign, catalogue: tuple[Effect, ...] = CATALOGUE, mode
     folds = folds_of(campaign)
     rng = np.random.default_rng(seed)
     n = len(twin.runs)
-    before = [pr.meas - twin.predict(twin.params, 1.0, k) for k, pr in enumerate(twin.runs)]
+    before, before_p = (list(r) for r in zip(*(twin.residuals(twin.params, 1.0, k) for k in range(n))))
     noise, n_pairs = noise_floor_deg(twin)
     floor = math.sqrt((0.0 if math.isnan(noise) else noise) ** 2 + model_tolerance_deg**2)
     threshold = SIGNIFICANCE * floor
     before_rms = rms_deg(before)
+    noise_p, _ = pressure_noise_kpa(twin)
+    floor_p = math.sqrt((0.0 if math.isnan(noise_p) else noise_p) ** 2 + MODEL_TOLERANCE_KPA**2)
+    if twin.has_pressure:  # each channel counts in units of its own floor
+        twin.pressure_weight = (math.radians(floor) / (floor_p * 1e3)) ** 2
+
+    def score(c: Candidate) -> float:
+        """Held-out misfit in units of the floors, angle and (where measured) chamber pressure
+        together: the ranking's key. Without pressures it is the angle rms over its floor."""
+        return normalised_rms(c.heldout, c.heldout_p, floor, floor_p)
 
     # effects already in the nominal twin at their catalogue value are not candidates
     effects = [e for e in catalogue if not (e.discrete_value is not None and e.value_of(twin.params) == e.discrete_value)]
@@ -350,7 +429,7 @@ def diagnose(campaign: Campaign, catalogue: tuple[Effect, ...] = CATALOGUE, mode
 
     singles: list[Candidate] = Parallel(n_jobs=n_jobs, backend="threading")(delayed(job)(e) for e in effects)
     bar.close()
-    singles.sort(key=lambda c: rms_deg(c.heldout))
+    singles.sort(key=score)
     significant = before_rms > threshold
 
     def explains(c: Candidate) -> bool:
@@ -380,31 +459,31 @@ def diagnose(campaign: Campaign, catalogue: tuple[Effect, ...] = CATALOGUE, mode
             return fit_pair(twin, ab[0], ab[1], folds, pair_grid(twin, ab[0], ab[1]))
 
         pairs = Parallel(n_jobs=n_jobs, backend="threading")(delayed(cv)(combos[i]) for i in order)
-        pairs.sort(key=lambda c: rms_deg(c.heldout))
+        pairs.sort(key=score)
 
     # rivals: explain too, and the best is not clearly better (bootstrap over runs, 95% one-sided)
     def rivals_of(c: Candidate, pool: list[Candidate]) -> list[str]:
         out = []
-        ms_c = run_ms(c.heldout)
+        ms_c = run_ms(c.heldout, c.heldout_p, floor, floor_p)
         for o in pool:
             if o is c or not explains(o):
                 continue
-            diff = run_ms(o.heldout) - ms_c
+            diff = run_ms(o.heldout, o.heldout_p, floor, floor_p) - ms_c
             boots = np.array([np.mean(diff[rng.integers(0, n, n)]) for _ in range(400)])
-            if np.quantile(boots, 0.05) <= 0.0 or rms_deg(o.heldout) <= 1.1 * rms_deg(c.heldout):
+            if np.quantile(boots, 0.05) <= 0.0 or score(o) <= 1.1 * score(c):
                 out.append(o.name)
         return out
 
     if not significant:
         verdict, top, rivals = "no significant gap", None, []
-    elif pairs and explains(pairs[0]) and rms_deg(pairs[0].heldout) < 0.8 * rms_deg(best.heldout):
+    elif pairs and explains(pairs[0]) and score(pairs[0]) < 0.8 * score(best):
         rivals = rivals_of(pairs[0], pairs)
         verdict, top = ("ambiguous" if rivals else "explained"), pairs[0]
     elif best is not None and explains(best):
         rivals = rivals_of(best, singles)
         verdict, top = ("ambiguous" if rivals else "explained"), best
     else:
-        verdict, top, rivals = "outside the catalogue", (pairs[0] if pairs and rms_deg(pairs[0].heldout) < rms_deg(best.heldout) else best), []
+        verdict, top, rivals = "outside the catalogue", (pairs[0] if pairs and score(pairs[0]) < score(best) else best), []
 
     def summary(c: Candidate) -> dict:
         lo, hi = bootstrap_ci(c.heldout, lambda x: np.rad2deg(np.sqrt(np.mean(x**2))), rng, 300)
@@ -418,6 +497,8 @@ def diagnose(campaign: Campaign, catalogue: tuple[Effect, ...] = CATALOGUE, mode
             "fitted_values": c.full_values,
             "fold_values": c.fold_values,
             "heldout_rms_deg": rms_deg(c.heldout),
+            "heldout_pressure_rms_kpa": rms_kpa(c.heldout_p),
+            "score_in_floors": score(c),
             "heldout_rms_ci95_deg": [lo, hi],
             "shrink": rms_deg(c.heldout) / before_rms if before_rms > 0 else math.nan,
             "explains": explains(c),
@@ -445,6 +526,7 @@ def diagnose(campaign: Campaign, catalogue: tuple[Effect, ...] = CATALOGUE, mode
         "twin": {"hose_loss": twin.params.hose_loss, "inertia_kg_m2": twin.inertia},
         "folds": "leave one supply pressure out" if len({round(r.supply_mpa, 4) for r in campaign.runs}) > 1 else "alternating split",
         "noise_floor": {"measurement_deg": noise, "repeat_pairs": n_pairs, "model_tolerance_deg": model_tolerance_deg, "floor_deg": floor, "significance_threshold_deg": threshold},
+        "pressure": ({"measured": True, "noise_kpa": noise_p, "model_tolerance_kpa": MODEL_TOLERANCE_KPA, "floor_kpa": floor_p, "before_rms_kpa": rms_kpa(before_p)} if twin.has_pressure else {"measured": False}),
         "before_rms_deg": before_rms,
         "before_rms_ci95_deg": list(bootstrap_ci(before, lambda x: np.rad2deg(np.sqrt(np.mean(x**2))), rng, 300)),
         "where": breakdown(twin, before),
@@ -452,9 +534,10 @@ def diagnose(campaign: Campaign, catalogue: tuple[Effect, ...] = CATALOGUE, mode
             "verdict": verdict,
             "top": summary(top) if top is not None else None,
             "rivals": rivals,
-            # the family-level answer for a gap no catalogue entry explains: the best single
-            # effect's family (e.g. friction for a Stribeck curve when only Coulomb is catalogued)
-            "nearest": ({"effect": best.name, "family": BY_NAME[best.name].family, "shrink": rms_deg(best.heldout) / before_rms} if verdict == "outside the catalogue" and best is not None else None),
+            # the family-level answer for a gap no catalogue entry explains: the families of the
+            # best candidate, single or pair (e.g. friction for a Stribeck curve when only Coulomb
+            # and viscous friction are catalogued)
+            "nearest": (nearest_families(top, singles, before_rms) if verdict == "outside the catalogue" and top is not None else None),
             "ranking": [summary(c) for c in singles],
             "pairs": [summary(c) for c in pairs],
             "skipped_already_in_twin": skipped,

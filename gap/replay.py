@@ -53,8 +53,9 @@ def replay_run(
     load_torque_nm: float,
     t_end_s: float,
     dt_s: float,
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Twin angle and speed on a grid t_k = k dt, k = 0..floor(t_end/dt); returns (t, theta, omega).
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Twin angle, speed and motor-chamber pressures on a grid t_k = k dt, k = 0..floor(t_end/dt);
+    returns (t, theta, omega, p_a, p_b) with the pressures absolute at the motor end of each hose.
 
     Commands are held from one row to the next (zero-order hold, as the platform sends them).
     With valve_is_output False (a command log) valve_gauge_pa is the proportional valve's set
@@ -68,6 +69,8 @@ def replay_run(
     t_out = np.empty(n_steps + 1)
     th_out = np.empty(n_steps + 1)
     om_out = np.empty(n_steps + 1)
+    pa_out = np.empty(n_steps + 1)
+    pb_out = np.empty(n_steps + 1)
     x = np.zeros(N_STATE)
     atm = p[P.GAS_P_ATM]
     x[S_PA_VALVE] = atm
@@ -87,6 +90,8 @@ def replay_run(
     t_out[0] = 0.0
     th_out[0] = theta0_rad
     om_out[0] = 0.0
+    pa_out[0] = atm
+    pb_out[0] = atm
     for k in range(n_steps):
         t = k * dt_s
         while row + 1 < n_rows and cmd_time_s[row + 1] <= t + 1e-9:
@@ -110,7 +115,9 @@ def replay_run(
         t_out[k + 1] = (k + 1) * dt_s
         th_out[k + 1] = y[R_THETA]
         om_out[k + 1] = y[R_OMEGA]
-    return t_out, th_out, om_out
+        pa_out[k + 1] = y[R_PA_MOTOR]
+        pb_out[k + 1] = y[R_PB_MOTOR]
+    return t_out, th_out, om_out, pa_out, pb_out
 
 
 @njit(nogil=True)
@@ -130,5 +137,32 @@ def replay_at(
 ) -> np.ndarray:
     """Twin angle at the measured sample times (linear interpolation on the 1 ms grid)."""
     t_end = sample_time_s[-1] if sample_time_s.shape[0] > 0 else 0.0
-    t, th, _ = replay_run(p, cmd_time_s, direction, valve_gauge_pa, brake_release, supply_pa, valve_is_output, theta0_rad, inertia_kg_m2, load_torque_nm, t_end + dt_s, dt_s)
+    t, th, _, _, _ = replay_run(p, cmd_time_s, direction, valve_gauge_pa, brake_release, supply_pa, valve_is_output, theta0_rad, inertia_kg_m2, load_torque_nm, t_end + dt_s, dt_s)
     return np.interp(sample_time_s, t, th)
+
+
+@njit(nogil=True)
+def replay_with_pressures(
+    p: np.ndarray,
+    cmd_time_s: np.ndarray,
+    direction: np.ndarray,
+    valve_gauge_pa: np.ndarray,
+    brake_release: np.ndarray,
+    supply_pa: np.ndarray,
+    valve_is_output: bool,
+    theta0_rad: float,
+    inertia_kg_m2: float,
+    load_torque_nm: float,
+    sample_time_s: np.ndarray,
+    pressure_time_s: np.ndarray,
+    dt_s: float,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Twin angle at the angle sample times and motor-chamber pressures (absolute Pa) at the
+    pressure sample times: (theta, p_a, p_b), linear interpolation on the 1 ms grid."""
+    t_end = 0.0
+    if sample_time_s.shape[0] > 0:
+        t_end = sample_time_s[-1]
+    if pressure_time_s.shape[0] > 0:
+        t_end = max(t_end, pressure_time_s[-1])
+    t, th, _, pa, pb = replay_run(p, cmd_time_s, direction, valve_gauge_pa, brake_release, supply_pa, valve_is_output, theta0_rad, inertia_kg_m2, load_torque_nm, t_end + dt_s, dt_s)
+    return np.interp(sample_time_s, t, th), np.interp(pressure_time_s, t, pa), np.interp(pressure_time_s, t, pb)

@@ -103,6 +103,7 @@ def write(diag: dict, out: str | Path) -> dict[str, Path]:
         f"Nominal twin residual {diag['before_rms_deg']:.2f} deg rms (95% CI {diag['before_rms_ci95_deg'][0]:.2f}..{diag['before_rms_ci95_deg'][1]:.2f}); "
         f"noise floor {nf['floor_deg']:.2f} deg (measurement {nf['measurement_deg'] if nf['measurement_deg'] is None else round(nf['measurement_deg'], 3)} deg from {nf['repeat_pairs']} repeat pairs, model tolerance {nf['model_tolerance_deg']} deg); "
         f"significant above {nf['significance_threshold_deg']:.2f} deg.",
+        *([f"Chamber pressures measured: the fit weighs them in units of their floor {diag['pressure']['floor_kpa']:.1f} kPa (transducer noise {diag['pressure']['noise_kpa']:.2f} kPa, model tolerance {diag['pressure']['model_tolerance_kpa']} kPa); nominal twin pressure residual {diag['pressure']['before_rms_kpa']:.1f} kPa rms. Candidates are ranked by held-out misfit in units of the floors, angle and pressure together."] if diag.get("pressure", {}).get("measured") else []),
         "",
         f"## Verdict: **{w['verdict']}**",
         "",
@@ -112,7 +113,7 @@ def write(diag: dict, out: str | Path) -> dict[str, Path]:
         lines += [f"Best: **{top['name']}** ({' + '.join(top['labels'])}): {vals}; held-out rms {top['heldout_rms_deg']:.2f} deg, shrink {top['shrink']:.2f}.", ""]
     if w.get("nearest"):
         nb = w["nearest"]
-        lines += [f"No catalogue entry or pair explains the gap. Nearest (family-level attribution): the **{nb['family']}** family, best single {nb['effect']} (shrink {nb['shrink']:.2f}); the hidden effect may be a different form of it or something not catalogued.", ""]
+        lines += [f"No catalogue entry or pair explains the gap. Nearest (family-level attribution): the **{nb['family']}** family, led by {nb['lead']} in the best candidate {nb['candidate']} (shrink {nb['shrink']:.2f}; families {', '.join(nb['families'])}); the unmodelled effect may be a different form of it or something not catalogued.", ""]
     if w["rivals"]:
         lines += [f"Rivals that fit the withheld runs as well: {', '.join(w['rivals'])}.", ""]
     lines += ["## Where", "", "![where](where.png) ![residual](residual.png)", ""]

@@ -22,6 +22,9 @@ JOINT = "wrist_pitch"
 PRESSURES_MPA = (0.5, 0.6, 0.7, 0.8)  # paper Fig. 10-16: the supplies of the model validation
 SAMPLE_PERIOD_S = 0.02  # the reference instrument: 50 Hz (slower than the 1 ms commands)
 NOISE_RAD = np.deg2rad(0.05)  # assumed: an encoder-class reference instrument, 0.05 deg rms
+# assumed: a 0-1 MPa piezoresistive transducer on each motor port, 0.25 % FS accuracy class; its
+# sample noise taken as 1 kPa rms
+NOISE_PA = 1.0e3
 
 
 @dataclass(frozen=True)
@@ -34,7 +37,7 @@ class Motion:
     t_release_s: float = 0.1  # brake release + first move starts
     t_move_s: float = 0.5  # duration of the first move (fully open)
     t_reverse_s: float = 0.6  # duration of the reversed move
-    opening_2: float = 0.6
+    opening_2: float = 0.95
     t_hold_s: float = 0.6  # braking + holding
     duration_s: float = 0.0  # 0: the sum of the phases
 
@@ -97,11 +100,13 @@ def simulate_run(reality: JointParams, supply_mpa: float, motion: Motion, start_
     arr = tel.arrays()
     t_cmd = np.round(np.arange(0.0, motion.total_s() + 1e-9, 1e-3), 6)
     d, u, b = motion.commands(t_cmd, supply_mpa * 1e6, reality.k_u_per_pa)
-    angle = np.full(t_cmd.shape, np.nan)
     idx = np.round(np.asarray(arr["time_s"]) / 1e-3).astype(int)
     ok = idx < len(t_cmd)
-    angle[idx[ok]] = np.asarray(arr["true_angle_rad"])[ok, i]
-    return {"time_s": t_cmd, "direction": d, "brake_released": b, "valve_set_gauge_pa": u, "supply_pa": np.full(t_cmd.shape, supply_pa), "angle_rad": angle}
+    sampled = {}
+    for out, column in (("angle_rad", "true_angle_rad"), ("p_a_pa", "pressure_a_pa"), ("p_b_pa", "pressure_b_pa")):
+        sampled[out] = np.full(t_cmd.shape, np.nan)
+        sampled[out][idx[ok]] = np.asarray(arr[column])[ok, i]
+    return {"time_s": t_cmd, "direction": d, "brake_released": b, "valve_set_gauge_pa": u, "supply_pa": np.full(t_cmd.shape, supply_pa), **sampled}
 
 
 def write_mcap_run(path: Path, reality: JointParams, supply_mpa: float, motion: Motion | None = None, start_rad: float = 0.0) -> Path:
@@ -120,27 +125,48 @@ def write_mcap_run(path: Path, reality: JointParams, supply_mpa: float, motion: 
     return Path(path)
 
 
-def write_run_csv(path: Path, run: dict[str, np.ndarray], rng: np.random.Generator | None = None, noise_rad: float = NOISE_RAD) -> None:
-    """Write a run file (columns as the campaign format), adding seeded measurement noise."""
-    angle = run["angle_rad"].copy()
-    if rng is not None and noise_rad > 0:
-        m = np.isfinite(angle)
-        angle[m] += rng.normal(0.0, noise_rad, m.sum())
+def write_run_csv(path: Path, run: dict[str, np.ndarray], rng: np.random.Generator | None = None, noise_rad: float = NOISE_RAD, chamber_pressures: bool = False, noise_pa: float = NOISE_PA) -> None:
+    """Write a run file (columns as the campaign format), adding seeded measurement noise; with
+    `chamber_pressures` also the motor ports' pressures (p_a_pa, p_b_pa) at the angle samples."""
+    measured = {"angle_rad": (run["angle_rad"], noise_rad, "{:.7f}")}
+    if chamber_pressures:
+        measured |= {c: (run[c], noise_pa, "{:.0f}") for c in ("p_a_pa", "p_b_pa")}
+    values = {}
+    for column, (clean, sigma, _) in measured.items():
+        values[column] = clean.copy()
+        m = np.isfinite(clean)
+        if rng is not None and sigma > 0:
+            values[column][m] += rng.normal(0.0, sigma, m.sum())
     with open(path, "w", newline="") as f:
         w = csv.writer(f)
-        w.writerow(["time_s", "direction", "brake_released", "valve_set_gauge_pa", "supply_pa", "angle_rad"])
+        w.writerow(["time_s", "direction", "brake_released", "valve_set_gauge_pa", "supply_pa", *measured])
         for k in range(len(run["time_s"])):
-            a = angle[k]
-            w.writerow([f"{run['time_s'][k]:.4f}", int(run["direction"][k]), int(run["brake_released"][k]), f"{run['valve_set_gauge_pa'][k]:.1f}", f"{run['supply_pa'][k]:.1f}", "" if not np.isfinite(a) else f"{a:.7f}"])
+            fixed = [f"{run['time_s'][k]:.4f}", int(run["direction"][k]), int(run["brake_released"][k]), f"{run['valve_set_gauge_pa'][k]:.1f}", f"{run['supply_pa'][k]:.1f}"]
+            w.writerow(fixed + ["" if not np.isfinite(values[c][k]) else fmt.format(values[c][k]) for c, (_, _, fmt) in measured.items()])
 
 
-def motions_for(repeat: int) -> Motion:
-    """The motion of each repeat: the same motion, so repeats give the noise floor."""
-    return Motion(direction=1)
+def paper_motions(reality: JointParams, pressures_mpa=PRESSURES_MPA, turn_deg: float = 60.0) -> dict[float, Motion]:
+    """The paper's validation runs (Sec. IV, Fig. 10-16): at each supply the wrist turns about
+    `turn_deg` at full opening, then brakes and holds. The first move lasts until the plant with
+    `reality` crosses `turn_deg` (one long run per pressure finds the time); no reversal."""
+    out = {}
+    for mpa in pressures_mpa:
+        probe = Motion(t_move_s=3.0, t_reverse_s=0.0, t_hold_s=0.0)
+        run = simulate_run(reality, mpa, probe)
+        m = np.isfinite(run["angle_rad"])
+        t, a = run["time_s"][m], run["angle_rad"][m]
+        crossed = np.nonzero(a >= np.deg2rad(turn_deg))[0]
+        if not len(crossed):
+            raise ValueError(f"the plant does not turn {turn_deg} deg in {probe.t_move_s} s at {mpa} MPa")
+        out[mpa] = Motion(t_move_s=round(float(t[crossed[0]]) - probe.t_release_s, 3), t_reverse_s=0.0)
+    return out
 
 
-def make_campaign(folder: str | Path, reality: JointParams, seed: int = 0, pressures_mpa=PRESSURES_MPA, repeats: int = 2, twin_hose_loss: bool | None = None, motion: Motion | None = None, noise_rad: float = NOISE_RAD, description: str = "") -> Path:
-    """Write campaign.toml and one CSV per run (pressure x repeat) from the plant with `reality`."""
+def make_campaign(folder: str | Path, reality: JointParams, seed: int = 0, pressures_mpa=PRESSURES_MPA, repeats: int = 2, twin_hose_loss: bool | None = None, motion: Motion | dict[float, Motion] | None = None, noise_rad: float = NOISE_RAD, description: str = "", chamber_pressures: bool = False) -> Path:
+    """Write campaign.toml and one CSV per run (pressure x repeat) from the plant with `reality`,
+    every run through `motion` (or motion[supply MPa]);
+    with `chamber_pressures` the runs also carry both motor ports' pressures, as a calibration rig
+    with a transducer on each port would measure them."""
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
     rng = np.random.default_rng(seed)
@@ -159,8 +185,8 @@ def make_campaign(folder: str | Path, reality: JointParams, seed: int = 0, press
         for r in range(repeats):
             name = f"run_{int(round(mpa * 100)):03d}_{r + 1}.csv"
             if mpa not in cache:  # the plant is deterministic: repeats differ by measurement noise
-                cache[mpa] = simulate_run(reality, mpa, motion)
-            write_run_csv(folder / name, cache[mpa], rng, noise_rad)
+                cache[mpa] = simulate_run(reality, mpa, motion[mpa] if isinstance(motion, dict) else motion)
+            write_run_csv(folder / name, cache[mpa], rng, noise_rad, chamber_pressures)
             lines += ["", "[[runs]]", f'file = "{name}"', f"supply_mpa = {mpa}", f"start_deg = {{ {', '.join(f'{j} = 0.0' for j in assets.JOINTS)} }}"]
     (folder / "campaign.toml").write_text("\n".join(lines) + "\n")
     return folder

@@ -17,8 +17,9 @@ so the resistance acts on the supply and the exhaust path alike and the state st
 With hose_loss = 0 the two nodes are one volume (the paper's model without pressure loss).
 
 State of a joint (a float64 row, see the S_* columns): four node pressures (Pa, absolute), the
-proportional valve's output pressure (Pa, gauge), the brake's engagement, and the direction
-valve's effective position, pending position and time left until it switches.
+proportional valve's output pressure (Pa, gauge), the brake's engagement, the direction
+valve's effective position, pending position and time left until it switches, and the same three
+for the proportional valve's set point (used only with a set-point dead time, a gap effect).
 """
 
 from __future__ import annotations
@@ -36,10 +37,10 @@ from pneumatics.gas import isentropic_temperature
 from pneumatics.hose import hose_mass_flow, hose_volume
 from pneumatics.motor import chamber_geometry, vane_torque
 from pneumatics.orifice import orifice_mass_flow
-from pneumatics.valves import lag_toward, proportional_valve_target, regulated_pressure, solenoid_step, valve_opening
+from pneumatics.valves import dead_time_step, lag_toward, proportional_valve_target, regulated_pressure, solenoid_step, valve_opening
 
-S_PA_VALVE, S_PA_MOTOR, S_PB_VALVE, S_PB_MOTOR, S_PV, S_BRAKE, S_DIR, S_DIR_PENDING, S_DIR_REMAINING = range(9)
-N_STATE = 9
+S_PA_VALVE, S_PA_MOTOR, S_PB_VALVE, S_PB_MOTOR, S_PV, S_BRAKE, S_DIR, S_DIR_PENDING, S_DIR_REMAINING, S_PV_SET, S_PV_SET_PENDING, S_PV_SET_REMAINING = range(12)
+N_STATE = 12
 
 # commands the platform sends to a joint (a float64 row)
 C_DIRECTION, C_PV_SET_GAUGE_PA, C_BRAKE_RELEASE = range(3)
@@ -151,7 +152,13 @@ def advance_discrete(x: np.ndarray, command: np.ndarray, supply_pa: float, dt_s:
     x[S_DIR], x[S_DIR_PENDING], x[S_DIR_REMAINING] = solenoid_step(
         x[S_DIR], x[S_DIR_PENDING], x[S_DIR_REMAINING], command[C_DIRECTION], p[P.SOLENOID_DELAY], dt_s
     )
-    target = proportional_valve_target(command[C_PV_SET_GAUGE_PA], supply_gauge)
+    set_point = command[C_PV_SET_GAUGE_PA]
+    if p[P.PV_DEAD_TIME] > 0.0:
+        x[S_PV_SET], x[S_PV_SET_PENDING], x[S_PV_SET_REMAINING] = dead_time_step(
+            x[S_PV_SET], x[S_PV_SET_PENDING], x[S_PV_SET_REMAINING], set_point, p[P.PV_DEAD_TIME], dt_s
+        )
+        set_point = x[S_PV_SET]
+    target = proportional_valve_target(set_point, supply_gauge)
     x[S_PV] = lag_toward(x[S_PV], target, dt_s, p[P.VALVE_TAU])
 
 

@@ -70,6 +70,7 @@ class JointParams(NamedTuple):
     ripple_fraction: float = 0.0  # torque ripple amplitude with motor angle, fraction of torque
     supply_droop_pa_s_per_kg: float = 0.0  # supply pressure lost per kg/s drawn
     hose_leak_area_m2: float = 0.0  # a leak to atmosphere in port A's hose (a fault)
+    valve_set_dead_time_s: float = 0.0  # the proportional valve's set point takes effect this late
 
 
 @dataclass(frozen=True)
@@ -117,6 +118,7 @@ SPEC: dict[str, FieldSpec] = {
     "ripple_fraction": FieldSpec("effects", 0.0, 0.9, "-"),
     "supply_droop_pa_s_per_kg": FieldSpec("effects", 0.0, 1e9, "Pa·s/kg"),
     "hose_leak_area_m2": FieldSpec("effects", 0.0, 1e-4, "m^2"),
+    "valve_set_dead_time_s": FieldSpec("effects", 0.0, 1.0, "s"),
 }
 assert list(SPEC) == list(JointParams._fields), "SPEC and JointParams must list the same fields"
 
@@ -201,5 +203,6 @@ A_IN, A_EX, K_U, VALVE_TAU, SOLENOID_DELAY = (_COLUMNS[f] for f in JointParams._
 BRAKE_HOLD, BRAKE_RELEASE_PA, BRAKE_START_PA, BRAKE_FED_BY_MOTOR, BRAKE_TAU_ON, BRAKE_TAU_OFF = (_COLUMNS[f] for f in JointParams._fields[17:23])
 COULOMB, VISCOUS, STICK_SPEED = (_COLUMNS[f] for f in JointParams._fields[23:26])
 LEAK_A, STRIBECK_EXCESS, STRIBECK_SPEED, DEAD_ZONE, COND_SCALE, POLY_N, RIPPLE, DROOP, HOSE_LEAK_A = (_COLUMNS[f] for f in JointParams._fields[26:35])
+PV_DEAD_TIME = _COLUMNS["valve_set_dead_time_s"]
 GAS_R, GAS_K, GAS_T, GAS_P_ATM, GAS_MU = (_COLUMNS["gas_" + f] for f in Gas._fields)
 N_COLUMNS = len(_COLUMNS)

@@ -62,6 +62,27 @@ def valve_opening(p_v_gauge_pa: float, k_u_per_pa: float, dead_zone: float) -> f
 
 
 @njit
+def dead_time_step(effective: float, pending: float, remaining_s: float, command: float, delay_s: float, dt_s: float) -> tuple[float, float, float]:
+    """Advance a dead time on a command that changes in steps by dt: each change takes effect
+    exactly `delay_s` after it (a transport delay) when changes are further apart than the delay.
+
+    State as `solenoid_step`'s. Unlike a solenoid, a new command does not restart a running
+    delay: a command that changes faster than the delay is taken up once per delay, at its latest
+    value, so a continuously varying set point is still followed. Returns (effective, pending, remaining_s).
+    """
+    if command != pending:
+        if pending == effective:
+            remaining_s = delay_s  # a change starts its delay
+        pending = command
+    if pending != effective:
+        remaining_s -= dt_s
+        if remaining_s <= 1e-12:
+            effective = pending
+            remaining_s = 0.0
+    return effective, pending, remaining_s
+
+
+@njit
 def solenoid_step(effective: float, pending: float, remaining_s: float, command: float, delay_s: float, dt_s: float) -> tuple[float, float, float]:
     """Advance a solenoid valve with a switching delay by dt.
 

@@ -22,6 +22,7 @@ from pneumatics import (
     chamber_pressure_rate,
     chamber_volumes,
     critical_pressure_ratio,
+    dead_time_step,
     displacement_per_rad,
     flow_function,
     friction_factor,
@@ -264,6 +265,40 @@ def test_solenoid_switches_after_its_delay() -> None:
     assert state == (1.0, 1.0, pytest.approx(state[2])) and state[0] == 1.0
     # zero delay: immediate
     assert solenoid_step(0.0, 0.0, 0.0, -1.0, 0.0, dt)[0] == -1.0
+
+
+def test_valve_set_point_dead_time_delays_the_exponential_rise_exactly() -> None:
+    """A set-point step at t0 reaches the proportional valve after the dead time d, then rises by
+    its lag: P_v(t) = P (1 - exp(-(t - t0 - d)/tau)) (analytic); with d = 0 the row is unchanged."""
+    from pneumatics import JointParams
+    from pneumatics.joint import C_PV_SET_GAUGE_PA, N_COMMAND, S_PV, advance_discrete
+
+    base = WRIST
+    d, dt, target, t0 = 0.08, 1e-3, 4.0e5, 0.05
+    supply = AIR.p_atm_pa + 6e5
+
+    def trace(params: JointParams) -> np.ndarray:
+        p = params_row(params)
+        x = initial_state(AIR.p_atm_pa)
+        cmd = np.zeros(N_COMMAND)
+        out = []
+        for k in range(400):
+            cmd[C_PV_SET_GAUGE_PA] = target if k * dt >= t0 - 1e-9 else 0.0
+            advance_discrete(x, cmd, supply, dt, p)
+            out.append(x[S_PV])
+        return np.array(out)
+
+    t = (np.arange(400) + 1) * dt
+    delayed = trace(base._replace(valve_set_dead_time_s=d))
+    expected = np.where(t > t0 + d, target * (1.0 - np.exp(-(t - t0 - d) / base.valve_time_constant_s)), 0.0)
+    assert np.max(np.abs(delayed - expected)) < target * dt / base.valve_time_constant_s  # within one step of the rise
+    assert delayed[int(round((t0 + d) / dt)) - 2] == 0.0
+    assert not np.array_equal(delayed, trace(base))
+    # a set point changing every step (a controller's) is still followed, at most one delay late
+    x, pending, rem = 0.0, 0.0, 0.0
+    for k in range(1000):
+        x, pending, rem = dead_time_step(x, pending, rem, float(k), 0.02, 1e-3)
+    assert 1000 - 1 - 2 * 20 <= x <= 1000 - 1 - 20 + 1
 
 
 def test_lag_toward_is_the_exact_exponential() -> None:
