@@ -3,7 +3,7 @@ catalogue (goal: within 60 s on the 2-core machine), and the speed of the compil
 replay the effect search is built on, against the plant's (MuJoCo + pneumatics) simulation of the
 very same run as the in-run baseline.
 
-The campaign is 4 supplies x 4 repeats from the plant with a hidden vane leak + Coulomb friction
+The campaign is 4 supplies x 4 repeats (angle and both chamber pressures) from the plant with a hidden vane leak + Coulomb friction
 (a pair: the single effects do not explain it, so the pair search runs too, the slow path). The
 diagnosis is timed through the command line entry point (reading the files, the fits, the report
 and the plots), after a warm-up replay so that loading numba's cache is not counted.
@@ -41,7 +41,7 @@ def _time_replay(twin: Twin, rounds: int) -> float:
     for _ in range(rounds):
         t0 = time.perf_counter()
         for _ in range(20):
-            replay_run(p, *pr.args, pr.run.start_rad, twin.inertia, 0.0, pr.run.time_s[-1], DT_S)
+            replay_run(p, *pr.args, pr.run.start_rad, pr.inertia, 0.0, pr.run.time_s[-1], DT_S)
         best = min(best, (time.perf_counter() - t0) / 20)
     return best
 
@@ -72,7 +72,7 @@ def bench_gap(jobs: int = 2, rounds: int = 3) -> dict:
 
     reality = synth.wrist_params()._replace(**HIDDEN)
     with tempfile.TemporaryDirectory() as tmp:
-        folder = synth.make_campaign(Path(tmp) / "c16", reality, seed=7, pressures_mpa=synth.PRESSURES_MPA, repeats=4, description="(bench_gap: leak + Coulomb)")
+        folder = synth.make_campaign(Path(tmp) / "c16", reality, seed=7, pressures_mpa=synth.PRESSURES_MPA, repeats=4, description="(bench_gap: leak + Coulomb)", chamber_pressures=True)
         campaign = load_campaign(folder)
         twin = Twin(campaign)
         replay_s = _time_replay(twin, rounds)  # also the warm-up

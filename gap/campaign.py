@@ -11,6 +11,8 @@ campaign.toml:
     file = "run_050_1.csv"           # CSV (or the twin's own .mcap, see read_run_file)
     supply_mpa = 0.5                 # gauge, the paper's convention
     start_deg = { wrist_pitch = 0.0, ... }   # start pose of every joint (others stay braked)
+    payload_kg = 5.0                 # optional: this run's payload (default: the campaign's)
+    rig_inertia_kg_m2 = 0.05         # optional: this run's joint-side inertia with that payload
 
 Run CSV columns: time_s, direction (-1/0/+1), brake_released (0/1), valve_set_gauge_pa (the
 proportional valve's set point P_v, gauge Pa, optional) or valve_opening (0..1, optional: the set
@@ -60,6 +62,8 @@ class Run:
     # False: valve_gauge_pa is the valve's set point (CSV runs); True: it is the valve's logged
     # OUTPUT pressure (the twin's MCAP logs), which the replay imposes on the valve state directly.
     valve_is_output: bool = False
+    payload_kg: float = 0.0  # the load of this run (campaign.toml, per run or for all)
+    rig_inertia_kg_m2: float = WRIST_RIG_INERTIA_KG_M2  # joint-side inertia of the rig with that load
 
     @property
     def sampled(self) -> np.ndarray:
@@ -67,7 +71,7 @@ class Run:
 
     def signature(self) -> tuple:
         """Runs with the same commands and supply are repeats of one another."""
-        return (round(self.supply_mpa, 4), round(self.start_rad, 6), self.direction.tobytes(), np.round(self.valve_gauge_pa, -2).tobytes(), self.brake_released.tobytes())
+        return (round(self.supply_mpa, 4), round(self.start_rad, 6), self.payload_kg, self.rig_inertia_kg_m2, self.direction.tobytes(), np.round(self.valve_gauge_pa, -2).tobytes(), self.brake_released.tobytes())
 
 
 @dataclass
@@ -143,7 +147,10 @@ def load_campaign(folder: str | Path) -> Campaign:
                 raise GapError(f"{where}: start_deg names unknown joint {j!r}; allowed: {', '.join(assets.JOINTS)}")
             if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
                 raise GapError(f"{where}: start_deg.{j} = {v!r} is not a number (degrees)")
-        runs.append(read_run_file(folder / f, supply, math.radians(start[joint]), where, joint))
+        run = read_run_file(folder / f, supply, math.radians(start[joint]), where, joint)
+        run.payload_kg = _number(where, r, "payload_kg", 0.0, 100.0, "kg", default=payload)
+        run.rig_inertia_kg_m2 = _number(where, r, "rig_inertia_kg_m2", 0.0, 100.0, "kg·m^2", default=rig_j)
+        runs.append(run)
     return Campaign(folder, joint, payload, hose, rig_j, None if hl is None else (1.0 if hl else 0.0), runs)
 
 

@@ -50,6 +50,7 @@ class Prepared:
     args: tuple  # cmd arrays for replay
     ts: np.ndarray  # sample times
     meas: np.ndarray  # measured angle at ts
+    inertia: float  # the twin's joint-side inertia for this run's load (kg·m^2)
     tp: np.ndarray  # times of the pressure samples (empty: the run measured no chamber pressure)
     pmask: np.ndarray  # (2, len(tp)) bool: which of p_a, p_b was measured at each time
     pmeas: np.ndarray  # measured chamber pressures (Pa), flattened over pmask
@@ -63,19 +64,19 @@ def nominal_params(campaign: Campaign) -> JointParams:
     return p
 
 
-def nominal_inertia(campaign: Campaign, p: JointParams) -> float:
+def nominal_inertia(rig_inertia_kg_m2: float, p: JointParams) -> float:
     """Rig inertia + ratio^2 x rotor inertia (assets/wrist_rig.xml comment)."""
-    return campaign.rig_inertia_kg_m2 + p.ratio**2 * p.rotor_inertia_kg_m2
+    return rig_inertia_kg_m2 + p.ratio**2 * p.rotor_inertia_kg_m2
 
 
-def prepare(run: Run) -> Prepared:
+def prepare(run: Run, p: JointParams) -> Prepared:
     m = run.sampled
     args = (run.time_s, run.direction, run.valve_gauge_pa, run.brake_released, run.supply_pa, run.valve_is_output)
     nan = np.full(run.time_s.shape, np.nan)
     pres = np.stack([run.extra.get("p_a_pa", nan), run.extra.get("p_b_pa", nan)])
     rows = np.isfinite(pres).any(axis=0)
     pmask = np.isfinite(pres[:, rows])
-    return Prepared(run, args, run.time_s[m], run.angle_rad[m], run.time_s[rows], pmask, pres[:, rows][pmask])
+    return Prepared(run, args, run.time_s[m], run.angle_rad[m], nominal_inertia(run.rig_inertia_kg_m2, p), run.time_s[rows], pmask, pres[:, rows][pmask])
 
 
 class Twin:
@@ -84,8 +85,8 @@ class Twin:
     def __init__(self, campaign: Campaign):
         self.campaign = campaign
         self.params = nominal_params(campaign)
-        self.inertia = nominal_inertia(campaign, self.params)
-        self.runs = [prepare(r) for r in campaign.runs]
+        self.inertia = nominal_inertia(campaign.rig_inertia_kg_m2, self.params)
+        self.runs = [prepare(r, self.params) for r in campaign.runs]
         self.has_pressure = any(pr.pmeas.size for pr in self.runs)
         # the fit's weight on squared pressure residuals, (angle floor / pressure floor)^2 in
         # rad^2/Pa^2: both channels count in units of their own floor (set by `diagnose`)
@@ -93,14 +94,14 @@ class Twin:
 
     def predict(self, params: JointParams, inertia_scale: float, k: int) -> np.ndarray:
         pr = self.runs[k]
-        return replay_at(params_row(params), *pr.args, pr.run.start_rad, self.inertia * inertia_scale, 0.0, pr.ts, DT_S)
+        return replay_at(params_row(params), *pr.args, pr.run.start_rad, pr.inertia * inertia_scale, 0.0, pr.ts, DT_S)
 
     def residuals(self, params: JointParams, inertia_scale: float, k: int) -> tuple[np.ndarray, np.ndarray]:
         """(measured - twin angle at the angle samples, measured - twin chamber pressures where measured)."""
         pr = self.runs[k]
         if not pr.pmeas.size:
             return pr.meas - self.predict(params, inertia_scale, k), pr.pmeas
-        th, pa, pb = replay_with_pressures(params_row(params), *pr.args, pr.run.start_rad, self.inertia * inertia_scale, 0.0, pr.ts, pr.tp, DT_S)
+        th, pa, pb = replay_with_pressures(params_row(params), *pr.args, pr.run.start_rad, pr.inertia * inertia_scale, 0.0, pr.ts, pr.tp, DT_S)
         return pr.meas - th, pr.pmeas - np.stack([pa, pb])[pr.pmask]
 
     def residuals_with(self, effects: list[tuple[Effect, float]], k: int) -> tuple[np.ndarray, np.ndarray]:
@@ -367,17 +368,18 @@ def phases(run: Run, ts: np.ndarray) -> np.ndarray:
 
 def breakdown(twin: Twin, residuals: list[np.ndarray]) -> dict:
     """Residual rms (deg) and count per bin of each factor."""
-    rows = {"phase": [], "supply_mpa": [], "direction": [], "speed_rad_s": [], "time_since_start_s": []}
+    rows = {"phase": [], "supply_mpa": [], "direction": [], "load_kg": [], "speed_rad_s": [], "time_since_start_s": []}
     res_all = []
     for pr, r in zip(twin.runs, residuals):
         run = pr.run
         idx = np.clip(np.searchsorted(run.time_s, pr.ts, side="right") - 1, 0, len(run.time_s) - 1)
-        t, _, om, _, _ = replay_run(params_row(twin.params), *pr.args, run.start_rad, twin.inertia, 0.0, pr.ts[-1] + DT_S, DT_S)
+        t, _, om, _, _ = replay_run(params_row(twin.params), *pr.args, run.start_rad, pr.inertia, 0.0, pr.ts[-1] + DT_S, DT_S)
         speed = np.abs(np.interp(pr.ts, t, om))
         moving = np.nonzero(run.direction)[0]
         t0 = run.time_s[moving[0]] if len(moving) else 0.0
         rows["phase"] += list(phases(run, pr.ts))
         rows["supply_mpa"] += [f"{run.supply_mpa:.2f}"] * len(pr.ts)
+        rows["load_kg"] += [f"{run.payload_kg:g}"] * len(pr.ts)
         rows["direction"] += [{-1.0: "-1", 0.0: "0", 1.0: "+1"}[float(x)] for x in run.direction[idx]]
         rows["speed_rad_s"] += list(np.array(["<0.1", "0.1-0.5", "0.5-1", ">1"])[np.digitize(speed, [0.1, 0.5, 1.0])])
         rows["time_since_start_s"] += [f"{max(0.0, math.floor((x - t0) / 0.5) * 0.5):.1f}+" if x >= t0 else "before" for x in pr.ts]

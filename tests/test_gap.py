@@ -94,6 +94,25 @@ def test_a_form_outside_the_catalogue_is_called_so_and_given_its_family(hidden, 
     assert all(c["heldout_pressure_rms_kpa"] is not None for c in w["ranking"])
 
 
+def test_a_run_may_carry_its_own_load(campaigns, tmp_path):
+    """Per-run payload and rig inertia: the replay uses the run's inertia, and "where" breaks the
+    residual down by load. The runs were made on the 0.02 kg·m^2 rig, so the run declared at 2
+    kg·m^2 is the one that departs."""
+    c = _copy(campaigns["none"], tmp_path / "load")
+    toml = c / "campaign.toml"
+    toml.write_text(toml.read_text().replace('file = "run_050_1.csv"', 'file = "run_050_1.csv"\npayload_kg = 10.0\nrig_inertia_kg_m2 = 2.0', 1))
+    campaign = load_campaign(c)
+    assert [r.payload_kg for r in campaign.runs] == [10.0, 0.0, 0.0, 0.0]
+    d = diagnose(campaign, catalogue=_by_name("inertia_error"), progress=False)
+    load = d["where"]["load_kg"]
+    assert set(load) == {"0", "10"}
+    assert load["10"]["rms_deg"] > 5.0 * load["0"]["rms_deg"]
+    # the declared value is checked like every other number
+    toml.write_text(toml.read_text().replace("rig_inertia_kg_m2 = 2.0", "rig_inertia_kg_m2 = -1"))
+    with pytest.raises(GapError, match=r"campaign\.toml:\d+ \(\[\[runs\]\] #1\): rig_inertia_kg_m2 = -1; allowed"):
+        load_campaign(c)
+
+
 def _copy(src, dst):
     shutil.copytree(src, dst)
     return dst
@@ -177,7 +196,7 @@ def test_mcap_runs_from_the_plant_are_diagnosed(tmp_path):
         res = []
         for pr in twin.runs:
             args = pr.args[:5] + (as_output,)
-            res.append(pr.meas - replay_at(params_row(twin.params), *args, pr.run.start_rad, twin.inertia, 0.0, pr.ts, DT_S))
+            res.append(pr.meas - replay_at(params_row(twin.params), *args, pr.run.start_rad, pr.inertia, 0.0, pr.ts, DT_S))
         rms[as_output] = float(np.rad2deg(np.sqrt(np.mean(np.concatenate(res) ** 2))))
     assert rms[True] < 0.5  # MODEL_TOLERANCE_DEG
     assert rms[False] > 1.5 * rms[True]
