@@ -82,8 +82,8 @@ def control_step(
     open_time: np.ndarray,  # (n,) open-loop valve time, s (OPEN mode)
     open_set_point: np.ndarray,  # (n,) signed open-loop set point, gauge Pa (OPEN mode)
     retries: np.ndarray,  # (n,) re-moves so far, in place
-    y: np.ndarray,  # (n, 6) predicted one-joint states
-    x: np.ndarray,  # (n, 9) the predictor's valve/brake states
+    y: np.ndarray,  # (n, N_RIGID) predicted one-joint states
+    x: np.ndarray,  # (n, N_STATE) the predictor's valve/brake states
     pv_full: np.ndarray,  # (n,) set point of full opening, gauge Pa (the supply)
     breakaway_pa: np.ndarray,  # (n, 2) written: valve pressure at which the joint breaks free turning +, -; gauge Pa
     load_nm: np.ndarray,  # (n,) predicted load torque on each drive, N·m

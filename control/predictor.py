@@ -29,6 +29,8 @@ from pneumatics.joint import (
     R_PA_VALVE,
     R_PB_MOTOR,
     R_PB_VALVE,
+    R_OMEGA_M,
+    R_QM,
     R_THETA,
     S_BRAKE,
     S_DIR,
@@ -39,9 +41,10 @@ from pneumatics.joint import (
 
 
 def initial_rigid_state(theta_rad: float, p_atm_pa: float) -> np.ndarray:
-    """One-joint state y6 at rest at `theta_rad`, air at atmosphere."""
+    """One-joint state (R_* columns) at rest at `theta_rad`, air at atmosphere, reducer untwisted."""
     y = np.zeros(N_RIGID)
     y[R_THETA] = theta_rad
+    y[R_QM] = theta_rad
     y[R_PA_VALVE] = y[R_PA_MOTOR] = y[R_PB_VALVE] = y[R_PB_MOTOR] = p_atm_pa
     return y
 
@@ -53,6 +56,7 @@ def predictor_at_rest(y: np.ndarray, x: np.ndarray, command: np.ndarray, p: np.n
     atm = p[P.GAS_P_ATM]
     return (
         y[R_OMEGA] == 0.0
+        and y[R_OMEGA_M] == 0.0  # a non-rigid reducer's motor side may still swing
         and x[S_DIR] == 0.0
         and command[0] == 0.0
         and command[2] == 0.0
@@ -66,8 +70,8 @@ def predictor_at_rest(y: np.ndarray, x: np.ndarray, command: np.ndarray, p: np.n
 
 @njit
 def predict_step(
-    y: np.ndarray,  # (n, 6) one-joint states, advanced in place
-    x: np.ndarray,  # (n, 9) the predictor's valve/brake states (pneumatics.joint S_* columns), in place
+    y: np.ndarray,  # (n, N_RIGID) one-joint states, advanced in place
+    x: np.ndarray,  # (n, N_STATE) the predictor's valve/brake states (pneumatics.joint S_* columns), in place
     commands: np.ndarray,  # (n, 3) the commands just issued, held over dt
     valve_gauge_pa: np.ndarray,  # (n,) measured proportional-valve pressures, gauge Pa
     supply_pa: float,  # measured supply, absolute Pa

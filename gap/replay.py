@@ -2,8 +2,8 @@
 
 The twin used for fitting is `pneumatics.joint.single_joint_step` (the predictor's model) driven
 by the run's own command rows: per 1 ms step the valves advance with `advance_discrete`
-(solenoid delay, proportional valve lag), then the rigid body and the four node pressures take
-one RK4 step and the brake follows its air. The whole run is one @njit call, so a run of a few seconds replays in a few ms
+(solenoid delay, proportional valve lag), then the rigid body (with the motor side of a
+non-rigid reducer) and the four node pressures take one RK4 step and the brake follows its air. The whole run is one @njit call, so a run of a few seconds replays in a few ms
 and the effect search can afford thousands of replays.
 """
 
@@ -25,6 +25,7 @@ from pneumatics.joint import (
     R_PA_VALVE,
     R_PB_MOTOR,
     R_PB_VALVE,
+    R_QM,
     R_THETA,
     S_BRAKE,
     S_PA_MOTOR,
@@ -84,6 +85,7 @@ def replay_run(
     y[R_PA_MOTOR] = atm
     y[R_PB_VALVE] = atm
     y[R_PB_MOTOR] = atm
+    y[R_QM] = theta0_rad  # an untwisted reducer, at rest
     cmd = np.zeros(N_COMMAND)
     row = 0
     n_rows = cmd_time_s.shape[0]

@@ -76,6 +76,7 @@ def _plant_and_schedule(reality: JointParams, supply_mpa: float, motion: Motion,
     i = plant.joints.index(JOINT)
     plant.data.qpos[plant.model.joint(JOINT).qposadr[0]] = start_rad
     mujoco.mj_forward(plant.model, plant.data)
+    plant.align_motors()
     plant.set_supply(AIR.p_atm_pa + supply_mpa * 1e6)
     k_u = reality.k_u_per_pa
     n = len(plant.joints)

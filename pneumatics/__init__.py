@@ -12,6 +12,7 @@ from pneumatics.hose import friction_factor, hose_mass_flow, hose_pressure_drop,
 from pneumatics.motor import chamber_volumes, displacement_per_rad, swept_area, vane_torque, wrap_motor_angle
 from pneumatics.orifice import critical_pressure_ratio, flow_function, orifice_mass_flow
 from pneumatics.params import JointParams, ParameterError, load_joint_params, params_row, validated
+from pneumatics.reducer import transmitted_torque
 from pneumatics.valves import dead_time_step, lag_toward, proportional_valve_target, solenoid_step, valve_opening
 
 __all__ = [
@@ -21,5 +22,5 @@ __all__ = [
     "friction_factor", "hose_mass_flow", "hose_pressure_drop", "hose_volume", "isentropic_temperature",
     "dead_time_step", "lag_toward", "load_joint_params", "orifice_mass_flow", "params_row", "proportional_valve_target",
     "reducer_output_torque", "reynolds_number", "solenoid_step", "stribeck_excess_torque",
-    "swept_area", "valve_opening", "validated", "vane_torque", "wrap_motor_angle",
+    "swept_area", "transmitted_torque", "valve_opening", "validated", "vane_torque", "wrap_motor_angle",
 ]

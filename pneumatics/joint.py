@@ -18,8 +18,11 @@ With hose_loss = 0 the two nodes are one volume (the paper's model without press
 
 State of a joint (a float64 row, see the S_* columns): four node pressures (Pa, absolute), the
 proportional valve's output pressure (Pa, gauge), the brake's engagement, the direction
-valve's effective position, pending position and time left until it switches, and the same three
-for the proportional valve's set point (used only with a set-point dead time, a gap effect).
+valve's effective position, pending position and time left until it switches, the motor
+side of a non-rigid reducer (pneumatics/reducer.py): its angle and speed on the joint side (motor
+angle / ratio, rad; rad/s; with the paper's rigid reducer the motor side is the joint and the
+plant does not use those two), and the effective, pending and time-left of the proportional
+valve's set point (used only with a set-point dead time, a gap effect).
 """
 
 from __future__ import annotations
@@ -37,21 +40,24 @@ from pneumatics.gas import isentropic_temperature
 from pneumatics.hose import hose_mass_flow, hose_volume
 from pneumatics.motor import chamber_geometry, vane_torque
 from pneumatics.orifice import orifice_mass_flow
+from pneumatics.reducer import damping, inertia_split, is_rigid, mode_frequency, stiffness, substeps_for, transmitted_torque
 from pneumatics.valves import dead_time_step, lag_toward, proportional_valve_target, regulated_pressure, solenoid_step, valve_opening
 
-S_PA_VALVE, S_PA_MOTOR, S_PB_VALVE, S_PB_MOTOR, S_PV, S_BRAKE, S_DIR, S_DIR_PENDING, S_DIR_REMAINING, S_PV_SET, S_PV_SET_PENDING, S_PV_SET_REMAINING = range(12)
-N_STATE = 12
+S_PA_VALVE, S_PA_MOTOR, S_PB_VALVE, S_PB_MOTOR, S_PV, S_BRAKE, S_DIR, S_DIR_PENDING, S_DIR_REMAINING, S_QM, S_OMEGA_M, S_PV_SET, S_PV_SET_PENDING, S_PV_SET_REMAINING = range(14)
+N_STATE = 14
 
 # commands the platform sends to a joint (a float64 row)
 C_DIRECTION, C_PV_SET_GAUGE_PA, C_BRAKE_RELEASE = range(3)
 N_COMMAND = 3
 
 
-def initial_state(p_atm_pa: float, brake_engaged: bool = True) -> np.ndarray:
-    """A joint at rest: every node at atmospheric pressure, valves closed, brake as given."""
+def initial_state(p_atm_pa: float, brake_engaged: bool = True, theta_rad: float = 0.0) -> np.ndarray:
+    """A joint at rest at `theta_rad`: every node at atmospheric pressure, valves closed, brake as
+    given, the motor side at the joint's angle (an untwisted reducer)."""
     x = np.zeros(N_STATE)
     x[S_PA_VALVE] = x[S_PA_MOTOR] = x[S_PB_VALVE] = x[S_PB_MOTOR] = p_atm_pa
     x[S_BRAKE] = 1.0 if brake_engaged else 0.0
+    x[S_QM] = theta_rad
     return x
 
 
@@ -135,6 +141,10 @@ def pressure_rates(pa_valve: float, pa_motor: float, pb_valve: float, pb_motor: 
 @njit
 def joint_torque(pa_motor: float, pb_motor: float, phi_motor: float, omega_joint: float, p: np.ndarray) -> float:
     """Joint-side drive torque in N·m: vane torque through the reducer (eq. 6, 7 row 2).
+
+    `omega_joint` is the speed, joint side, of the gear's input as the motor turns it: the joint's
+    speed for the rigid reducer, the motor side's w_m for a non-rigid one (pneumatics/reducer.py);
+    its sign picks the forward or back-driving efficiency.
 
     With `ripple_fraction` > 0 the vane torque carries a ripple at the vane-passing frequency
     (an effect outside the paper's model, used by the gap bench).
@@ -222,10 +232,124 @@ def advance_pressures(x: np.ndarray, theta: float, omega: float, supply_pa: floa
     x[S_PB_MOTOR] = b_m
 
 
+@njit
+def motor_side_drive(pa_motor: float, pb_motor: float, phi_motor: float, w_m: float, slide_m: float, tau_t: float, p: np.ndarray) -> tuple[float, bool]:
+    """(drive, held) of a non-rigid reducer's motor side (pneumatics/reducer.py): the vane torque
+    through the gear, joint side (N·m), and whether the gear's own friction holds the motor still.
+
+    The efficiency the gear applies depends on which way the motor turns against its torque
+    (`joint_torque`: eta_f forward, 1/eta_b back-driven), so the gear is a dry friction on the
+    motor side, and it gets Karnopp's rule like the joint: sliding in direction `slide_m` (+1/-1),
+    or, with `slide_m` 0, at the motor's speed w_m; below the stick speed the motor stays put while
+    the spring's torque tau_t lies between what the gear passes forward and back-driven.
+    """
+    if slide_m != 0.0:
+        return joint_torque(pa_motor, pb_motor, phi_motor, slide_m, p), False
+    if abs(w_m) >= p[P.STICK_SPEED]:
+        return joint_torque(pa_motor, pb_motor, phi_motor, w_m, p), False
+    forward = joint_torque(pa_motor, pb_motor, phi_motor, 1.0, p)
+    if forward > tau_t:
+        return forward, False
+    backward = joint_torque(pa_motor, pb_motor, phi_motor, -1.0, p)
+    if backward < tau_t:
+        return backward, False
+    return tau_t, True
+
+
+@njit
+def motor_reversal(w_before: float, w_after: float, slide_m: float, drive_jump: float, j_motor: float, h: float) -> float:
+    """Motor-side speed after a sub-step in which it crossed zero while its gear friction was held
+    in the direction `slide_m`: corrected by `drive_jump` (the drive after the turn minus the drive
+    held) over the part of the sub-step after the crossing (linear in time); 0 if that leaves no
+    reversed speed (the gear's friction stopped it). The joint side's rule is the same with its
+    Coulomb level."""
+    after = h * abs(w_after) / (abs(w_before) + abs(w_after))
+    reversed_speed = w_after + drive_jump / j_motor * after
+    return reversed_speed if slide_m * reversed_speed < 0.0 else 0.0
+
+
+@njit
+def _motor_side_rates(a_v: float, a_m: float, b_v: float, b_m: float, q_m: float, w_m: float, theta: float, omega: float, direction: float, valve: float, supply_pa: float, k: float, c: float, half_gap: float, j_motor: float, slide_m: float, p: np.ndarray) -> tuple[float, float, float, float, float, float, float]:
+    # rates of the four node pressures and the motor side (q_m, w_m), and the transmitted torque
+    ratio = p[P.RATIO]
+    phi = ratio * q_m
+    tau_t = transmitted_torque(q_m - theta, w_m - omega, half_gap, k, c)
+    drive, held = motor_side_drive(a_m, b_m, phi, w_m, slide_m, tau_t, p)
+    r = pressure_rates(a_v, a_m, b_v, b_m, phi, ratio * w_m, direction, valve, supply_pa, p)
+    if held:
+        return r[0], r[1], r[2], r[3], 0.0, 0.0, tau_t
+    return r[0], r[1], r[2], r[3], w_m, (drive - tau_t) / j_motor, tau_t
+
+
+@njit
+def advance_motor_side(x: np.ndarray, theta: float, omega: float, supply_pa: float, dt_s: float, substeps: int, p: np.ndarray) -> float:
+    """Integrate a non-rigid reducer's motor side and the four node pressures over dt, in place,
+    with the joint advancing linearly (theta + omega t) over the step; return the torque the gear
+    transmitted to the joint, averaged over the step (N·m: its impulse / dt).
+
+    The plant's path for a non-rigid reducer (pneumatics/reducer.py): MuJoCo moves the joint side,
+    this the motor side, J_m dw_m/dt = tau_drive - tau_t with J_m = ratio^2 J_rotor. The
+    chambers follow the motor's own angle (ratio q_m). Classical RK4 in at least `substeps`
+    sub-steps, more where the gear's mode (motor against the moving joint, sqrt(k / J_m)) needs
+    them, with the gear's friction held in one direction over each (`motor_side_drive`,
+    `motor_reversal`); the impulse is integrated with the same weights as the motor's momentum.
+    """
+    ratio = p[P.RATIO]
+    j_m = ratio * ratio * p[P.ROTOR_J]
+    k = stiffness(p[P.BACKLASH], p[P.COMPLIANCE])
+    c = damping(k, j_m)
+    half = 0.5 * p[P.BACKLASH]
+    stick = p[P.STICK_SPEED]
+    n = substeps_for(dt_s, mode_frequency(k, j_m, 0.0), substeps)
+    h = dt_s / n
+    valve = x[S_PV]
+    direction = x[S_DIR]
+    a_v = x[S_PA_VALVE]
+    a_m = x[S_PA_MOTOR]
+    b_v = x[S_PB_VALVE]
+    b_m = x[S_PB_MOTOR]
+    q = x[S_QM]
+    w = x[S_OMEGA_M]
+    impulse = 0.0
+    for i in range(n):
+        th0 = theta + omega * (i * h)
+        th1 = theta + omega * ((i + 0.5) * h)
+        th2 = theta + omega * ((i + 1) * h)
+        w0 = w
+        s = 0.0 if abs(w0) < stick else math.copysign(1.0, w0)
+        k1 = _motor_side_rates(a_v, a_m, b_v, b_m, q, w, th0, omega, direction, valve, supply_pa, k, c, half, j_m, s, p)
+        k2 = _motor_side_rates(a_v + 0.5 * h * k1[0], a_m + 0.5 * h * k1[1], b_v + 0.5 * h * k1[2], b_m + 0.5 * h * k1[3], q + 0.5 * h * k1[4], w + 0.5 * h * k1[5], th1, omega, direction, valve, supply_pa, k, c, half, j_m, s, p)
+        k3 = _motor_side_rates(a_v + 0.5 * h * k2[0], a_m + 0.5 * h * k2[1], b_v + 0.5 * h * k2[2], b_m + 0.5 * h * k2[3], q + 0.5 * h * k2[4], w + 0.5 * h * k2[5], th1, omega, direction, valve, supply_pa, k, c, half, j_m, s, p)
+        k4 = _motor_side_rates(a_v + h * k3[0], a_m + h * k3[1], b_v + h * k3[2], b_m + h * k3[3], q + h * k3[4], w + h * k3[5], th2, omega, direction, valve, supply_pa, k, c, half, j_m, s, p)
+        a_v += h / 6.0 * (k1[0] + 2.0 * k2[0] + 2.0 * k3[0] + k4[0])
+        a_m += h / 6.0 * (k1[1] + 2.0 * k2[1] + 2.0 * k3[1] + k4[1])
+        b_v += h / 6.0 * (k1[2] + 2.0 * k2[2] + 2.0 * k3[2] + k4[2])
+        b_m += h / 6.0 * (k1[3] + 2.0 * k2[3] + 2.0 * k3[3] + k4[3])
+        q += h / 6.0 * (k1[4] + 2.0 * k2[4] + 2.0 * k3[4] + k4[4])
+        w += h / 6.0 * (k1[5] + 2.0 * k2[5] + 2.0 * k3[5] + k4[5])
+        impulse += h / 6.0 * (k1[6] + 2.0 * k2[6] + 2.0 * k3[6] + k4[6])
+        if s != 0.0 and s * w < 0.0:
+            phi = ratio * q
+            w = motor_reversal(w0, w, s, joint_torque(a_m, b_m, phi, -s, p) - joint_torque(a_m, b_m, phi, s, p), j_m, h)
+        if abs(w) < stick:
+            tau_t = transmitted_torque(q - th2, w - omega, half, k, c)
+            if motor_side_drive(a_m, b_m, ratio * q, w, 0.0, tau_t, p)[1]:
+                w = 0.0
+    x[S_PA_VALVE] = a_v
+    x[S_PA_MOTOR] = a_m
+    x[S_PB_VALVE] = b_v
+    x[S_PB_MOTOR] = b_m
+    x[S_QM] = q
+    x[S_OMEGA_M] = w
+    return impulse / dt_s
+
+
 # --- the joint as a one-degree-of-freedom body: the paper's eq. 7 in full -------------------
-# Rigid state of the one-joint model: angle (rad), speed (rad/s), then the four node pressures.
-R_THETA, R_OMEGA, R_PA_VALVE, R_PA_MOTOR, R_PB_VALVE, R_PB_MOTOR = range(6)
-N_RIGID = 6
+# Rigid-body state of the one-joint model: angle (rad), speed (rad/s), the four node pressures,
+# then the motor side of the reducer on the joint side (motor angle / ratio, rad; rad/s): with
+# the paper's rigid reducer it is slaved to the joint (q_m = theta, w_m = w).
+R_THETA, R_OMEGA, R_PA_VALVE, R_PA_MOTOR, R_PB_VALVE, R_PB_MOTOR, R_QM, R_OMEGA_M = range(8)
+N_RIGID = 8
 
 
 @njit
@@ -236,7 +360,20 @@ def single_joint_rates(y: np.ndarray, direction: float, valve_gauge_pa: float, s
     (gravity and payload on this joint; the predictor takes it from Pinocchio) and Coulomb +
     viscous friction by Karnopp's rule, the engaged part of the brake adding to the Coulomb level.
     `inertia_kg_m2` is the joint-side inertia including the reflected rotor.
+
+    With a non-rigid reducer (pneumatics/reducer.py) the motor side moves on its own,
+    J_m dw_m/dt = T_drive - T_t with T_drive at the motor's angle and speed, and the joint side
+    gets the transmitted T_t in place of T_drive (Karnopp's rule then decides on T_t); J_m and the
+    joint side's J_j split `inertia_kg_m2` (`reducer.inertia_split`). With the rigid reducer the
+    motor side's rates are the joint's.
     """
+    if not is_rigid(p):
+        omega = y[R_OMEGA]
+        w_m = y[R_OMEGA_M]
+        slide = 0.0 if abs(omega) < p[P.STICK_SPEED] else math.copysign(1.0, omega)
+        slide_m = 0.0 if abs(w_m) < p[P.STICK_SPEED] else math.copysign(1.0, w_m)
+        _compliant_rates(y, direction, valve_gauge_pa, supply_pa, load_torque_nm, inertia_kg_m2, brake_engagement, slide, slide_m, p, out)
+        return
     theta = y[R_THETA]
     omega = y[R_OMEGA]
     phi = p[P.RATIO] * theta
@@ -250,6 +387,8 @@ def single_joint_rates(y: np.ndarray, direction: float, valve_gauge_pa: float, s
     else:
         out[R_THETA] = omega
         out[R_OMEGA] = (drive + friction) / inertia_kg_m2
+    out[R_QM] = out[R_THETA]  # the rigid reducer's motor is the joint
+    out[R_OMEGA_M] = out[R_OMEGA]
     rates = pressure_rates(y[R_PA_VALVE], y[R_PA_MOTOR], y[R_PB_VALVE], y[R_PB_MOTOR], phi, p[P.RATIO] * omega, direction, valve_gauge_pa, supply_pa, p)
     out[R_PA_VALVE] = rates[0]
     out[R_PA_MOTOR] = rates[1]
@@ -260,7 +399,11 @@ def single_joint_rates(y: np.ndarray, direction: float, valve_gauge_pa: float, s
 @njit
 def single_joint_rk4(y: np.ndarray, direction: float, valve_gauge_pa: float, supply_pa: float, load_torque_nm: float, inertia_kg_m2: float, brake_engagement: float, dt_s: float, p: np.ndarray) -> None:
     """One classical Runge-Kutta step of `single_joint_rates` over dt, in place (the paper
-    integrates its predictor with Runge-Kutta, Sec. III-B)."""
+    integrates its predictor with Runge-Kutta, Sec. III-B). A non-rigid reducer takes as many
+    sub-steps as its two-mass mode needs (`reducer.substeps_for`)."""
+    if not is_rigid(p):
+        _single_joint_rk4_compliant(y, direction, valve_gauge_pa, supply_pa, load_torque_nm, inertia_kg_m2, brake_engagement, dt_s, p)
+        return
     k1 = np.empty(N_RIGID)
     k2 = np.empty(N_RIGID)
     k3 = np.empty(N_RIGID)
@@ -289,6 +432,105 @@ def single_joint_rk4(y: np.ndarray, direction: float, valve_gauge_pa: float, sup
         single_joint_rates(y, direction, valve_gauge_pa, supply_pa, load_torque_nm, inertia_kg_m2, brake_engagement, p, tmp)
         if tmp[R_THETA] == 0.0:
             y[R_OMEGA] = 0.0
+    y[R_QM] = y[R_THETA]  # the rigid reducer's motor is the joint
+    y[R_OMEGA_M] = y[R_OMEGA]
+
+
+@njit
+def _compliant_rates(y: np.ndarray, direction: float, valve_gauge_pa: float, supply_pa: float, load_torque_nm: float, inertia_kg_m2: float, brake_engagement: float, slide: float, slide_m: float, p: np.ndarray, out: np.ndarray) -> tuple[bool, bool]:
+    # `single_joint_rates` for a non-rigid reducer, with the joint side's friction sliding in the
+    # direction `slide` (+1/-1) and the gear's in `slide_m`, or, where 0, by Karnopp's rule at the
+    # speed in y. Returns whether Karnopp's rule holds (the joint, the motor) still.
+    theta = y[R_THETA]
+    omega = y[R_OMEGA]
+    ratio = p[P.RATIO]
+    j_m, j_j = inertia_split(inertia_kg_m2, ratio * ratio * p[P.ROTOR_J])
+    k = stiffness(p[P.BACKLASH], p[P.COMPLIANCE])
+    q_m = y[R_QM]
+    w_m = y[R_OMEGA_M]
+    phi = ratio * q_m
+    tau_t = transmitted_torque(q_m - theta, w_m - omega, 0.5 * p[P.BACKLASH], k, damping(k, j_m))
+    drive = tau_t - load_torque_nm
+    drive += stribeck_excess_torque(omega, p[P.STRIBECK_EXCESS], p[P.STRIBECK_SPEED], 0.5 * p[P.STRIBECK_SPEED])
+    coulomb = p[P.COULOMB] + brake_engagement * p[P.BRAKE_HOLD]
+    joint_held = False
+    if slide != 0.0:
+        out[R_THETA] = omega
+        out[R_OMEGA] = (drive - slide * coulomb - p[P.VISCOUS] * omega) / j_j
+    elif abs(omega) < p[P.STICK_SPEED] and abs(drive) <= coulomb:
+        out[R_THETA] = 0.0  # stuck: Karnopp's rule holds the joint still
+        out[R_OMEGA] = 0.0
+        joint_held = True
+    else:
+        out[R_THETA] = omega
+        out[R_OMEGA] = (drive + coulomb_viscous_torque(omega, drive, coulomb, p[P.VISCOUS], p[P.STICK_SPEED])) / j_j
+    motor_drive, motor_held = motor_side_drive(y[R_PA_MOTOR], y[R_PB_MOTOR], phi, w_m, slide_m, tau_t, p)
+    if motor_held:
+        out[R_QM] = 0.0
+        out[R_OMEGA_M] = 0.0
+    else:
+        out[R_QM] = w_m
+        out[R_OMEGA_M] = (motor_drive - tau_t) / j_m
+    rates = pressure_rates(y[R_PA_VALVE], y[R_PA_MOTOR], y[R_PB_VALVE], y[R_PB_MOTOR], phi, ratio * w_m, direction, valve_gauge_pa, supply_pa, p)
+    out[R_PA_VALVE] = rates[0]
+    out[R_PA_MOTOR] = rates[1]
+    out[R_PB_VALVE] = rates[2]
+    out[R_PB_MOTOR] = rates[3]
+    return joint_held, motor_held
+
+
+@njit
+def _single_joint_rk4_compliant(y: np.ndarray, direction: float, valve_gauge_pa: float, supply_pa: float, load_torque_nm: float, inertia_kg_m2: float, brake_engagement: float, dt_s: float, p: np.ndarray) -> None:
+    # `single_joint_rk4` for a non-rigid reducer: RK4 in sub-steps that resolve the two-mass mode.
+    # Two dry frictions act: the joint's (Coulomb + brake) and the gear's on the motor side
+    # (`motor_side_drive`). The joint side alone is light (the rig's 0.02 kg·m^2 under 115 N·m of
+    # brake: 5.75 rad/s per ms), so each friction keeps the direction it has at the sub-step's
+    # start through all four stages (stages that flip it drive a slowing body faster instead of
+    # stopping it). A speed that crosses zero inside the sub-step is then corrected for the
+    # friction that really turned with it, over the part of the sub-step after the crossing
+    # (`motor_reversal`): if that leaves no reversed speed, friction stopped the body there.
+    # From rest, Karnopp's rule decides.
+    ratio = p[P.RATIO]
+    j_m, j_j = inertia_split(inertia_kg_m2, ratio * ratio * p[P.ROTOR_J])
+    n = substeps_for(dt_s, mode_frequency(stiffness(p[P.BACKLASH], p[P.COMPLIANCE]), j_m, 1.0 / j_j), 1)
+    h = dt_s / n
+    stick = p[P.STICK_SPEED]
+    coulomb = p[P.COULOMB] + brake_engagement * p[P.BRAKE_HOLD]
+    k1 = np.empty(N_RIGID)
+    k2 = np.empty(N_RIGID)
+    k3 = np.empty(N_RIGID)
+    k4 = np.empty(N_RIGID)
+    tmp = np.empty(N_RIGID)
+    for _ in range(n):
+        w0 = y[R_OMEGA]
+        wm0 = y[R_OMEGA_M]
+        s = 0.0 if abs(w0) < stick else math.copysign(1.0, w0)
+        s_m = 0.0 if abs(wm0) < stick else math.copysign(1.0, wm0)
+        _compliant_rates(y, direction, valve_gauge_pa, supply_pa, load_torque_nm, inertia_kg_m2, brake_engagement, s, s_m, p, k1)
+        for i in range(N_RIGID):
+            tmp[i] = y[i] + 0.5 * h * k1[i]
+        _compliant_rates(tmp, direction, valve_gauge_pa, supply_pa, load_torque_nm, inertia_kg_m2, brake_engagement, s, s_m, p, k2)
+        for i in range(N_RIGID):
+            tmp[i] = y[i] + 0.5 * h * k2[i]
+        _compliant_rates(tmp, direction, valve_gauge_pa, supply_pa, load_torque_nm, inertia_kg_m2, brake_engagement, s, s_m, p, k3)
+        for i in range(N_RIGID):
+            tmp[i] = y[i] + h * k3[i]
+        _compliant_rates(tmp, direction, valve_gauge_pa, supply_pa, load_torque_nm, inertia_kg_m2, brake_engagement, s, s_m, p, k4)
+        for i in range(N_RIGID):
+            y[i] += h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
+        if s != 0.0 and s * y[R_OMEGA] < 0.0:
+            y[R_OMEGA] = motor_reversal(w0, y[R_OMEGA], s, 2.0 * s * coulomb, j_j, h)
+        if s_m != 0.0 and s_m * y[R_OMEGA_M] < 0.0:
+            phi = ratio * y[R_QM]
+            jump = joint_torque(y[R_PA_MOTOR], y[R_PB_MOTOR], phi, -s_m, p) - joint_torque(y[R_PA_MOTOR], y[R_PB_MOTOR], phi, s_m, p)
+            y[R_OMEGA_M] = motor_reversal(wm0, y[R_OMEGA_M], s_m, jump, j_m, h)
+        if abs(y[R_OMEGA]) < stick or abs(y[R_OMEGA_M]) < stick:
+            # Karnopp: a body that has come to rest and is not pushed past its friction stays put
+            joint_held, motor_held = _compliant_rates(y, direction, valve_gauge_pa, supply_pa, load_torque_nm, inertia_kg_m2, brake_engagement, 0.0, 0.0, p, tmp)
+            if joint_held:
+                y[R_OMEGA] = 0.0
+            if motor_held:
+                y[R_OMEGA_M] = 0.0
 
 
 @njit

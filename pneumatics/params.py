@@ -71,6 +71,14 @@ class JointParams(NamedTuple):
     supply_droop_pa_s_per_kg: float = 0.0  # supply pressure lost per kg/s drawn
     hose_leak_area_m2: float = 0.0  # a leak to atmosphere in port A's hose (a fault)
     valve_set_dead_time_s: float = 0.0  # the proportional valve's set point takes effect this late
+    # the reducer's transmission (pneumatics/reducer.py). The nominal twin keeps the paper's rigid
+    # reducer (eq. 6: M_o = i M_i, both 0). A size-17 strain-wave gear (the wrist's LHS-17-120)
+    # is far from rigid, though: Harmonic Drive's CSF-17 catalogue gives a torsional stiffness
+    # K1 ~ 3.4e3 N·m/rad at low torque rising to K3 ~ 5.7e3 N·m/rad (compliance ~ 2e-4 rad/N·m),
+    # and near-zero backlash (strain-wave gears are sold as backlash-free; what is left is of the
+    # order of an arc-minute of lost motion, ~3e-4 rad).
+    reducer_backlash_rad: float = 0.0  # total lost motion between the flanks, joint side
+    reducer_compliance_rad_per_nm: float = 0.0  # joint-side torsional compliance 1/k; 0: rigid
 
 
 @dataclass(frozen=True)
@@ -119,6 +127,10 @@ SPEC: dict[str, FieldSpec] = {
     "supply_droop_pa_s_per_kg": FieldSpec("effects", 0.0, 1e9, "Pa·s/kg"),
     "hose_leak_area_m2": FieldSpec("effects", 0.0, 1e-4, "m^2"),
     "valve_set_dead_time_s": FieldSpec("effects", 0.0, 1.0, "s"),
+    # 0.2 rad (11 deg) of lost motion and 0.1 rad/N·m (10 N·m/rad, 500x softer than a size-17
+    # strain-wave gear) are far beyond any reducer in service: room for worn or badly fitted gears
+    "reducer_backlash_rad": FieldSpec("effects", 0.0, 0.2, "rad"),
+    "reducer_compliance_rad_per_nm": FieldSpec("effects", 0.0, 0.1, "rad/(N·m)"),
 }
 assert list(SPEC) == list(JointParams._fields), "SPEC and JointParams must list the same fields"
 
@@ -153,6 +165,11 @@ def validated(params: JointParams, source: str = "<parameters>") -> JointParams:
         raise ParameterError(
             f"{source}: [brake] brake_release_start_gauge_pa = {params.brake_release_start_gauge_pa:g} must not exceed "
             f"brake_release_gauge_pa = {params.brake_release_gauge_pa:g} (the lining lifts before it is clear)"
+        )
+    if (params.reducer_backlash_rad > 0.0 or params.reducer_compliance_rad_per_nm > 0.0) and params.rotor_inertia_kg_m2 == 0.0:
+        raise ParameterError(
+            f"{source}: [motor] rotor_inertia_kg_m2 = 0 with a non-rigid reducer (reducer_backlash_rad = {params.reducer_backlash_rad:g}, "
+            f"reducer_compliance_rad_per_nm = {params.reducer_compliance_rad_per_nm:g}); allowed: a rotor inertia > 0 (the motor side is a body of its own)"
         )
     for section, field in (("hose", "hose_loss"), ("brake", "brake_fed_by_motor")):
         value = getattr(params, field)
@@ -204,5 +221,6 @@ BRAKE_HOLD, BRAKE_RELEASE_PA, BRAKE_START_PA, BRAKE_FED_BY_MOTOR, BRAKE_TAU_ON, 
 COULOMB, VISCOUS, STICK_SPEED = (_COLUMNS[f] for f in JointParams._fields[23:26])
 LEAK_A, STRIBECK_EXCESS, STRIBECK_SPEED, DEAD_ZONE, COND_SCALE, POLY_N, RIPPLE, DROOP, HOSE_LEAK_A = (_COLUMNS[f] for f in JointParams._fields[26:35])
 PV_DEAD_TIME = _COLUMNS["valve_set_dead_time_s"]
+BACKLASH, COMPLIANCE = _COLUMNS["reducer_backlash_rad"], _COLUMNS["reducer_compliance_rad_per_nm"]
 GAS_R, GAS_K, GAS_T, GAS_P_ATM, GAS_MU = (_COLUMNS["gas_" + f] for f in Gas._fields)
 N_COLUMNS = len(_COLUMNS)

@@ -89,6 +89,7 @@ def build_plant(scenario: Scenario) -> Plant:
     for joint, deg in scenario.start_angles_deg.items():
         d.joint(joint).qpos[0] = math.radians(deg)
     mujoco.mj_forward(m, d)
+    plant.align_motors()
     return plant
 
 

@@ -113,6 +113,19 @@ def test_a_run_may_carry_its_own_load(campaigns, tmp_path):
         load_campaign(c)
 
 
+def test_hidden_reducer_compliance_is_found_and_recovered(tmp_path):
+    # a compliant gear (1e-3 rad/N·m, 5x softer than the size-17 gear's 1/K1) hidden in the plant;
+    # the catalogue's reducer entries are configuration of the same one-joint model
+    folder = synth.make_campaign(tmp_path / "compliant", synth.wrist_params()._replace(reducer_compliance_rad_per_nm=1e-3), seed=4, pressures_mpa=(0.5, 0.8))
+    catalogue = FAST + tuple(e for e in CATALOGUE if e.family == "reducer")
+    assert {e.name for e in catalogue if e.family == "reducer"} == {"reducer_backlash", "reducer_compliance"}
+    d = diagnose(load_campaign(folder), catalogue=catalogue, progress=False)
+    w = d["which"]
+    assert w["verdict"] == "explained" and w["top"]["name"] == "reducer_compliance"
+    assert w["top"]["fitted_values"][0] == pytest.approx(1e-3, rel=0.1)  # measured: 1.04e-3
+    assert w["top"]["shrink"] < 0.3
+
+
 def _copy(src, dst):
     shutil.copytree(src, dst)
     return dst

@@ -65,6 +65,12 @@ BAD = {
     ),
     "unknown_table": (TEXT + "\n[gearbox]\nratio = 120\n", ["[gearbox]", "unknown table", "motor", "effects"]),
     "effects_out_of_range": (TEXT + "\n[effects]\npolytropic_n = 1.6\n", ["polytropic_n", "1.6", "1..1.4"]),
+    "backlash_negative": (TEXT + "\n[effects]\nreducer_backlash_rad = -1\n", ["[effects] reducer_backlash_rad", "-1", "0..0.2 rad"]),
+    "compliance_too_large": (TEXT + "\n[effects]\nreducer_compliance_rad_per_nm = 0.5\n", ["reducer_compliance_rad_per_nm", "0.5", "0..0.1"]),
+    "compliant_gear_without_rotor": (
+        _set_line("rotor_inertia_kg_m2", "rotor_inertia_kg_m2 = 0.0") + "\n[effects]\nreducer_compliance_rad_per_nm = 1e-3\n",
+        ["rotor_inertia_kg_m2 = 0", "reducer_compliance_rad_per_nm = 0.001", "rotor inertia > 0"],
+    ),
     "not_toml": (TEXT.replace("ratio = 120", "ratio = = 120"), ["not valid TOML"]),
 }
 
@@ -93,3 +99,12 @@ def test_the_unedited_copy_loads(tmp_path: Path) -> None:
     path = tmp_path / "copy.toml"
     path.write_text(TEXT)
     assert load_joint_params(path) == load_joint_params(REAL)
+
+
+def test_reducer_fields_default_to_the_rigid_reducer_and_load_when_given(tmp_path: Path) -> None:
+    assert load_joint_params(REAL).reducer_backlash_rad == 0.0  # the paper's eq. 6
+    assert load_joint_params(REAL).reducer_compliance_rad_per_nm == 0.0
+    path = tmp_path / "worn.toml"
+    path.write_text(TEXT + "\n[effects]\nreducer_backlash_rad = 0.02\nreducer_compliance_rad_per_nm = 2e-4\n")
+    p = load_joint_params(path)
+    assert (p.reducer_backlash_rad, p.reducer_compliance_rad_per_nm) == (0.02, 2e-4)

@@ -12,7 +12,7 @@ import math
 import numpy as np
 import pytest
 from scipy.integrate import quad, solve_ivp
-from scipy.optimize import brentq
+from scipy.optimize import brentq, curve_fit
 
 import assets
 from pneumatics import (
@@ -40,8 +40,23 @@ from pneumatics import (
 )
 from pneumatics import params as P
 from pneumatics.hose import BLASIUS_LAMINAR_RE, reynolds_number
-from pneumatics.joint import S_BRAKE, advance_brake, initial_state
+from pneumatics.joint import (
+    N_RIGID,
+    R_OMEGA,
+    R_OMEGA_M,
+    R_PA_MOTOR,
+    R_PB_MOTOR,
+    R_QM,
+    R_THETA,
+    S_BRAKE,
+    S_PV,
+    advance_brake,
+    advance_discrete,
+    initial_state,
+    single_joint_step,
+)
 from pneumatics.orifice import LINEAR_RATIO
+from pneumatics.reducer import CONTACT_STIFFNESS_NM_PER_RAD, MAX_STIFFNESS_NM_PER_RAD, damping, stiffness, transmitted_torque
 
 R, K, T_S, P_ATM, MU = AIR.r_j_per_kg_k, AIR.k, AIR.t_supply_k, AIR.p_atm_pa, AIR.mu_pa_s
 WRIST = load_joint_params(assets.joint_param_path("wrist_pitch"))
@@ -353,3 +368,138 @@ def test_brake_fed_by_the_motor_follows_the_hose_end_pressure() -> None:
     assert x[S_BRAKE] == pytest.approx(0.5, abs=1e-6)
     advance_brake(x, command, atm + 6e5, atm + full, atm, 1.0, p)
     assert x[S_BRAKE] == pytest.approx(0.0, abs=1e-6)
+
+
+# --- reducer transmission: a torsional spring with backlash (pneumatics/reducer.py) --------------
+def test_transmission_law_is_a_dead_zone_spring_that_never_pulls() -> None:
+    k, c, half = 5.0e3, 2.0, 0.01
+    assert stiffness(0.0, 1e-3) == pytest.approx(1e3, rel=1e-12)
+    assert stiffness(0.02, 0.0) == CONTACT_STIFFNESS_NM_PER_RAD  # flanks with the gear's own stiffness
+    assert stiffness(0.0, 1e-12) == MAX_STIFFNESS_NM_PER_RAD
+    # without backlash: one elastic body, a linear spring-damper both ways
+    assert transmitted_torque(0.003, -0.5, 0.0, k, c) == pytest.approx(k * 0.003 - c * 0.5, rel=1e-12)
+    assert transmitted_torque(-0.003, 0.5, 0.0, k, c) == pytest.approx(-(k * 0.003 - c * 0.5), rel=1e-12)
+    # inside the gap nothing passes, whatever the speed
+    for twist in (-half, -0.5 * half, 0.0, 0.7 * half, half):
+        assert transmitted_torque(twist, 3.0, half, k, c) == 0.0
+    # on a flank: k times the twist past it, plus damping
+    assert transmitted_torque(half + 0.002, 0.1, half, k, c) == pytest.approx(k * 0.002 + c * 0.1, rel=1e-12)
+    assert transmitted_torque(-half - 0.002, -0.1, half, k, c) == pytest.approx(-(k * 0.002 + c * 0.1), rel=1e-12)
+    # flanks parting fast: the damper cannot make touching flanks pull
+    assert transmitted_torque(half + 1e-5, -10.0, half, k, c) == 0.0
+    assert transmitted_torque(-half - 1e-5, 10.0, half, k, c) == 0.0
+
+
+def _one_joint(params, seconds: float, command, supply_pa: float, y0: np.ndarray | None = None, inertia: float = 0.164, dt: float = 1e-3) -> np.ndarray:
+    """The one-joint model (pneumatics.joint.single_joint_step, as the predictor and the gap
+    replay run it) under commands held from t = command(t); the state at every step."""
+    p = params_row(params)
+    y = y0.copy() if y0 is not None else np.array([0.0, 0.0, P_ATM, P_ATM, P_ATM, P_ATM, 0.0, 0.0])
+    x = initial_state(P_ATM, brake_engaged=True)
+    n = int(round(seconds / dt))
+    out = np.empty((n + 1, N_RIGID))
+    out[0] = y
+    for k in range(n):
+        c = np.asarray(command(k * dt), dtype=float)
+        advance_discrete(x, c, supply_pa, dt, p)
+        single_joint_step(y, x, c, x[S_PV], supply_pa, 0.0, inertia, dt, p)
+        out[k + 1] = y
+    return out
+
+
+RIG_J = 0.02  # kg·m^2, the wrist rig's load (assets/wrist_rig.xml); the rotor adds ratio^2 J_rotor
+J_MOTOR = WRIST.ratio**2 * WRIST.rotor_inertia_kg_m2
+
+
+def _stall_torque(y: np.ndarray, efficiency: float = 1.0) -> float:
+    # the vane torque of the final pressures at the final motor angle, through the gear (eq. 6)
+    phi = WRIST.ratio * y[R_QM]
+    return efficiency * WRIST.ratio * vane_torque(y[R_PA_MOTOR], y[R_PB_MOTOR], phi, *GEOM)
+
+
+def test_compliant_joint_held_by_its_brake_twists_by_torque_over_stiffness() -> None:
+    """Brake engaged (100 N·m), valve fully open at 0.5 MPa: the motor winds the gear up until the
+    spring carries the stall torque, twist = tau / k. With both efficiencies 1 the gear passes
+    i M both ways; with the wrist's 0.7 / 0.5 the gear's own friction holds the motor anywhere in
+    the band eta_f i M / k .. i M / (eta_b k)."""
+    compliance = 1e-3
+    supply = P_ATM + 5e5
+    lossless = WRIST._replace(reducer_compliance_rad_per_nm=compliance, efficiency_forward=1.0, efficiency_backward=1.0)
+    h = _one_joint(lossless, 3.0, lambda t: (1.0, 5e5, 0.0), supply, inertia=RIG_J + J_MOTOR)
+    y = h[-1]
+    tau = _stall_torque(y)
+    print(f"\nstall torque {tau:.3f} N·m, twist {y[R_QM] - y[R_THETA]:.6f} rad, tau/k {tau * compliance:.6f} rad")
+    assert 40.0 < tau < WRIST.brake_holding_nm  # a real load, and the brake holds it
+    assert np.all(h[:, R_THETA] == 0.0)  # held: the joint never moved
+    assert y[R_QM] - y[R_THETA] == pytest.approx(tau * compliance, rel=1e-4)
+    # with the wrist's efficiencies
+    lossy = WRIST._replace(reducer_compliance_rad_per_nm=compliance)
+    y = _one_joint(lossy, 3.0, lambda t: (1.0, 5e5, 0.0), supply, inertia=RIG_J + J_MOTOR)[-1]
+    twist = y[R_QM] - y[R_THETA]
+    assert WRIST.efficiency_forward * _stall_torque(y) * compliance * (1 - 1e-4) <= twist <= _stall_torque(y) / WRIST.efficiency_backward * compliance
+    assert y[R_OMEGA_M] == 0.0  # held by the gear's friction, not swinging
+
+
+@pytest.mark.parametrize("compliance", [1e-3, 2e-4])
+def test_two_mass_oscillation_has_the_analytic_frequency(compliance: float) -> None:
+    """Released from a twist with friction, brake and air out of the way, motor and load swing
+    against each other at w = sqrt(k (1/J_m + 1/J_j)) (damped: w sqrt(1 - zeta^2), zeta of the
+    gear's damping on the reduced inertia J_m J_j / (J_m + J_j)), keeping their total momentum."""
+    free = WRIST._replace(
+        reducer_compliance_rad_per_nm=compliance, coulomb_nm=0.0, viscous_nm_s=0.0, brake_holding_nm=0.0,
+        dead_volume_m3=1e-2,  # 10 l per port: the air's spring is 1e-5 of the gear's, its torque noise
+    )
+    k = 1.0 / compliance
+    y0 = np.array([0.0, 0.0, P_ATM, P_ATM, P_ATM, P_ATM, 0.01, 0.0])  # motor side 0.01 rad ahead
+    h = _one_joint(free, 0.3, lambda t: (0.0, 0.0, 1.0), P_ATM, y0, inertia=RIG_J + J_MOTOR)
+    twist = h[:, R_QM] - h[:, R_THETA]
+    t = np.arange(len(h)) * 1e-3
+    j_red = J_MOTOR * RIG_J / (J_MOTOR + RIG_J)
+    zeta = damping(k, J_MOTOR) / (2.0 * math.sqrt(k * j_red))
+    analytic = math.sqrt(k * (1.0 / J_MOTOR + 1.0 / RIG_J))
+    # least squares of a damped cosine (zero crossings interpolated on the 1 ms grid are biased by
+    # the decay's curvature: 0.6 % at 534 rad/s)
+    (amplitude, decay, measured, _), _ = curve_fit(lambda t, a, s, w, ph: a * np.exp(-s * t) * np.cos(w * t + ph), t, twist, p0=[0.01, 0.1 * analytic, analytic, 0.0])
+    zeta_measured = decay / math.hypot(decay, measured)
+    print(f"\ncompliance {compliance:g}: w measured {measured:.3f}, analytic {analytic:.3f} (damped {analytic * math.sqrt(1 - zeta**2):.3f}) rad/s; "
+          f"zeta {zeta_measured:.4f} vs {zeta:.4f}; {measured * t[-1] / (2 * math.pi):.1f} periods")
+    assert measured * t[-1] > 2 * math.pi * 10  # at least 10 periods
+    assert measured == pytest.approx(analytic * math.sqrt(1.0 - zeta**2), rel=1e-3)
+    assert zeta_measured == pytest.approx(zeta, rel=0.02)
+    assert 0.05 < zeta < 0.1  # the gear's damping on the rig's two-mass mode (pneumatics/reducer.py)
+    momentum = J_MOTOR * h[:, R_OMEGA_M] + RIG_J * h[:, R_OMEGA]
+    swing = RIG_J * np.abs(h[:, R_OMEGA]).max()
+    assert np.abs(momentum).max() < 0.01 * swing
+
+
+def test_reversal_through_backlash_loses_the_gap() -> None:
+    """Forward, then straight back, both with the valve fully open at 0.6 MPa: with backlash b the
+    joint trails the motor by b/2 (plus the flanks' elastic twist) either way, and the reversed
+    move loses b of joint travel against the rigid reducer. The flanks are made stiff (1e-5
+    rad/N·m: the stall torque twists them < 0.6 mrad) so that b is what remains; the tolerance,
+    b/10, covers that twist on both flanks and the motor's free run across the gap, which it
+    makes without the joint's load (measured: the loss is 0.96 b)."""
+    gap = 0.02
+    supply = P_ATM + 6e5
+    t_rev, t_hold = 0.5, 1.3
+
+    def command(t: float):
+        if t < 0.1:
+            return (0.0, 0.0, 0.0)
+        return (1.0 if t < t_rev else -1.0 if t < t_hold else 0.0, 6e5, 1.0 if t < t_hold else 0.0)
+
+    y0 = np.array([0.0, 0.0, P_ATM, P_ATM, P_ATM, P_ATM, 0.5 * gap, 0.0])  # motor on the forward flank
+    rigid = _one_joint(WRIST, 1.6, command, supply, inertia=RIG_J + J_MOTOR)
+    lash = _one_joint(WRIST._replace(reducer_backlash_rad=gap, reducer_compliance_rad_per_nm=1e-5), 1.6, command, supply, y0, inertia=RIG_J + J_MOTOR)
+    k_rev, k_hold = round(t_rev / 1e-3), round(t_hold / 1e-3)
+    twist = lash[:, R_QM] - lash[:, R_THETA]
+    stall = WRIST.ratio * 6e5 * swept_area(0.0, *GEOM) / WRIST.efficiency_backward  # the most the gear passes
+    elastic = stall * 1e-5
+    forward, back = twist[k_rev - 200 : k_rev], twist[k_hold - 300 : k_hold]
+    assert rigid[k_rev, R_THETA] > 0.3 and rigid[k_rev, R_THETA] - rigid[k_hold, R_THETA] > 0.5  # really moved, both ways
+    assert np.all(forward >= 0.5 * gap) and np.all(forward <= 0.5 * gap + elastic)
+    assert np.all(back <= -0.5 * gap) and np.all(back >= -0.5 * gap - elastic)
+    loss = (rigid[k_rev, R_THETA] - rigid[k_hold, R_THETA]) - (lash[k_rev, R_THETA] - lash[k_hold, R_THETA])
+    print(f"\nreversal: rigid travel {rigid[k_rev, R_THETA] - rigid[k_hold, R_THETA]:.4f} rad, with backlash {gap}: loss {loss:.5f} rad ({loss / gap:.3f} b); "
+          f"twist forward {forward.min():.5f}..{forward.max():.5f}, back {back.min():.5f}..{back.max():.5f}")
+    assert loss == pytest.approx(gap, abs=0.1 * gap)

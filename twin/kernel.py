@@ -18,7 +18,8 @@ from pneumatics import params as P
 from pneumatics._jit import NO_JIT, borrowed, intrinsic, njit, types
 from pneumatics.brake import brake_holding_torque
 from pneumatics.friction import stribeck_excess_torque
-from pneumatics.joint import S_BRAKE, S_PA_MOTOR, S_PB_MOTOR, advance_brake, advance_discrete, advance_pressures, joint_torque
+from pneumatics.joint import S_BRAKE, S_PA_MOTOR, S_PB_MOTOR, advance_brake, advance_discrete, advance_motor_side, advance_pressures, joint_torque
+from pneumatics.reducer import is_rigid
 
 
 @njit
@@ -41,6 +42,12 @@ def pneumatic_step(
 
     The drive angle and speed are summed from qpos/qvel through the fixed tendon's coefficients:
     d.ten_length/ten_velocity after mj_step still describe the step before.
+
+    A joint with a non-rigid reducer (pneumatics/reducer.py) has its motor side here, not in
+    MuJoCo (whose drive tendon then carries no rotor armature): the motor side and the air are
+    integrated over the step with the joint advancing linearly at the speed MuJoCo reports, and
+    ctrl gets the torque the gear transmitted, averaged over the step: the joint receives the
+    impulse the spring delivered, integrated with the same weights as the motor's loss of it.
     """
     for j in range(x.shape[0]):
         p = params[j]
@@ -52,15 +59,22 @@ def pneumatic_step(
             if c != 0.0:
                 theta += c * qpos[int(drive_map[j, term, 0])]
                 omega += c * qvel[int(drive_map[j, term, 1])]
-        # the torque MuJoCo holds over the step, from the pressures at its start (explicit, like
-        # MuJoCo's own semi-implicit Euler; a mid-step torque was tried and was no closer to LSODA)
-        torque = joint_torque(x[j, S_PA_MOTOR], x[j, S_PB_MOTOR], p[P.RATIO] * theta, omega, p)
-        torque += stribeck_excess_torque(omega, p[P.STRIBECK_EXCESS], p[P.STRIBECK_SPEED], 0.5 * p[P.STRIBECK_SPEED])
-        ctrl[actuator_ids[j]] = torque
-        # brake is spring-applied: it and the joint's Coulomb friction are one dry-friction limit
-        tendon_frictionloss[t] = p[P.COULOMB] + brake_holding_torque(x[j, S_BRAKE], p[P.BRAKE_HOLD])
-        advance_discrete(x[j], commands[j], supply_pa, dt_s, p)
-        advance_pressures(x[j], theta, omega, supply_pa, dt_s, substeps, p)
+        if is_rigid(p):
+            # the torque MuJoCo holds over the step, from the pressures at its start (explicit, like
+            # MuJoCo's own semi-implicit Euler; a mid-step torque was tried and was no closer to LSODA)
+            torque = joint_torque(x[j, S_PA_MOTOR], x[j, S_PB_MOTOR], p[P.RATIO] * theta, omega, p)
+            torque += stribeck_excess_torque(omega, p[P.STRIBECK_EXCESS], p[P.STRIBECK_SPEED], 0.5 * p[P.STRIBECK_SPEED])
+            ctrl[actuator_ids[j]] = torque
+            # brake is spring-applied: it and the joint's Coulomb friction are one dry-friction limit
+            tendon_frictionloss[t] = p[P.COULOMB] + brake_holding_torque(x[j, S_BRAKE], p[P.BRAKE_HOLD])
+            advance_discrete(x[j], commands[j], supply_pa, dt_s, p)
+            advance_pressures(x[j], theta, omega, supply_pa, dt_s, substeps, p)
+        else:
+            tendon_frictionloss[t] = p[P.COULOMB] + brake_holding_torque(x[j, S_BRAKE], p[P.BRAKE_HOLD])
+            advance_discrete(x[j], commands[j], supply_pa, dt_s, p)
+            torque = advance_motor_side(x[j], theta, omega, supply_pa, dt_s, substeps, p)
+            torque += stribeck_excess_torque(omega, p[P.STRIBECK_EXCESS], p[P.STRIBECK_SPEED], 0.5 * p[P.STRIBECK_SPEED])
+            ctrl[actuator_ids[j]] = torque
         advance_brake(x[j], commands[j], supply_pa, x[j, S_PA_MOTOR], x[j, S_PB_MOTOR], dt_s, p)
 
 

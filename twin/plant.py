@@ -5,7 +5,8 @@ pressures and written into its actuator's ctrl, its brake and Coulomb friction i
 tendon's frictionloss; the valves, brake and the four node pressures are advanced over the step
 (Heun sub-steps, the joint moving at the speed MuJoCo reports); then MuJoCo steps. The coupling
 is explicit in both directions, like MuJoCo's own semi-implicit Euler; tests hold it to scipy's
-LSODA on the same equations.
+LSODA on the same equations. A joint whose reducer is not rigid (pneumatics/reducer.py) has its
+motor side integrated by the air kernel, not by MuJoCo (twin/kernel.py).
 
 The plant knows the truth. What the operator's platform can read of it is `sensors()`: the supply
 pressure and each proportional valve's pressure, nothing more (the real arm has no angle sensor).
@@ -20,12 +21,17 @@ import mujoco
 import numpy as np
 
 import assets
-from pneumatics import AIR, Gas, JointParams, load_joint_params, params_row
+from pneumatics import AIR, Gas, JointParams, ParameterError, load_joint_params, params_row
 from pneumatics import joint as J
 from pneumatics import params as P
+from pneumatics.reducer import is_rigid, stiffness
 from twin.kernel import plant_steps, pneumatic_step
 from twin.model import drive_map, ids, load_model, raise_on_new_warnings, warning_counts
 
+# a non-rigid reducer's spring acts on MuJoCo's joint explicitly (twin/kernel.py): its mode on the
+# joint side, sqrt(k / J_joint), must stay under this many rad per physics step. Measured on the
+# wrist rig (J_joint = 0.02 kg·m^2, 0.5 ms): stable at 1.12 rad/step, unstable from 1.44.
+MAX_TRANSMISSION_PHASE_PER_STEP = 1.0
 SUBSTEPS = 1  # Heun sub-steps of the air per physics step; tests/test_plant.py shows 1 is enough at 0.5 ms: the error is the coupling's, not the air's
 
 
@@ -80,11 +86,8 @@ class Plant:
         self.joint_ids = ids(m, mujoco.mjtObj.mjOBJ_JOINT, joints)
         self.drive_map = drive_map(m, self.tendon_ids)
         self.dt = m.opt.timestep
-        # the motor's rotor and wave generator, reflected through the reducer (ratio^2 J_rotor)
-        # and the viscous friction act on the drive coordinate
-        for row, t in zip(self.params, self.tendon_ids):
-            m.tendon_armature[t] = row[P.RATIO] ** 2 * row[P.ROTOR_J]
-            m.tendon_damping[t] = row[P.VISCOUS]
+        for i in range(len(joints)):
+            self._set_drive_tendon(i)
         self.air = np.vstack([J.initial_state(gas.p_atm_pa) for _ in joints])
         self.commands = np.zeros((len(joints), J.N_COMMAND))
         self.supply_pa = gas.p_atm_pa + 0.5e6
@@ -96,6 +99,9 @@ class Plant:
             mujoco.mj_resetDataKeyframe(m, self.data, mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_KEY, keyframe))
         self._apply_brakes()
         mujoco.mj_forward(m, self.data)
+        self.align_motors()
+        for j in joints:
+            self._check_transmission(j)
         self._state_size = mujoco.mj_stateSize(m, mujoco.mjtState.mjSTATE_INTEGRATION)
         self._warning_numbers = self.data.warning.number  # a view: MuJoCo's counters as they change
         self._note_warnings()
@@ -126,9 +132,59 @@ class Plant:
     def set_joint_params(self, joint: str, params: JointParams) -> None:
         """Change one joint's parameters mid-run (faults: a leak, a stuck valve, ...)."""
         i = self.joints.index(joint)
+        was_rigid = is_rigid(self.params[i])
         self.joint_params[joint] = params
         self.params[i] = params_row(params, self.gas)
-        self.model.tendon_damping[self.tendon_ids[i]] = params.viscous_nm_s
+        self._set_drive_tendon(i)
+        if was_rigid and not is_rigid(self.params[i]):
+            self.align_motors([joint])  # the motor side starts where its joint is
+        self._check_transmission(joint)
+
+    def align_motors(self, joints: tuple[str, ...] | list[str] | None = None) -> None:
+        """Put each joint's motor side (its reducer's input, on the joint side) at its joint's
+        angle and speed: an untwisted reducer. Plant() does it at the start; call it after moving
+        MuJoCo's qpos/qvel by hand. Only a non-rigid reducer's motor side is used."""
+        theta, omega = self.drive_angles(), self.drive_speeds()
+        for j in joints if joints is not None else self.joints:
+            i = self.joints.index(j)
+            self.air[i, J.S_QM] = theta[i]
+            self.air[i, J.S_OMEGA_M] = omega[i]
+
+    def _check_transmission(self, joint: str) -> None:
+        """ParameterError if a non-rigid reducer's spring is too stiff for MuJoCo's step on this
+        joint: its joint-side inertia (drive tendon, this pose) makes its mode too fast."""
+        i = self.joints.index(joint)
+        row = self.params[i]
+        if is_rigid(row):
+            return
+        m, d = self.model, self.data
+        mujoco.mj_forward(m, d)
+        lever = np.zeros((1, m.nv))  # the fixed tendon's Jacobian: its coefficients at its dofs
+        for _, dof, coef in self.drive_map[i]:
+            if coef != 0.0:
+                lever[0, int(dof)] += coef
+        m_inv_lever = np.zeros((1, m.nv))
+        mujoco.mj_solveM(m, d, m_inv_lever, lever)
+        inertia = 1.0 / float(lever[0] @ m_inv_lever[0])
+        k = stiffness(row[P.BACKLASH], row[P.COMPLIANCE])
+        phase = np.sqrt(k / inertia) * self.dt
+        if phase > MAX_TRANSMISSION_PHASE_PER_STEP:
+            least = self.dt**2 / (MAX_TRANSMISSION_PHASE_PER_STEP**2 * inertia)
+            p = self.joint_params[joint]
+            raise ParameterError(
+                f"{joint}: [effects] reducer_compliance_rad_per_nm = {p.reducer_compliance_rad_per_nm:g} "
+                f"(reducer_backlash_rad = {p.reducer_backlash_rad:g}) makes a gear of {k:.4g} N·m/rad on {inertia:.4g} kg·m^2 "
+                f"of joint-side inertia, {phase:.2f} rad per {self.dt * 1e3:g} ms physics step, too stiff for the plant; "
+                f"allowed: 0 (rigid) or a compliance >= {least:.3g} rad/(N·m)"
+            )
+
+    def _set_drive_tendon(self, i: int) -> None:
+        # the motor's rotor and wave generator, reflected through the reducer (ratio^2 J_rotor),
+        # and the viscous friction act on the drive coordinate; a non-rigid reducer's rotor is a
+        # body of its own, in the air kernel (twin/kernel.py), so MuJoCo must not carry it too
+        row, t = self.params[i], self.tendon_ids[i]
+        self.model.tendon_armature[t] = row[P.RATIO] ** 2 * row[P.ROTOR_J] if is_rigid(row) else 0.0
+        self.model.tendon_damping[t] = row[P.VISCOUS]
 
     # -- stepping -----------------------------------------------------------------------------
     def step(self, n: int = 1, check_warnings: bool = True) -> None:
@@ -186,8 +242,15 @@ class Plant:
         v = self.data.qvel[self.drive_map[:, :, 1].astype(int)]
         return np.sum(self.drive_map[:, :, 2] * v, axis=1)
 
+    def motor_angles(self) -> np.ndarray:
+        """Angle of each joint's motor side on the joint side (motor angle / ratio), rad: the drive
+        angle for a rigid reducer."""
+        rigid = np.array([is_rigid(row) for row in self.params], dtype=bool)
+        return np.where(rigid, self.drive_angles(), self.air[:, J.S_QM])
+
     def joint_torques(self) -> np.ndarray:
-        """Pneumatic drive torque applied to each joint in the last step, N·m."""
+        """Pneumatic drive torque applied to each joint in the last step, N·m (for a non-rigid
+        reducer, the torque it transmitted, averaged over the step)."""
         return self.data.ctrl[self.actuator_ids].copy()
 
     def chamber_pressures(self) -> np.ndarray:
