@@ -50,6 +50,8 @@ def cases(quick: bool) -> list[Case]:
         Case("heat", "single", {"polytropic_n": 1.05}, ("heat_exchange",), truth={"heat_exchange": 1.05}),
         Case("droop", "single", {"supply_droop_pa_s_per_kg": 2e7}, ("supply_droop",), truth={"supply_droop": 2e7}),
         Case("inertia", "single", {"rotor_inertia_kg_m2": 2e-5}, ("inertia_error",), truth={"inertia_error": (0.02 + 120**2 * 2e-5) / (0.02 + 120**2 * p0.rotor_inertia_kg_m2)}),
+        Case("backlash", "single", {"reducer_backlash_rad": 0.02}, ("reducer_backlash",), truth={"reducer_backlash": 0.02}),
+        Case("compliance", "single", {"reducer_compliance_rad_per_nm": 1e-3}, ("reducer_compliance",), truth={"reducer_compliance": 1e-3}),
         Case("stribeck_as_coulomb", "form", {"stribeck_excess_nm": 40.0, "stribeck_speed_rad_s": 0.2}, ("coulomb_friction", "viscous_friction"), exclude=("stribeck_friction",)),
         Case("stribeck_as_coulomb_20", "form", {"stribeck_excess_nm": 20.0, "stribeck_speed_rad_s": 0.2}, ("coulomb_friction", "viscous_friction"), exclude=("stribeck_friction",)),
         Case("lag_as_dead_time", "form", {"valve_time_constant_s": 0.3}, ("valve_dead_time", "valve_set_dead_time"), exclude=("valve_lag",)),

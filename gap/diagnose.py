@@ -27,7 +27,7 @@ from scipy.optimize import minimize, minimize_scalar
 import assets
 from gap.campaign import Campaign, Run
 from gap.effects import BY_NAME, CATALOGUE, Effect
-from gap.replay import DT_S, replay_at, replay_run, replay_with_pressures
+from gap.replay import DT_S, replay_at, replay_run
 from pneumatics import JointParams, load_joint_params, params_row
 
 # The one-joint twin and the plant (MuJoCo friction constraint vs Karnopp, explicit coupling) differ
@@ -92,16 +92,10 @@ class Twin:
         # rad^2/Pa^2: both channels count in units of their own floor (set by `diagnose`)
         self.pressure_weight = 0.0
 
-    def predict(self, params: JointParams, inertia_scale: float, k: int) -> np.ndarray:
-        pr = self.runs[k]
-        return replay_at(params_row(params), *pr.args, pr.run.start_rad, pr.inertia * inertia_scale, 0.0, pr.ts, DT_S)
-
     def residuals(self, params: JointParams, inertia_scale: float, k: int) -> tuple[np.ndarray, np.ndarray]:
         """(measured - twin angle at the angle samples, measured - twin chamber pressures where measured)."""
         pr = self.runs[k]
-        if not pr.pmeas.size:
-            return pr.meas - self.predict(params, inertia_scale, k), pr.pmeas
-        th, pa, pb = replay_with_pressures(params_row(params), *pr.args, pr.run.start_rad, pr.inertia * inertia_scale, 0.0, pr.ts, pr.tp, DT_S)
+        th, pa, pb = replay_at(params_row(params), *pr.args, pr.run.start_rad, pr.inertia * inertia_scale, 0.0, pr.ts, pr.tp, DT_S)
         return pr.meas - th, pr.pmeas - np.stack([pa, pb])[pr.pmask]
 
     def residuals_with(self, effects: list[tuple[Effect, float]], k: int) -> tuple[np.ndarray, np.ndarray]:

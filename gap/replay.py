@@ -135,27 +135,6 @@ def replay_at(
     inertia_kg_m2: float,
     load_torque_nm: float,
     sample_time_s: np.ndarray,
-    dt_s: float,
-) -> np.ndarray:
-    """Twin angle at the measured sample times (linear interpolation on the 1 ms grid)."""
-    t_end = sample_time_s[-1] if sample_time_s.shape[0] > 0 else 0.0
-    t, th, _, _, _ = replay_run(p, cmd_time_s, direction, valve_gauge_pa, brake_release, supply_pa, valve_is_output, theta0_rad, inertia_kg_m2, load_torque_nm, t_end + dt_s, dt_s)
-    return np.interp(sample_time_s, t, th)
-
-
-@njit(nogil=True)
-def replay_with_pressures(
-    p: np.ndarray,
-    cmd_time_s: np.ndarray,
-    direction: np.ndarray,
-    valve_gauge_pa: np.ndarray,
-    brake_release: np.ndarray,
-    supply_pa: np.ndarray,
-    valve_is_output: bool,
-    theta0_rad: float,
-    inertia_kg_m2: float,
-    load_torque_nm: float,
-    sample_time_s: np.ndarray,
     pressure_time_s: np.ndarray,
     dt_s: float,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

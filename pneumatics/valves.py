@@ -62,17 +62,11 @@ def valve_opening(p_v_gauge_pa: float, k_u_per_pa: float, dead_zone: float) -> f
 
 
 @njit
-def dead_time_step(effective: float, pending: float, remaining_s: float, command: float, delay_s: float, dt_s: float) -> tuple[float, float, float]:
-    """Advance a dead time on a command that changes in steps by dt: each change takes effect
-    exactly `delay_s` after it (a transport delay) when changes are further apart than the delay.
-
-    State as `solenoid_step`'s. Unlike a solenoid, a new command does not restart a running
-    delay: a command that changes faster than the delay is taken up once per delay, at its latest
-    value, so a continuously varying set point is still followed. Returns (effective, pending, remaining_s).
-    """
+def _delayed_change(effective: float, pending: float, remaining_s: float, command: float, delay_s: float, dt_s: float, restart: bool) -> tuple[float, float, float]:
+    # a commanded change takes effect delay_s later; `restart`: a newer command restarts the delay
     if command != pending:
-        if pending == effective:
-            remaining_s = delay_s  # a change starts its delay
+        if restart or pending == effective:
+            remaining_s = delay_s
         pending = command
     if pending != effective:
         remaining_s -= dt_s
@@ -83,18 +77,22 @@ def dead_time_step(effective: float, pending: float, remaining_s: float, command
 
 
 @njit
+def dead_time_step(effective: float, pending: float, remaining_s: float, command: float, delay_s: float, dt_s: float) -> tuple[float, float, float]:
+    """Advance a dead time on a command that changes in steps by dt: each change takes effect
+    exactly `delay_s` after it (a transport delay) when changes are further apart than the delay.
+
+    State as `solenoid_step`'s. Unlike a solenoid, a new command does not restart a running
+    delay: a command that changes faster than the delay is taken up once per delay, at its latest
+    value, so a continuously varying set point is still followed. Returns (effective, pending, remaining_s).
+    """
+    return _delayed_change(effective, pending, remaining_s, command, delay_s, dt_s, False)
+
+
+@njit
 def solenoid_step(effective: float, pending: float, remaining_s: float, command: float, delay_s: float, dt_s: float) -> tuple[float, float, float]:
     """Advance a solenoid valve with a switching delay by dt.
 
     State: the position in effect, a commanded position still pending, and the time left until it
     takes effect. A new command restarts the delay; returns (effective, pending, remaining_s).
     """
-    if command != pending:
-        pending = command
-        remaining_s = delay_s
-    if pending != effective:
-        remaining_s -= dt_s
-        if remaining_s <= 1e-12:
-            effective = pending
-            remaining_s = 0.0
-    return effective, pending, remaining_s
+    return _delayed_change(effective, pending, remaining_s, command, delay_s, dt_s, True)

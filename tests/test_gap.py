@@ -209,7 +209,7 @@ def test_mcap_runs_from_the_plant_are_diagnosed(tmp_path):
         res = []
         for pr in twin.runs:
             args = pr.args[:5] + (as_output,)
-            res.append(pr.meas - replay_at(params_row(twin.params), *args, pr.run.start_rad, pr.inertia, 0.0, pr.ts, DT_S))
+            res.append(pr.meas - replay_at(params_row(twin.params), *args, pr.run.start_rad, pr.inertia, 0.0, pr.ts, pr.tp, DT_S)[0])
         rms[as_output] = float(np.rad2deg(np.sqrt(np.mean(np.concatenate(res) ** 2))))
     assert rms[True] < 0.5  # MODEL_TOLERANCE_DEG
     assert rms[False] > 1.5 * rms[True]
