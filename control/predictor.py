@@ -25,11 +25,11 @@ from pneumatics._jit import borrowed, njit
 from pneumatics.joint import (
     N_RIGID,
     R_OMEGA,
+    R_OMEGA_M,
     R_PA_MOTOR,
     R_PA_VALVE,
     R_PB_MOTOR,
     R_PB_VALVE,
-    R_OMEGA_M,
     R_QM,
     R_THETA,
     S_BRAKE,
@@ -38,6 +38,7 @@ from pneumatics.joint import (
     initial_state,
     single_joint_step,
 )
+from pneumatics.reducer import is_rigid
 
 
 def initial_rigid_state(theta_rad: float, p_atm_pa: float) -> np.ndarray:
@@ -51,12 +52,13 @@ def initial_rigid_state(theta_rad: float, p_atm_pa: float) -> np.ndarray:
 
 @njit
 def predictor_at_rest(y: np.ndarray, x: np.ndarray, command: np.ndarray, p: np.ndarray) -> bool:
-    """True when nothing can change the joint's prediction this tick: standing still, brake fully
-    engaged and commanded so, no direction valve open or pending, all air at atmosphere."""
+    """True when nothing can change the joint's prediction this tick: standing still (a non-rigid
+    reducer's motor too, inside its gap), brake fully engaged and commanded so, no direction valve
+    open or pending, all air at atmosphere."""
     atm = p[P.GAS_P_ATM]
     return (
         y[R_OMEGA] == 0.0
-        and y[R_OMEGA_M] == 0.0  # a non-rigid reducer's motor side may still swing
+        and (is_rigid(p) or (y[R_OMEGA_M] == 0.0 and abs(y[R_QM] - y[R_THETA]) <= 0.5 * p[P.BACKLASH]))  # a gear's motor may swing or unwind
         and x[S_DIR] == 0.0
         and command[0] == 0.0
         and command[2] == 0.0

@@ -52,7 +52,7 @@ CATALOGUE: tuple[Effect, ...] = (
     Effect("supply_droop", "supply droop under flow", "supply_droop_pa_s_per_kg", 0.0, 5.0e7, family="supply", equation="p_s' = p_s - k * choked inlet flow (Pa·s/kg)"),
     Effect("inertia_error", "payload/inertia error", INERTIA, 0.3, 3.0, log=True, family="load", equation="joint-side inertia x scale"),
     # the reducer (pneumatics/reducer.py): lost motion up to 0.05 rad (3 deg, a badly worn gear;
-    # a strain-wave gear has ~3e-4 rad) and compliance up to 2e-3 rad/N·m (10x softer than the
+    # a strain-wave gear has ~3e-4 rad) and compliance up to 2e-3 rad/N·m (7x softer than the
     # size-17 gear's 1/K1 ~ 3e-4); both grids logarithmic, they span orders of magnitude
     Effect("reducer_backlash", "reducer backlash", "reducer_backlash_rad", 0.0, 0.05, log=True, family="reducer", equation="dead zone of width b between motor and joint side (rad)"),
     Effect("reducer_compliance", "reducer compliance", "reducer_compliance_rad_per_nm", 0.0, 2.0e-3, log=True, family="reducer", equation="torsional spring 1/k between motor and joint side (rad/N·m)"),

@@ -476,9 +476,9 @@ def test_reversal_through_backlash_loses_the_gap() -> None:
     """Forward, then straight back, both with the valve fully open at 0.6 MPa: with backlash b the
     joint trails the motor by b/2 (plus the flanks' elastic twist) either way, and the reversed
     move loses b of joint travel against the rigid reducer. The flanks are made stiff (1e-5
-    rad/N·m: the stall torque twists them < 0.6 mrad) so that b is what remains; the tolerance,
-    b/10, covers that twist on both flanks and the motor's free run across the gap, which it
-    makes without the joint's load (measured: the loss is 0.96 b)."""
+    rad/N·m: the forward stall torque, 55 N·m, twists them 0.55 mrad) so that b is what remains;
+    the tolerance, b/10 = 2 mrad, covers that twist on both flanks and the motor's free run
+    across the gap, which it makes without the joint's load (measured: the loss is 0.96 b)."""
     gap = 0.02
     supply = P_ATM + 6e5
     t_rev, t_hold = 0.5, 1.3
@@ -493,7 +493,7 @@ def test_reversal_through_backlash_loses_the_gap() -> None:
     lash = _one_joint(WRIST._replace(reducer_backlash_rad=gap, reducer_compliance_rad_per_nm=1e-5), 1.6, command, supply, y0, inertia=RIG_J + J_MOTOR)
     k_rev, k_hold = round(t_rev / 1e-3), round(t_hold / 1e-3)
     twist = lash[:, R_QM] - lash[:, R_THETA]
-    stall = WRIST.ratio * 6e5 * swept_area(0.0, *GEOM) / WRIST.efficiency_backward  # the most the gear passes
+    stall = WRIST.ratio * 6e5 * swept_area(0.0, *GEOM) / WRIST.efficiency_backward  # the most the gear ever passes (back-driven)
     elastic = stall * 1e-5
     forward, back = twist[k_rev - 200 : k_rev], twist[k_hold - 300 : k_hold]
     assert rigid[k_rev, R_THETA] > 0.3 and rigid[k_rev, R_THETA] - rigid[k_hold, R_THETA] > 0.5  # really moved, both ways
