@@ -27,7 +27,7 @@ from scipy.optimize import minimize, minimize_scalar
 import assets
 from gap.campaign import Campaign, Run
 from gap.effects import BY_NAME, CATALOGUE, Effect
-from gap.replay import DT_S, replay_at, replay_run
+from gap.replay import DT_S, replay_run
 from pneumatics import JointParams, load_joint_params, params_row
 
 # The one-joint twin and the plant (MuJoCo friction constraint vs Karnopp, explicit coupling) differ
@@ -87,31 +87,49 @@ class Twin:
         self.params = nominal_params(campaign)
         self.inertia = nominal_inertia(campaign.rig_inertia_kg_m2, self.params)
         self.runs = [prepare(r, self.params) for r in campaign.runs]
+        # runs with identical commands, start and inertia (repeats) share one replay of the twin
+        groups: dict[tuple, list[int]] = {}
+        for k, pr in enumerate(self.runs):
+            a = pr.args
+            key = (*(x.tobytes() for x in a[:5]), a[5], pr.run.start_rad, pr.inertia)
+            groups.setdefault(key, []).append(k)
+        self.groups = list(groups.values())
+        self.group_of = {k: g for g, ks in enumerate(self.groups) for k in ks}
+        self.t_end = [max(max([*self.runs[k].ts[-1:], *self.runs[k].tp[-1:], 0.0]) for k in ks) for ks in self.groups]
         self.has_pressure = any(pr.pmeas.size for pr in self.runs)
         # the fit's weight on squared pressure residuals, (angle floor / pressure floor)^2 in
         # rad^2/Pa^2: both channels count in units of their own floor (set by `diagnose`)
         self.pressure_weight = 0.0
 
-    def residuals(self, params: JointParams, inertia_scale: float, k: int) -> tuple[np.ndarray, np.ndarray]:
-        """(measured - twin angle at the angle samples, measured - twin chamber pressures where measured)."""
-        pr = self.runs[k]
-        th, pa, pb = replay_at(params_row(params), *pr.args, pr.run.start_rad, pr.inertia * inertia_scale, 0.0, pr.ts, pr.tp, DT_S)
-        return pr.meas - th, pr.pmeas - np.stack([pa, pb])[pr.pmask]
+    def residuals_of(self, params: JointParams, inertia_scale: float, ks) -> dict[int, tuple[np.ndarray, np.ndarray]]:
+        """Per run k in `ks`: (measured - twin angle at its angle samples, measured - twin chamber
+        pressures where measured). One replay per group of repeats."""
+        row = params_row(params)
+        out = {}
+        for g in dict.fromkeys(self.group_of[k] for k in ks):
+            rep = self.runs[self.groups[g][0]]
+            t, th, _, pa, pb = replay_run(row, *rep.args, rep.run.start_rad, rep.inertia * inertia_scale, 0.0, self.t_end[g] + DT_S, DT_S)
+            for k in self.groups[g]:
+                pr = self.runs[k]
+                pres = np.stack([np.interp(pr.tp, t, pa), np.interp(pr.tp, t, pb)])
+                out[k] = (pr.meas - np.interp(pr.ts, t, th), pr.pmeas - pres[pr.pmask])
+        return {k: out[k] for k in ks}
 
-    def residuals_with(self, effects: list[tuple[Effect, float]], k: int) -> tuple[np.ndarray, np.ndarray]:
+    def residuals_with(self, effects: list[tuple[Effect, float]], ks) -> dict[int, tuple[np.ndarray, np.ndarray]]:
         p, s = self.params, 1.0
         for e, v in effects:
             p, s2 = e.apply(p, v)
             s *= s2
-        return self.residuals(p, s, k)
+        return self.residuals_of(p, s, ks)
 
-    def run_sse(self, effects, k: int) -> float:
-        """The fit's objective on run k: squared angle residuals plus weighted squared pressure residuals."""
-        ra, rp = self.residuals_with(effects, k)
-        return float(np.sum(ra**2) + self.pressure_weight * np.sum(rp**2))
+    def run_sses(self, effects, ks) -> np.ndarray:
+        """The fit's objective per run k in `ks`: squared angle residuals plus weighted squared
+        pressure residuals."""
+        res = self.residuals_with(effects, ks)
+        return np.array([np.sum(res[k][0] ** 2) + self.pressure_weight * np.sum(res[k][1] ** 2) for k in ks])
 
     def sse(self, effects, idx) -> float:
-        return sum(self.run_sse(effects, k) for k in idx)
+        return float(self.run_sses(effects, idx).sum())
 
 
 def folds_of(campaign: Campaign) -> list[tuple[list[int], list[int]]]:
@@ -165,15 +183,15 @@ def fit_single(twin: Twin, e: Effect, folds) -> Candidate:
     n = len(twin.runs)
     grid = _grid(e)
     # residual SSE of every run at every grid value, shared by all folds
-    per_run = np.array([[twin.run_sse([(e, v)], k) for k in range(n)] for v in grid])
+    per_run = np.array([twin.run_sses([(e, v)], range(n)) for v in grid])
     heldout: list = [None] * n
     heldout_p: list = [None] * n
     fold_values = []
     for train, test in folds:
         v = _fit_1d(twin, e, [], train, grid, per_run[:, train].sum(axis=1))
         fold_values.append([v])
-        for k in test:
-            heldout[k], heldout_p[k] = twin.residuals_with([(e, v)], k)
+        for k, r in twin.residuals_with([(e, v)], test).items():
+            heldout[k], heldout_p[k] = r
     full = _fit_1d(twin, e, [], list(range(n)), grid, per_run.sum(axis=1))
     return Candidate(e.name, [e.name], fold_values, [full], heldout, heldout_p)
 
@@ -208,6 +226,17 @@ def _nm_fit(twin: Twin, ea: Effect, eb: Effect, idx: list[int], va: float, vb: f
     return float(v[0]), float(v[1])
 
 
+def screen_pair(twin: Twin, a: Candidate, b: Candidate, runs: list[int], n_grid: int = 5, maxiter: int = 6) -> float:
+    """In-sample SSE of a pair after one bounded 1-D refit of each effect with the other held at
+    its value fitted alone (both orders; the better is kept). A local optimum, so that the ranking
+    does not depend on where a coarse 2-D grid happens to fall."""
+    ea, eb = BY_NAME[a.name], BY_NAME[b.name]
+    va, vb = a.full_values[0], b.full_values[0]
+    vb2 = _fit_1d(twin, eb, [(ea, va)], runs, _grid(eb, n_grid), None, maxiter)
+    va2 = _fit_1d(twin, ea, [(eb, vb)], runs, _grid(ea, n_grid), None, maxiter)
+    return min(twin.sse([(ea, va), (eb, vb2)], runs), twin.sse([(ea, va2), (eb, vb)], runs))
+
+
 def pair_grid(twin: Twin, a: Candidate, b: Candidate, runs: list[int] | None = None, n_grid: int = 5) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """SSE of every run on a coarse 2-D grid of the pair's parameters: (grid_a, grid_b, sse[i, j, run]).
     A grid rather than coordinate descent from the singles' values: a single effect's value,
@@ -215,7 +244,7 @@ def pair_grid(twin: Twin, a: Candidate, b: Candidate, runs: list[int] | None = N
     ea, eb = BY_NAME[a.name], BY_NAME[b.name]
     ga, gb = _grid(ea, n_grid), _grid(eb, n_grid)
     runs = list(range(len(twin.runs))) if runs is None else runs
-    sse = np.array([[[twin.run_sse([(ea, va), (eb, vb)], k) for k in runs] for vb in gb] for va in ga])
+    sse = np.array([[twin.run_sses([(ea, va), (eb, vb)], runs) for vb in gb] for va in ga])
     return ga, gb, sse
 
 
@@ -238,8 +267,8 @@ def fit_pair(twin: Twin, a: Candidate, b: Candidate, folds, grid: tuple[np.ndarr
     for train, test in folds:
         va, vb = fit(train)
         fold_values.append([va, vb])
-        for k in test:
-            heldout[k], heldout_p[k] = twin.residuals_with([(ea, va), (eb, vb)], k)
+        for k, r in twin.residuals_with([(ea, va), (eb, vb)], test).items():
+            heldout[k], heldout_p[k] = r
     full = fit(list(range(n)))
     return Candidate(f"{a.name}+{b.name}", [a.name, b.name], fold_values, list(full), heldout, heldout_p)
 
@@ -249,12 +278,17 @@ def rms_deg(residuals: list[np.ndarray]) -> float:
     return float(np.rad2deg(math.sqrt(np.mean(np.concatenate(residuals) ** 2))))
 
 
-def nearest_families(c: Candidate, singles: list[Candidate], before_rms: float) -> dict:
+def nearest_families(c: Candidate, twin: Twin, before_rms: float) -> dict:
     """The family-level call for a gap outside the catalogue: the best candidate's leading effect
-    (of a pair, the one that alone fits the withheld runs better; `singles` is ranked best first)
-    and its family, with the other families the candidate needed."""
-    rank = {s.name: i for i, s in enumerate(singles)}
-    lead = min(c.effects, key=lambda e: rank.get(e, len(rank)))
+    and its family, with the other families the candidate needed. Of a pair, the lead is the
+    effect that carries the gap: put back at its nominal value (the other kept at its fitted
+    one), it costs the fit more."""
+    lead = c.effects[0]
+    if len(c.effects) == 2:
+        fitted = [(BY_NAME[e], v) for e, v in zip(c.effects, c.full_values)]
+        runs = range(len(twin.runs))
+        without = [twin.sse([fitted[1 - i]], runs) for i in range(2)]  # effect i back at nominal
+        lead = c.effects[int(np.argmax(without))]
     families = list(dict.fromkeys([BY_NAME[lead].family] + [BY_NAME[e].family for e in c.effects]))
     return {"candidate": c.name, "effects": c.effects, "lead": lead, "family": BY_NAME[lead].family, "families": families, "shrink": rms_deg(c.heldout) / before_rms}
 
@@ -398,7 +432,7 @@ def diagnose(campaign: Campaign, catalogue: tuple[Effect, ...] = CATALOGUE, mode
     folds = folds_of(campaign)
     rng = np.random.default_rng(seed)
     n = len(twin.runs)
-    before, before_p = (list(r) for r in zip(*(twin.residuals(twin.params, 1.0, k) for k in range(n))))
+    before, before_p = (list(r) for r in zip(*twin.residuals_of(twin.params, 1.0, range(n)).values()))
     noise, n_pairs = noise_floor_deg(twin)
     floor = math.sqrt((0.0 if math.isnan(noise) else noise) ** 2 + model_tolerance_deg**2)
     threshold = SIGNIFICANCE * floor
@@ -435,15 +469,15 @@ def diagnose(campaign: Campaign, catalogue: tuple[Effect, ...] = CATALOGUE, mode
     best = singles[0] if singles else None
     if significant and best is not None and rms_deg(best.heldout) > threshold:
         # not down to the floor: a pair may do better even when the best single passes the relative test
-        # every pair is screened in-sample on a coarse 2-D grid over one run per distinct command
-        # and supply (repeats differ only by measurement noise); the best N_PAIRS_CV get the
-        # full grid on all runs and the cross-validated fit
+        # every pair is screened in-sample (`screen_pair`) over one run per distinct command and
+        # supply (repeats differ only by measurement noise); the best N_PAIRS_CV get the full
+        # grid on all runs and the cross-validated fit
         combos = [(a, b) for i, a in enumerate(singles) for b in singles[i + 1 :]]
         distinct = sorted({pr.run.signature(): k for k, pr in reversed(list(enumerate(twin.runs)))}.values())
         bar = tqdm(total=len(combos), desc="gap: pairs", file=__import__("sys").stderr, disable=not progress)
 
         def sjob(ab):
-            r = pair_grid(twin, ab[0], ab[1], distinct)[2].sum(axis=2).min()
+            r = screen_pair(twin, ab[0], ab[1], distinct)
             bar.update(1)
             return r
 
@@ -533,7 +567,7 @@ def diagnose(campaign: Campaign, catalogue: tuple[Effect, ...] = CATALOGUE, mode
             # the family-level answer for a gap no catalogue entry explains: the families of the
             # best candidate, single or pair (e.g. friction for a Stribeck curve when only Coulomb
             # and viscous friction are catalogued)
-            "nearest": (nearest_families(top, singles, before_rms) if verdict == "outside the catalogue" and top is not None else None),
+            "nearest": (nearest_families(top, twin, before_rms) if verdict == "outside the catalogue" and top is not None else None),
             "ranking": [summary(c) for c in singles],
             "pairs": [summary(c) for c in pairs],
             "skipped_already_in_twin": skipped,

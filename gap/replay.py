@@ -121,29 +121,3 @@ def replay_run(
         pb_out[k + 1] = y[R_PB_MOTOR]
     return t_out, th_out, om_out, pa_out, pb_out
 
-
-@njit(nogil=True)
-def replay_at(
-    p: np.ndarray,
-    cmd_time_s: np.ndarray,
-    direction: np.ndarray,
-    valve_gauge_pa: np.ndarray,
-    brake_release: np.ndarray,
-    supply_pa: np.ndarray,
-    valve_is_output: bool,
-    theta0_rad: float,
-    inertia_kg_m2: float,
-    load_torque_nm: float,
-    sample_time_s: np.ndarray,
-    pressure_time_s: np.ndarray,
-    dt_s: float,
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Twin angle at the angle sample times and motor-chamber pressures (absolute Pa) at the
-    pressure sample times: (theta, p_a, p_b), linear interpolation on the 1 ms grid."""
-    t_end = 0.0
-    if sample_time_s.shape[0] > 0:
-        t_end = sample_time_s[-1]
-    if pressure_time_s.shape[0] > 0:
-        t_end = max(t_end, pressure_time_s[-1])
-    t, th, _, pa, pb = replay_run(p, cmd_time_s, direction, valve_gauge_pa, brake_release, supply_pa, valve_is_output, theta0_rad, inertia_kg_m2, load_torque_nm, t_end + dt_s, dt_s)
-    return np.interp(sample_time_s, t, th), np.interp(pressure_time_s, t, pa), np.interp(pressure_time_s, t, pb)
