@@ -227,14 +227,16 @@ def _nm_fit(twin: Twin, ea: Effect, eb: Effect, idx: list[int], va: float, vb: f
 
 
 def screen_pair(twin: Twin, a: Candidate, b: Candidate, runs: list[int], n_grid: int = 5, maxiter: int = 6) -> float:
-    """In-sample SSE of a pair after one bounded 1-D refit of each effect with the other held at
-    its value fitted alone (both orders; the better is kept). A local optimum, so that the ranking
-    does not depend on where a coarse 2-D grid happens to fall."""
+    """In-sample SSE of a pair: the best point of a coarse 2-D grid, then one round of bounded 1-D
+    refits from it (`_coord_fit`), so that the ranking does not depend on where the grid happens
+    to fall (a grid, not refits from the singles' values alone: an effect fitted alone can be far
+    from its value in the pair, having soaked up the other)."""
     ea, eb = BY_NAME[a.name], BY_NAME[b.name]
-    va, vb = a.full_values[0], b.full_values[0]
-    vb2 = _fit_1d(twin, eb, [(ea, va)], runs, _grid(eb, n_grid), None, maxiter)
-    va2 = _fit_1d(twin, ea, [(eb, vb)], runs, _grid(ea, n_grid), None, maxiter)
-    return min(twin.sse([(ea, va), (eb, vb2)], runs), twin.sse([(ea, va2), (eb, vb)], runs))
+    ga, gb, sse = pair_grid(twin, a, b, runs, n_grid)
+    total = sse.sum(axis=2)
+    i, j = np.unravel_index(int(np.argmin(total)), total.shape)
+    va, vb = _coord_fit(twin, ea, eb, runs, float(ga[i]), float(gb[j]), rounds=1, n_grid=n_grid, maxiter=maxiter)
+    return min(float(total[i, j]), twin.sse([(ea, va), (eb, vb)], runs))
 
 
 def pair_grid(twin: Twin, a: Candidate, b: Candidate, runs: list[int] | None = None, n_grid: int = 5) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
