@@ -119,9 +119,10 @@ def write(diag: dict, out: str | Path) -> dict[str, Path]:
     lines += ["## Where", "", "![where](where.png) ![residual](residual.png)", ""]
     for factor, bins in diag["where"].items():
         lines += [f"**{factor}**: " + "; ".join(f"{k}: {v['rms_deg']:.2f} deg rms (n={v['n']})" for k, v in bins.items()), ""]
-    lines += ["## Which (held-out rms per candidate)", "", "| candidate | held-out rms deg (95% CI) | shrink | fitted |", "|---|---|---|---|"]
+    lines += ["## Which (held-out misfit per candidate, best first)", "", "| candidate | held-out rms deg (95% CI) | held-out pressure rms kPa | misfit in floors | shrink | fitted |", "|---|---|---|---|---|---|"]
     for c in w["ranking"] + w["pairs"]:
-        lines.append(f"| {c['name']} | {c['heldout_rms_deg']:.3f} ({c['heldout_rms_ci95_deg'][0]:.3f}..{c['heldout_rms_ci95_deg'][1]:.3f}) | {c['shrink']:.3f} | " + ", ".join(f"{f}={v:.4g}" for f, v in zip(c["fields"], c["fitted_values"])) + " |")
+        kpa = "—" if c["heldout_pressure_rms_kpa"] is None else f"{c['heldout_pressure_rms_kpa']:.1f}"
+        lines.append(f"| {c['name']} | {c['heldout_rms_deg']:.3f} ({c['heldout_rms_ci95_deg'][0]:.3f}..{c['heldout_rms_ci95_deg'][1]:.3f}) | {kpa} | {c['score_in_floors']:.2f} | {c['shrink']:.3f} | " + ", ".join(f"{f}={v:.4g}" for f, v in zip(c["fields"], c["fitted_values"])) + " |")
     if w["skipped_already_in_twin"]:
         lines += ["", f"Already in the nominal twin (not candidates): {', '.join(w['skipped_already_in_twin'])}."]
     lines += ["", "Not yet in the catalogue: " + "; ".join(NOT_IN_CATALOGUE) + ".", "", "## How far (withheld runs, mean / max |error| deg per supply)", "", "![how far](how_far.png) ![ranking](ranking.png)", ""]

@@ -2,8 +2,9 @@
 real arm, and its runs are written to disk exactly as a user's measured campaign would be.
 
 Each run is one motion with every phase the diagnosis breaks the residual into: brake released
-and a start from rest, a move with the valve fully open, a direct reversal at a partial opening
-(so that a valve dead zone and a conductance error look different), braking, and holding.
+and a start from rest, a move with the valve fully open, a direct reversal at opening 0.95 (a set
+point of 4.85 bar: partial at the higher supplies, and above the wrist's motor-fed brake's full
+release, 4.75 bar, so the wrist does reverse; at 0.6 it stayed braked), braking, and holding.
 """
 
 from __future__ import annotations
