@@ -2,16 +2,18 @@
 how far the gap shrinks on runs withheld from the fit.
 
 Steps (each a plain function of the campaign):
-1. replay every run through the nominal twin (gap.replay) -> residual = measured - twin;
-2. where: break the residual down by motion phase, supply, direction, speed and time since start,
-   beside a noise floor from repeated runs and the twin's own model tolerance;
+1. replay every run through the nominal twin (gap.replay; repeats share one replay) -> residual
+   = measured - twin, in angle and, where the campaign measured them, chamber pressures;
+2. where: break the angle residual down by motion phase, supply, direction, load, speed and time
+   since start, beside a noise floor from repeated runs and the twin's own model tolerance;
 3. which: for each catalogue effect, fit its one bounded parameter on training runs (a grid, then
    a bounded 1-D search around its best point) and score it on withheld runs (leave one supply
-   pressure out; alternating split when there is one pressure); when no single effect explains the
-   gap, all pairs are screened
-   in-sample on a coarse 2-D grid and the best N_PAIRS_CV are fitted per fold (grid point, then
-   bounded Nelder-Mead) and scored on withheld runs; a verdict, and for a gap outside the catalogue
-   the nearest family (the best candidate's leading effect's, by held-out misfit);
+   pressure out; alternating split when there is one pressure). The objective and the ranking
+   count angle and pressure samples each in units of its own floor. When no single effect brings
+   the gap to the floor, all pairs are screened in-sample (grid point, then one round of 1-D
+   refits) and the best N_PAIRS_CV are fitted per fold (grid point, then bounded Nelder-Mead) and
+   scored on withheld runs; a verdict, and for a gap outside the catalogue the nearest family
+   (that of the best candidate's leading effect);
 4. how far: per pressure, mean and max |error| on withheld runs before and after each effect, with
    bootstrap confidence intervals over runs.
 """
