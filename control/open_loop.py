@@ -12,7 +12,7 @@ import numpy as np
 
 from pneumatics import params as P
 from pneumatics._jit import njit
-from pneumatics.joint import N_COMMAND, R_THETA, S_PV, advance_discrete, initial_state, single_joint_step
+from pneumatics.joint import N_COMMAND, R_THETA, advance_discrete, initial_state, single_joint_step
 
 from control.predictor import initial_rigid_state
 
@@ -27,8 +27,8 @@ def _duration(y: np.ndarray, x: np.ndarray, target: float, set_point: float, sup
     cmd[2] = 1.0
     t = 0.0
     while t < max_s:
-        advance_discrete(x, cmd, supply_pa, dt_s, p)
-        single_joint_step(y, x, cmd, x[S_PV], supply_pa, load_nm, inertia, dt_s, p)  # the valve as the model believes it
+        valve = advance_discrete(x, cmd, supply_pa, dt_s, p)
+        single_joint_step(y, x, cmd, valve, supply_pa, load_nm, inertia, dt_s, p)  # the valve as the model believes it
         t += dt_s
         if sign * (y[R_THETA] - target) >= 0.0:
             return t

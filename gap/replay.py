@@ -40,6 +40,18 @@ from pneumatics.joint import (
 DT_S = 1e-3  # integration step: the platform's 1 ms control period (DESIGN: RK4 at 1 ms is within 0.01 deg)
 
 
+@njit
+def _interpolated(times: np.ndarray, values: np.ndarray, t: float, row: int) -> float:
+    # values linearly interpolated at t (>= times[row]), held after the last sample
+    n = times.shape[0]
+    while row + 1 < n and times[row + 1] <= t + 1e-9:
+        row += 1
+    if row + 1 < n:
+        w = (t - times[row]) / (times[row + 1] - times[row])
+        return (1.0 - w) * values[row] + w * values[row + 1]
+    return values[row]
+
+
 @njit(nogil=True)
 def replay_run(
     p: np.ndarray,  # params_row of the twin's joint
@@ -102,18 +114,13 @@ def replay_run(
         cmd[C_PV_SET_GAUGE_PA] = valve_gauge_pa[row]
         cmd[C_BRAKE_RELEASE] = brake_release[row]
         s = supply_pa[row]
-        advance_discrete(x, cmd, s, dt_s, p)
+        valve = advance_discrete(x, cmd, s, dt_s, p)
         if valve_is_output:
-            t1 = t + dt_s  # the step integrates with the valve state at its end, as the plant does
-            r = row
-            while r + 1 < n_rows and cmd_time_s[r + 1] <= t1 + 1e-9:
-                r += 1
-            if r + 1 < n_rows:
-                w = (t1 - cmd_time_s[r]) / (cmd_time_s[r + 1] - cmd_time_s[r])
-                x[S_PV] = (1.0 - w) * valve_gauge_pa[r] + w * valve_gauge_pa[r + 1]
-            else:
-                x[S_PV] = valve_gauge_pa[r]
-        single_joint_step(y, x, cmd, x[S_PV], s, load_torque_nm, inertia_kg_m2, dt_s, p)
+            # the logged output pressure is the valve's state: the step holds its mean (trapezoid)
+            # and ends at its value, as the plant does
+            x[S_PV] = _interpolated(cmd_time_s, valve_gauge_pa, t + dt_s, row)
+            valve = 0.5 * (_interpolated(cmd_time_s, valve_gauge_pa, t, row) + x[S_PV])
+        single_joint_step(y, x, cmd, valve, s, load_torque_nm, inertia_kg_m2, dt_s, p)
         t_out[k + 1] = (k + 1) * dt_s
         th_out[k + 1] = y[R_THETA]
         om_out[k + 1] = y[R_OMEGA]

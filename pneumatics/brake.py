@@ -23,7 +23,7 @@ friction of the lining).
 from __future__ import annotations
 
 from pneumatics._jit import njit
-from pneumatics.valves import lag_toward
+from pneumatics.valves import lag_mean, lag_toward
 
 
 @njit
@@ -50,6 +50,14 @@ def brake_step(engagement: float, target: float, engage_tau_s: float, release_ta
     """Engagement after dt, moving toward `target` (`brake_target`)."""
     tau = engage_tau_s if target > engagement else release_tau_s
     return lag_toward(engagement, target, dt_s, tau)
+
+
+@njit
+def brake_mean(engagement: float, target: float, engage_tau_s: float, release_tau_s: float, dt_s: float) -> float:
+    """Engagement averaged over the coming dt while it moves toward `target` (what a step that
+    holds the brake's friction constant should hold)."""
+    tau = engage_tau_s if target > engagement else release_tau_s
+    return lag_mean(engagement, target, dt_s, tau)
 
 
 @njit

@@ -33,7 +33,7 @@ import numpy as np
 
 from pneumatics import params as P
 from pneumatics._jit import njit
-from pneumatics.brake import brake_feed_gauge_pa, brake_step, brake_target
+from pneumatics.brake import brake_feed_gauge_pa, brake_holding_torque, brake_mean, brake_step, brake_target
 from pneumatics.chamber import chamber_pressure_rate
 from pneumatics.friction import coulomb_viscous_torque, reducer_output_torque, stribeck_excess_torque
 from pneumatics.gas import isentropic_temperature
@@ -41,7 +41,7 @@ from pneumatics.hose import hose_mass_flow, hose_volume
 from pneumatics.motor import chamber_geometry, vane_torque
 from pneumatics.orifice import orifice_mass_flow
 from pneumatics.reducer import damping, inertia_split, is_rigid, mode_frequency, stiffness, substeps_for, transmitted_torque
-from pneumatics.valves import dead_time_step, lag_toward, proportional_valve_target, regulated_pressure, solenoid_step, valve_opening
+from pneumatics.valves import dead_time_step, lag_mean, lag_toward, proportional_valve_target, regulated_pressure, solenoid_step, valve_opening
 
 S_PA_VALVE, S_PA_MOTOR, S_PB_VALVE, S_PB_MOTOR, S_PV, S_BRAKE, S_DIR, S_DIR_PENDING, S_DIR_REMAINING, S_QM, S_OMEGA_M, S_PV_SET, S_PV_SET_PENDING, S_PV_SET_REMAINING = range(14)
 N_STATE = 14
@@ -156,8 +156,12 @@ def joint_torque(pa_motor: float, pb_motor: float, phi_motor: float, omega_joint
 
 
 @njit
-def advance_discrete(x: np.ndarray, command: np.ndarray, supply_pa: float, dt_s: float, p: np.ndarray) -> None:
-    """Advance the valves of one joint over dt, in place (exact for held inputs)."""
+def advance_discrete(x: np.ndarray, command: np.ndarray, supply_pa: float, dt_s: float, p: np.ndarray) -> float:
+    """Advance the valves of one joint over dt, in place (exact for held inputs); return the
+    proportional valve's output pressure (gauge Pa) averaged over the step, the value a step that
+    holds it should use (`lag_mean`; x[S_PV] is its value at the step's end).
+
+    The direction valve's position in x is the one in effect over the step (`solenoid_step`)."""
     supply_gauge = supply_pa - p[P.GAS_P_ATM]
     x[S_DIR], x[S_DIR_PENDING], x[S_DIR_REMAINING] = solenoid_step(
         x[S_DIR], x[S_DIR_PENDING], x[S_DIR_REMAINING], command[C_DIRECTION], p[P.SOLENOID_DELAY], dt_s
@@ -169,20 +173,40 @@ def advance_discrete(x: np.ndarray, command: np.ndarray, supply_pa: float, dt_s:
         )
         set_point = x[S_PV_SET]
     target = proportional_valve_target(set_point, supply_gauge)
+    mean = lag_mean(x[S_PV], target, dt_s, p[P.VALVE_TAU])
     x[S_PV] = lag_toward(x[S_PV], target, dt_s, p[P.VALVE_TAU])
+    return mean
 
 
 @njit
-def advance_brake(x: np.ndarray, command: np.ndarray, supply_pa: float, pa_motor_pa: float, pb_motor_pa: float, dt_s: float, p: np.ndarray) -> None:
-    """Advance the brake's engagement over dt, in place, toward the target its air gives now.
+def _brake_target_now(command: np.ndarray, supply_pa: float, pa_motor_pa: float, pb_motor_pa: float, p: np.ndarray) -> float:
+    # the engagement the brake tends to with its air from the supply or the driven motor port
+    feed = brake_feed_gauge_pa(p[P.BRAKE_FED_BY_MOTOR], supply_pa, pa_motor_pa, pb_motor_pa, p[P.GAS_P_ATM])
+    return brake_target(command[C_BRAKE_RELEASE], feed, p[P.BRAKE_START_PA], p[P.BRAKE_RELEASE_PA])
+
+
+@njit
+def brake_over_step(x: np.ndarray, command: np.ndarray, supply_pa: float, pa_motor_pa: float, pb_motor_pa: float, dt_s: float, p: np.ndarray) -> float:
+    """The brake's engagement averaged over the coming dt, toward the target its air gives at the
+    step's start: what a step that holds the brake's friction constant should hold (the springs
+    engage in ~20 ms, so the value at the step's start would brake a 1 ms step late)."""
+    engage = _brake_target_now(command, supply_pa, pa_motor_pa, pb_motor_pa, p)
+    return brake_mean(x[S_BRAKE], engage, p[P.BRAKE_TAU_ON], p[P.BRAKE_TAU_OFF], dt_s)
+
+
+@njit
+def advance_brake(x: np.ndarray, command: np.ndarray, supply_pa: float, pa_start_pa: float, pb_start_pa: float, pa_end_pa: float, pb_end_pa: float, dt_s: float, p: np.ndarray) -> None:
+    """Advance the brake's engagement over dt, in place, toward the target its air gives.
 
     The brake's air is the supply or the higher motor-end port pressure (`brake_feed_gauge_pa`):
-    the caller passes the motor-node pressures it has just integrated over the step (the plant's
-    or the predictor's own), so the brake follows them without a step's lag.
+    the caller passes the motor-node pressures at the step's start and at its end, just
+    integrated (the plant's or the predictor's own). The lag follows the mean of the two targets
+    (trapezoid): a target taken at one end of the step would bias the engagement by half a step of
+    the target's motion while the port fills through the release band, an error of first order.
     """
-    feed = brake_feed_gauge_pa(p[P.BRAKE_FED_BY_MOTOR], supply_pa, pa_motor_pa, pb_motor_pa, p[P.GAS_P_ATM])
-    engage = brake_target(command[C_BRAKE_RELEASE], feed, p[P.BRAKE_START_PA], p[P.BRAKE_RELEASE_PA])
-    x[S_BRAKE] = brake_step(x[S_BRAKE], engage, p[P.BRAKE_TAU_ON], p[P.BRAKE_TAU_OFF], dt_s)
+    start = _brake_target_now(command, supply_pa, pa_start_pa, pb_start_pa, p)
+    end = _brake_target_now(command, supply_pa, pa_end_pa, pb_end_pa, p)
+    x[S_BRAKE] = brake_step(x[S_BRAKE], 0.5 * (start + end), p[P.BRAKE_TAU_ON], p[P.BRAKE_TAU_OFF], dt_s)
 
 
 @njit
@@ -201,7 +225,7 @@ def at_rest(x: np.ndarray, omega: float, p: np.ndarray) -> bool:
 
 
 @njit
-def advance_pressures(x: np.ndarray, theta: float, omega: float, supply_pa: float, dt_s: float, substeps: int, p: np.ndarray) -> None:
+def advance_pressures(x: np.ndarray, theta: float, omega: float, valve_gauge_pa: float, supply_pa: float, dt_s: float, substeps: int, p: np.ndarray) -> None:
     """Integrate the four node pressures over dt with the joint moving at constant speed, in place.
 
     Heun's method (explicit trapezoid) in `substeps` sub-steps; the motor angle advances with
@@ -209,7 +233,7 @@ def advance_pressures(x: np.ndarray, theta: float, omega: float, supply_pa: floa
     """
     if at_rest(x, omega, p):
         return
-    valve = x[S_PV]
+    valve = valve_gauge_pa
     direction = x[S_DIR]
     ratio = p[P.RATIO]
     h = dt_s / substeps
@@ -257,15 +281,23 @@ def motor_side_drive(pa_motor: float, pb_motor: float, phi_motor: float, w_m: fl
 
 
 @njit
-def motor_reversal(w_before: float, w_after: float, slide_m: float, drive_jump: float, j_motor: float, h: float) -> float:
-    """Motor-side speed after a sub-step in which it crossed zero while its gear friction was held
-    in the direction `slide_m`: corrected by `drive_jump` (the drive after the turn minus the drive
-    held) over the part of the sub-step after the crossing (linear in time); 0 if that leaves no
-    reversed speed (the gear's friction stopped it). The joint side's rule is the same with its
-    Coulomb level."""
+def stop_or_turn(q: float, w_before: float, w_after: float, slide: float, drive_jump: float, inertia: float, h: float) -> tuple[float, float]:
+    """(angle, speed) of a body after a sub-step of h in which its speed crossed zero while its dry
+    friction was held sliding in the direction `slide`.
+
+    The crossing is placed where the speed, linear in time over the sub-step, passes zero. Past it
+    the held friction pushed the body the wrong way: the angle gives back what it gained there
+    (half the end speed times the time after the crossing), and the speed is corrected by
+    `drive_jump` (the net drive after the turn minus the net drive held; for the joint twice its
+    dry friction, plus the change of the gear's efficiency) over that time. If no speed is left in
+    the reversed direction, friction stopped the body at the crossing; otherwise it turned round.
+    """
     after = h * abs(w_after) / (abs(w_before) + abs(w_after))
-    reversed_speed = w_after + drive_jump / j_motor * after
-    return reversed_speed if slide_m * reversed_speed < 0.0 else 0.0
+    q -= 0.5 * w_after * after
+    turned = w_after + drive_jump / inertia * after
+    if slide * turned < 0.0:
+        return q + 0.5 * turned * after, turned
+    return q, 0.0
 
 
 @njit
@@ -282,7 +314,7 @@ def _motor_side_rates(a_v: float, a_m: float, b_v: float, b_m: float, q_m: float
 
 
 @njit
-def advance_motor_side(x: np.ndarray, theta: float, omega: float, supply_pa: float, dt_s: float, substeps: int, p: np.ndarray) -> float:
+def advance_motor_side(x: np.ndarray, theta: float, omega: float, valve_gauge_pa: float, supply_pa: float, dt_s: float, substeps: int, p: np.ndarray) -> float:
     """Integrate a non-rigid reducer's motor side and the four node pressures over dt, in place,
     with the joint advancing linearly (theta + omega t) over the step; return the torque the gear
     transmitted to the joint, averaged over the step (N·m: its impulse / dt).
@@ -292,7 +324,7 @@ def advance_motor_side(x: np.ndarray, theta: float, omega: float, supply_pa: flo
     chambers follow the motor's own angle (ratio q_m). Classical RK4 in at least `substeps`
     sub-steps, more where the gear's mode (motor against the moving joint, sqrt(k / J_m)) needs
     them, with the gear's friction held in one direction over each (`motor_side_drive`,
-    `motor_reversal`); the impulse is integrated with the same weights as the motor's momentum.
+    `stop_or_turn`); the impulse is integrated with the same weights as the motor's momentum.
     """
     ratio = p[P.RATIO]
     j_m = ratio * ratio * p[P.ROTOR_J]
@@ -302,7 +334,7 @@ def advance_motor_side(x: np.ndarray, theta: float, omega: float, supply_pa: flo
     stick = p[P.STICK_SPEED]
     n = substeps_for(dt_s, mode_frequency(k, j_m, 0.0), substeps)
     h = dt_s / n
-    valve = x[S_PV]
+    valve = valve_gauge_pa
     direction = x[S_DIR]
     a_v = x[S_PA_VALVE]
     a_m = x[S_PA_MOTOR]
@@ -330,7 +362,7 @@ def advance_motor_side(x: np.ndarray, theta: float, omega: float, supply_pa: flo
         impulse += h / 6.0 * (k1[6] + 2.0 * k2[6] + 2.0 * k3[6] + k4[6])
         if s != 0.0 and s * w < 0.0:
             phi = ratio * q
-            w = motor_reversal(w0, w, s, joint_torque(a_m, b_m, phi, -s, p) - joint_torque(a_m, b_m, phi, s, p), j_m, h)
+            q, w = stop_or_turn(q, w0, w, s, joint_torque(a_m, b_m, phi, -s, p) - joint_torque(a_m, b_m, phi, s, p), j_m, h)
         if abs(w) < stick:
             tau_t = transmitted_torque(q - th2, w - omega, half, k, c)
             if motor_side_drive(a_m, b_m, ratio * q, w, 0.0, tau_t, p)[1]:
@@ -353,106 +385,39 @@ N_RIGID = 8
 
 
 @njit
-def single_joint_rates(y: np.ndarray, direction: float, valve_gauge_pa: float, supply_pa: float, load_torque_nm: float, inertia_kg_m2: float, brake_engagement: float, p: np.ndarray, out: np.ndarray) -> None:
-    """Time derivative of the one-joint state y (paper eq. 7), written into `out`.
-
-    J dw/dt = T_drive - T_load + T_friction, with T_drive from `joint_torque`, the load torque
-    (gravity and payload on this joint; the predictor takes it from Pinocchio) and Coulomb +
-    viscous friction by Karnopp's rule, the engaged part of the brake adding to the Coulomb level.
-    `inertia_kg_m2` is the joint-side inertia including the reflected rotor.
-
-    With a non-rigid reducer (pneumatics/reducer.py) the motor side moves on its own,
-    J_m dw_m/dt = T_drive - T_t with T_drive at the motor's angle and speed, and the joint side
-    gets the transmitted T_t in place of T_drive (Karnopp's rule then decides on T_t); J_m and the
-    joint side's J_j split `inertia_kg_m2` (`reducer.inertia_split`). With the rigid reducer the
-    motor side's rates are the joint's.
-    """
-    if not is_rigid(p):
-        omega = y[R_OMEGA]
-        w_m = y[R_OMEGA_M]
-        slide = 0.0 if abs(omega) < p[P.STICK_SPEED] else math.copysign(1.0, omega)
-        slide_m = 0.0 if abs(w_m) < p[P.STICK_SPEED] else math.copysign(1.0, w_m)
-        _compliant_rates(y, direction, valve_gauge_pa, supply_pa, load_torque_nm, inertia_kg_m2, brake_engagement, slide, slide_m, p, out)
-        return
-    theta = y[R_THETA]
-    omega = y[R_OMEGA]
-    phi = p[P.RATIO] * theta
-    drive = joint_torque(y[R_PA_MOTOR], y[R_PB_MOTOR], phi, omega, p) - load_torque_nm
-    drive += stribeck_excess_torque(omega, p[P.STRIBECK_EXCESS], p[P.STRIBECK_SPEED], 0.5 * p[P.STRIBECK_SPEED])
-    coulomb = p[P.COULOMB] + brake_engagement * p[P.BRAKE_HOLD]
-    friction = coulomb_viscous_torque(omega, drive, coulomb, p[P.VISCOUS], p[P.STICK_SPEED])
-    if abs(omega) < p[P.STICK_SPEED] and abs(drive) <= coulomb:
-        out[R_THETA] = 0.0  # stuck: Karnopp's rule holds the joint still
-        out[R_OMEGA] = 0.0
-    else:
-        out[R_THETA] = omega
-        out[R_OMEGA] = (drive + friction) / inertia_kg_m2
-    out[R_QM] = out[R_THETA]  # the rigid reducer's motor is the joint
-    out[R_OMEGA_M] = out[R_OMEGA]
-    rates = pressure_rates(y[R_PA_VALVE], y[R_PA_MOTOR], y[R_PB_VALVE], y[R_PB_MOTOR], phi, p[P.RATIO] * omega, direction, valve_gauge_pa, supply_pa, p)
-    out[R_PA_VALVE] = rates[0]
-    out[R_PA_MOTOR] = rates[1]
-    out[R_PB_VALVE] = rates[2]
-    out[R_PB_MOTOR] = rates[3]
+def dry_friction_limit(brake_engagement: float, p: np.ndarray) -> float:
+    """Joint-side dry friction in N·m: Coulomb plus the engaged part of the spring-applied brake."""
+    return p[P.COULOMB] + brake_holding_torque(brake_engagement, p[P.BRAKE_HOLD])
 
 
 @njit
-def single_joint_rk4(y: np.ndarray, direction: float, valve_gauge_pa: float, supply_pa: float, load_torque_nm: float, inertia_kg_m2: float, brake_engagement: float, dt_s: float, p: np.ndarray) -> None:
-    """One classical Runge-Kutta step of `single_joint_rates` over dt, in place (the paper
-    integrates its predictor with Runge-Kutta, Sec. III-B). A non-rigid reducer takes as many
-    sub-steps as its two-mass mode needs (`reducer.substeps_for`)."""
-    if not is_rigid(p):
-        _single_joint_rk4_compliant(y, direction, valve_gauge_pa, supply_pa, load_torque_nm, inertia_kg_m2, brake_engagement, dt_s, p)
-        return
-    k1 = np.empty(N_RIGID)
-    k2 = np.empty(N_RIGID)
-    k3 = np.empty(N_RIGID)
-    k4 = np.empty(N_RIGID)
-    tmp = np.empty(N_RIGID)
-    single_joint_rates(y, direction, valve_gauge_pa, supply_pa, load_torque_nm, inertia_kg_m2, brake_engagement, p, k1)
-    for i in range(N_RIGID):
-        tmp[i] = y[i] + 0.5 * dt_s * k1[i]
-    single_joint_rates(tmp, direction, valve_gauge_pa, supply_pa, load_torque_nm, inertia_kg_m2, brake_engagement, p, k2)
-    for i in range(N_RIGID):
-        tmp[i] = y[i] + 0.5 * dt_s * k2[i]
-    single_joint_rates(tmp, direction, valve_gauge_pa, supply_pa, load_torque_nm, inertia_kg_m2, brake_engagement, p, k3)
-    for i in range(N_RIGID):
-        tmp[i] = y[i] + dt_s * k3[i]
-    single_joint_rates(tmp, direction, valve_gauge_pa, supply_pa, load_torque_nm, inertia_kg_m2, brake_engagement, p, k4)
-    omega_before = y[R_OMEGA]
-    for i in range(N_RIGID):
-        y[i] += dt_s / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
-    if omega_before * y[R_OMEGA] < 0.0:
-        # the speed crossed zero inside the step: friction brought the joint to rest there. Restart
-        # from rest so Karnopp's rule decides; otherwise a braked joint (115 N·m on 0.164 kg·m^2:
-        # 0.7 rad/s per 1 ms step, far outside the stick window) chatters through zero and creeps.
-        y[R_OMEGA] = 0.0
-    if abs(y[R_OMEGA]) < p[P.STICK_SPEED]:
-        # Karnopp: a joint that has come to rest and is not pushed past friction stays put
-        single_joint_rates(y, direction, valve_gauge_pa, supply_pa, load_torque_nm, inertia_kg_m2, brake_engagement, p, tmp)
-        if tmp[R_THETA] == 0.0:
-            y[R_OMEGA] = 0.0
-    y[R_QM] = y[R_THETA]  # the rigid reducer's motor is the joint
-    y[R_OMEGA_M] = y[R_OMEGA]
+def _slide_direction(speed: float, p: np.ndarray) -> float:
+    # +1/-1 for a body sliding, 0 inside Karnopp's stick window
+    return 0.0 if abs(speed) < p[P.STICK_SPEED] else math.copysign(1.0, speed)
 
 
 @njit
-def _compliant_rates(y: np.ndarray, direction: float, valve_gauge_pa: float, supply_pa: float, load_torque_nm: float, inertia_kg_m2: float, brake_engagement: float, slide: float, slide_m: float, p: np.ndarray, out: np.ndarray) -> tuple[bool, bool]:
-    # `single_joint_rates` for a non-rigid reducer, with the joint side's friction sliding in the
-    # direction `slide` (+1/-1) and the gear's in `slide_m`, or, where 0, by Karnopp's rule at the
-    # speed in y. Returns whether Karnopp's rule holds (the joint, the motor) still.
+def _rates(y: np.ndarray, direction: float, valve_gauge_pa: float, supply_pa: float, load_torque_nm: float, inertia_kg_m2: float, brake_engagement: float, slide: float, slide_m: float, p: np.ndarray, out: np.ndarray) -> tuple[bool, bool]:
+    # `single_joint_rates` with the joint side's dry friction held sliding in the direction `slide`
+    # (+1/-1) and a non-rigid gear's in `slide_m`, or, where 0, by Karnopp's rule at the speed in y.
+    # Returns whether Karnopp's rule holds (the joint, the motor) still.
     theta = y[R_THETA]
     omega = y[R_OMEGA]
     ratio = p[P.RATIO]
-    j_m, j_j = inertia_split(inertia_kg_m2, ratio * ratio * p[P.ROTOR_J])
-    k = stiffness(p[P.BACKLASH], p[P.COMPLIANCE])
-    q_m = y[R_QM]
-    w_m = y[R_OMEGA_M]
-    phi = ratio * q_m
-    tau_t = transmitted_torque(q_m - theta, w_m - omega, 0.5 * p[P.BACKLASH], k, damping(k, j_m))
-    drive = tau_t - load_torque_nm
-    drive += stribeck_excess_torque(omega, p[P.STRIBECK_EXCESS], p[P.STRIBECK_SPEED], 0.5 * p[P.STRIBECK_SPEED])
-    coulomb = p[P.COULOMB] + brake_engagement * p[P.BRAKE_HOLD]
+    rigid = is_rigid(p)
+    if rigid:
+        j_j = inertia_kg_m2
+        phi = ratio * theta
+        # a joint held sliding keeps its gear's efficiency (forward or back-driven) with its friction
+        drive = joint_torque(y[R_PA_MOTOR], y[R_PB_MOTOR], phi, slide if slide != 0.0 else omega, p)
+    else:
+        j_m, j_j = inertia_split(inertia_kg_m2, ratio * ratio * p[P.ROTOR_J])
+        k = stiffness(p[P.BACKLASH], p[P.COMPLIANCE])
+        phi = ratio * y[R_QM]
+        tau_t = transmitted_torque(y[R_QM] - theta, y[R_OMEGA_M] - omega, 0.5 * p[P.BACKLASH], k, damping(k, j_m))
+        drive = tau_t
+    drive += stribeck_excess_torque(omega, p[P.STRIBECK_EXCESS], p[P.STRIBECK_SPEED], 0.5 * p[P.STRIBECK_SPEED]) - load_torque_nm
+    coulomb = dry_friction_limit(brake_engagement, p)
     joint_held = False
     if slide != 0.0:
         out[R_THETA] = omega
@@ -464,14 +429,21 @@ def _compliant_rates(y: np.ndarray, direction: float, valve_gauge_pa: float, sup
     else:
         out[R_THETA] = omega
         out[R_OMEGA] = (drive + coulomb_viscous_torque(omega, drive, coulomb, p[P.VISCOUS], p[P.STICK_SPEED])) / j_j
-    motor_drive, motor_held = motor_side_drive(y[R_PA_MOTOR], y[R_PB_MOTOR], phi, w_m, slide_m, tau_t, p)
-    if motor_held:
-        out[R_QM] = 0.0
-        out[R_OMEGA_M] = 0.0
+    motor_held = joint_held
+    if rigid:
+        out[R_QM] = out[R_THETA]  # the rigid reducer's motor is the joint
+        out[R_OMEGA_M] = out[R_OMEGA]
+        w_motor = ratio * omega
     else:
-        out[R_QM] = w_m
-        out[R_OMEGA_M] = (motor_drive - tau_t) / j_m
-    rates = pressure_rates(y[R_PA_VALVE], y[R_PA_MOTOR], y[R_PB_VALVE], y[R_PB_MOTOR], phi, ratio * w_m, direction, valve_gauge_pa, supply_pa, p)
+        motor_drive, motor_held = motor_side_drive(y[R_PA_MOTOR], y[R_PB_MOTOR], phi, y[R_OMEGA_M], slide_m, tau_t, p)
+        if motor_held:
+            out[R_QM] = 0.0
+            out[R_OMEGA_M] = 0.0
+        else:
+            out[R_QM] = y[R_OMEGA_M]
+            out[R_OMEGA_M] = (motor_drive - tau_t) / j_m
+        w_motor = ratio * y[R_OMEGA_M]
+    rates = pressure_rates(y[R_PA_VALVE], y[R_PA_MOTOR], y[R_PB_VALVE], y[R_PB_MOTOR], phi, w_motor, direction, valve_gauge_pa, supply_pa, p)
     out[R_PA_VALVE] = rates[0]
     out[R_PA_MOTOR] = rates[1]
     out[R_PB_VALVE] = rates[2]
@@ -480,22 +452,49 @@ def _compliant_rates(y: np.ndarray, direction: float, valve_gauge_pa: float, sup
 
 
 @njit
-def _single_joint_rk4_compliant(y: np.ndarray, direction: float, valve_gauge_pa: float, supply_pa: float, load_torque_nm: float, inertia_kg_m2: float, brake_engagement: float, dt_s: float, p: np.ndarray) -> None:
-    # `single_joint_rk4` for a non-rigid reducer: RK4 in sub-steps that resolve the two-mass mode.
-    # Two dry frictions act: the joint's (Coulomb + brake) and the gear's on the motor side
-    # (`motor_side_drive`). The joint side alone is light (the rig's 0.02 kg·m^2 under 115 N·m of
-    # brake: 5.75 rad/s per ms), so each friction keeps the direction it has at the sub-step's
-    # start through all four stages (stages that flip it drive a slowing body faster instead of
-    # stopping it). A speed that crosses zero inside the sub-step is then corrected for the
-    # friction that really turned with it, over the part of the sub-step after the crossing
-    # (`motor_reversal`): if that leaves no reversed speed, friction stopped the body there.
-    # From rest, Karnopp's rule decides.
+def single_joint_rates(y: np.ndarray, direction: float, valve_gauge_pa: float, supply_pa: float, load_torque_nm: float, inertia_kg_m2: float, brake_engagement: float, p: np.ndarray, out: np.ndarray) -> None:
+    """Time derivative of the one-joint state y (paper eq. 7), written into `out`.
+
+    J dw/dt = T_drive - T_load + T_friction, with T_drive from `joint_torque`, the load torque
+    (gravity and payload on this joint; the predictor takes it from Pinocchio) and Coulomb +
+    viscous friction by Karnopp's rule, the engaged part of the brake adding to the Coulomb level
+    (`dry_friction_limit`). `inertia_kg_m2` is the joint-side inertia including the reflected rotor.
+
+    With a non-rigid reducer (pneumatics/reducer.py) the motor side moves on its own,
+    J_m dw_m/dt = T_drive - T_t with T_drive at the motor's angle and speed, and the joint side
+    gets the transmitted T_t in place of T_drive (Karnopp's rule then decides on T_t); J_m and the
+    joint side's J_j split `inertia_kg_m2` (`reducer.inertia_split`). With the rigid reducer the
+    motor side's rates are the joint's.
+    """
+    slide = _slide_direction(y[R_OMEGA], p)
+    _rates(y, direction, valve_gauge_pa, supply_pa, load_torque_nm, inertia_kg_m2, brake_engagement, slide, _slide_direction(y[R_OMEGA_M], p), p, out)
+
+
+@njit
+def single_joint_rk4(y: np.ndarray, direction: float, valve_gauge_pa: float, supply_pa: float, load_torque_nm: float, inertia_kg_m2: float, brake_engagement: float, dt_s: float, p: np.ndarray) -> None:
+    """Classical Runge-Kutta over dt of `single_joint_rates`, in place (the paper integrates its
+    predictor with Runge-Kutta, Sec. III-B), right at every stop.
+
+    Dry friction is where a fixed step lies (DESIGN rule 8): a braked joint (115 N·m on
+    0.164 kg·m^2: 0.7 rad/s per 1 ms step) has stages on both sides of zero speed, and friction
+    that flips sign between them drives a slowing joint on instead of stopping it. So each body's
+    dry friction (the joint's Coulomb + brake; a non-rigid gear's efficiency on the motor side)
+    keeps the direction it slides in at the sub-step's start through all four stages; a speed that
+    crosses zero inside the sub-step is then set right at the crossing (`stop_or_turn`): stopped
+    there, or turned round by what friction leaves. From rest Karnopp's rule decides.
+
+    The rigid reducer takes one sub-step; a non-rigid one as many as its two-mass mode needs
+    (`reducer.substeps_for`).
+    """
     ratio = p[P.RATIO]
-    j_m, j_j = inertia_split(inertia_kg_m2, ratio * ratio * p[P.ROTOR_J])
-    n = substeps_for(dt_s, mode_frequency(stiffness(p[P.BACKLASH], p[P.COMPLIANCE]), j_m, 1.0 / j_j), 1)
+    rigid = is_rigid(p)
+    n = 1
+    j_m, j_j = inertia_kg_m2, inertia_kg_m2
+    if not rigid:
+        j_m, j_j = inertia_split(inertia_kg_m2, ratio * ratio * p[P.ROTOR_J])
+        n = substeps_for(dt_s, mode_frequency(stiffness(p[P.BACKLASH], p[P.COMPLIANCE]), j_m, 1.0 / j_j), 1)
     h = dt_s / n
-    stick = p[P.STICK_SPEED]
-    coulomb = p[P.COULOMB] + brake_engagement * p[P.BRAKE_HOLD]
+    coulomb = dry_friction_limit(brake_engagement, p)
     k1 = np.empty(N_RIGID)
     k2 = np.empty(N_RIGID)
     k3 = np.empty(N_RIGID)
@@ -504,29 +503,36 @@ def _single_joint_rk4_compliant(y: np.ndarray, direction: float, valve_gauge_pa:
     for _ in range(n):
         w0 = y[R_OMEGA]
         wm0 = y[R_OMEGA_M]
-        s = 0.0 if abs(w0) < stick else math.copysign(1.0, w0)
-        s_m = 0.0 if abs(wm0) < stick else math.copysign(1.0, wm0)
-        _compliant_rates(y, direction, valve_gauge_pa, supply_pa, load_torque_nm, inertia_kg_m2, brake_engagement, s, s_m, p, k1)
+        s = _slide_direction(w0, p)
+        s_m = s if rigid else _slide_direction(wm0, p)
+        _rates(y, direction, valve_gauge_pa, supply_pa, load_torque_nm, inertia_kg_m2, brake_engagement, s, s_m, p, k1)
         for i in range(N_RIGID):
             tmp[i] = y[i] + 0.5 * h * k1[i]
-        _compliant_rates(tmp, direction, valve_gauge_pa, supply_pa, load_torque_nm, inertia_kg_m2, brake_engagement, s, s_m, p, k2)
+        _rates(tmp, direction, valve_gauge_pa, supply_pa, load_torque_nm, inertia_kg_m2, brake_engagement, s, s_m, p, k2)
         for i in range(N_RIGID):
             tmp[i] = y[i] + 0.5 * h * k2[i]
-        _compliant_rates(tmp, direction, valve_gauge_pa, supply_pa, load_torque_nm, inertia_kg_m2, brake_engagement, s, s_m, p, k3)
+        _rates(tmp, direction, valve_gauge_pa, supply_pa, load_torque_nm, inertia_kg_m2, brake_engagement, s, s_m, p, k3)
         for i in range(N_RIGID):
             tmp[i] = y[i] + h * k3[i]
-        _compliant_rates(tmp, direction, valve_gauge_pa, supply_pa, load_torque_nm, inertia_kg_m2, brake_engagement, s, s_m, p, k4)
+        _rates(tmp, direction, valve_gauge_pa, supply_pa, load_torque_nm, inertia_kg_m2, brake_engagement, s, s_m, p, k4)
         for i in range(N_RIGID):
             y[i] += h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
         if s != 0.0 and s * y[R_OMEGA] < 0.0:
-            y[R_OMEGA] = motor_reversal(w0, y[R_OMEGA], s, 2.0 * s * coulomb, j_j, h)
-        if s_m != 0.0 and s_m * y[R_OMEGA_M] < 0.0:
+            jump = 2.0 * s * coulomb
+            if rigid:  # the gear's efficiency turns with the joint
+                phi = ratio * y[R_THETA]
+                jump += joint_torque(y[R_PA_MOTOR], y[R_PB_MOTOR], phi, -s, p) - joint_torque(y[R_PA_MOTOR], y[R_PB_MOTOR], phi, s, p)
+            y[R_THETA], y[R_OMEGA] = stop_or_turn(y[R_THETA], w0, y[R_OMEGA], s, jump, j_j, h)
+        if not rigid and s_m != 0.0 and s_m * y[R_OMEGA_M] < 0.0:
             phi = ratio * y[R_QM]
             jump = joint_torque(y[R_PA_MOTOR], y[R_PB_MOTOR], phi, -s_m, p) - joint_torque(y[R_PA_MOTOR], y[R_PB_MOTOR], phi, s_m, p)
-            y[R_OMEGA_M] = motor_reversal(wm0, y[R_OMEGA_M], s_m, jump, j_m, h)
-        if abs(y[R_OMEGA]) < stick or abs(y[R_OMEGA_M]) < stick:
+            y[R_QM], y[R_OMEGA_M] = stop_or_turn(y[R_QM], wm0, y[R_OMEGA_M], s_m, jump, j_m, h)
+        if rigid:
+            y[R_QM] = y[R_THETA]  # the rigid reducer's motor is the joint
+            y[R_OMEGA_M] = y[R_OMEGA]
+        if abs(y[R_OMEGA]) < p[P.STICK_SPEED] or abs(y[R_OMEGA_M]) < p[P.STICK_SPEED]:
             # Karnopp: a body that has come to rest and is not pushed past its friction stays put
-            joint_held, motor_held = _compliant_rates(y, direction, valve_gauge_pa, supply_pa, load_torque_nm, inertia_kg_m2, brake_engagement, 0.0, 0.0, p, tmp)
+            joint_held, motor_held = _rates(y, direction, valve_gauge_pa, supply_pa, load_torque_nm, inertia_kg_m2, brake_engagement, 0.0, 0.0, p, tmp)
             if joint_held:
                 y[R_OMEGA] = 0.0
             if motor_held:
@@ -536,7 +542,11 @@ def _single_joint_rk4_compliant(y: np.ndarray, direction: float, valve_gauge_pa:
 @njit
 def single_joint_step(y: np.ndarray, x: np.ndarray, command: np.ndarray, valve_gauge_pa: float, supply_pa: float, load_torque_nm: float, inertia_kg_m2: float, dt_s: float, p: np.ndarray) -> None:
     """The one-joint model over dt after its valves have advanced (`advance_discrete`): the rigid
-    body and the air by RK4 (`single_joint_rk4`) with the brake held, then the brake toward what
-    its air gives at the step's end (`advance_brake`). In place on y and x."""
-    single_joint_rk4(y, x[S_DIR], valve_gauge_pa, supply_pa, load_torque_nm, inertia_kg_m2, x[S_BRAKE], dt_s, p)
-    advance_brake(x, command, supply_pa, y[R_PA_MOTOR], y[R_PB_MOTOR], dt_s, p)
+    body and the air by RK4 (`single_joint_rk4`) with the brake at its mean over the step
+    (`brake_over_step`), then the brake along what its air gave over the step (`advance_brake`).
+    In place on y and x."""
+    pa = y[R_PA_MOTOR]
+    pb = y[R_PB_MOTOR]
+    brake = brake_over_step(x, command, supply_pa, pa, pb, dt_s, p)
+    single_joint_rk4(y, x[S_DIR], valve_gauge_pa, supply_pa, load_torque_nm, inertia_kg_m2, brake, dt_s, p)
+    advance_brake(x, command, supply_pa, pa, pb, y[R_PA_MOTOR], y[R_PB_MOTOR], dt_s, p)

@@ -37,6 +37,16 @@ def lag_toward(value: float, target: float, dt_s: float, time_constant_s: float)
 
 
 @njit
+def lag_mean(value: float, target: float, dt_s: float, time_constant_s: float) -> float:
+    """Mean over dt of the first-order lag that starts at `value` (exact for a constant target):
+    target + (value - target) tau/dt (1 - exp(-dt/tau)). What a step that holds the lagging
+    quantity constant should hold it at."""
+    if time_constant_s <= 0.0 or value == target:
+        return target + 0.0
+    return target + (value - target) * time_constant_s / dt_s * -math.expm1(-dt_s / time_constant_s)
+
+
+@njit
 def proportional_valve_target(set_point_gauge_pa: float, supply_gauge_pa: float) -> float:
     """Output pressure (gauge, Pa) the proportional valve settles at: its set point, capped by the supply."""
     return max(0.0, min(set_point_gauge_pa, supply_gauge_pa))
@@ -64,15 +74,18 @@ def valve_opening(p_v_gauge_pa: float, k_u_per_pa: float, dead_zone: float) -> f
 @njit
 def _delayed_change(effective: float, pending: float, remaining_s: float, command: float, delay_s: float, dt_s: float, restart: bool) -> tuple[float, float, float]:
     # a commanded change takes effect delay_s later; `restart`: a newer command restarts the delay
+    # the state describes the step's start: a change due by then is in effect for the whole step,
+    # one still pending counts down through it (a delay on the step grid is met exactly)
     if command != pending:
         if restart or pending == effective:
             remaining_s = delay_s
         pending = command
     if pending != effective:
-        remaining_s -= dt_s
         if remaining_s <= 1e-12:
             effective = pending
             remaining_s = 0.0
+        else:
+            remaining_s -= dt_s
     return effective, pending, remaining_s
 
 

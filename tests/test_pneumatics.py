@@ -269,7 +269,9 @@ def test_solenoid_switches_after_its_delay() -> None:
         state = solenoid_step(*state, 1.0, delay, dt)
         steps += 1
         assert steps < 1000
-    assert steps == round(delay / dt)
+    # the position returned is the one in effect over the step that starts at the call: the first
+    # step with the valve switched starts exactly the delay after the command
+    assert (steps - 1) * dt == pytest.approx(delay)
     # a new command restarts the delay; going back before it takes effect cancels it
     state = solenoid_step(*state, -1.0, delay, dt)
     for _ in range(10):
@@ -309,11 +311,17 @@ def test_valve_set_point_dead_time_delays_the_exponential_rise_exactly() -> None
     assert np.max(np.abs(delayed - expected)) < target * dt / base.valve_time_constant_s  # within one step of the rise
     assert delayed[int(round((t0 + d) / dt)) - 2] == 0.0
     assert not np.array_equal(delayed, trace(base))
-    # a set point changing every step (a controller's) is still followed, at most one delay late
+    # a set point changing every step (a controller's) is still followed: taken up at its latest
+    # value once per delay (the change after a take-up starts the next delay), never staler
     x, pending, rem = 0.0, 0.0, 0.0
+    taken = []
     for k in range(1000):
         x, pending, rem = dead_time_step(x, pending, rem, float(k), 0.02, 1e-3)
-    assert 1000 - 1 - 2 * 20 <= x <= 1000 - 1 - 20 + 1
+        taken.append(x)
+    take_ups = np.flatnonzero(np.diff(taken)) + 1
+    assert np.all(np.diff(take_ups) == 20 + 1)
+    assert np.all(np.asarray(taken)[take_ups] == take_ups)  # the latest value at each take-up
+    assert 1000 - 1 - (20 + 1) < x <= 1000 - 1
 
 
 def test_lag_toward_is_the_exact_exponential() -> None:
@@ -360,13 +368,13 @@ def test_brake_fed_by_the_motor_follows_the_hose_end_pressure() -> None:
     atm = p[P.GAS_P_ATM]
     x = initial_state(atm, brake_engaged=True)
     command = np.array([1.0, 5e5, 1.0])
-    advance_brake(x, command, atm + 6e5, atm + 2e5, atm, 1.0, p)  # 1 s at 0.2 MPa: under the start
+    advance_brake(x, command, atm + 6e5, atm + 2e5, atm, atm + 2e5, atm, 1.0, p)  # 1 s at 0.2 MPa: under the start
     assert x[S_BRAKE] == 1.0
     start, full = p[P.BRAKE_START_PA], p[P.BRAKE_RELEASE_PA]
     assert p[P.BRAKE_FED_BY_MOTOR] == 1.0 and 2e5 < start < full <= 5e5  # inside the paper's 0.5 MPa
-    advance_brake(x, command, atm + 6e5, atm + 0.5 * (start + full), atm, 1.0, p)  # mid-band
+    advance_brake(x, command, atm + 6e5, atm + 0.5 * (start + full), atm, atm + 0.5 * (start + full), atm, 1.0, p)  # mid-band
     assert x[S_BRAKE] == pytest.approx(0.5, abs=1e-6)
-    advance_brake(x, command, atm + 6e5, atm + full, atm, 1.0, p)
+    advance_brake(x, command, atm + 6e5, atm + full, atm, atm + full, atm, 1.0, p)
     assert x[S_BRAKE] == pytest.approx(0.0, abs=1e-6)
 
 

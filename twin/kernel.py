@@ -16,9 +16,8 @@ from llvmlite import ir
 
 from pneumatics import params as P
 from pneumatics._jit import NO_JIT, borrowed, intrinsic, njit, types
-from pneumatics.brake import brake_holding_torque
 from pneumatics.friction import stribeck_excess_torque
-from pneumatics.joint import S_BRAKE, S_PA_MOTOR, S_PB_MOTOR, advance_brake, advance_discrete, advance_motor_side, advance_pressures, joint_torque
+from pneumatics.joint import S_PA_MOTOR, S_PB_MOTOR, advance_brake, advance_discrete, advance_motor_side, advance_pressures, brake_over_step, dry_friction_limit, joint_torque
 from pneumatics.reducer import is_rigid
 
 
@@ -59,23 +58,21 @@ def pneumatic_step(
             if c != 0.0:
                 theta += c * qpos[int(drive_map[j, term, 0])]
                 omega += c * qvel[int(drive_map[j, term, 1])]
+        pa_start = x[j, S_PA_MOTOR]
+        pb_start = x[j, S_PB_MOTOR]
+        valve = advance_discrete(x[j], commands[j], supply_pa, dt_s, p)
+        # brake is spring-applied: it and the joint's Coulomb friction are one dry-friction limit,
+        # held by MuJoCo over the step at the brake's mean over it
+        tendon_frictionloss[t] = dry_friction_limit(brake_over_step(x[j], commands[j], supply_pa, pa_start, pb_start, dt_s, p), p)
         if is_rigid(p):
             # the torque MuJoCo holds over the step, from the pressures at its start (explicit, like
             # MuJoCo's own semi-implicit Euler; a mid-step torque was tried and was no closer to LSODA)
-            torque = joint_torque(x[j, S_PA_MOTOR], x[j, S_PB_MOTOR], p[P.RATIO] * theta, omega, p)
-            torque += stribeck_excess_torque(omega, p[P.STRIBECK_EXCESS], p[P.STRIBECK_SPEED], 0.5 * p[P.STRIBECK_SPEED])
-            ctrl[actuator_ids[j]] = torque
-            # brake is spring-applied: it and the joint's Coulomb friction are one dry-friction limit
-            tendon_frictionloss[t] = p[P.COULOMB] + brake_holding_torque(x[j, S_BRAKE], p[P.BRAKE_HOLD])
-            advance_discrete(x[j], commands[j], supply_pa, dt_s, p)
-            advance_pressures(x[j], theta, omega, supply_pa, dt_s, substeps, p)
+            torque = joint_torque(pa_start, pb_start, p[P.RATIO] * theta, omega, p)
+            advance_pressures(x[j], theta, omega, valve, supply_pa, dt_s, substeps, p)
         else:
-            tendon_frictionloss[t] = p[P.COULOMB] + brake_holding_torque(x[j, S_BRAKE], p[P.BRAKE_HOLD])
-            advance_discrete(x[j], commands[j], supply_pa, dt_s, p)
-            torque = advance_motor_side(x[j], theta, omega, supply_pa, dt_s, substeps, p)
-            torque += stribeck_excess_torque(omega, p[P.STRIBECK_EXCESS], p[P.STRIBECK_SPEED], 0.5 * p[P.STRIBECK_SPEED])
-            ctrl[actuator_ids[j]] = torque
-        advance_brake(x[j], commands[j], supply_pa, x[j, S_PA_MOTOR], x[j, S_PB_MOTOR], dt_s, p)
+            torque = advance_motor_side(x[j], theta, omega, valve, supply_pa, dt_s, substeps, p)
+        ctrl[actuator_ids[j]] = torque + stribeck_excess_torque(omega, p[P.STRIBECK_EXCESS], p[P.STRIBECK_SPEED], 0.5 * p[P.STRIBECK_SPEED])
+        advance_brake(x[j], commands[j], supply_pa, pa_start, pb_start, x[j, S_PA_MOTOR], x[j, S_PB_MOTOR], dt_s, p)
 
 
 def _mujoco_step_function():

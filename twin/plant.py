@@ -221,7 +221,7 @@ class Plant:
 
     def _apply_brakes(self) -> None:
         for row, x, t in zip(self.params, self.air, self.tendon_ids):
-            self.model.tendon_frictionloss[t] = row[P.COULOMB] + x[J.S_BRAKE] * row[P.BRAKE_HOLD]
+            self.model.tendon_frictionloss[t] = J.dry_friction_limit(x[J.S_BRAKE], row)
 
     # -- outputs ------------------------------------------------------------------------------
     @property

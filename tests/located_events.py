@@ -1,0 +1,285 @@
+"""A reference for the one-joint model that locates every stick/slip and valve event.
+
+The model under test (`pneumatics.joint.single_joint_step`, at the 1 ms control tick) decides dry
+friction inside fixed steps. This reference shares only the laws with it (`pressure_rates`,
+`joint_torque`, `transmitted_torque`, the brake's target and the valves' targets) and integrates
+them as a hybrid system with scipy's LSODA: each body (the joint; the motor side of a non-rigid
+reducer) is in one of three modes, sliding up, sliding down or stuck, the right-hand side is
+smooth inside a mode, and the switches are located as events (DESIGN rule 8):
+
+* sliding: friction opposes the mode's direction; the event is the speed crossing zero, where the
+  body sticks if its dry friction can hold the drive there, or turns round;
+* stuck: speed and acceleration are zero; the events are the drive crossing the friction limit
+  either way (breakaway).
+
+The motor side's dry friction is the gear's efficiency (`joint_torque`: eta_f driving, 1/eta_b
+back-driven), with the same stuck band as `joint.motor_side_drive`.
+
+Valves are continuous here: the proportional valve's output is a first-order lag of its set point
+integrated as a state, the direction valve switches exactly `solenoid_delay_s` after its command,
+the brake's engagement lags toward the target its air gives, as a state. Commands are held from
+one row's time to the next. No Karnopp window, no fixed step.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.integrate import LSODA
+from scipy.optimize import brentq
+
+from pneumatics import params as P
+from pneumatics.brake import brake_feed_gauge_pa, brake_target
+from pneumatics.friction import stribeck_excess_torque
+from pneumatics.joint import joint_torque, pressure_rates
+from pneumatics.reducer import damping, inertia_split, is_rigid, stiffness, transmitted_torque
+from pneumatics.valves import proportional_valve_target
+
+# state of the reference: angle, speed, four node pressures, valve output (gauge), brake engagement,
+# motor side (joint side of the gear: angle, speed)
+THETA, OMEGA, PA_V, PA_M, PB_V, PB_M, PV, BRAKE, QM, WM = range(10)
+
+
+@dataclass(frozen=True)
+class Command:
+    """What the platform sends from `time_s` on (held until the next command)."""
+
+    time_s: float
+    direction: float  # -1, 0, +1
+    valve_set_gauge_pa: float
+    brake_release: float  # 0 or 1
+
+
+@dataclass(frozen=True)
+class Solution:
+    t: np.ndarray
+    theta: np.ndarray
+    omega: np.ndarray
+    p_a: np.ndarray  # motor-end pressure of port A, absolute Pa
+    p_b: np.ndarray
+    brake: np.ndarray  # engagement, 0 released .. 1 engaged
+    stops: list[float]  # times at which the joint came to rest (located)
+
+
+class _Joint:
+    """The laws of one joint, evaluated in a given friction mode."""
+
+    def __init__(self, p: np.ndarray, inertia_kg_m2: float, load_nm: float, supply_pa: float) -> None:
+        self.p = p
+        self.load = load_nm
+        self.supply = supply_pa
+        self.ratio = p[P.RATIO]
+        self.rigid = is_rigid(p)
+        self.inertia = inertia_kg_m2
+        self.j_m, self.j_j = inertia_split(inertia_kg_m2, self.ratio**2 * p[P.ROTOR_J])
+        self.k = stiffness(p[P.BACKLASH], p[P.COMPLIANCE])
+        self.c = damping(self.k, self.j_m)
+        self.half_gap = 0.5 * p[P.BACKLASH]
+
+    def dry_limit(self, y: np.ndarray) -> float:
+        return self.p[P.COULOMB] + y[BRAKE] * self.p[P.BRAKE_HOLD]
+
+    def tau_t(self, y: np.ndarray) -> float:
+        return transmitted_torque(y[QM] - y[THETA], y[WM] - y[OMEGA], self.half_gap, self.k, self.c)
+
+    def joint_drive(self, y: np.ndarray, omega: float, slide: float = 0.0) -> float:
+        """Net torque on the joint side before its dry friction and viscous drag; a rigid gear's
+        efficiency is the one of the direction the joint slides in (forward when stuck)."""
+        p = self.p
+        if self.rigid:
+            drive = joint_torque(y[PA_M], y[PB_M], self.ratio * y[THETA], slide, p)
+        else:
+            drive = self.tau_t(y)
+        return drive - self.load + stribeck_excess_torque(omega, p[P.STRIBECK_EXCESS], p[P.STRIBECK_SPEED], 0.5 * p[P.STRIBECK_SPEED])
+
+    def motor_drive(self, y: np.ndarray, direction: float) -> float:
+        return joint_torque(y[PA_M], y[PB_M], self.ratio * y[QM], direction, self.p)
+
+
+class _Modes:
+    """(joint mode, motor mode): +1/-1 sliding, 0 stuck. The rigid joint has no motor mode."""
+
+    def __init__(self, joint: _Joint) -> None:
+        self.j = joint
+
+    def decide(self, y: np.ndarray, joint_mode: float, motor_mode: float) -> tuple[float, float]:
+        """Modes at a point where a speed is zero or a breakaway fired: stuck if friction holds."""
+        j = self.j
+        if joint_mode == 0.0 or y[OMEGA] == 0.0:
+            drive = j.joint_drive(y, 0.0)
+            limit = j.dry_limit(y)
+            joint_mode = 0.0 if abs(drive) <= limit else math.copysign(1.0, drive)
+        if j.rigid:
+            return joint_mode, joint_mode
+        if motor_mode == 0.0 or y[WM] == 0.0:
+            tau = j.tau_t(y)
+            forward, backward = j.motor_drive(y, 1.0), j.motor_drive(y, -1.0)
+            motor_mode = 1.0 if forward > tau else (-1.0 if backward < tau else 0.0)
+        return joint_mode, motor_mode
+
+
+def _rates(t, y, j: _Joint, modes: tuple[float, float], direction: float, valve_set: float, release: float) -> np.ndarray:
+    p = j.p
+    s, s_m = modes
+    out = np.zeros(10)
+    limit = j.dry_limit(y)
+    if s != 0.0:
+        out[THETA] = y[OMEGA]
+        out[OMEGA] = (j.joint_drive(y, y[OMEGA], s) - s * limit - p[P.VISCOUS] * y[OMEGA]) / (j.inertia if j.rigid else j.j_j)
+    if j.rigid:
+        out[QM], out[WM] = out[THETA], out[OMEGA]
+        phi, w_motor = j.ratio * y[THETA], j.ratio * y[OMEGA]
+    else:
+        if s_m != 0.0:
+            out[QM] = y[WM]
+            out[WM] = (j.motor_drive(y, s_m) - j.tau_t(y)) / j.j_m
+        phi, w_motor = j.ratio * y[QM], j.ratio * y[WM]
+    out[PA_V:PB_M + 1] = pressure_rates(y[PA_V], y[PA_M], y[PB_V], y[PB_M], phi, w_motor, direction, y[PV], j.supply, p)
+    target = proportional_valve_target(valve_set, j.supply - p[P.GAS_P_ATM])
+    out[PV] = (target - y[PV]) / p[P.VALVE_TAU] if p[P.VALVE_TAU] > 0.0 else 0.0
+    feed = brake_feed_gauge_pa(p[P.BRAKE_FED_BY_MOTOR], j.supply, y[PA_M], y[PB_M], p[P.GAS_P_ATM])
+    engage = brake_target(release, feed, p[P.BRAKE_START_PA], p[P.BRAKE_RELEASE_PA])
+    tau = p[P.BRAKE_TAU_ON] if engage > y[BRAKE] else p[P.BRAKE_TAU_OFF]
+    out[BRAKE] = (engage - y[BRAKE]) / tau
+    return out
+
+
+def _events(j: _Joint, modes: tuple[float, float]) -> list:
+    """Terminal events that end the current modes, each tagged with what it means:
+    ("joint" | "motor", the mode that follows: None = stuck or turned round, decided there; +-1 = breakaway)."""
+    s, s_m = modes
+    events = []
+
+    def add(fn, direction, tag):
+        fn.terminal = True
+        fn.direction = direction
+        fn.tag = tag
+        events.append(fn)
+
+    if s != 0.0:
+        add(lambda t, y, *a: y[OMEGA], -s, ("joint", None))
+    else:
+        add(lambda t, y, *a: j.joint_drive(y, 0.0) - j.dry_limit(y), 1.0, ("joint", 1.0))
+        add(lambda t, y, *a: -j.joint_drive(y, 0.0) - j.dry_limit(y), 1.0, ("joint", -1.0))
+    if not j.rigid:
+        if s_m != 0.0:
+            add(lambda t, y, *a: y[WM], -s_m, ("motor", None))
+        else:
+            add(lambda t, y, *a: j.motor_drive(y, 1.0) - j.tau_t(y), 1.0, ("motor", 1.0))
+            add(lambda t, y, *a: j.tau_t(y) - j.motor_drive(y, -1.0), 1.0, ("motor", -1.0))
+    return events
+
+
+def _breakpoints(commands: list[Command], delay_s: float, t_end_s: float) -> list[tuple[float, float, float, float]]:
+    """(time, direction in effect, valve set point, brake release) from each change on."""
+    changes = {0.0, t_end_s}
+    for c in commands:
+        changes.update((c.time_s, c.time_s + delay_s))
+    points = sorted(t for t in changes if t <= t_end_s)
+
+    def held(t):
+        last = None
+        for c in commands:
+            if c.time_s <= t + 1e-12:
+                last = c
+        return last
+
+    def direction_at(t):
+        # the solenoid's position: the last command issued at least delay_s ago
+        last = None
+        for c in commands:
+            if c.time_s + delay_s <= t + 1e-12:
+                last = c
+        return last.direction if last is not None else 0.0
+
+    out = []
+    for t in points[:-1]:
+        c = held(t)
+        out.append((t, direction_at(t), c.valve_set_gauge_pa if c else 0.0, c.brake_release if c else 0.0))
+    out.append((points[-1], 0.0, 0.0, 0.0))
+    return out
+
+
+def _until_event(fun, t0: float, y0: np.ndarray, t1: float, events: list, t_eval: np.ndarray, atol: np.ndarray):
+    """LSODA from t0 toward t1, stopped at the first event; (t, y, tags that fired, sample times,
+    samples). The events are tested on the solver's own step ends and located by root finding on
+    its dense output in between (scipy's solve_ivp roots them on the dense output alone, whose ends
+    LSODA does not meet exactly; LSODA is needed for the stiff exhaust near atmosphere)."""
+    solver = LSODA(fun, t0, y0, t1, rtol=1e-9, atol=atol, max_step=1e-3)
+    g_old = [e(t0, y0) for e in events]
+    ts, ys = [], []
+
+    def sample(t_a, t_b, dense):
+        inside = t_eval[(t_eval >= t_a) & (t_eval <= t_b)]
+        if inside.size:
+            ts.append(inside)
+            ys.append(dense(inside))
+
+    while True:
+        t_prev, y_prev = solver.t, solver.y.copy()
+        message = solver.step()
+        assert solver.status != "failed", (message, t0, t1, t_prev, solver.t)
+        t_new, y_new = solver.t, solver.y.copy()
+        dense = solver.dense_output()
+        g_new = [e(t_new, y_new) for e in events]
+        roots = []
+        for e, a, b in zip(events, g_old, g_new):
+            if (e.direction > 0 and a <= 0.0 < b) or (e.direction < 0 and a >= 0.0 > b):
+                def h(t, e=e, a=a, b=b):
+                    return a if t == t_prev else (b if t == t_new else e(t, dense(t)))
+                roots.append((t_prev if a == 0.0 else brentq(h, t_prev, t_new, xtol=1e-13), e.tag))
+        if roots:
+            t_event = min(r for r, _ in roots)
+            y_event = y_new if t_event == t_new else dense(t_event)
+            sample(t_prev, t_event, dense)
+            return t_event, y_event.copy(), [tag for r, tag in roots if r - t_event < 1e-9], ts, ys
+        sample(t_prev, t_new, dense)
+        if solver.status == "finished":
+            return t_new, y_new, [], ts, ys
+        g_old = g_new
+
+
+def solve(p: np.ndarray, commands: list[Command], t_end_s: float, *, theta0_rad: float = 0.0, inertia_kg_m2: float, load_nm: float = 0.0, supply_pa: float, t_eval: np.ndarray) -> Solution:
+    """The joint from rest (brake engaged, air at atmosphere) through `commands`, sampled at `t_eval`."""
+    t_end_s = max(t_end_s, float(t_eval[-1]))  # a grid made by rounding may end a hair past t_end
+    joint = _Joint(np.asarray(p, dtype=float), inertia_kg_m2, load_nm, supply_pa)
+    modes = _Modes(joint)
+    atm = p[P.GAS_P_ATM]
+    y = np.array([theta0_rad, 0.0, atm, atm, atm, atm, 0.0, 1.0, theta0_rad, 0.0])
+    mode = modes.decide(y, 0.0, 0.0)
+    ts, ys, stops = [], [], []
+    segments = _breakpoints(commands, p[P.SOLENOID_DELAY], t_end_s)
+    atol = np.array([1e-10, 1e-9, 1e-3, 1e-3, 1e-3, 1e-3, 1e-3, 1e-10, 1e-10, 1e-9])
+    for (t0, direction, valve_set, release), (t1, *_rest) in zip(segments, segments[1:]):
+        t = t0
+        while t1 - t > 1e-12:
+            fun = lambda t_, y_, m=mode, d=direction, v=valve_set, r=release: _rates(t_, y_, joint, m, d, v, r)  # noqa: E731
+            t_stop, y, fired, t_samples, y_samples = _until_event(fun, t, y, t1, _events(joint, mode), t_eval, atol)
+            ts += t_samples
+            ys += y_samples
+            if fired:  # an event ended a mode
+                s, s_m = mode
+                for body, after in fired:
+                    if body == "joint":
+                        if after is None:  # the speed crossed zero: stick there, or turn round
+                            y[OMEGA] = 0.0
+                            s = modes.decide(y, 0.0, s_m)[0]
+                            if s == 0.0:
+                                stops.append(t_stop)
+                        else:
+                            s = after
+                    else:
+                        if after is None:
+                            y[WM] = 0.0
+                            s_m = modes.decide(y, s, 0.0)[1]
+                        else:
+                            s_m = after
+                mode = (s, s if joint.rigid else s_m)
+            t = t_stop
+    t_all = np.concatenate(ts)
+    y_all = np.concatenate(ys, axis=1)
+    _, first = np.unique(t_all, return_index=True)
+    t_all, y_all = t_all[first], y_all[:, first]
+    return Solution(t_all, y_all[THETA], y_all[OMEGA], y_all[PA_M], y_all[PB_M], y_all[BRAKE], stops)
