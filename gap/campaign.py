@@ -25,6 +25,7 @@ wrong (GapError).
 from __future__ import annotations
 
 import csv
+import functools
 import math
 import tomllib
 from dataclasses import dataclass, field
@@ -40,6 +41,22 @@ from twin.errors import UserError
 REQUIRED_COLUMNS = ("time_s", "direction", "brake_released", "supply_pa", "angle_rad")
 OPTIONAL_COLUMNS = ("valve_set_gauge_pa", "valve_opening", "p_a_pa", "p_b_pa")
 WRIST_RIG_INERTIA_KG_M2 = 0.02  # assets/wrist_rig.xml, body rig_load
+CAMPAIGN_KEYS = ("joint", "payload_kg", "hose_length_m", "rig_inertia_kg_m2", "twin", "runs")
+RUN_KEYS = ("file", "supply_mpa", "start_deg", "payload_kg", "rig_inertia_kg_m2")
+TWIN_KEYS = ("hose_loss",)
+MIN_RUNS = 2  # the diagnosis fits on some runs and judges on others
+# Run files: a calibration log samples at 1 kHz..50 Hz (the twin's own MCAP at 50 Hz); a step
+# longer than this is a hole in the record, not a sample period (assumed).
+MAX_TIME_STEP_S = 1.0
+# The replay integrates at 1 ms and the effect search replays each run thousands of times; the
+# paper's longest run is 30 s. Longer runs are refused rather than left to run for hours (assumed).
+MAX_RUN_DURATION_S = 600.0
+# A run filed under supply_mpa must have had that supply: a regulator holds it within a few kPa;
+# beyond this the run belongs to another pressure (assumed, 1/6 of the paper's 0.5-0.8 MPa steps).
+SUPPLY_TOLERANCE_MPA = 0.05
+# Measured angles may pass a joint's range by the end stop's give and the instrument's offset.
+ANGLE_MARGIN_DEG = 5.0  # assumed
+MAX_ABS_PRESSURE_PA = 3e6  # above any supply of this class (0.5-0.8 MPa gauge, paper)
 
 
 class GapError(UserError):
@@ -96,6 +113,61 @@ def _number(where: str, table: dict, key: str, low: float, high: float, unit: st
     return float(v)
 
 
+def _unknown_keys(where: str, table: dict, allowed: tuple[str, ...], what: str) -> None:
+    unknown = sorted(set(table) - set(allowed))
+    if unknown:
+        raise GapError(f"{where}: {what}{unknown[0]} is not a known field; allowed: {', '.join(allowed)}")
+
+
+@functools.lru_cache(maxsize=1)
+def joint_ranges_rad() -> dict[str, tuple[float, float]]:
+    """Each joint's range from the arm's MJCF (the one file MuJoCo and Pinocchio read)."""
+    import mujoco
+
+    model = mujoco.MjModel.from_xml_path(str(assets.ARM_XML))
+    return {j: (float(model.joint(j).range[0]), float(model.joint(j).range[1])) for j in assets.JOINTS}
+
+
+def _inside(folder: Path, name: str, where: str) -> Path:
+    """The run file `name` of a campaign in `folder`; refused unless it lies inside the folder
+    (no absolute path, no `..`, no symbolic link that leads out): a campaign reads only its own files."""
+    if Path(name).is_absolute() or ".." in Path(name).parts:
+        raise GapError(f"{where}: file = {name!r} leaves the campaign folder; allowed: a file name inside {folder}")
+    path = folder / name
+    if not path.resolve().is_relative_to(folder.resolve()):
+        raise GapError(f"{where}: file = {name!r} leads out of the campaign folder (to {path.resolve()}); allowed: a file inside {folder}")
+    return path
+
+
+def _check_run(run: Run, where: str, joint: str) -> None:
+    """What a run must hold beyond its own file's format: its supply is the one it is filed
+    under, its angles lie in the joint's range, it is no longer than the replay can afford."""
+    gauge_mpa = (float(np.mean(run.supply_pa)) - AIR.p_atm_pa) / 1e6
+    if abs(gauge_mpa - run.supply_mpa) > SUPPLY_TOLERANCE_MPA:
+        raise GapError(
+            f"{where}: supply_mpa = {run.supply_mpa:g}, but {run.path.name}'s supply_pa averages {gauge_mpa:.3f} MPa gauge; "
+            f"allowed: within {SUPPLY_TOLERANCE_MPA:g} MPa of the logged supply"
+        )
+    lo, hi = (math.degrees(v) for v in joint_ranges_rad()[joint])
+    angles = np.degrees(run.angle_rad[run.sampled])
+    bad = np.flatnonzero((angles < lo - ANGLE_MARGIN_DEG) | (angles > hi + ANGLE_MARGIN_DEG))
+    if bad.size:
+        k = int(np.flatnonzero(run.sampled)[bad[0]])
+        raise GapError(
+            f"{run.path}: angle_rad = {run.angle_rad[k]:g} at time_s = {run.time_s[k]:g} is outside {joint}'s range; "
+            f"allowed: {lo - ANGLE_MARGIN_DEG:.1f}..{hi + ANGLE_MARGIN_DEG:.1f} deg (assets/arm.xml range +- {ANGLE_MARGIN_DEG:g} deg)"
+        )
+    if run.time_s[-1] > MAX_RUN_DURATION_S:
+        raise GapError(f"{run.path}: lasts {run.time_s[-1]:g} s; allowed: at most {MAX_RUN_DURATION_S:g} s a run")
+    steps = np.diff(run.time_s)
+    if steps.size and steps.max() > MAX_TIME_STEP_S:
+        k = int(np.argmax(steps))
+        raise GapError(
+            f"{run.path}: time_s jumps from {run.time_s[k]:g} to {run.time_s[k + 1]:g} s (relative to the first row); "
+            f"allowed: steps of at most {MAX_TIME_STEP_S:g} s"
+        )
+
+
 def _toml_line(text: str, needle: str, occurrence: int = 0) -> int:
     """1-based line of the `occurrence`-th line containing `needle` (for error messages), 0 if none."""
     seen = 0
@@ -118,6 +190,7 @@ def load_campaign(folder: str | Path) -> Campaign:
         doc = tomllib.loads(text)
     except tomllib.TOMLDecodeError as e:
         raise GapError(f"{path}: not valid TOML: {e}") from None
+    _unknown_keys(f"{path}", doc, CAMPAIGN_KEYS, "")
     joint = doc.get("joint")
     if joint not in assets.JOINTS:
         raise GapError(f"{path}:{_toml_line(text, 'joint')}: joint = {joint!r} is not a joint of the arm; allowed: {', '.join(assets.JOINTS)}")
@@ -125,16 +198,22 @@ def load_campaign(folder: str | Path) -> Campaign:
     hose = _number(f"{path}", doc, "hose_length_m", 0.01, 100.0, "m")
     rig_j = _number(f"{path}", doc, "rig_inertia_kg_m2", 0.0, 100.0, "kg·m^2", default=WRIST_RIG_INERTIA_KG_M2)
     twin = doc.get("twin", {})
+    if not isinstance(twin, dict):
+        raise GapError(f"{path}: twin = {twin!r}; allowed: a table [twin] with {', '.join(TWIN_KEYS)}")
+    _unknown_keys(f"{path}:{_toml_line(text, '[twin]')}", twin, TWIN_KEYS, "[twin] ")
     hl = twin.get("hose_loss")
     if hl is not None and not isinstance(hl, bool):
         raise GapError(f"{path}:{_toml_line(text, 'hose_loss')}: [twin] hose_loss = {hl!r}; allowed: true or false")
     runs_doc = doc.get("runs")
-    if not isinstance(runs_doc, list) or not runs_doc:
-        raise GapError(f"{path}: no [[runs]]; allowed: one [[runs]] table per run with file, supply_mpa, start_deg")
+    if not isinstance(runs_doc, list) or not all(isinstance(r, dict) for r in runs_doc) or len(runs_doc) < MIN_RUNS:
+        n = len(runs_doc) if isinstance(runs_doc, list) else 0
+        raise GapError(f"{path}: {n} [[runs]]; allowed: at least {MIN_RUNS} [[runs]] tables (the diagnosis fits on some runs and judges on others), each with file, supply_mpa, start_deg")
     runs = []
+    ranges = joint_ranges_rad()
     for i, r in enumerate(runs_doc):
         line = _toml_line(text, "[[runs]]", i)
         where = f"{path}:{line} ([[runs]] #{i + 1})"
+        _unknown_keys(where, r, RUN_KEYS, "")
         f = r.get("file")
         if not isinstance(f, str):
             raise GapError(f"{where}: file is missing; allowed: the name of a run file in {folder}")
@@ -147,7 +226,11 @@ def load_campaign(folder: str | Path) -> Campaign:
                 raise GapError(f"{where}: start_deg names unknown joint {j!r}; allowed: {', '.join(assets.JOINTS)}")
             if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
                 raise GapError(f"{where}: start_deg.{j} = {v!r} is not a number (degrees)")
-        run = read_run_file(folder / f, supply, math.radians(start[joint]), where, joint)
+            lo, hi = (math.degrees(x) for x in ranges[j])
+            if not lo <= v <= hi:
+                raise GapError(f"{where}: start_deg.{j} = {v!r} is outside the joint's range; allowed: {lo:.1f}..{hi:.1f} deg (assets/arm.xml)")
+        run = read_run_file(_inside(folder, f, where), supply, math.radians(start[joint]), where, joint)
+        _check_run(run, where, joint)
         run.payload_kg = _number(where, r, "payload_kg", 0.0, 100.0, "kg", default=payload)
         run.rig_inertia_kg_m2 = _number(where, r, "rig_inertia_kg_m2", 0.0, 100.0, "kg·m^2", default=rig_j)
         runs.append(run)
@@ -210,8 +293,10 @@ def _read_csv_run(path: Path, supply_mpa: float, start_rad: float, joint: str) -
                 raise GapError(f"{path}:{line_no}: valve_set_gauge_pa = {cols['valve_set_gauge_pa'][-1]:g}; allowed: gauge Pa in 0..3e6")
             if "valve_opening" in cols and not 0.0 <= cols["valve_opening"][-1] <= 1.0:
                 raise GapError(f"{path}:{line_no}: valve_opening = {cols['valve_opening'][-1]:g}; allowed: 0..1")
-            if not 0.0 < cols["supply_pa"][-1] < 3e6:
-                raise GapError(f"{path}:{line_no}: supply_pa = {cols['supply_pa'][-1]:g}; allowed: absolute Pa in 0..3e6")
+            for h in ("supply_pa", "p_a_pa", "p_b_pa"):
+                v = cols[h][-1] if h in cols else math.nan
+                if not math.isnan(v) and not 0.0 < v < MAX_ABS_PRESSURE_PA:
+                    raise GapError(f"{path}:{line_no}: {h} = {v:g}; allowed: absolute Pa above 0 and below {MAX_ABS_PRESSURE_PA:g}")
     a = {h: np.asarray(v, dtype=np.float64) for h, v in cols.items()}
     n = len(a["time_s"])
     if n < 2 or np.isfinite(a["angle_rad"]).sum() < 2:
@@ -239,6 +324,12 @@ def _read_mcap_run(path: Path, supply_mpa: float, start_rad: float, joint: str =
     from twin.mcap_log import read_mcap  # noqa: PLC0415  (twin.mcap_log needs the mcap packages)
 
     arrays, meta = read_mcap(path)
+    recovery = meta["recovery"]
+    if not recovery["complete"]:
+        raise GapError(
+            f"{path}: the log is cut short ({recovery['stopped_by'] or 'no footer'}; {recovery['samples']} samples, "
+            f"{recovery['duration_s']:.2f} s readable); allowed: a complete log (`twin replay` shows what a cut one holds)"
+        )
     joints = list(meta["joints"])
     if joint not in joints:
         raise GapError(f"{path}: the log has joints {', '.join(joints)}, not the campaign's joint {joint!r}")

@@ -33,11 +33,14 @@ def _deg(x):
     return np.degrees(x)
 
 
-def judge(scenario: Scenario, arrays: dict[str, np.ndarray], joints: tuple[str, ...], bodies: tuple[str, ...], model: mujoco.MjModel) -> list[Verdict]:
-    """One verdict per criterion of the scenario."""
+def judge(scenario: Scenario, arrays: dict[str, np.ndarray], joints: tuple[str, ...], bodies: tuple[str, ...], model: mujoco.MjModel, requested: list[dict[str, float]] | None = None) -> list[Verdict]:
+    """One verdict per criterion of the scenario (at least one each: a criterion with nothing to
+    judge fails). `requested`: the scenario's targets in rad; final_error_deg is measured against
+    the last one asked of each joint, so a plan the controller refused cannot pass it."""
     out = []
     for c in scenario.criteria:
-        out.extend(_judge_one(c, scenario, arrays, joints, bodies, model))
+        verdicts = _judge_one(c, scenario, arrays, joints, bodies, model, requested)
+        out.extend(verdicts or [Verdict(c.kind, c.joint or "-", math.nan, _limit(c), False)])
     return out
 
 
@@ -51,7 +54,7 @@ def _limit(c: Criterion) -> str:
     return f"<= {c.max:g}" if math.isfinite(c.max) else f">= {c.min:g}"
 
 
-def _judge_one(c: Criterion, scenario: Scenario, a: dict, joints, bodies, model) -> list[Verdict]:
+def _judge_one(c: Criterion, scenario: Scenario, a: dict, joints, bodies, model, requested=None) -> list[Verdict]:
     t = a["time_s"]
     fault_t = min((f.at_s for f in scenario.faults), default=0.0)
     after_fault = t >= fault_t
@@ -66,12 +69,15 @@ def _judge_one(c: Criterion, scenario: Scenario, a: dict, joints, bodies, model)
         return verdicts
     if c.kind in ("final_error_deg", "max_error_deg"):
         targets = a["target_angle_rad"]
-        chosen = [c.joint] if c.joint else [j for i, j in enumerate(joints) if np.isfinite(targets[:, i]).any()]
+        last_asked = {j: v for t in (requested or []) for j, v in t.items()}
+        chosen = [c.joint] if c.joint else [j for i, j in enumerate(joints) if np.isfinite(targets[:, i]).any() or j in last_asked]
         verdicts = []
         for joint in chosen:
             i = joints.index(joint)
             err = np.abs(_deg(a["true_angle_rad"][:, i] - targets[:, i]))
-            if c.kind == "final_error_deg":
+            if c.kind == "final_error_deg" and requested is not None:
+                value = float(_deg(abs(a["true_angle_rad"][-1, i] - last_asked[joint]))) if joint in last_asked else math.nan
+            elif c.kind == "final_error_deg":
                 finite = np.flatnonzero(np.isfinite(targets[:, i]))
                 value = float(_deg(abs(a["true_angle_rad"][-1, i] - targets[finite[-1], i]))) if finite.size else math.nan
             else:

@@ -131,7 +131,9 @@ def run_scenario(
         if not isinstance(e, SimulationError):
             raise
         error = str(e)
-    verdicts = judge(scenario, telemetry.arrays(), plant.joints, telemetry.bodies, plant.model) if len(telemetry) else []
+    verdicts = judge(scenario, telemetry.arrays(), plant.joints, telemetry.bodies, plant.model, targets) if len(telemetry) else []
+    if refusal:  # the arm stayed braked: no error against a target the controller never took counts as met
+        verdicts = [replace(v, passed=False) if v.kind == "max_error_deg" else v for v in verdicts]
     events = list(getattr(controller, "events", []))
     return Result(scenario, telemetry, verdicts, targets, error, refusal, events)
 

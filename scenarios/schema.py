@@ -28,15 +28,26 @@ Top level:            name (str), description (str), model ("arm" | "wrist_rig")
 
 from __future__ import annotations
 
+import functools
 import math
 import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 
+import mujoco
+
+import assets
 from assets import JOINTS
 from pneumatics import JointParams
 from pneumatics.params import SPEC
+from scenarios.ik import disc_drive_angles, drive_to_qpos, qpos_to_drive
 from twin.errors import UserError
+
+SHIPPED_DIR = Path(__file__).resolve().parent  # the scenario files ship as package data (pyproject.toml)
+CRITERIA = ("final_error_deg", "max_error_deg", "brush_on_disc", "contact_force_n", "max_drop_m", "max_travel_deg", "prediction_error_deg")
+ARM_ONLY_CRITERIA = ("brush_on_disc", "contact_force_n", "max_drop_m")  # need the brush, the discs, the payload
+TARGET_CRITERIA = ("final_error_deg", "max_error_deg")  # judged against the targets: need one
+JOINT_CRITERIA = ("final_error_deg", "max_error_deg", "max_travel_deg", "prediction_error_deg")
 
 
 class ScenarioError(UserError):
@@ -285,13 +296,26 @@ def parse_doc(doc: dict, path: str, text: str, overrides: dict | None = None) ->
     criteria = []
     for i, c in enumerate(top.array_of_tables("criteria")):
         cr = _Reader(path, c, f"criteria[{i}]", {"kind", "joint", "max", "min", "disc"})
-        kind = cr.choice("kind", None, ("final_error_deg", "max_error_deg", "brush_on_disc", "contact_force_n", "max_drop_m", "max_travel_deg", "prediction_error_deg"))
+        kind = cr.choice("kind", None, CRITERIA)
         joint = cr.text("joint", "")
         if joint and joint not in joints:
             cr.fail("joint", joint, joint_names)
-        criteria.append(Criterion(kind, joint, cr.number("max", math.inf, 0.0, math.inf), cr.number("min", -math.inf, -math.inf, math.inf), cr.integer("disc", 0, 0, 8)))
+        if joint and kind not in JOINT_CRITERIA:
+            cr.fail("joint", joint, f"no joint for kind = {kind!r} (a joint only with {', '.join(JOINT_CRITERIA)})")
+        if kind == "max_travel_deg" and not joint:
+            cr.fail("joint", "<missing>", joint_names)
+        if kind in ARM_ONLY_CRITERIA and model != "arm":
+            cr.fail("kind", kind, f"a criterion the rig can be judged by ({', '.join(k for k in CRITERIA if k not in ARM_ONLY_CRITERIA)}); {kind} needs model = 'arm'")
+        if "disc" in cr.table and kind != "brush_on_disc":
+            cr.fail("disc", cr.table["disc"], "only with kind = 'brush_on_disc'")
+        crit = Criterion(kind, joint, cr.number("max", math.inf, 0.0, math.inf), cr.number("min", -math.inf, -math.inf, math.inf), cr.integer("disc", 0, 0, 8))
+        if crit.min > crit.max:
+            cr.fail("min", crit.min, f"min <= max (max = {crit.max:g})")
+        if kind in TARGET_CRITERIA or kind == "prediction_error_deg":
+            _needs_a_plan(cr, kind, joint, targets, control)
+        criteria.append(crit)
 
-    return Scenario(
+    scenario = Scenario(
         path=path,
         name=top.text("name", Path(path).stem),
         description=top.text("description", ""),
@@ -311,11 +335,100 @@ def parse_doc(doc: dict, path: str, text: str, overrides: dict | None = None) ->
         text=text,
         overrides=dict(overrides or {}),
     )
+    if not doc:
+        raise ScenarioError(f"{path}: an empty scenario; allowed: a file with at least name, model, duration_s and what to do (see scenarios/*.toml)")
+    check_against_model(scenario)
+    return scenario
+
+
+def _needs_a_plan(cr: "_Reader", kind: str, joint: str, targets: list[Target], control: Control) -> None:
+    """A criterion judged against targets or a prediction needs them: without, it would pass on nothing."""
+    if control.mode == "none":
+        cr.fail("kind", kind, f"a criterion that holds without a controller (control.mode = 'none' moves nothing, predicts nothing): max_travel_deg, max_drop_m, ...")
+    if kind not in TARGET_CRITERIA:
+        return
+    targeted = {j for t in targets for j in (JOINTS if t.brush_at_disc else t.angles_deg)}
+    if not targeted:
+        cr.fail("kind", kind, "a criterion the scenario can be judged by: it has no [[targets]] to measure an error against")
+    if joint and joint not in targeted:
+        cr.fail("joint", joint, f"a joint some target moves ({', '.join(sorted(targeted))})")
+
+
+@functools.lru_cache(maxsize=2)
+def compiled_model(model: str) -> mujoco.MjModel:
+    """The MJCF a scenario's plant is built from, compiled once per process (joint ranges, discs)."""
+    return mujoco.MjModel.from_xml_path(str(assets.WRIST_RIG_XML if model == "wrist_rig" else assets.SCENE_XML))
+
+
+def _reachable_standoffs(m: mujoco.MjModel, disc: int) -> str:
+    """The standoffs (schema range, 5 mm steps) at which the brush reaches `disc`, as text."""
+    ok = []
+    for mm in range(-20, 501, 5):
+        try:
+            disc_drive_angles(m, disc, mm / 1000)
+            ok.append(mm / 1000)
+        except ValueError:
+            pass
+    return f"{min(ok):g}..{max(ok):g} m" if ok else "none: the disc is out of reach"
+
+
+def check_against_model(s: Scenario) -> None:
+    """Refuse what the model cannot do: a start or target angle outside a joint's range (from the
+    MJCF), a brush target out of the arm's reach. Targets are drive angles: the elbow's is the
+    forearm's absolute pitch, so a shoulder target moves the elbow joint (scenarios.ik)."""
+    m = compiled_model(s.model)
+    source = Path(assets.WRIST_RIG_XML if s.model == "wrist_rig" else assets.ARM_XML).name
+    ranges = {j: (math.degrees(m.joint(j).range[0]), math.degrees(m.joint(j).range[1])) for j in s.joints}
+
+    def allowed(j: str) -> str:
+        return f"{ranges[j][0]:.1f}..{ranges[j][1]:.1f} deg ({j}'s range in assets/{source})"
+
+    key = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_KEY, "home")
+    start = {j: float(m.key_qpos[key][m.joint(j).qposadr[0]]) if s.start_pose == "home" and key >= 0 else 0.0 for j in s.joints}
+    for j, deg in s.start_angles_deg.items():
+        if not ranges[j][0] <= deg <= ranges[j][1]:
+            raise ScenarioError(f"{s.path}: start.angles_deg.{j} = {deg!r} is not allowed; allowed: {allowed(j)}")
+        start[j] = math.radians(deg)
+    drive = qpos_to_drive(start)
+    for i, t in enumerate(s.targets):
+        if t.brush_at_disc:
+            try:
+                drive.update(disc_drive_angles(m, t.brush_at_disc, t.standoff_m))
+            except ValueError:
+                raise ScenarioError(
+                    f"{s.path}: targets[{i}] brush_at_disc = {t.brush_at_disc}, standoff_m = {t.standoff_m!r} is out of the brush's reach; "
+                    f"allowed: a standoff_m at which the arm reaches disc {t.brush_at_disc} inside its joint ranges ({_reachable_standoffs(m, t.brush_at_disc)})"
+                ) from None
+        drive.update({j: math.radians(v) for j, v in t.angles_deg.items()})
+        for j, q in drive_to_qpos(drive).items():
+            if j in ranges and not math.radians(ranges[j][0]) - 1e-9 <= q <= math.radians(ranges[j][1]) + 1e-9:
+                if j in t.angles_deg and j != "elbow_pitch":
+                    raise ScenarioError(f"{s.path}: targets[{i}].angles_deg.{j} = {t.angles_deg[j]!r} is not allowed; allowed: {allowed(j)}")
+                raise ScenarioError(
+                    f"{s.path}: targets[{i}] puts joint {j} at {math.degrees(q):.1f} deg (drive angles {', '.join(f'{k} {math.degrees(v):.1f}' for k, v in drive.items())} deg; "
+                    f"the elbow's drive angle is the forearm's pitch, shoulder + elbow joint); allowed: {allowed(j)}"
+                )
+
+
+def shipped_names() -> list[str]:
+    return sorted(p.stem for p in SHIPPED_DIR.glob("*.toml"))
+
+
+def find(name_or_path: str | Path) -> Path:
+    """A scenario file: the path as given, else the shipped scenario of that name
+    (`insulator_cleaning` or `insulator_cleaning.toml`), wherever the package is installed."""
+    path = Path(name_or_path)
+    if path.exists() or len(path.parts) != 1 or path.suffix not in ("", ".toml"):
+        return path
+    shipped = SHIPPED_DIR / f"{path.stem}.toml"
+    if shipped.is_file():
+        return shipped
+    raise ScenarioError(f"{path}: no such scenario file; allowed: a path to a scenario file or a shipped scenario's name ({', '.join(shipped_names())})")
 
 
 def load(path: str | Path) -> Scenario:
-    """Read and check a scenario file."""
-    path = Path(path)
+    """Read and check a scenario file (a path, or the name of a shipped scenario)."""
+    path = find(path)
     try:
         text = path.read_text(encoding="utf-8")
     except FileNotFoundError:

@@ -18,6 +18,8 @@ from tqdm import tqdm
 from scenarios.runner import run_scenario
 from scenarios.schema import Scenario, ScenarioError, with_overrides
 
+SCHEDULER_TIMEOUT_S = 10.0  # a scheduler that has not answered by then is taken as unreachable
+
 
 def grid_points(grid: dict[str, list]) -> list[dict]:
     """Every combination of the grid's values, as override dicts, in a fixed order."""
@@ -68,7 +70,10 @@ def sweep(
             from dask.distributed import Client
         except ImportError:
             raise ScenarioError("--scheduler needs Dask: pip install 'pneumatic-arm-twin[cluster]'") from None
-        client = Client(scheduler)
+        try:
+            client = Client(scheduler, timeout=SCHEDULER_TIMEOUT_S)
+        except (OSError, TimeoutError, ValueError, TypeError) as e:
+            raise ScenarioError(f"--scheduler {scheduler}: no Dask scheduler answers there ({type(e).__name__}: {e}); allowed: the address of a running scheduler, e.g. tcp://host:8786") from None
         try:
             with joblib.parallel_config(backend="dask"):
                 results = joblib.Parallel(return_as="generator")(jobs)

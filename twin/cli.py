@@ -2,25 +2,45 @@
 
 Each area registers its own subcommands: twin.commands (run, sweep, paper, bench),
 twin.log_commands (view, replay) and gap.commands (gap diagnose, gap bench). A user error
-(bad file, field or value) is printed as one line and exits with status 2, never a traceback.
+(bad file, field or value, on the command line too) is printed as one line and exits with status
+2, never a traceback. Ctrl-C (SIGINT) and SIGTERM (what `timeout`, systemd and docker send) both
+stop a run the same way: it finishes its logs, says so, and exits 130 or 143.
 """
 
 from __future__ import annotations
 
 import argparse
 import importlib
+import signal
 import sys
+from importlib import metadata
 
 from pneumatics import ParameterError
-from twin.errors import UserError
+from twin.errors import Terminated, UserError
 
 # modules that define `register(subparsers)`; missing ones are skipped so the CLI still starts
 COMMAND_MODULES = ("twin.commands", "twin.log_commands", "gap.commands")
 
 
+class OneLineParser(argparse.ArgumentParser):
+    """argparse, but a bad command line is one line on stderr (what is wrong and where to look),
+    exit status 2, like every other user error of the twin."""
+
+    def error(self, message: str):
+        self.exit(2, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
+
+
+def version() -> str:
+    try:
+        return metadata.version("pneumatic-arm-twin")
+    except metadata.PackageNotFoundError:  # run from a source tree that was never installed
+        return "unknown (not installed)"
+
+
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="twin", description="Digital twin of the sensorless pneumatic manipulator.")
-    sub = parser.add_subparsers(dest="command", required=True)
+    parser = OneLineParser(prog="twin", description="Digital twin of the sensorless pneumatic manipulator.")
+    parser.add_argument("--version", action="version", version=f"%(prog)s {version()}", help="print the version and exit")
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     for name in COMMAND_MODULES:
         try:
             module = importlib.import_module(name)
@@ -32,17 +52,29 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _terminate(signum, frame) -> None:
+    """SIGTERM: stop the run like Ctrl-C. Further SIGTERMs are ignored while the logs finish."""
+    signal.signal(signal.SIGTERM, signal.SIG_IGN)
+    raise Terminated(signum)
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
+    previous = signal.signal(signal.SIGTERM, _terminate)
     try:
         return int(args.func(args) or 0)
     except (UserError, ParameterError) as e:
         print(f"twin: error: {e}", file=sys.stderr)
         return 2
+    except Terminated:
+        print("twin: terminated (SIGTERM); the logs written so far are kept", file=sys.stderr)
+        return 128 + signal.SIGTERM
     except KeyboardInterrupt:
         print("twin: interrupted; the logs written so far are kept", file=sys.stderr)
         return 130
+    finally:
+        signal.signal(signal.SIGTERM, previous)
 
 
 if __name__ == "__main__":

@@ -8,40 +8,46 @@ import json
 import sys
 from pathlib import Path
 
-from twin.errors import UserError
+from twin.args import number
+from twin.outputs import OutputLock, check_output, keep_result, publish_folder, write_atomic
 
 CAMERA_FPS = 2.0  # the operator's global-camera view in recordings: "a few frames per second"
+MAX_CAMERA_FPS = 50.0  # frames are taken at telemetry samples, 50 per simulated s (twin.sim.LOG_PERIOD_S)
+MAX_DURATION_S = 7200.0  # the schema's longest scenario (scenarios.schema, duration_s)
+MAX_SEED = 2**63 - 1  # the schema's seed range
+MAX_RUNS = 100_000  # Monte Carlo runs per grid point: a bound against typos, not a physical limit
+MAX_WORKERS = 1024
 
 
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("run", help="run a scenario file; exit 1 if a pass criterion broke")
-    p.add_argument("scenario", help="scenario TOML file (see scenarios/)")
+    p.add_argument("scenario", help="scenario TOML file, or the name of a shipped one (e.g. insulator_cleaning)")
     p.add_argument("--json", action="store_true", help="print the summary as JSON on stdout")
     p.add_argument("--rrd", type=Path, help="write a rerun recording here")
     p.add_argument("--mcap", type=Path, help="write an MCAP log here")
-    p.add_argument("--camera-fps", type=float, default=CAMERA_FPS, metavar="N", help=f"global-camera frames per simulated second in the recording (default {CAMERA_FPS:g}; 0: none)")
-    p.add_argument("--duration", type=float, help="stop after this many simulated seconds")
-    p.add_argument("--seed", type=int, help="override the scenario's seed")
+    p.add_argument("--camera-fps", type=number(0.0, MAX_CAMERA_FPS, "frames/s"), default=CAMERA_FPS, metavar="N", help=f"global-camera frames per simulated second in the recording (default {CAMERA_FPS:g}; 0: none; at most the log rate, {MAX_CAMERA_FPS:g})")
+    p.add_argument("--duration", type=number(0.0, MAX_DURATION_S, "s", above=True), metavar="S", help="stop after this many simulated seconds")
+    p.add_argument("--seed", type=number(0, MAX_SEED, integer=True), metavar="N", help="override the scenario's seed")
     p.set_defaults(func=cmd_run)
 
     p = sub.add_parser("sweep", help="run a scenario over a grid of field values and/or Monte Carlo seeds")
-    p.add_argument("scenario")
+    p.add_argument("scenario", help="scenario TOML file, or the name of a shipped one")
     p.add_argument("--set", action="append", default=[], metavar="FIELD=V1,V2", help="grid over a scenario field, e.g. supply.pressure_mpa=0.5,0.6,0.7 (repeatable)")
-    p.add_argument("--monte-carlo", type=int, default=0, metavar="N", help="N runs per grid point with child seeds")
-    p.add_argument("--workers", type=int, default=0, help="local worker processes (default: all cores)")
-    p.add_argument("--scheduler", help="Dask scheduler address: run the sweep on that cluster")
-    p.add_argument("--duration", type=float, help="shorten every run to this many simulated seconds")
-    p.add_argument("--out", type=Path, help="write all summaries to this JSON file")
+    p.add_argument("--monte-carlo", type=number(0, MAX_RUNS, integer=True), default=0, metavar="N", help="N runs per grid point with child seeds (default 0: the scenario's own seed only)")
+    p.add_argument("--workers", type=number(0, MAX_WORKERS, integer=True), default=0, metavar="K", help="local worker processes (default 0: all cores)")
+    p.add_argument("--scheduler", metavar="ADDR", help="Dask scheduler address (e.g. tcp://host:8786): run the sweep on that cluster")
+    p.add_argument("--duration", type=number(0.0, MAX_DURATION_S, "s", above=True), metavar="S", help="shorten every run to this many simulated seconds")
+    p.add_argument("--out", type=Path, help="write all summaries to this JSON file (default: print them on stdout)")
     p.set_defaults(func=cmd_sweep)
 
     p = sub.add_parser("paper", help="reproduce the paper's experiments into DIR (paper.json, PNG plots, report.md)")
-    p.add_argument("--out", type=Path, required=True)
+    p.add_argument("--out", type=Path, required=True, metavar="DIR", help="output folder (made if missing)")
     p.add_argument("--quick", action="store_true", help="fewer angles and a shorter random-supply run")
     p.set_defaults(func=cmd_paper)
 
     p = sub.add_parser("bench", help="speed benchmarks as ratios against bare MuJoCo measured in the same run")
-    p.add_argument("--json", action="store_true")
-    p.add_argument("--quick", action="store_true")
+    p.add_argument("--json", action="store_true", help="print the figures as JSON on stdout")
+    p.add_argument("--quick", action="store_true", help="shorter runs (noisier figures)")
     p.set_defaults(func=cmd_bench)
 
 
@@ -52,16 +58,17 @@ def cmd_run(args) -> int:
     scenario = load(args.scenario)
     if args.seed is not None:
         scenario = with_overrides(scenario, {"seed": args.seed})
-    if args.duration is not None and args.duration <= 0:
-        raise UserError(f"--duration {args.duration}: must be > 0 s")
-    if args.camera_fps < 0:
-        raise UserError(f"--camera-fps {args.camera_fps}: must be >= 0 (0: no camera frames)")
-    recorders = open_recorders(scenario, args.rrd, args.mcap, args.camera_fps)
-    try:
-        result = run_scenario(scenario, recorders=recorders, duration_s=args.duration)
-    finally:
-        for r in recorders:
-            r.close()
+    outputs = {"--rrd": args.rrd, "--mcap": args.mcap}
+    for flag, path in outputs.items():
+        if path is not None:
+            check_output(path, flag, inputs=[Path(scenario.path)], others={f: p for f, p in outputs.items() if f != flag})
+    with OutputLock(outputs.values()):
+        recorders = open_recorders(scenario, args.rrd, args.mcap, args.camera_fps)
+        try:
+            result = run_scenario(scenario, recorders=recorders, duration_s=args.duration)
+        finally:
+            for r in recorders:
+                r.close()
     summary = result.summary()
     if args.json:
         json.dump(summary, sys.stdout, indent=2)
@@ -120,26 +127,28 @@ def cmd_sweep(args) -> int:
     from scenarios.sweep import parse_grid, sweep
 
     scenario = load(args.scenario)
-    if args.monte_carlo < 0 or args.workers < 0:
-        raise UserError("--monte-carlo and --workers must be >= 0")
-    results = sweep(scenario, parse_grid(args.set), args.monte_carlo, args.workers, args.scheduler, args.duration)
-    passed = sum(r["passed"] for r in results)
-    if args.out:
-        args.out.parent.mkdir(parents=True, exist_ok=True)
-        args.out.write_text(json.dumps(results, indent=2))
-        print(f"{len(results)} runs, {passed} passed; summaries in {args.out}")
-    else:
-        json.dump(results, sys.stdout, indent=2)
-        print()
-        print(f"{len(results)} runs, {passed} passed", file=sys.stderr)
+    if args.out is not None:
+        check_output(args.out, "--out", inputs=[Path(scenario.path)])
+    with OutputLock([args.out]):
+        results = sweep(scenario, parse_grid(args.set), args.monte_carlo, args.workers, args.scheduler, args.duration)
+        passed = sum(r["passed"] for r in results)
+        if args.out:
+            saved = keep_result(args.out, lambda place: write_atomic(place, json.dumps(results, indent=2)), "the sweep's summaries")
+            print(f"{len(results)} runs, {passed} passed; summaries in {saved}")
+        else:
+            json.dump(results, sys.stdout, indent=2)
+            print()
+            print(f"{len(results)} runs, {passed} passed", file=sys.stderr)
     return 0 if passed == len(results) else 1
 
 
 def cmd_paper(args) -> int:
     from scenarios.paper import reproduce
 
-    report = reproduce(args.out, quick=args.quick)
-    print(f"paper's experiments reproduced: {report}")
+    check_output(args.out, "--out", folder=True)
+    with OutputLock([args.out]):
+        report, folder = publish_folder(args.out, lambda staging: reproduce(staging, quick=args.quick), "the paper's experiments")
+    print(f"paper's experiments reproduced: {folder / report.name}")
     return 0
 
 

@@ -1,5 +1,10 @@
-"""Errors that are the user's to fix: the command line prints them without a traceback."""
+"""Errors that are the user's to fix, and the stop that SIGTERM asks for."""
 
 
 class UserError(Exception):
     """Bad input (a file, a field, a value): the message names them and what is allowed."""
+
+
+class Terminated(KeyboardInterrupt):
+    """SIGTERM arrived: stop like Ctrl-C (a KeyboardInterrupt, so every `finally` that finishes
+    a log on Ctrl-C does so here too)."""

@@ -11,6 +11,7 @@ import time
 from pathlib import Path
 
 from twin.errors import UserError
+from twin.outputs import OutputLock, check_output
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -74,7 +75,9 @@ def cmd_view(args) -> int:
 def cmd_replay(args) -> int:
     from twin.replay import replay
 
-    report = replay(args.file, args.rrd, args.model)
+    check_output(args.rrd, "--rrd", inputs=[args.file, args.model])
+    with OutputLock([args.rrd]):
+        report = replay(args.file, args.rrd, args.model)
     state = "whole file" if report["complete"] else f"file {report['stopped_by']}"
     print(f"{args.rrd}: {report['samples']} samples, {report['duration_s']:.2f} s simulated, from the {state}")
     return 0

@@ -1,0 +1,210 @@
+"""Where results go: output places checked before the work, written atomically, kept if the place
+fails after the work, and never written by two runs at once (DESIGN rule 6, "nothing lost").
+
+    check_output(path, "--out", inputs=[scenario])   # before any work: UserError if it cannot be
+    with OutputLock([rrd, mcap]): ...                # refuses a second writer of the same file
+    write_atomic(path, text)                         # temp file in the same folder, then os.replace
+    saved = keep_result(path, write, "summaries")    # the chosen place, else a fallback; says where
+"""
+
+from __future__ import annotations
+
+import errno
+import fcntl
+import os
+import shutil
+import sys
+import tempfile
+import time
+from pathlib import Path
+from typing import Callable, Iterable
+
+from twin.errors import UserError
+
+
+def _nearest_existing(path: Path) -> Path:
+    p = path
+    while not p.exists() and p != p.parent:
+        p = p.parent
+    return p
+
+
+def _same(a: Path, b: Path) -> bool:
+    a, b = Path(a), Path(b)
+    if a.resolve() == b.resolve():
+        return True
+    try:
+        return a.exists() and b.exists() and os.path.samefile(a, b)
+    except OSError:
+        return False
+
+
+def check_output(path: Path, flag: str, *, folder: bool = False, inputs: Iterable[Path] = (), others: dict[str, Path] | None = None) -> None:
+    """Refuse an output place before any work: it must differ from every input and from the other
+    outputs (`others`: flag -> path), be of the right kind (file or folder) and be writable, which
+    is tried by creating its folder and a scratch file in it. UserError names the flag and path."""
+    path = Path(path)
+    for inp in inputs:
+        if inp is not None and _same(path, inp):
+            raise UserError(f"{flag} {path}: is an input of this command ({inp}); allowed: a place that is not one of its inputs")
+    for other_flag, other in (others or {}).items():
+        if other is not None and _same(path, other):
+            raise UserError(f"{flag} {path}: is also {other_flag}; allowed: a different file for each output")
+    if folder:
+        if path.exists() and not path.is_dir():
+            raise UserError(f"{flag} {path}: is a file; allowed: a folder (existing or to be made)")
+        directory = path
+    else:
+        if path.is_dir():
+            raise UserError(f"{flag} {path}: is a folder; allowed: a file name")
+        directory = path.parent
+    base = _nearest_existing(directory)
+    if not base.is_dir():
+        raise UserError(f"{flag} {path}: {base} is a file, not a folder; allowed: a path in a writable folder")
+    try:
+        directory.mkdir(parents=True, exist_ok=True)
+        fd, probe = tempfile.mkstemp(prefix=".twin-probe-", dir=directory)
+        os.close(fd)
+        os.unlink(probe)
+    except OSError as e:
+        raise UserError(f"{flag} {path}: cannot write in {directory} ({e.strerror}); allowed: a path in a writable folder") from None
+
+
+def write_atomic(path: Path, data: str | bytes) -> None:
+    """Write `data` to `path` whole or not at all: a temp file in the same folder, then os.replace.
+    A reader never sees half a file, and a failed write leaves the old file as it was."""
+    path = Path(path)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    try:
+        with os.fdopen(fd, "wb") as f:
+            f.write(data.encode() if isinstance(data, str) else data)
+            f.flush()
+            os.fsync(f.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        try:
+            os.unlink(tmp)
+        except OSError:
+            pass
+        raise
+
+
+def fallback_places(path: Path) -> list[Path]:
+    """Where a result goes when its chosen place fails: beside it (the nearest existing folder
+    above it), then the working folder, then the system's temporary folder; each under a name
+    with a time stamp so nothing older is overwritten."""
+    stamp = time.strftime("%Y%m%d-%H%M%S")
+    name = f"{path.stem}-saved-{stamp}-{os.getpid()}{path.suffix}"
+    places = []
+    base = _nearest_existing(Path(path).parent)
+    for folder in (base if base.is_dir() else base.parent, Path.cwd(), Path(tempfile.gettempdir())):
+        if folder.resolve() not in [p.parent.resolve() for p in places]:
+            places.append(folder / name)
+    return places
+
+
+def keep_result(path: Path, write: Callable[[Path], object], what: str) -> Path:
+    """Write a finished result with `write(place)` at `path`; if that fails (the folder vanished,
+    the disk filled, ...), write it at the first fallback place that works and say so on stderr.
+    Returns where it went; UserError only if no place at all took it."""
+    path = Path(path)
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        write(path)
+        return path
+    except OSError as e:
+        reason = f"{e.strerror or e}"
+    for place in fallback_places(path):
+        try:
+            write(place)
+        except OSError:
+            continue
+        print(f"twin: could not write {what} to {path} ({reason}); saved them to {place} instead", file=sys.stderr)
+        return place
+    raise UserError(f"{path}: could not write {what} ({reason}), nor in any fallback place ({', '.join(map(str, fallback_places(path)))})")
+
+
+class OutputLock:
+    """Exclusive locks on output places for the life of a run: a second run writing the same
+    file is refused at once (UserError). The lock is an flock on a hidden file beside the output
+    (`.NAME.lock`), so a killed run's lock dies with its process."""
+
+    def __init__(self, paths: Iterable[Path | None]):
+        self.paths = [Path(p) for p in paths if p is not None]
+        self._held: list[tuple[Path, int]] = []
+
+    @staticmethod
+    def lock_path(path: Path) -> Path:
+        return path.parent / f".{path.name}.lock"
+
+    def __enter__(self) -> "OutputLock":
+        try:
+            for p in self.paths:
+                self._acquire(p)
+        except BaseException:
+            self.release()
+            raise
+        return self
+
+    def _acquire(self, path: Path) -> None:
+        lock = self.lock_path(path)
+        lock.parent.mkdir(parents=True, exist_ok=True)
+        while True:
+            fd = os.open(lock, os.O_RDWR | os.O_CREAT, 0o644)
+            try:
+                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            except OSError as e:
+                os.close(fd)
+                if e.errno in (errno.EWOULDBLOCK, errno.EAGAIN):
+                    raise UserError(f"{path}: another run is writing this file now; allowed: a file no other run is writing") from None
+                raise
+            try:
+                same = os.stat(lock).st_ino == os.fstat(fd).st_ino
+            except FileNotFoundError:
+                same = False
+            if same:  # else the holder removed it between our open and our lock: take the new one
+                os.ftruncate(fd, 0)
+                os.write(fd, f"{os.getpid()}\n".encode())
+                self._held.append((lock, fd))
+                return
+            os.close(fd)
+
+    def release(self) -> None:
+        for lock, fd in self._held:
+            try:
+                os.unlink(lock)
+            except OSError:
+                pass
+            os.close(fd)
+        self._held.clear()
+
+    def __exit__(self, *exc) -> None:
+        self.release()
+
+
+def publish_folder(out: Path, work: Callable[[Path], object], what: str):
+    """Run `work(folder)`, which computes and writes its files into `folder`, in a fresh folder
+    beside `out`; then move each file into `out` (os.replace: each arrives whole). If `out`
+    cannot take them after the work, the fresh folder is kept under a visible name and the user
+    told where. Returns (work's result, the folder the files are in)."""
+    out = Path(out)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    staging = Path(tempfile.mkdtemp(prefix=f".{out.name}.partial-", dir=out.parent))
+    result = work(staging)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        for entry in sorted(staging.iterdir()):
+            target = out / entry.name
+            if entry.is_dir() and target.is_dir():
+                shutil.rmtree(target)  # a subfolder this command wrote before (e.g. gap bench's campaigns)
+            os.replace(entry, target)
+        staging.rmdir()
+        return result, out
+    except OSError as e:
+        kept = staging.with_name(f"{out.name}-saved-{time.strftime('%Y%m%d-%H%M%S')}-{os.getpid()}")
+        try:
+            staging.rename(kept)
+        except OSError:
+            kept = staging
+        print(f"twin: could not write {what} to {out} ({e.strerror or e}); they are in {kept}", file=sys.stderr)
+        return result, kept
