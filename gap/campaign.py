@@ -157,8 +157,6 @@ def _check_run(run: Run, where: str, joint: str) -> None:
             f"{run.path}: angle_rad = {run.angle_rad[k]:g} at time_s = {run.time_s[k]:g} is outside {joint}'s range; "
             f"allowed: {lo - ANGLE_MARGIN_DEG:.1f}..{hi + ANGLE_MARGIN_DEG:.1f} deg (assets/arm.xml range +- {ANGLE_MARGIN_DEG:g} deg)"
         )
-    if run.time_s[-1] > MAX_RUN_DURATION_S:
-        raise GapError(f"{run.path}: lasts {run.time_s[-1]:g} s; allowed: at most {MAX_RUN_DURATION_S:g} s a run")
     steps = np.diff(run.time_s)
     if steps.size and steps.max() > MAX_TIME_STEP_S:
         k = int(np.argmax(steps))
@@ -166,6 +164,8 @@ def _check_run(run: Run, where: str, joint: str) -> None:
             f"{run.path}: time_s jumps from {run.time_s[k]:g} to {run.time_s[k + 1]:g} s (relative to the first row); "
             f"allowed: steps of at most {MAX_TIME_STEP_S:g} s"
         )
+    if run.time_s[-1] > MAX_RUN_DURATION_S:
+        raise GapError(f"{run.path}: lasts {run.time_s[-1]:g} s; allowed: at most {MAX_RUN_DURATION_S:g} s a run")
 
 
 def _toml_line(text: str, needle: str, occurrence: int = 0) -> int:
@@ -282,7 +282,7 @@ def _read_csv_run(path: Path, supply_mpa: float, start_rad: float, joint: str) -
                 cols[h].append(x)
             t = cols["time_s"]
             if len(t) > 1 and not t[-1] > t[-2]:
-                raise GapError(f"{path}:{line_no}: time_s = {t[-1]:g} does not increase (previous {t[-2]:g}); time must be strictly increasing")
+                raise GapError(f"{path}:{line_no}: time_s = {t[-1]:g} does not increase (previous {t[-2]:g}); allowed: time strictly increasing from row to row")
             d = cols["direction"][-1]
             if d not in (-1.0, 0.0, 1.0):
                 raise GapError(f"{path}:{line_no}: direction = {d:g}; allowed: -1, 0, +1")

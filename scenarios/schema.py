@@ -20,10 +20,18 @@ Top level:            name (str), description (str), model ("arm" | "wrist_rig")
                       that disc's rim by inverse kinematics), standoff_m (-0.02..0.5: brush face
                       to rim; negative presses, default -0.006) ; dwell_s (0..600)
 [[faults]]            kind ("supply_lost" | "hose_leak" | "valve_stuck_open" | "brake_fails" |
-                      "sensor_bias"), at_s, joint, value (area m^2 for hose_leak, Pa for sensor_bias)
+                      "sensor_bias"), at_s (0..duration_s), joint (not for supply_lost), value
+                      (only hose_leak: area m^2 up to the hose's bore; sensor_bias: Pa, +-1e6; not 0)
 [[criteria]]          kind ("final_error_deg" | "max_error_deg" | "brush_on_disc" |
-                      "contact_force_n" | "max_drop_m" | "max_travel_deg" | "fails"), joint, max,
-                      min, disc
+                      "contact_force_n" | "max_drop_m" | "max_travel_deg" | "prediction_error_deg"),
+                      joint, max, min (min <= max), disc (brush_on_disc only)
+
+Beyond each field's own range, the file must agree with the model and with itself (refused
+otherwise, before any work): start and target angles inside the joints' ranges of the MJCF, brush
+targets within the arm's reach, arm-only criteria (brush, contact force, payload drop) not on the
+rig, a criterion judged against targets only with a target of that joint and a controller, a
+max_travel_deg criterion with its joint, and a file that is not empty. A shipped scenario may be
+named without its path (`load("insulator_cleaning")`).
 """
 
 from __future__ import annotations
@@ -38,7 +46,7 @@ import mujoco
 
 import assets
 from assets import JOINTS
-from pneumatics import JointParams
+from pneumatics import JointParams, load_joint_params
 from pneumatics.params import SPEC
 from scenarios.ik import disc_drive_angles, drive_to_qpos, qpos_to_drive
 from twin.errors import UserError
@@ -47,6 +55,11 @@ SHIPPED_DIR = Path(__file__).resolve().parent  # the scenario files ship as pack
 CRITERIA = ("final_error_deg", "max_error_deg", "brush_on_disc", "contact_force_n", "max_drop_m", "max_travel_deg", "prediction_error_deg")
 ARM_ONLY_CRITERIA = ("brush_on_disc", "contact_force_n", "max_drop_m")  # need the brush, the discs, the payload
 TARGET_CRITERIA = ("final_error_deg", "max_error_deg")  # judged against the targets: need one
+# a fault's value: (low, high, unit) per kind that has one
+FAULT_VALUES = {
+    "hose_leak": (0.0, 5.1e-5, "m^2"),  # at most the whole bore of the hose: 8 mm the widest (assets/joints/*.toml); per joint below
+    "sensor_bias": (-1e6, 1e6, "Pa"),  # +-10 bar: beyond the 0.5-0.8 MPa supply's whole span
+}
 JOINT_CRITERIA = ("final_error_deg", "max_error_deg", "max_travel_deg", "prediction_error_deg")
 
 
@@ -246,9 +259,11 @@ def parse_doc(doc: dict, path: str, text: str, overrides: dict | None = None) ->
     steps = supply_r.table.get("steps", [])
     if not isinstance(steps, list) or not all(isinstance(s, list) and len(s) == 2 and all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in s) for s in steps):
         supply_r.fail("steps", steps, "a list of [time_s, pressure_mpa] pairs")
-    for t, mpa in steps:
-        if not (0 <= t and 0 <= mpa <= 1.0):
-            supply_r.fail("steps", [t, mpa], "time_s >= 0 and pressure_mpa in 0..1")
+    for k, (t, mpa) in enumerate(steps):
+        if not (math.isfinite(t) and 0 <= t and 0 <= mpa <= 1.0):
+            supply_r.fail("steps", [t, mpa], "time_s >= 0 (finite) and pressure_mpa in 0..1")
+        if k and not t > steps[k - 1][0]:
+            supply_r.fail("steps", [t, mpa], f"time_s increasing from pair to pair (the pair before is at {steps[k - 1][0]:g} s)")
     supply = Supply(
         kind=supply_r.choice("kind", "constant", ("constant", "steps", "random")),
         pressure_mpa=supply_r.number("pressure_mpa", 0.6, 0.0, 1.0, "MPa gauge"),
@@ -291,7 +306,19 @@ def parse_doc(doc: dict, path: str, text: str, overrides: dict | None = None) ->
         joint = fr.text("joint", "")
         if kind != "supply_lost" and joint not in joints:
             fr.fail("joint", joint, joint_names)
-        faults.append(Fault(kind, fr.number("at_s", None, 0.0, duration, "s"), joint, fr.number("value", 0.0, -1e7, 1e7)))
+        if kind in FAULT_VALUES:
+            value = fr.number("value", None, *FAULT_VALUES[kind])
+            if value == 0.0:
+                fr.fail("value", value, f"a {kind} other than 0 (0 is no fault)")
+            if kind == "hose_leak" and joint in joints and value > _hose_bore_m2(joint):
+                fr.fail("value", value, f"a leak area in 0..{_hose_bore_m2(joint):.3g} m^2 (the whole bore of {joint}'s hose)")
+        elif "value" in fr.table:
+            fr.fail("value", fr.table["value"], f"no value for kind = {kind!r} (a value only with {', '.join(FAULT_VALUES)})")
+        else:
+            value = 0.0
+        if kind == "supply_lost" and joint:
+            fr.fail("joint", joint, "no joint for kind = 'supply_lost' (the supply feeds every joint)")
+        faults.append(Fault(kind, fr.number("at_s", None, 0.0, duration, "s"), joint, value))
 
     criteria = []
     for i, c in enumerate(top.array_of_tables("criteria")):
@@ -339,6 +366,10 @@ def parse_doc(doc: dict, path: str, text: str, overrides: dict | None = None) ->
         raise ScenarioError(f"{path}: an empty scenario; allowed: a file with at least name, model, duration_s and what to do (see scenarios/*.toml)")
     check_against_model(scenario)
     return scenario
+
+
+def _hose_bore_m2(joint: str) -> float:
+    return math.pi / 4 * load_joint_params(assets.joint_param_path(joint)).hose_diameter_m ** 2
 
 
 def _needs_a_plan(cr: "_Reader", kind: str, joint: str, targets: list[Target], control: Control) -> None:

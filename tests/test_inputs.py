@@ -1,0 +1,444 @@
+"""No input costs a result: every class of bad input is refused before any work with one line
+naming the file or flag, the field, the value and what is allowed (exit status 2); finished
+results survive a failing output place; SIGTERM stops a run like Ctrl-C; two runs never write
+one file; a campaign reads only its own folder; shipped scenarios are found by name.
+
+README, "What is checked", lists each class; each has a test here."""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import time
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from gap.campaign import GapError, load_campaign
+from scenarios.schema import SHIPPED_DIR, ScenarioError, load, parse
+from twin.cli import build_parser, main
+from twin.errors import UserError
+from twin.mcap_log import LogError, McapWriter, read_mcap
+from twin.outputs import OutputLock, check_output, keep_result, publish_folder, write_atomic
+from twin.telemetry import SIGNALS
+
+ROOT = Path(__file__).resolve().parent.parent
+RIG = """
+name = "t"
+model = "wrist_rig"
+duration_s = 0.2
+[start]
+pose = "zero"
+[control]
+mode = "closed_loop"
+"""
+ARM = RIG.replace('"wrist_rig"', '"arm"').replace('"zero"', '"home"')
+
+
+def one_line_error(capsys, *needles: str) -> str:
+    err = capsys.readouterr().err
+    lines = err.strip().splitlines()
+    assert len(lines) == 1, err  # one line, no traceback
+    for n in needles:
+        assert n in lines[0], (n, lines[0])
+    return lines[0]
+
+
+# --- command-line numbers ----------------------------------------------------------------------
+@pytest.mark.parametrize("command", [["run", "S"], ["sweep", "S"]])
+@pytest.mark.parametrize("flag, value", [
+    ("--duration", "nan"), ("--duration", "inf"), ("--duration", "-1"), ("--duration", "0"), ("--duration", "ten"),
+])
+def test_duration_must_be_a_finite_positive_number(command, flag, value, capsys):
+    with pytest.raises(SystemExit) as e:
+        main([*command, flag, value])
+    assert e.value.code == 2
+    one_line_error(capsys, flag, repr(value), "allowed")
+
+
+@pytest.mark.parametrize("argv, flag, value", [
+    (["run", "S"], "--camera-fps", "inf"),
+    (["run", "S"], "--camera-fps", "nan"),
+    (["run", "S"], "--camera-fps", "-2"),
+    (["run", "S"], "--camera-fps", "1000"),
+    (["run", "S"], "--seed", "-1"),
+    (["run", "S"], "--seed", "1.5"),
+    (["sweep", "S"], "--workers", "-1"),
+    (["sweep", "S"], "--monte-carlo", "-3"),
+    (["sweep", "S"], "--monte-carlo", "nan"),
+    (["gap", "diagnose", "C", "--out", "D"], "--jobs", "0"),
+    (["gap", "diagnose", "C", "--out", "D"], "--jobs", "-1"),
+    (["gap", "diagnose", "C", "--out", "D"], "--model-tolerance-deg", "nan"),
+    (["gap", "diagnose", "C", "--out", "D"], "--model-tolerance-deg", "-5"),
+    (["gap", "diagnose", "C", "--out", "D"], "--model-tolerance-deg", "inf"),
+    (["gap", "bench", "--out", "D"], "--jobs", "0"),
+])
+def test_every_numeric_flag_refuses_nan_inf_and_out_of_range(argv, flag, value, capsys):
+    with pytest.raises(SystemExit) as e:
+        main([*argv, flag, value])
+    assert e.value.code == 2
+    one_line_error(capsys, flag, repr(value), "allowed")
+
+
+def test_an_unreachable_scheduler_is_refused_before_any_run(tmp_path, monkeypatch, capsys):
+    import scenarios.sweep
+
+    monkeypatch.setattr(scenarios.sweep, "SCHEDULER_TIMEOUT_S", 1.0)
+    f = tmp_path / "s.toml"
+    f.write_text(RIG)
+    ran = []
+    monkeypatch.setattr(scenarios.sweep, "_run_point", lambda *a: ran.append(a))
+    assert main(["sweep", str(f), "--scheduler", "tcp://127.0.0.1:9"]) == 2
+    one_line_error(capsys, "--scheduler tcp://127.0.0.1:9", "allowed")
+    assert not ran
+
+
+def test_every_argument_has_help_and_there_is_a_version(capsys):
+    def walk(parser, where):
+        for action in parser._actions:
+            if isinstance(action, __import__("argparse")._SubParsersAction):
+                for name, sub in action.choices.items():
+                    walk(sub, f"{where} {name}")
+            elif action.dest != "help":
+                assert action.help, f"{where}: {action.option_strings or action.dest} has no help"
+
+    walk(build_parser(), "twin")
+    with pytest.raises(SystemExit) as e:
+        main(["--version"])
+    assert e.value.code == 0
+    out = capsys.readouterr().out.strip()
+    assert out.startswith("twin ") and out.split()[1][0].isdigit()
+
+
+# --- scenario fields ---------------------------------------------------------------------------
+@pytest.mark.parametrize("text, field, value", [
+    ("", "empty scenario", ""),
+    ("# only a comment\n", "empty scenario", ""),
+    (RIG + "[start.angles_deg]\nwrist_pitch = 350.0", "start.angles_deg.wrist_pitch", "350.0"),
+    (RIG + "[[targets]]\nangles_deg = { wrist_pitch = 300.0 }", "targets[0].angles_deg.wrist_pitch", "300.0"),
+    (ARM + "[[targets]]\nangles_deg = { elbow_pitch = -100.0 }", "targets[0] puts joint elbow_pitch at -190.0 deg", "elbow_pitch -100.0"),
+    (ARM + "[[targets]]\nbrush_at_disc = 1\nstandoff_m = 0.5", "standoff_m = 0.5", "out of the brush's reach"),
+    (RIG + "[[criteria]]\nkind = 'final_error_deg'\nmax = 1.0", "criteria[0].kind", "no [[targets]]"),
+    (RIG + "[[targets]]\nangles_deg = { wrist_pitch = 30.0 }\n[[criteria]]\nkind = 'max_error_deg'\nmin = 5.0\nmax = 1.0", "criteria[0].min", "5.0"),
+    (RIG.replace("closed_loop", "none") + "[[targets]]\nangles_deg = { wrist_pitch = 30.0 }\n[[criteria]]\nkind = 'final_error_deg'\nmax = 1.0", "criteria[0].kind", "'final_error_deg'"),
+    (RIG.replace("closed_loop", "none") + "[[criteria]]\nkind = 'prediction_error_deg'\nmax = 1.0", "criteria[0].kind", "'prediction_error_deg'"),
+    (RIG + "[[criteria]]\nkind = 'brush_on_disc'\nmax = 0.1", "criteria[0].kind", "'brush_on_disc'"),
+    (RIG + "[[criteria]]\nkind = 'max_drop_m'\nmax = 0.1", "criteria[0].kind", "'max_drop_m'"),
+    (RIG + "[[criteria]]\nkind = 'max_travel_deg'\nmax = 1.0", "criteria[0].joint", "<missing>"),
+    (ARM + "[[criteria]]\nkind = 'contact_force_n'\nmax = 100.0\ndisc = 3", "criteria[0].disc", "3"),
+    (RIG + "[supply]\nkind = 'steps'\nsteps = [[inf, 0.5]]", "supply.steps", "inf"),
+    (RIG + "[supply]\nkind = 'steps'\nsteps = [[1.0, 0.5], [0.5, 0.6]]", "supply.steps", "[0.5, 0.6]"),
+    (RIG + "[[faults]]\nkind = 'hose_leak'\nat_s = 0.0\njoint = 'wrist_pitch'\nvalue = -1e-6", "faults[0].value", "-1e-06"),
+    (RIG + "[[faults]]\nkind = 'hose_leak'\nat_s = 0.0\njoint = 'wrist_pitch'\nvalue = 1e-4", "faults[0].value", "0.0001"),
+    (RIG + "[[faults]]\nkind = 'sensor_bias'\nat_s = 0.0\njoint = 'wrist_pitch'\nvalue = nan", "faults[0].value", "nan"),
+    (RIG + "[[faults]]\nkind = 'brake_fails'\nat_s = 0.0\njoint = 'wrist_pitch'\nvalue = 3.0", "faults[0].value", "3.0"),
+    (RIG + "duration = 3.0", "duration", "not a known field"),
+])
+def test_scenarios_inconsistent_with_the_model_or_themselves_are_refused(text, field, value):
+    with pytest.raises(ScenarioError) as e:
+        parse(text, "scenarios/bad.toml")
+    message = str(e.value)
+    assert message.startswith("scenarios/bad.toml: ") and "\n" not in message
+    assert field in message and value in message and "allowed" in message, message
+
+
+def test_a_plan_the_controller_refuses_cannot_pass_final_error(capsys):
+    """A 10 deg move under a 20 deg minimum rotation is refused at run time (the arm stays
+    braked): the error against the target asked for is 10 deg, and the criterion fails."""
+    from scenarios.runner import run_scenario
+
+    s = parse(RIG.replace("duration_s = 0.2", "duration_s = 0.3") + "min_rotation_deg = 20.0\n[[targets]]\nangles_deg = { wrist_pitch = 10.0 }\n"
+              "[[criteria]]\nkind = 'final_error_deg'\nmax = 1.0\n[[criteria]]\nkind = 'max_error_deg'\nmax = 1.0\n", "refused.toml")
+    result = run_scenario(s)
+    assert result.refusal
+    final, worst = result.verdicts
+    assert final.value == pytest.approx(10.0, abs=0.5) and not final.passed
+    assert not worst.passed and not result.passed
+
+
+def test_shipped_scenarios_are_found_by_name_from_any_folder(tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
+    s = load("insulator_cleaning")
+    assert Path(s.path) == SHIPPED_DIR / "insulator_cleaning.toml" and s.name == "insulator_cleaning"
+    assert load("wrist_min_rotation.toml").model == "wrist_rig"
+    # the files are package data of `scenarios`, so a plain (non-editable) install has them
+    pyproject = (ROOT / "pyproject.toml").read_text()
+    assert 'scenarios = ["*.toml"]' in pyproject
+    (tmp_path / "insulator_cleaning").mkdir()  # a folder of that name here is not a scenario file
+    with pytest.raises(ScenarioError, match="cannot be read"):
+        load("insulator_cleaning")
+    assert main(["run", "no_such_scenario"]) == 2
+    one_line_error(capsys, "no_such_scenario", "insulator_cleaning")
+
+
+# --- campaign fields and files -----------------------------------------------------------------
+HEADER = "time_s,direction,brake_released,valve_set_gauge_pa,supply_pa,angle_rad,p_a_pa,p_b_pa"
+ROWS = ["0.00,0,0,0,601325,0.0,101325,101325", "0.02,1,1,400000,601325,,350000,101325", "0.04,1,1,400000,601325,0.01,,",
+        "0.06,1,1,400000,601325,0.03,360000,110000"]
+TOML = """joint = "wrist_pitch"
+hose_length_m = 8.0
+[[runs]]
+file = "a.csv"
+supply_mpa = 0.5
+start_deg = { wrist_pitch = 0.0 }
+[[runs]]
+file = "b.csv"
+supply_mpa = 0.5
+start_deg = { wrist_pitch = 0.0 }
+"""
+
+
+def campaign(folder: Path, toml: str = TOML, rows: list[str] = ROWS) -> Path:
+    folder.mkdir(parents=True, exist_ok=True)
+    (folder / "campaign.toml").write_text(toml)
+    for name in ("a.csv", "b.csv"):
+        (folder / name).write_text("\n".join([HEADER, *rows]) + "\n")
+    return folder
+
+
+def edit_row(k: int, column: str, value: str) -> list[str]:
+    rows = [r.split(",") for r in ROWS]
+    rows[k][HEADER.split(",").index(column)] = value
+    return [",".join(r) for r in rows]
+
+
+def test_a_good_small_campaign_loads(tmp_path):
+    c = load_campaign(campaign(tmp_path / "c"))
+    assert len(c.runs) == 2 and c.runs[0].extra["p_a_pa"][1] == 350000
+
+
+@pytest.mark.parametrize("toml, rows, needles", [
+    (TOML + "colour = 'red'\n", ROWS, ["campaign.toml", "colour is not a known field", "allowed"]),
+    (TOML.replace("supply_mpa = 0.5\n", "supply_mpa = 0.5\nsuply = 1\n", 1), ROWS, ["[[runs]] #1", "suply is not a known field"]),
+    (TOML + "[twin]\nhose_los = true\n", ROWS, ["[twin] hose_los is not a known field"]),
+    (TOML.split("[[runs]]\nfile = \"b.csv\"")[0], ROWS, ["1 [[runs]]", "at least 2"]),
+    (TOML, edit_row(3, "time_s", "3600.06"), ["a.csv", "time_s jumps from 0.04 to 3600.06", "allowed"]),
+    (TOML, edit_row(2, "time_s", "0.01"), ["a.csv:4", "time_s = 0.01 does not increase", "allowed"]),
+    (TOML, [f"{k * 0.5:.1f},0,0,0,601325,0.0,," for k in range(1300)], ["a.csv", "lasts 649.5 s", "allowed: at most 600 s"]),
+    (TOML, edit_row(1, "p_a_pa", "-5000"), ["a.csv:3", "p_a_pa = -5000", "allowed: absolute Pa above 0"]),
+    (TOML, edit_row(1, "supply_pa", "-1"), ["a.csv:3", "supply_pa = -1", "allowed"]),
+    (TOML.replace("supply_mpa = 0.5", "supply_mpa = 0.8", 1), ROWS, ["supply_mpa = 0.8", "averages 0.500 MPa", "allowed"]),
+    (TOML, edit_row(2, "angle_rad", "1e6"), ["a.csv", "angle_rad = 1e+06", "outside wrist_pitch's range", "allowed"]),
+    (TOML.replace("wrist_pitch = 0.0", "wrist_pitch = 350.0", 1), ROWS, ["start_deg.wrist_pitch = 350.0", "allowed: -90.0..90.0 deg"]),
+])
+def test_bad_campaigns_are_refused_with_file_field_value_and_allowed(tmp_path, toml, rows, needles):
+    folder = campaign(tmp_path / "c", toml, rows)
+    with pytest.raises(GapError) as e:
+        load_campaign(folder)
+    message = str(e.value)
+    assert "\n" not in message
+    for n in needles:
+        assert n in message, (n, message)
+
+
+@pytest.mark.parametrize("name", ["../outside.csv", "ABSOLUTE", "link.csv"])
+def test_a_campaign_reads_only_files_inside_its_folder(tmp_path, name):
+    outside = tmp_path / "outside.csv"
+    outside.write_text("\n".join([HEADER, *ROWS]) + "\n")
+    folder = campaign(tmp_path / "c")
+    (folder / "link.csv").symlink_to(outside)
+    name = str(outside) if name == "ABSOLUTE" else name
+    (folder / "campaign.toml").write_text(TOML.replace('"b.csv"', json.dumps(name)))
+    with pytest.raises(GapError, match=r"\(\[\[runs\]\] #2\): file = .* (leaves|leads out of) the campaign folder.*allowed"):
+        load_campaign(folder)
+
+
+def fake_log(path: Path, n: int = 400) -> None:
+    """A log in the twin's MCAP format, written by its own writer, of a still wrist (no plant run)."""
+    joints, bodies = ("wrist_pitch",), ("rig",)
+    a = {"time_s": np.arange(n) * 0.02}
+    for name, shape in SIGNALS.items():
+        dims = tuple(1 if d == "n" else len(bodies) if d == "b" else d for d in shape)
+        a[name] = np.zeros((n, *dims))
+    a["supply_pa"][:] = 601325.0
+    w = McapWriter(path, joints, bodies, b"", {"seed": 0})
+    for start in range(0, n, 50):
+        w.write_arrays({k: v[start:start + 50] for k, v in a.items()}, start)
+    w.close()
+
+
+def test_a_cut_short_mcap_run_is_refused(tmp_path):
+    folder = campaign(tmp_path / "c")
+    fake_log(folder / "b.mcap")
+    (folder / "campaign.toml").write_text(TOML.replace('"b.csv"', '"b.mcap"'))
+    assert len(load_campaign(folder).runs) == 2  # whole, it is a run like any other
+    data = (folder / "b.mcap").read_bytes()
+    (folder / "b.mcap").write_bytes(data[: len(data) // 2])
+    assert not read_mcap(folder / "b.mcap")[1]["recovery"]["complete"]
+    with pytest.raises(GapError, match=r"b\.mcap: the log is cut short .* readable\); allowed: a complete log"):
+        load_campaign(folder)
+
+
+# --- output places -----------------------------------------------------------------------------
+def test_outputs_must_differ_from_inputs_and_each_other_and_be_writable(tmp_path, capsys):
+    s = tmp_path / "s.toml"
+    s.write_text(RIG)
+    afile = tmp_path / "afile"
+    afile.write_text("x")
+    cases = [
+        (["run", str(s), "--rrd", str(tmp_path / "x.log"), "--mcap", str(tmp_path / "x.log")], ["--rrd", "is also --mcap"]),
+        (["run", str(s), "--mcap", str(s)], ["--mcap", "is an input"]),
+        (["run", str(s), "--rrd", str(tmp_path)], ["--rrd", "is a folder"]),
+        (["sweep", str(s), "--out", str(afile / "x.json")], ["--out", "afile is a file, not a folder"]),
+        (["sweep", str(s), "--out", str(s)], ["--out", "is an input"]),
+        (["replay", str(tmp_path / "in.mcap"), "--rrd", str(tmp_path / "in.mcap")], ["--rrd", "is an input"]),
+        (["paper", "--out", str(afile)], ["--out", "is a file; allowed: a folder"]),
+        (["gap", "diagnose", str(campaign(tmp_path / "c")), "--out", str(tmp_path / "c")], ["--out", "is an input"]),
+        (["gap", "diagnose", str(tmp_path / "c"), "--out", str(afile)], ["--out", "is a file"]),
+    ]
+    for argv, needles in cases:
+        assert main(argv) == 2, argv
+        one_line_error(capsys, *needles)
+    assert s.read_text() == RIG and afile.read_text() == "x"
+
+
+def test_a_result_whose_place_fails_after_the_work_is_saved_elsewhere(tmp_path, monkeypatch, capsys):
+    """`twin sweep --out` checked fine, then the folder turned into a file while the runs went:
+    the summaries go beside it and the user is told where."""
+    import scenarios.sweep
+
+    s = tmp_path / "s.toml"
+    s.write_text(RIG)
+    out = tmp_path / "results" / "sweep.json"
+    results = [{"overrides": {}, "passed": True, "value": 1.25}]
+
+    def sweep(*args, **kwargs):
+        shutil.rmtree(tmp_path / "results")
+        (tmp_path / "results").write_text("in the way")
+        return results
+
+    monkeypatch.setattr(scenarios.sweep, "sweep", sweep)
+    assert main(["sweep", str(s), "--out", str(out)]) == 0
+    captured = capsys.readouterr()
+    saved = Path(captured.err.strip().split(" instead")[0].split("saved them to ")[1])
+    assert saved.parent == tmp_path and json.loads(saved.read_text()) == results
+    assert str(saved) in captured.out
+
+
+def test_a_folder_of_results_arrives_whole_or_is_kept_beside(tmp_path, capsys):
+    out = tmp_path / "out"
+
+    def work(folder: Path) -> str:
+        (folder / "a.json").write_text("{}")
+        return "done"
+
+    assert publish_folder(out, work, "results") == ("done", out)
+    assert (out / "a.json").read_text() == "{}" and [p.name for p in tmp_path.iterdir()] == ["out"]
+
+    def work_then_block(folder: Path) -> str:
+        (folder / "b.json").write_text("[]")
+        (out / "b.json").mkdir()  # the place cannot take the file any more
+        (out / "b.json" / "x").write_text("")
+        return "done"
+
+    result, kept = publish_folder(out, work_then_block, "results")
+    assert result == "done" and kept != out and (kept / "b.json").read_text() == "[]"
+    assert str(kept) in capsys.readouterr().err
+
+
+def test_atomic_writes_leave_no_half_file(tmp_path):
+    f = tmp_path / "r.json"
+    write_atomic(f, "old")
+    write_atomic(f, b"new")
+    assert f.read_text() == "new" and [p.name for p in tmp_path.iterdir()] == ["r.json"]
+    d = tmp_path / "d"
+    d.mkdir()
+    with pytest.raises(OSError):
+        write_atomic(d, "x")  # os.replace cannot put a file over a folder: nothing half-written stays
+    assert [p.name for p in tmp_path.iterdir() if p.name != "d"] == ["r.json"] and not list(d.iterdir())
+
+
+def test_two_writers_of_one_file_are_refused(tmp_path):
+    f = tmp_path / "run.mcap"
+    with OutputLock([f]):
+        with pytest.raises(UserError, match="another run is writing this file"):
+            with OutputLock([tmp_path / "other.rrd", f]):
+                pass
+        assert not (tmp_path / ".other.rrd.lock").exists()  # what it took is given back
+    with OutputLock([f]):  # free again once the first is done
+        pass
+    assert not (tmp_path / ".run.mcap.lock").exists()
+
+
+def test_check_output_refuses_an_unwritable_place(tmp_path):
+    afile = tmp_path / "afile"
+    afile.write_text("")
+    with pytest.raises(UserError, match=r"--out .*afile is a file, not a folder"):
+        check_output(afile / "deeper" / "x.json", "--out")
+    check_output(tmp_path / "new" / "x.json", "--out")  # a folder to be made is fine
+    assert (tmp_path / "new").is_dir() and not list((tmp_path / "new").iterdir())
+
+
+def test_keep_result_says_where_when_no_place_works(tmp_path, monkeypatch):
+    def fail(place):
+        raise OSError(28, "No space left on device")
+
+    with pytest.raises(UserError, match="No space left on device"):
+        keep_result(tmp_path / "x.json", fail, "the results")
+
+
+# --- SIGTERM and concurrent writers, with a real run -------------------------------------------
+def rrd_last_time_s(path: Path) -> float:
+    """The last time on the recording's timeline, read with rerun's own reader."""
+    import rerun as rr
+
+    last = 0.0
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # e.g. rerun's "no footer" warning on a file cut short
+        reader = rr.chunk.RrdReader(path)
+    for chunk in reader.stream():
+        if chunk.is_static:
+            continue
+        batch = chunk.to_record_batch()
+        if "time" in batch.schema.names:
+            t = batch.column("time").cast("int64").to_numpy()
+            if len(t):
+                last = max(last, float(t.max()) * 1e-9)
+    return last
+
+
+def test_sigterm_finishes_the_logs_like_ctrl_c_and_a_second_writer_is_refused(tmp_path, capsys):
+    """`timeout`, systemd and docker stop a run with SIGTERM sent to its process: the run ends
+    with exit status 143 and a note, its MCAP is finished (footer) and its .rrd holds as much as
+    the MCAP. While it runs, a second run on the same --mcap is refused."""
+    text = (ROOT / "scenarios" / "wrist_closed_loop_60deg.toml").read_text().replace("duration_s = 6.0", "duration_s = 600.0")
+    scenario = tmp_path / "long.toml"
+    scenario.write_text(text)
+    mcap, rrd = tmp_path / "run.mcap", tmp_path / "run.rrd"
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "twin.cli", "run", str(scenario), "--mcap", str(mcap), "--rrd", str(rrd), "--camera-fps", "0"],
+        cwd=tmp_path, env=env, stderr=subprocess.PIPE, stdout=subprocess.DEVNULL,
+    )
+    try:
+        deadline = time.monotonic() + 120
+        seen = 0.0
+        while seen < 2.0:
+            assert proc.poll() is None and time.monotonic() < deadline
+            time.sleep(0.2)
+            try:
+                seen = read_mcap(mcap)[1]["recovery"]["duration_s"] if mcap.exists() else 0.0
+            except LogError:
+                seen = 0.0
+        assert main(["run", str(scenario), "--mcap", str(mcap), "--camera-fps", "0"]) == 2
+        one_line_error(capsys, str(mcap), "another run is writing this file")
+        proc.send_signal(signal.SIGTERM)
+        _, err = proc.communicate(timeout=60)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    assert proc.returncode == 143, err.decode()
+    assert "terminated (SIGTERM); the logs written so far are kept" in err.decode()
+    arrays, meta = read_mcap(mcap)
+    assert meta["recovery"]["complete"] and meta["recovery"]["duration_s"] >= 2.0
+    mcap_end = float(arrays["time_s"][-1])
+    assert rrd_last_time_s(rrd) >= mcap_end - 1e-6  # the .rrd is not behind its MCAP
+    assert not list(tmp_path.glob(".*.lock"))  # the locks went with the run
+    assert math.isfinite(mcap_end)
