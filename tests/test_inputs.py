@@ -343,6 +343,31 @@ def test_a_folder_of_results_arrives_whole_or_is_kept_beside(tmp_path, capsys):
     assert str(kept) in capsys.readouterr().err
 
 
+def test_a_log_that_fails_at_the_end_costs_neither_the_summary_nor_the_other_log(tmp_path, monkeypatch, capsys):
+    import twin.commands
+
+    closed = []
+
+    class Full:
+        def write(self, telemetry, start):
+            pass
+
+        def close(self):
+            raise LogError("out.mcap: the MCAP writer failed: OSError: [Errno 28] No space left on device")
+
+    class Fine(Full):
+        def close(self):
+            closed.append(True)
+
+    monkeypatch.setattr(twin.commands, "open_recorders", lambda *a: [Full(), Fine()])
+    s = tmp_path / "s.toml"
+    s.write_text(RIG)
+    assert main(["run", str(s), "--json"]) == 2
+    out, err = capsys.readouterr()
+    assert json.loads(out)["scenario"] == "t" and closed == [True]
+    assert err.strip().endswith("No space left on device")
+
+
 def test_atomic_writes_leave_no_half_file(tmp_path):
     f = tmp_path / "r.json"
     write_atomic(f, "old")

@@ -9,6 +9,7 @@ import sys
 from pathlib import Path
 
 from twin.args import number
+from twin.errors import UserError
 from twin.outputs import OutputLock, check_output, keep_result, publish_folder, write_atomic
 
 CAMERA_FPS = 2.0  # the operator's global-camera view in recordings: "a few frames per second"
@@ -67,8 +68,7 @@ def cmd_run(args) -> int:
         try:
             result = run_scenario(scenario, recorders=recorders, duration_s=args.duration)
         finally:
-            for r in recorders:
-                r.close()
+            log_errors = close_all(recorders)
     summary = result.summary()
     if args.json:
         json.dump(summary, sys.stdout, indent=2)
@@ -78,7 +78,21 @@ def cmd_run(args) -> int:
     for label, path in (("rerun recording", args.rrd), ("MCAP log", args.mcap)):
         if path:
             print(f"{label}: {path}", file=sys.stderr if args.json else sys.stdout)
-    return 0 if result.passed else 1
+    for e in log_errors:  # the summary above is the run's result; a log that failed is said after it
+        print(f"twin: error: {e}", file=sys.stderr)
+    return 2 if log_errors else 0 if result.passed else 1
+
+
+def close_all(recorders) -> list[str]:
+    """Close every recorder, also when one fails (a full disk, a vanished folder): the others
+    still finish their files. Returns what failed, for after the run's summary."""
+    errors = []
+    for r in recorders:
+        try:
+            r.close()
+        except (UserError, OSError) as e:
+            errors.append(str(e))
+    return errors
 
 
 def open_recorders(scenario, rrd: Path | None, mcap: Path | None, camera_fps: float = CAMERA_FPS) -> list:
