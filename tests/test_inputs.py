@@ -14,7 +14,6 @@ import shutil
 import signal
 import subprocess
 import sys
-import time
 import warnings
 from pathlib import Path
 
@@ -29,16 +28,11 @@ from twin.mcap_log import LogError, McapWriter, read_mcap
 from twin.outputs import OutputLock, check_output, keep_result, publish_folder, write_atomic
 from twin.telemetry import SIGNALS
 
+from logwait import wait_until_logged
+from test_scenarios import MINIMAL
+
 ROOT = Path(__file__).resolve().parent.parent
-RIG = """
-name = "t"
-model = "wrist_rig"
-duration_s = 0.2
-[start]
-pose = "zero"
-[control]
-mode = "closed_loop"
-"""
+RIG = MINIMAL.replace('mode = "none"', 'mode = "closed_loop"')  # a 0.2 s wrist-rig scenario
 ARM = RIG.replace('"wrist_rig"', '"arm"').replace('"zero"', '"home"')
 
 
@@ -443,15 +437,7 @@ def test_sigterm_finishes_the_logs_like_ctrl_c_and_a_second_writer_is_refused(tm
         cwd=tmp_path, env=env, stderr=subprocess.PIPE, stdout=subprocess.DEVNULL,
     )
     try:
-        deadline = time.monotonic() + 120
-        seen = 0.0
-        while seen < 2.0:
-            assert proc.poll() is None and time.monotonic() < deadline
-            time.sleep(0.2)
-            try:
-                seen = read_mcap(mcap)[1]["recovery"]["duration_s"] if mcap.exists() else 0.0
-            except LogError:
-                seen = 0.0
+        wait_until_logged(proc, mcap, 2.0)
         assert main(["run", str(scenario), "--mcap", str(mcap), "--camera-fps", "0"]) == 2
         one_line_error(capsys, str(mcap), "another run is writing this file")
         proc.send_signal(signal.SIGTERM)
