@@ -4,11 +4,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from twin.args import number
+from twin.args import JOBS, MODEL_TOLERANCE_DEG, check_number, number
 from twin.outputs import OutputLock, check_output, publish_folder
-
-MAX_JOBS = 256
-MAX_MODEL_TOLERANCE_DEG = 45.0  # a tolerance this wide hides any gap worth diagnosing
 
 
 def register(subparsers) -> None:
@@ -17,37 +14,44 @@ def register(subparsers) -> None:
     d = sub.add_parser("diagnose", help="diagnose a calibration campaign into DIR (diagnosis.json, report.md, PNG plots)")
     d.add_argument("campaign", help="folder with campaign.toml and the run files")
     d.add_argument("--out", required=True, metavar="DIR", help="output folder (made if missing; not the campaign's own folder)")
-    d.add_argument("--model-tolerance-deg", type=number(0.0, MAX_MODEL_TOLERANCE_DEG, "deg"), default=None, metavar="DEG", help="twin model tolerance added to the noise floor (default: gap.diagnose.MODEL_TOLERANCE_DEG)")
-    d.add_argument("--jobs", type=number(1, MAX_JOBS, integer=True), default=2, metavar="N", help="parallel fits (default 2)")
+    d.add_argument(
+        "--model-tolerance-deg", type=number(**MODEL_TOLERANCE_DEG), default=None, metavar="DEG",
+        help="twin model tolerance added to the noise floor (default: gap.diagnose.MODEL_TOLERANCE_DEG)",
+    )
+    d.add_argument("--jobs", type=number(**JOBS), default=2, metavar="N", help="parallel fits (default 2)")
     d.set_defaults(func=cmd_diagnose)
     b = sub.add_parser("bench", help="blind check on campaigns generated from the plant with hidden effects (DIR/bench.json)")
     b.add_argument("--out", required=True, metavar="DIR", help="output folder: the generated campaigns and bench.json")
     b.add_argument("--quick", action="store_true", help="a few cases only (for tests)")
-    b.add_argument("--jobs", type=number(1, MAX_JOBS, integer=True), default=2, metavar="N", help="parallel fits (default 2)")
+    b.add_argument("--jobs", type=number(**JOBS), default=2, metavar="N", help="parallel fits (default 2)")
     b.add_argument("--angle-only", action="store_true", help="campaigns without chamber-pressure transducers (the angle instrument alone)")
     b.set_defaults(func=cmd_bench)
 
 
 def run_diagnose(campaign: str | Path, out: str | Path, model_tolerance_deg: float | None = None, jobs: int = 2, progress: bool = True) -> dict:
-    """Load and check the campaign, check `out`, diagnose, write the report. The report's files
-    arrive whole; if `out` fails after the work they are kept beside it (the path is in diag["_out"])."""
+    """Check the numbers, the campaign and `out`, then diagnose and write the report into `out`.
+    The report's files arrive whole; if `out` fails after the work they are kept beside it (where:
+    diag["_out"])."""
     from gap.campaign import load_campaign
-    from gap.diagnose import MODEL_TOLERANCE_DEG, diagnose
+    from gap.diagnose import MODEL_TOLERANCE_DEG as DEFAULT_TOLERANCE_DEG
+    from gap.diagnose import diagnose
     from gap.report import write
 
+    tolerance = DEFAULT_TOLERANCE_DEG if model_tolerance_deg is None else model_tolerance_deg
+    check_number("model_tolerance_deg", tolerance, **MODEL_TOLERANCE_DEG)
+    check_number("jobs", jobs, **JOBS)
     loaded = load_campaign(campaign)
-    check_output(Path(out), "--out", folder=True, inputs=[loaded.folder, *(r.path for r in loaded.runs)])
-    tolerance = MODEL_TOLERANCE_DEG if model_tolerance_deg is None else model_tolerance_deg
-    with OutputLock([Path(out)]):
-        diag, folder = publish_folder(
-            Path(out), lambda staging: _diagnose_into(diagnose(loaded, model_tolerance_deg=tolerance, n_jobs=jobs, progress=progress), staging, write), "the diagnosis"
-        )
+    out = Path(out)
+    check_output(out, "--out", folder=True, inputs=[loaded.folder, *(r.path for r in loaded.runs)])
+
+    def diagnose_into(staging: Path) -> dict:
+        diag = diagnose(loaded, model_tolerance_deg=tolerance, n_jobs=jobs, progress=progress)
+        write(diag, staging)
+        return diag
+
+    with OutputLock([out]):
+        diag, folder = publish_folder(out, diagnose_into, "the diagnosis")
     diag["_out"] = folder
-    return diag
-
-
-def _diagnose_into(diag: dict, folder: Path, write) -> dict:
-    write(diag, folder)
     return diag
 
 
@@ -63,7 +67,10 @@ def cmd_bench(args) -> int:
     from gap.bench import run_bench
 
     check_output(Path(args.out), "--out", folder=True)
+    def bench_into(staging: Path) -> dict:
+        return run_bench(staging, quick=args.quick, jobs=args.jobs, chamber_pressures=not args.angle_only)
+
     with OutputLock([Path(args.out)]):
-        summary, _ = publish_folder(Path(args.out), lambda staging: run_bench(staging, quick=args.quick, jobs=args.jobs, chamber_pressures=not args.angle_only), "the bench's results")
+        summary, _ = publish_folder(Path(args.out), bench_into, "the bench's results")
     print({k: v for k, v in summary.items() if k != "cases"})
     return 0

@@ -21,6 +21,7 @@ from scenarios.faults import fault_events
 from scenarios.ik import disc_drive_angles
 from scenarios.schema import Scenario, joint_params_for, load
 from scenarios.supply import supply_profile
+from twin.args import DURATION_S, SEED, check_number
 from twin.plant import Plant
 from twin.sim import Recorder, run
 from twin.telemetry import Telemetry
@@ -111,8 +112,10 @@ def run_scenario(
     seed: int | None = None,
 ) -> Result:
     """Run a scenario (optionally shortened, or with another seed) and judge it."""
+    if duration_s is not None:
+        check_number("duration_s", duration_s, **DURATION_S)
     if seed is not None:
-        scenario = replace(scenario, seed=seed)
+        scenario = replace(scenario, seed=check_number("seed", seed, **SEED))
     rng = np.random.default_rng(scenario.seed)
     plant = build_plant(scenario)
     targets = resolve_targets(scenario, plant)

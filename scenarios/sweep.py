@@ -17,6 +17,7 @@ from tqdm import tqdm
 
 from scenarios.runner import run_scenario
 from scenarios.schema import Scenario, ScenarioError, with_overrides
+from twin.args import DURATION_S, MONTE_CARLO, WORKERS, check_number
 
 SCHEDULER_TIMEOUT_S = 10.0  # a scheduler that has not answered by then is taken as unreachable
 
@@ -62,6 +63,10 @@ def sweep(
     workers 0 means all local cores. With `scheduler` (a Dask scheduler address) the points run on
     that cluster instead (needs the `cluster` extra: dask[distributed]).
     """
+    check_number("monte_carlo", monte_carlo, **MONTE_CARLO)
+    check_number("workers", workers, **WORKERS)
+    if duration_s is not None:
+        check_number("duration_s", duration_s, **DURATION_S)
     points = sweep_points(scenario, grid or {}, monte_carlo)
     jobs: Iterable = (joblib.delayed(_run_point)(scenario, p, duration_s) for p in points)
     n_jobs = workers or joblib.cpu_count()

@@ -453,3 +453,22 @@ def test_sigterm_finishes_the_logs_like_ctrl_c_and_a_second_writer_is_refused(tm
     assert rrd_last_time_s(rrd) >= mcap_end - 1e-6  # the .rrd is not behind its MCAP
     assert not list(tmp_path.glob(".*.lock"))  # the locks went with the run
     assert math.isfinite(mcap_end)
+
+
+def test_the_python_api_checks_its_numbers_too(tmp_path):
+    from gap.commands import run_diagnose
+    from scenarios.runner import run_scenario
+    from scenarios.sweep import sweep
+
+    s = parse(RIG, "api.toml")
+    for call, needle in [
+        (lambda: run_scenario(s, duration_s=math.nan), "duration_s = nan"),
+        (lambda: run_scenario(s, seed=-1), "seed = -1"),
+        (lambda: sweep(s, monte_carlo=-1), "monte_carlo = -1"),
+        (lambda: sweep(s, workers=2.5), "workers = 2.5"),
+        (lambda: sweep(s, duration_s=-1.0), "duration_s = -1.0"),
+        (lambda: run_diagnose(tmp_path, tmp_path / "out", model_tolerance_deg=math.nan), "model_tolerance_deg = nan"),
+        (lambda: run_diagnose(tmp_path, tmp_path / "out", jobs=0), "jobs = 0"),
+    ]:
+        with pytest.raises(UserError, match=f"^{needle} is not (allowed|a whole number); allowed: "):
+            call()

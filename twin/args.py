@@ -1,26 +1,61 @@
-"""Checked command-line numbers: argparse types that refuse NaN, infinities and values out of
-range before any work, with the flag, the value and what is allowed (argparse adds the flag)."""
+"""Checked numbers from the user: NaN, infinities and values out of range are refused before any
+work with the name, the value and what is allowed. `number` is the argparse `type` for flags
+(argparse adds the flag's name); `check_number` is the same check for the Python API."""
 
 from __future__ import annotations
 
 import argparse
 import math
+import numbers
+
+from twin.errors import UserError
+
+
+def _allowed(low: float, high: float, unit: str, above: bool, integer: bool) -> str:
+    kind = "a whole number" if integer else "a number"
+    u = f" {unit}" if unit else ""
+    return f"{kind} > {low:g}{u} and <= {high:g}{u}" if above else f"{kind} in {low:g}..{high:g}{u}"
+
+
+def _problem(value, low: float, high: float, above: bool, integer: bool) -> str | None:
+    """Why `value` is refused, or None."""
+    if isinstance(value, bool) or not isinstance(value, numbers.Integral if integer else numbers.Real):
+        return "is not a whole number" if integer else "is not a number"
+    if not math.isfinite(value) or value > high or value < low or (above and value == low):
+        return "is not allowed"
+    return None
+
+
+def check_number(name: str, value, low: float, high: float, unit: str = "", *, above: bool = False, integer: bool = False):
+    """`value` if it is a finite number in low..high (`above`: strictly above `low`), else UserError."""
+    problem = _problem(value, low, high, above, integer)
+    if problem:
+        raise UserError(f"{name} = {value!r} {problem}; allowed: {_allowed(low, high, unit, above, integer)}")
+    return value
 
 
 def number(low: float, high: float, unit: str = "", *, above: bool = False, integer: bool = False):
     """An argparse `type` for a finite number in low..high (`above`: strictly above `low`)."""
-    kind = "a whole number" if integer else "a number"
-    u = f" {unit}" if unit else ""
-    allowed = f"{kind} > {low:g}{u} and <= {high:g}{u}" if above else f"{kind} in {low:g}..{high:g}{u}"
 
     def parse(text: str):
         try:
             value = int(text) if integer else float(text)
         except ValueError:
-            raise argparse.ArgumentTypeError(f"{text!r} is not {kind}; allowed: {allowed}") from None
-        if not math.isfinite(value) or value > high or value < low or (above and value == low):
-            raise argparse.ArgumentTypeError(f"{text!r} is not allowed; allowed: {allowed}")
+            value = text
+        problem = _problem(value, low, high, above, integer)
+        if problem:
+            raise argparse.ArgumentTypeError(f"{text!r} {problem}; allowed: {_allowed(low, high, unit, above, integer)}")
         return value
 
     parse.__name__ = "number"  # argparse names the type in some messages
     return parse
+
+
+# The ranges of the numbers a user gives, shared by the command line and the Python API.
+DURATION_S = {"low": 0.0, "high": 7200.0, "unit": "s", "above": True}  # the schema's longest scenario (duration_s)
+CAMERA_FPS = {"low": 0.0, "high": 50.0, "unit": "frames/s"}  # frames come from telemetry samples, 50 a simulated s
+SEED = {"low": 0, "high": 2**63 - 1, "integer": True}  # the schema's seed range
+MONTE_CARLO = {"low": 0, "high": 100_000, "integer": True}  # runs per grid point: a bound against typos
+WORKERS = {"low": 0, "high": 1024, "integer": True}  # 0: all local cores
+JOBS = {"low": 1, "high": 256, "integer": True}
+MODEL_TOLERANCE_DEG = {"low": 0.0, "high": 45.0, "unit": "deg"}  # a tolerance this wide hides any gap worth diagnosing

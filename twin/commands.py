@@ -8,16 +8,12 @@ import json
 import sys
 from pathlib import Path
 
-from twin.args import number
+from twin.args import CAMERA_FPS as CAMERA_FPS_RANGE
+from twin.args import DURATION_S, MONTE_CARLO, SEED, WORKERS, number
 from twin.errors import UserError
 from twin.outputs import OutputLock, check_output, keep_result, publish_folder, write_atomic
 
 CAMERA_FPS = 2.0  # the operator's global-camera view in recordings: "a few frames per second"
-MAX_CAMERA_FPS = 50.0  # frames are taken at telemetry samples, 50 per simulated s (twin.sim.LOG_PERIOD_S)
-MAX_DURATION_S = 7200.0  # the schema's longest scenario (scenarios.schema, duration_s)
-MAX_SEED = 2**63 - 1  # the schema's seed range
-MAX_RUNS = 100_000  # Monte Carlo runs per grid point: a bound against typos, not a physical limit
-MAX_WORKERS = 1024
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -26,18 +22,24 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--json", action="store_true", help="print the summary as JSON on stdout")
     p.add_argument("--rrd", type=Path, help="write a rerun recording here")
     p.add_argument("--mcap", type=Path, help="write an MCAP log here")
-    p.add_argument("--camera-fps", type=number(0.0, MAX_CAMERA_FPS, "frames/s"), default=CAMERA_FPS, metavar="N", help=f"global-camera frames per simulated second in the recording (default {CAMERA_FPS:g}; 0: none; at most the log rate, {MAX_CAMERA_FPS:g})")
-    p.add_argument("--duration", type=number(0.0, MAX_DURATION_S, "s", above=True), metavar="S", help="stop after this many simulated seconds")
-    p.add_argument("--seed", type=number(0, MAX_SEED, integer=True), metavar="N", help="override the scenario's seed")
+    p.add_argument(
+        "--camera-fps", type=number(**CAMERA_FPS_RANGE), default=CAMERA_FPS, metavar="N",
+        help=f"global-camera frames per simulated second in the recording (default {CAMERA_FPS:g}; 0: none; at most the log rate, 50)",
+    )
+    p.add_argument("--duration", type=number(**DURATION_S), metavar="S", help="stop after this many simulated seconds")
+    p.add_argument("--seed", type=number(**SEED), metavar="N", help="override the scenario's seed")
     p.set_defaults(func=cmd_run)
 
     p = sub.add_parser("sweep", help="run a scenario over a grid of field values and/or Monte Carlo seeds")
     p.add_argument("scenario", help="scenario TOML file, or the name of a shipped one")
     p.add_argument("--set", action="append", default=[], metavar="FIELD=V1,V2", help="grid over a scenario field, e.g. supply.pressure_mpa=0.5,0.6,0.7 (repeatable)")
-    p.add_argument("--monte-carlo", type=number(0, MAX_RUNS, integer=True), default=0, metavar="N", help="N runs per grid point with child seeds (default 0: the scenario's own seed only)")
-    p.add_argument("--workers", type=number(0, MAX_WORKERS, integer=True), default=0, metavar="K", help="local worker processes (default 0: all cores)")
+    p.add_argument(
+        "--monte-carlo", type=number(**MONTE_CARLO), default=0, metavar="N",
+        help="N runs per grid point with child seeds (default 0: the scenario's own seed only)",
+    )
+    p.add_argument("--workers", type=number(**WORKERS), default=0, metavar="K", help="local worker processes (default 0: all cores)")
     p.add_argument("--scheduler", metavar="ADDR", help="Dask scheduler address (e.g. tcp://host:8786): run the sweep on that cluster")
-    p.add_argument("--duration", type=number(0.0, MAX_DURATION_S, "s", above=True), metavar="S", help="shorten every run to this many simulated seconds")
+    p.add_argument("--duration", type=number(**DURATION_S), metavar="S", help="shorten every run to this many simulated seconds")
     p.add_argument("--out", type=Path, help="write all summaries to this JSON file (default: print them on stdout)")
     p.set_defaults(func=cmd_sweep)
 
