@@ -69,15 +69,15 @@ def _judge_one(c: Criterion, scenario: Scenario, a: dict, joints, bodies, model,
         return verdicts
     if c.kind in ("final_error_deg", "max_error_deg"):
         targets = a["target_angle_rad"]
-        last_asked = {j: v for t in (requested or []) for j, v in t.items()}
+        last_asked = {j: v for target in (requested or []) for j, v in target.items()}
         chosen = [c.joint] if c.joint else [j for i, j in enumerate(joints) if np.isfinite(targets[:, i]).any() or j in last_asked]
         verdicts = []
         for joint in chosen:
             i = joints.index(joint)
             err = np.abs(_deg(a["true_angle_rad"][:, i] - targets[:, i]))
-            if c.kind == "final_error_deg" and requested is not None:
-                value = float(_deg(abs(a["true_angle_rad"][-1, i] - last_asked[joint]))) if joint in last_asked else math.nan
-            elif c.kind == "final_error_deg":
+            if c.kind == "final_error_deg" and joint in last_asked:
+                value = float(_deg(abs(a["true_angle_rad"][-1, i] - last_asked[joint])))
+            elif c.kind == "final_error_deg":  # a joint no target named: held where the controller held it
                 finite = np.flatnonzero(np.isfinite(targets[:, i]))
                 value = float(_deg(abs(a["true_angle_rad"][-1, i] - targets[finite[-1], i]))) if finite.size else math.nan
             else:

@@ -39,14 +39,18 @@ def _same(a: Path, b: Path) -> bool:
         return False
 
 
-def check_output(path: Path, flag: str, *, folder: bool = False, inputs: Iterable[Path] = (), others: dict[str, Path] | None = None) -> None:
+def check_output(
+    path: Path, flag: str, *, folder: bool = False, inputs: Iterable[Path] = (), others: dict[str, Path] | None = None
+) -> None:
     """Refuse an output place before any work: it must differ from every input and from the other
     outputs (`others`: flag -> path), be of the right kind (file or folder) and be writable, which
     is tried by creating its folder and a scratch file in it. UserError names the flag and path."""
     path = Path(path)
     for inp in inputs:
         if inp is not None and _same(path, inp):
-            raise UserError(f"{flag} {path}: is an input of this command ({inp}); allowed: a place that is not one of its inputs")
+            raise UserError(
+                f"{flag} {path}: is an input of this command ({inp}); allowed: a place that is not one of its inputs"
+            )
     for other_flag, other in (others or {}).items():
         if other is not None and _same(path, other):
             raise UserError(f"{flag} {path}: is also {other_flag}; allowed: a different file for each output")
@@ -67,7 +71,9 @@ def check_output(path: Path, flag: str, *, folder: bool = False, inputs: Iterabl
         os.close(fd)
         os.unlink(probe)
     except OSError as e:
-        raise UserError(f"{flag} {path}: cannot write in {directory} ({e.strerror}); allowed: a path in a writable folder") from None
+        raise UserError(
+            f"{flag} {path}: cannot write in {directory} ({e.strerror}); allowed: a path in a writable folder"
+        ) from None
 
 
 def write_atomic(path: Path, data: str | bytes) -> None:
@@ -121,7 +127,8 @@ def keep_result(path: Path, write: Callable[[Path], object], what: str) -> Path:
             continue
         print(f"twin: could not write {what} to {path} ({reason}); saved them to {place} instead", file=sys.stderr)
         return place
-    raise UserError(f"{path}: could not write {what} ({reason}), nor in any fallback place ({', '.join(map(str, fallback_places(path)))})")
+    tried = ", ".join(map(str, fallback_places(path)))
+    raise UserError(f"{path}: could not write {what} ({reason}), nor in any fallback place ({tried})")
 
 
 class OutputLock:
@@ -156,7 +163,9 @@ class OutputLock:
             except OSError as e:
                 os.close(fd)
                 if e.errno in (errno.EWOULDBLOCK, errno.EAGAIN):
-                    raise UserError(f"{path}: another run is writing this file now; allowed: a file no other run is writing") from None
+                    raise UserError(
+                        f"{path}: another run is writing this file now; allowed: a file no other run is writing"
+                    ) from None
                 raise
             try:
                 same = os.stat(lock).st_ino == os.fstat(fd).st_ino
@@ -190,7 +199,11 @@ def publish_folder(out: Path, work: Callable[[Path], object], what: str):
     out = Path(out)
     out.parent.mkdir(parents=True, exist_ok=True)
     staging = Path(tempfile.mkdtemp(prefix=f".{out.name}.partial-", dir=out.parent))
-    result = work(staging)
+    try:
+        result = work(staging)
+    except BaseException:  # the work failed or was stopped: nothing finished to keep
+        shutil.rmtree(staging, ignore_errors=True)
+        raise
     try:
         out.mkdir(parents=True, exist_ok=True)
         for entry in sorted(staging.iterdir()):
