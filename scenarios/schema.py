@@ -363,7 +363,7 @@ def parse_doc(doc: dict, path: str, text: str, overrides: dict | None = None) ->
         overrides=dict(overrides or {}),
     )
     if not doc:
-        raise ScenarioError(f"{path}: an empty scenario; allowed: a file with at least name, model, duration_s and what to do (see scenarios/*.toml)")
+        raise ScenarioError(f"{path}: an empty scenario (no field at all); allowed: a file that says what to run (see the shipped scenarios/*.toml)")
     check_against_model(scenario)
     return scenario
 
