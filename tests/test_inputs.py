@@ -362,11 +362,20 @@ def test_a_log_that_fails_at_the_end_costs_neither_the_summary_nor_the_other_log
     assert err.strip().endswith("No space left on device")
 
 
+def current_umask() -> int:
+    mask = os.umask(0o022)
+    os.umask(mask)
+    return mask
+
+
 def test_atomic_writes_leave_no_half_file(tmp_path):
     f = tmp_path / "r.json"
     write_atomic(f, "old")
+    assert f.stat().st_mode & 0o777 == 0o666 & ~current_umask()  # a result file, not a secret
+    f.chmod(0o640)
     write_atomic(f, b"new")
     assert f.read_text() == "new" and [p.name for p in tmp_path.iterdir()] == ["r.json"]
+    assert f.stat().st_mode & 0o777 == 0o640  # the file it replaces keeps its mode
     d = tmp_path / "d"
     d.mkdir()
     with pytest.raises(OSError):
