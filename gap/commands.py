@@ -10,7 +10,7 @@ from twin.outputs import OutputLock, check_output, publish_folder
 
 def register(subparsers) -> None:
     p = subparsers.add_parser("gap", help="sim-to-real gap diagnosis")
-    sub = p.add_subparsers(dest="gap_command", required=True, metavar="COMMAND")
+    sub = p.add_subparsers(dest="gap_command", required=True, metavar="COMMAND", help="diagnose a campaign, or check the diagnosis blind")
     d = sub.add_parser("diagnose", help="diagnose a calibration campaign into DIR (diagnosis.json, report.md, PNG plots)")
     d.add_argument("campaign", help="folder with campaign.toml and the run files")
     d.add_argument("--out", required=True, metavar="DIR", help="output folder (made if missing; not the campaign's own folder)")

@@ -7,6 +7,7 @@ README, "What is checked", lists each class; each has a test here."""
 
 from __future__ import annotations
 
+import argparse
 import json
 import math
 import os
@@ -97,7 +98,10 @@ def test_an_unreachable_scheduler_is_refused_before_any_run(tmp_path, monkeypatc
 def test_every_argument_has_help_and_there_is_a_version(capsys):
     def walk(parser, where):
         for action in parser._actions:
-            if isinstance(action, __import__("argparse")._SubParsersAction):
+            if isinstance(action, argparse._SubParsersAction):
+                assert action.help, f"{where}: its subcommands have no help"
+                for choice in action._choices_actions:
+                    assert choice.help, f"{where} {choice.dest}: no help"
                 for name, sub in action.choices.items():
                     walk(sub, f"{where} {name}")
             elif action.dest != "help":
