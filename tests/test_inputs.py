@@ -15,6 +15,7 @@ import shutil
 import signal
 import subprocess
 import sys
+import time
 import warnings
 from pathlib import Path
 
@@ -485,3 +486,23 @@ def test_the_python_api_checks_its_numbers_too(tmp_path):
     ]:
         with pytest.raises(UserError, match=f"^{needle} is not (allowed|a whole number); allowed: "):
             call()
+
+
+def test_closing_logs_is_not_cut_short_by_a_signal():
+    """A signal that arrives while logs are being closed waits until they are closed."""
+    from twin.errors import Terminated
+    from twin.signals import shielded, stop_on_sigterm
+
+    finished = []
+    with stop_on_sigterm():
+        with pytest.raises(Terminated):
+            with shielded():
+                os.kill(os.getpid(), signal.SIGTERM)
+                time.sleep(0.05)  # the handler has run by now
+                finished.append(True)
+        with pytest.raises(KeyboardInterrupt):
+            with shielded():
+                os.kill(os.getpid(), signal.SIGINT)
+                time.sleep(0.05)
+                finished.append(True)
+    assert finished == [True, True]

@@ -17,6 +17,7 @@ from importlib import metadata
 
 from pneumatics import ParameterError
 from twin.errors import Terminated, UserError
+from twin.signals import stop_on_sigterm
 
 # modules that define `register(subparsers)`; missing ones are skipped so the CLI still starts
 COMMAND_MODULES = ("twin.commands", "twin.log_commands", "gap.commands")
@@ -52,18 +53,12 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-def _terminate(signum, frame) -> None:
-    """SIGTERM: stop the run like Ctrl-C. Further SIGTERMs are ignored while the logs finish."""
-    signal.signal(signal.SIGTERM, signal.SIG_IGN)
-    raise Terminated(signum)
-
-
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
-    previous = signal.signal(signal.SIGTERM, _terminate)
     try:
-        return int(args.func(args) or 0)
+        with stop_on_sigterm():
+            return int(args.func(args) or 0)
     except (UserError, ParameterError) as e:
         print(f"twin: error: {e}", file=sys.stderr)
         return 2
@@ -73,8 +68,6 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("twin: interrupted; the logs written so far are kept", file=sys.stderr)
         return 130
-    finally:
-        signal.signal(signal.SIGTERM, previous)
 
 
 if __name__ == "__main__":

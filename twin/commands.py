@@ -12,6 +12,7 @@ from twin.args import CAMERA_FPS as CAMERA_FPS_RANGE
 from twin.args import DURATION_S, MONTE_CARLO, SEED, WORKERS, number
 from twin.errors import UserError
 from twin.outputs import OutputLock, check_output, keep_result, publish_folder, write_atomic
+from twin.signals import shielded
 
 CAMERA_FPS = 2.0  # the operator's global-camera view in recordings: "a few frames per second"
 
@@ -86,14 +87,15 @@ def cmd_run(args) -> int:
 
 
 def close_all(recorders) -> list[str]:
-    """Close every recorder, also when one fails (a full disk, a vanished folder): the others
-    still finish their files. Returns what failed, for after the run's summary."""
+    """Close every recorder, also when one fails (a full disk, a vanished folder) or a signal
+    arrives: the others still finish their files. Returns what failed, for after the summary."""
     errors = []
-    for r in recorders:
-        try:
-            r.close()
-        except (UserError, OSError) as e:
-            errors.append(str(e))
+    with shielded():  # Ctrl-C or SIGTERM now would cut the very files it asks to keep
+        for r in recorders:
+            try:
+                r.close()
+            except (UserError, OSError) as e:
+                errors.append(str(e))
     return errors
 
 
