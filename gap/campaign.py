@@ -216,7 +216,8 @@ def load_campaign(folder: str | Path) -> Campaign:
         _unknown_keys(where, r, RUN_KEYS, "")
         f = r.get("file")
         if not isinstance(f, str):
-            raise GapError(f"{where}: file is missing; allowed: the name of a run file in {folder}")
+            got = "file is missing" if f is None else f"file = {f!r}"
+            raise GapError(f"{where}: {got}; allowed: the name of a run file in {folder}")
         supply = _number(where, r, "supply_mpa", 0.0, 2.0, "MPa gauge")
         start = r.get("start_deg")
         if not isinstance(start, dict) or joint not in start:

@@ -14,7 +14,8 @@ from twin.errors import UserError
 def _allowed(low: float, high: float, unit: str, above: bool, integer: bool) -> str:
     kind = "a whole number" if integer else "a number"
     u = f" {unit}" if unit else ""
-    return f"{kind} > {low:g}{u} and <= {high:g}{u}" if above else f"{kind} in {low:g}..{high:g}{u}"
+    lo, hi = (str(int(low)), str(int(high))) if integer else (f"{low:g}", f"{high:g}")
+    return f"{kind} > {lo}{u} and <= {hi}{u}" if above else f"{kind} in {lo}..{hi}{u}"
 
 
 def _problem(value, low: float, high: float, above: bool, integer: bool) -> str | None:
