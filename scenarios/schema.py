@@ -249,6 +249,8 @@ def with_overrides(scenario: Scenario, overrides: dict[str, object]) -> Scenario
 
 def parse_doc(doc: dict, path: str, text: str, overrides: dict | None = None) -> Scenario:
     """A Scenario from an already-parsed TOML document (see `parse`)."""
+    if not doc:
+        raise ScenarioError(f"{path}: an empty scenario (no field at all); allowed: a file that says what to run (see the shipped scenarios/*.toml)")
     top = _Reader(path, doc, "", {"name", "description", "model", "seed", "duration_s", "start", "payload", "supply", "reality", "predictor", "control", "targets", "faults", "criteria"})
     model = top.choice("model", "arm", ("arm", "wrist_rig"))
     joints = ("wrist_pitch",) if model == "wrist_rig" else JOINTS
@@ -362,8 +364,6 @@ def parse_doc(doc: dict, path: str, text: str, overrides: dict | None = None) ->
         text=text,
         overrides=dict(overrides or {}),
     )
-    if not doc:
-        raise ScenarioError(f"{path}: an empty scenario (no field at all); allowed: a file that says what to run (see the shipped scenarios/*.toml)")
     check_against_model(scenario)
     return scenario
 
@@ -375,7 +375,7 @@ def _hose_bore_m2(joint: str) -> float:
 def _needs_a_plan(cr: "_Reader", kind: str, joint: str, targets: list[Target], control: Control) -> None:
     """A criterion judged against targets or a prediction needs them: without, it would pass on nothing."""
     if control.mode == "none":
-        cr.fail("kind", kind, f"a criterion that holds without a controller (control.mode = 'none' moves nothing, predicts nothing): max_travel_deg, max_drop_m, ...")
+        cr.fail("kind", kind, "a criterion that holds without a controller (control.mode = 'none' moves nothing, predicts nothing): max_travel_deg, max_drop_m, ...")
     if kind not in TARGET_CRITERIA:
         return
     targeted = {j for t in targets for j in (JOINTS if t.brush_at_disc else t.angles_deg)}
