@@ -87,6 +87,15 @@ def closed_vs_open_loop(make_plant: Callable[[], object], angles_deg=(20, 40, 60
     return out
 
 
+def error_against_pressure(make_plant: Callable[[], object], pressures_mpa=(0.5, 0.6, 0.7, 0.8), angles_deg=(30, 60, 90), predictor_params: JointParams | None = None) -> dict[float, list[float]]:
+    """Paper Fig. 20: {supply MPa: [closed-loop |final error| of a move to each angle, deg]}, the
+    wrist rig moved from 0 at each constant supply, the truth read from a fresh plant per move."""
+    return {
+        mpa: [abs(run_move(a, "closed_loop", make_plant(), predictor_params, mpa * 1e6)[0] - a) for a in angles_deg]
+        for mpa in pressures_mpa
+    }
+
+
 def random_supply_moves(make_plant: Callable[[], object], predictor_params: JointParams | None = None, targets_deg=(45.0, 0.0, -45.0, 0.0), seed: int = 7, max_s_each: float = 6.0) -> tuple[list[float], float]:
     """Paper Fig. 18-19: the wrist moved through `targets_deg` under a supply jumping at random
     every 0.5 s (mean 0.6 MPa, variance 5e9 Pa^2). Returns (|final error| of each move in deg, the
