@@ -23,6 +23,13 @@ def write_plots(r: dict, series: dict, out: Path) -> None:
         fig.savefig(out / name, dpi=100)
         plt.close(fig)
 
+    def finish(fig, ax, xlabel: str, ylabel: str, title: str, name: str) -> None:
+        ax.set_xlabel(xlabel)
+        ax.set_ylabel(ylabel)
+        ax.set_title(title, fontsize=10)
+        ax.legend(fontsize=7)
+        save(fig, name)
+
     mpas = sorted(series)
     fig, axes = plt.subplots(1, len(mpas), figsize=(3.2 * len(mpas), 3.2), sharey=True)
     for ax, m in zip(axes, mpas):
@@ -69,11 +76,7 @@ def write_plots(r: dict, series: dict, out: Path) -> None:
     ax.plot(ps, [sp[m]["as_built_peak_deg_s"] for m in ps], "k^:", label="as-built plant, peak")
     ax.plot(ps, [sp[m]["nominal_mean_deg_s"] for m in ps], "s-", label="nominal model, mean over 0.5-1 s")
     ax.axhline(r["prediction_error"]["max_power_joint_deg_s"], color="r", ls="--", label="motor at max power (6000 rpm / 120)")
-    ax.set_xlabel("supply pressure, MPa (gauge)")
-    ax.set_ylabel("joint speed, deg/s")
-    ax.set_title("Wrist speed against supply, valve fully open", fontsize=10)
-    ax.legend(fontsize=7)
-    save(fig, "speed_vs_supply.png")
+    finish(fig, ax, "supply pressure, MPa (gauge)", "joint speed, deg/s", "Wrist speed against supply, valve fully open", "speed_vs_supply.png")
 
     co = r["closed_vs_open_loop"]
     fig, ax = plt.subplots(figsize=(6, 3.5))
@@ -81,22 +84,14 @@ def write_plots(r: dict, series: dict, out: Path) -> None:
     ax.plot(co["angles_deg"], co["open_loop_error_deg"], "s-", label="twin, open loop")
     for (lo, hi), label in ((co["paper_closed_loop_range_deg"], "paper, closed"), (co["paper_open_loop_range_deg"], "paper, open")):
         ax.axhspan(lo, hi, alpha=0.15, label=f"{label} ({lo}-{hi} deg)")
-    ax.set_xlabel("commanded rotation, deg")
-    ax.set_ylabel("|final error|, deg")
-    ax.set_title("Fig. 23: closed against open loop at 0.5 MPa", fontsize=10)
-    ax.legend(fontsize=7)
-    save(fig, "closed_vs_open_loop.png")
+    finish(fig, ax, "commanded rotation, deg", "|final error|, deg", "Fig. 23: closed against open loop at 0.5 MPa", "closed_vs_open_loop.png")
 
     ep = r["error_vs_pressure"]
     fig, ax = plt.subplots(figsize=(6, 3.5))
     ax.plot(ep["pressures_mpa"], ep["mean_error_deg"], "o-", label=f"twin, mean over {ep['angles_deg']} deg moves")
     ax.plot(ep["pressures_mpa"], ep["max_error_deg"], "^:", label="twin, max")
     ax.axhline(ep["paper_bound_at_05_deg"], color="r", ls="--", label="paper: within 3 deg at 0.5 MPa")
-    ax.set_xlabel("supply pressure, MPa (gauge)")
-    ax.set_ylabel("closed-loop |final error|, deg")
-    ax.set_title("Fig. 20: control error against supply", fontsize=10)
-    ax.legend(fontsize=7)
-    save(fig, "error_vs_pressure.png")
+    finish(fig, ax, "supply pressure, MPa (gauge)", "closed-loop |final error|, deg", "Fig. 20: control error against supply", "error_vs_pressure.png")
 
 
 def write_report(r: dict, out: Path) -> Path:

@@ -19,15 +19,9 @@ from scenarios.runner import build_plant, reality_params
 from scenarios.schema import ScenarioError, joint_params_for, parse
 
 RIG = """
-name = "t"
 model = "wrist_rig"
-duration_s = 0.2
-[start]
-pose = "zero"
-[control]
-mode = "closed_loop"
-[[targets]]
-angles_deg = { wrist_pitch = 30.0 }
+start = { pose = "zero" }
+targets = [{ angles_deg = { wrist_pitch = 30.0 } }]
 """
 
 
