@@ -57,7 +57,7 @@ def load_as_built_effects(path: str | Path) -> tuple[AsBuiltEffect, ...]:
             raise ParameterError(f"{where} source = {source!r}; allowed: {' | '.join(SOURCES)}")
         basis = table.get("basis", "")
         if not isinstance(basis, str) or not basis:
-            raise ParameterError(f"{where} basis = {basis!r}; allowed: a non-empty string saying where the number comes from")
+            raise ParameterError(f"{where} basis = {basis!r}; allowed: a non-empty string: where the number comes from")
         out.append(AsBuiltEffect(field, check_value(str(path), field, table["value"]), source, basis))
     return tuple(out)
 

@@ -62,18 +62,24 @@ def prediction_validation() -> tuple[dict, dict]:
         errors[m] = {k: {**e[k], "paper_mean": PAPER[k]["mean"][m], "paper_max": PAPER[k]["max"][m]} for k in KINDS}
         errors[m]["predictor_gap_mean_deg"] = float(gap.mean())
         errors[m]["paper_gap_bound_deg"] = PAPER["with_hose_loss"]["mean"][m] + PAPER["without_hose_loss"]["mean"][m]
-        series[m] = {"time_s": r.time_s.tolist(), "measured_deg": r.measured_deg.tolist(), **{k: r.predicted_deg[k].tolist() for k in KINDS}}
+        series[m] = {"time_s": r.time_s.tolist(), "measured_deg": r.measured_deg.tolist()}
+        series[m] |= {k: r.predicted_deg[k].tolist() for k in KINDS}
     speed = {}
     for m, r in runs.items():
         real = _speeds(r.time_s, r.measured_deg)
         nom = _speeds(r.time_s, r.predicted_deg["with_hose_loss"])
-        speed[m] = {"as_built_mean_deg_s": real[0], "as_built_peak_deg_s": real[1], "nominal_mean_deg_s": nom[0], "nominal_peak_deg_s": nom[1],
-                    "turn_in_1s_deg": float(np.interp(OPEN_S, r.time_s, r.measured_deg))}
+        speed[m] = {
+            "as_built_mean_deg_s": real[0], "as_built_peak_deg_s": real[1],
+            "nominal_mean_deg_s": nom[0], "nominal_peak_deg_s": nom[1],
+            "turn_in_1s_deg": float(np.interp(OPEN_S, r.time_s, r.measured_deg)),
+        }
     by_falling = [errors[m][k]["mean"] for k in ("without_hose_loss",) for m in sorted(PRESSURES_MPA, reverse=True)]
     results = {
         "errors": errors,
         "without_grows_as_pressure_falls": all(b > a for a, b in zip(by_falling, by_falling[1:])),
-        "with_smaller_than_without_everywhere": all(errors[m]["with_hose_loss"]["mean"] < errors[m]["without_hose_loss"]["mean"] for m in PRESSURES_MPA),
+        "with_smaller_than_without_everywhere": all(
+            errors[m]["with_hose_loss"]["mean"] < errors[m]["without_hose_loss"]["mean"] for m in PRESSURES_MPA
+        ),
         "speed_against_supply": speed,
         "max_power_joint_deg_s": MAX_POWER_JOINT_DEG_S,
     }
@@ -95,8 +101,10 @@ def random_supply(quick: bool) -> dict:
     nominal, reality = wrist_models()
     targets = (45.0, 0.0, -45.0, 0.0) * (1 if quick else 2)
     errors, t = random_supply_moves(_rig_factory(reality), nominal, targets_deg=targets, seed=7)
-    return {"max_error_deg": max(errors), "final_errors_deg": errors, "duration_s": t, "paper_max_error_deg": PAPER_RANDOM_SUPPLY_MAX_DEG,
-            "paper_manual_mean_deg": PAPER_MANUAL_DEG}
+    return {
+        "max_error_deg": max(errors), "final_errors_deg": errors, "duration_s": t,
+        "paper_max_error_deg": PAPER_RANDOM_SUPPLY_MAX_DEG, "paper_manual_mean_deg": PAPER_MANUAL_DEG,
+    }
 
 
 def closed_against_open(quick: bool) -> dict:
@@ -146,8 +154,11 @@ def minimum_rotation(quick: bool) -> dict:
 def as_built_table() -> list[dict]:
     """The as-built wrist's effects (field, nominal, as-built, source, basis) for the report."""
     nominal, _ = wrist_models()
-    return [{"field": e.field, "nominal": getattr(nominal, e.field), "as_built": e.value, "source": e.source, "basis": e.basis}
-            for e in load_as_built_effects(assets.as_built_path("wrist_pitch"))]
+    return [
+        {"field": e.field, "nominal": getattr(nominal, e.field), "as_built": e.value, "source": e.source,
+         "basis": e.basis}
+        for e in load_as_built_effects(assets.as_built_path("wrist_pitch"))
+    ]
 
 
 def reproduce(out_dir: str | Path, quick: bool = False) -> Path:

@@ -154,7 +154,7 @@ def write_report(r: dict, out: Path) -> Path:
     lines += [
         "",
         f"deg/s; the motor's maximum-power point (6000 rpm, paper Sec. III-B) is {pv['max_power_joint_deg_s']:.0f} deg/s at the joint "
-        "through 1:120. The exhaust throttle (0.8 mm^2) holds the joint well below it (README, \"Joint speed\").",
+        "through 1:120. The exhaust throttle (0.8 mm^2) holds the joint's steady speed well below it (README, \"Joint speed against supply\").",
         "",
         "![speed against supply](speed_vs_supply.png)",
         "",

@@ -36,8 +36,14 @@ KINDS = ("with_hose_loss", "without_hose_loss")
 
 # the paper's numbers, Sec. III-C (supply MPa -> deg); "about 40" is the text's own rounding
 PAPER = {
-    "with_hose_loss": {"mean": {0.8: 1.2, 0.7: 2.0, 0.6: 2.2, 0.5: 5.4}, "max": {0.8: 3.3, 0.7: 4.1, 0.6: 4.3, 0.5: 7.9}},
-    "without_hose_loss": {"mean": {0.8: 3.2, 0.7: 13.4, 0.6: 14.3, 0.5: 22.2}, "max": {0.8: 6.1, 0.7: 22.3, 0.6: 27.2, 0.5: 40.0}},
+    "with_hose_loss": {
+        "mean": {0.8: 1.2, 0.7: 2.0, 0.6: 2.2, 0.5: 5.4},
+        "max": {0.8: 3.3, 0.7: 4.1, 0.6: 4.3, 0.5: 7.9},
+    },
+    "without_hose_loss": {
+        "mean": {0.8: 3.2, 0.7: 13.4, 0.6: 14.3, 0.5: 22.2},
+        "max": {0.8: 6.1, 0.7: 22.3, 0.6: 27.2, 0.5: 40.0},
+    },
 }
 
 
@@ -79,16 +85,21 @@ class ValidationRun:
 def _commands(mpa: float, k_u: float) -> dict[str, np.ndarray]:
     t = np.round(np.arange(0.0, MOTION.total_s() + 1e-9, DT_S), 6)
     d, u, b = MOTION.commands(t, mpa * 1e6, k_u)
-    return {"time_s": t, "direction": d, "valve_set_gauge_pa": u, "brake_released": b, "supply_pa": np.full(t.shape, 101_325.0 + mpa * 1e6)}
+    supply = np.full(t.shape, 101_325.0 + mpa * 1e6)
+    return {"time_s": t, "direction": d, "valve_set_gauge_pa": u, "brake_released": b, "supply_pa": supply}
 
 
 def _replay(params: JointParams, cmd: dict[str, np.ndarray], inertia: float) -> tuple[np.ndarray, np.ndarray]:
-    t, th, *_ = replay_run(params_row(params), cmd["time_s"], cmd["direction"], cmd["valve_set_gauge_pa"], cmd["brake_released"],
-                           cmd["supply_pa"], False, math.radians(START_DEG), inertia, 0.0, MOTION.total_s(), DT_S)
+    t, th, *_ = replay_run(
+        params_row(params), cmd["time_s"], cmd["direction"], cmd["valve_set_gauge_pa"], cmd["brake_released"],
+        cmd["supply_pa"], False, math.radians(START_DEG), inertia, 0.0, MOTION.total_s(), DT_S,
+    )
     return t, np.degrees(th) - START_DEG
 
 
-def validation_run(reality: JointParams, nominal: JointParams, mpa: float, inertia: float, plant: bool = True) -> ValidationRun:
+def validation_run(
+    reality: JointParams, nominal: JointParams, mpa: float, inertia: float, plant: bool = True
+) -> ValidationRun:
     """The protocol at one supply: reality measured (the MuJoCo plant, or with `plant` False the
     one-joint model), both predictions from the same commands."""
     if plant:
@@ -135,10 +146,14 @@ PRIOR_LOG_SIGMA = 0.5
 
 
 def prior(point: dict[str, float], nominal: JointParams) -> float:
-    return sum((math.log(v / getattr(nominal, f)) / PRIOR_LOG_SIGMA) ** 2 for f, v in point.items() if getattr(nominal, f) > 0 and v > 0)
+    logs = [math.log(v / getattr(nominal, f)) for f, v in point.items() if getattr(nominal, f) > 0 and v > 0]
+    return sum((x / PRIOR_LOG_SIGMA) ** 2 for x in logs)
 
 
-def fit_as_built(grid: dict[str, tuple[float, ...]] = FIT_GRID) -> tuple[dict[str, float], float, list[tuple[dict[str, float], float]]]:
+Point = dict[str, float]
+
+
+def fit_as_built(grid: dict[str, tuple[float, ...]] = FIT_GRID) -> tuple[Point, float, list[tuple[Point, float]]]:
     """Grid search of the calibrated as-built effects on the validation figures: (best values,
     its score = misfit + prior, every point with its score). The as-built file's other effects
     stay as it has them."""
