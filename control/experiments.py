@@ -96,10 +96,11 @@ def error_against_pressure(make_plant: Callable[[], object], pressures_mpa=(0.5,
     }
 
 
-def random_supply_moves(make_plant: Callable[[], object], predictor_params: JointParams | None = None, targets_deg=(45.0, 0.0, -45.0, 0.0), seed: int = 7, max_s_each: float = 6.0) -> tuple[list[float], float]:
+def random_supply_moves(make_plant: Callable[[], object], predictor_params: JointParams | None = None, targets_deg=(45.0, 0.0, -45.0, 0.0), seed: int = 7, max_s_each: float = 6.0, end_times_s: list[float] | None = None) -> tuple[list[float], float]:
     """Paper Fig. 18-19: the wrist moved through `targets_deg` under a supply jumping at random
     every 0.5 s (mean 0.6 MPa, variance 5e9 Pa^2). Returns (|final error| of each move in deg, the
-    simulated time); a move that faults raises RuntimeError with the controller's events."""
+    simulated time); each move's end time is appended to `end_times_s` if given. A move that
+    faults raises RuntimeError with the controller's events."""
     plant = make_plant()
     c = ArmController({"wrist_pitch": 0.0}, assets.WRIST_RIG_XML,
                       predictor_params=None if predictor_params is None else {"wrist_pitch": predictor_params})
@@ -112,6 +113,8 @@ def random_supply_moves(make_plant: Callable[[], object], predictor_params: Join
         if c.faulted or not c.done:
             raise RuntimeError(f"move to {target} deg under random supply failed: {c.events[-3:]}")
         errors.append(abs(math.degrees(plant.drive_angles()[0]) - target))
+        if end_times_s is not None:
+            end_times_s.append(t)
     return errors, t
 
 

@@ -21,7 +21,13 @@ from pathlib import Path
 import numpy as np
 
 import assets
-from control.experiments import closed_vs_open_loop, error_against_pressure, minimum_rotation_limit, random_supply_moves
+from control.experiments import (
+    closed_vs_open_loop,
+    error_against_pressure,
+    minimum_rotation_limit,
+    random_supply,
+    random_supply_moves,
+)
 from pneumatics.as_built import load_as_built_effects
 from scenarios.paper_validation import KINDS, OPEN_S, PAPER, PRESSURES_MPA, rig_inertia, validation_run, wrist_models
 from twin.plant import Plant
@@ -38,6 +44,7 @@ PAPER_FIG20_AT_05_DEG = 3.0  # Fig. 20: "limited to the range of -3 ~ 3 deg unde
 # the motor's maximum-power speed (Sec. III-B: 1UP-NRV-3A, 6000 rpm) at the joint through 1:120
 MAX_POWER_JOINT_DEG_S = 6000.0 / 60.0 * 360.0 / 120.0
 SPEED_PRESSURES_MPA = (0.3, 0.4) + PRESSURES_MPA
+RANDOM_SUPPLY_SEED = 7
 
 
 def _speeds(t: np.ndarray, angle_deg: np.ndarray) -> tuple[float, float]:
@@ -95,13 +102,17 @@ def _rig_factory(reality):
     return make
 
 
-def random_supply(quick: bool) -> dict:
+def random_supply_run(quick: bool) -> dict:
     """Fig. 18-19: the wrist moved 0 -> 45 -> 0 -> -45 -> 0 deg (twice in full) under a random
     supply; the largest final error of a move."""
     nominal, reality = wrist_models()
     targets = (45.0, 0.0, -45.0, 0.0) * (1 if quick else 2)
-    errors, t = random_supply_moves(_rig_factory(reality), nominal, targets_deg=targets, seed=7)
+    ends: list[float] = []
+    errors, t = random_supply_moves(_rig_factory(reality), nominal, targets_deg=targets, seed=RANDOM_SUPPLY_SEED, end_times_s=ends)
+    supply = random_supply(RANDOM_SUPPLY_SEED)  # the same draws the run saw
+    times = np.arange(0.0, t, 0.5)
     return {
+        "move_end_s": ends, "supply_time_s": times.tolist(), "supply_gauge_mpa": [(supply(x) - P_ATM_PA) / 1e6 for x in times],
         "max_error_deg": max(errors), "final_errors_deg": errors, "duration_s": t,
         "paper_max_error_deg": PAPER_RANDOM_SUPPLY_MAX_DEG, "paper_manual_mean_deg": PAPER_MANUAL_DEG,
     }
@@ -172,7 +183,7 @@ def reproduce(out_dir: str | Path, quick: bool = False) -> Path:
     results = {
         "as_built": as_built_table(),
         "prediction_error": validation,
-        "random_supply": random_supply(quick),
+        "random_supply": random_supply_run(quick),
         "minimum_rotation": minimum_rotation(quick),
         "closed_vs_open_loop": closed_against_open(quick),
         "error_vs_pressure": error_vs_pressure(quick),

@@ -78,6 +78,15 @@ def write_plots(r: dict, series: dict, out: Path) -> None:
     ax.axhline(r["prediction_error"]["max_power_joint_deg_s"], color="r", ls="--", label="motor at max power (6000 rpm / 120)")
     finish(fig, ax, "supply pressure, MPa (gauge)", "joint speed, deg/s", "Wrist speed against supply, valve fully open", "speed_vs_supply.png")
 
+    rs = r["random_supply"]
+    fig, (top, bottom) = plt.subplots(2, 1, figsize=(6, 4.5), sharex=True)
+    top.step(rs["supply_time_s"], rs["supply_gauge_mpa"], where="post")
+    top.set_ylabel("supply, MPa (gauge)")
+    top.set_title("Fig. 18-19: random supply (0.5 s each) and the final error of each move", fontsize=10)
+    bottom.plot(rs["move_end_s"], rs["final_errors_deg"], "o", label="twin, |final error| of a move")
+    bottom.axhline(rs["paper_max_error_deg"], color="r", ls="--", label="paper, max 4.33 deg")
+    finish(fig, bottom, "time, s", "|final error|, deg", "", "random_supply.png")
+
     co = r["closed_vs_open_loop"]
     fig, ax = plt.subplots(figsize=(6, 3.5))
     ax.plot(co["angles_deg"], co["closed_loop_error_deg"], "o-", label="twin, closed loop")
@@ -166,6 +175,8 @@ def write_report(r: dict, out: Path) -> Path:
         f"Largest final error of {len(rs['final_errors_deg'])} moves (0, 45, 0, -45, 0 deg) over {rs['duration_s']:.0f} s under a "
         f"supply drawn every 0.5 s (mean 0.6 MPa, variance 5e9 Pa^2): twin {rs['max_error_deg']:.2f} deg, paper "
         f"{rs['paper_max_error_deg']} deg (manual operation {rs['paper_manual_mean_deg']} deg on average).",
+        "",
+        "![random supply](random_supply.png)",
         "",
         "## Minimum rotation, Fig. 21",
         "",

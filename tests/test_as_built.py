@@ -201,5 +201,6 @@ def test_twin_paper_quick_writes_every_figure_with_the_papers_numbers(tmp_path):
     assert len(r["error_vs_pressure"]["pressures_mpa"]) == 2
     report = (tmp_path / "report.md").read_text()
     assert f"({pe['0.5']['without_hose_loss']['paper_max']})" in report and "calibrated" in report
-    for name in ("validation_timeseries", "prediction_error", "error_vs_angle", "speed_vs_supply", "closed_vs_open_loop", "error_vs_pressure"):
+    for name in ("validation_timeseries", "prediction_error", "error_vs_angle", "speed_vs_supply", "random_supply",
+                 "closed_vs_open_loop", "error_vs_pressure"):
         assert (tmp_path / f"{name}.png").stat().st_size > 10_000, name
