@@ -80,10 +80,14 @@ def prediction_validation() -> tuple[dict, dict]:
             "nominal_mean_deg_s": nom[0], "nominal_peak_deg_s": nom[1],
             "turn_in_1s_deg": float(np.interp(OPEN_S, r.time_s, r.measured_deg)),
         }
-    by_falling = [errors[m][k]["mean"] for k in ("without_hose_loss",) for m in sorted(PRESSURES_MPA, reverse=True)]
+    def grows_as_pressure_falls(kind: str) -> bool:
+        by_falling = [errors[m][kind]["mean"] for m in sorted(PRESSURES_MPA, reverse=True)]
+        return all(b > a for a, b in zip(by_falling, by_falling[1:]))
+
     results = {
         "errors": errors,
-        "without_grows_as_pressure_falls": all(b > a for a, b in zip(by_falling, by_falling[1:])),
+        "without_grows_as_pressure_falls": grows_as_pressure_falls("without_hose_loss"),
+        "with_grows_as_pressure_falls": grows_as_pressure_falls("with_hose_loss"),
         "with_smaller_than_without_everywhere": all(
             errors[m]["with_hose_loss"]["mean"] < errors[m]["without_hose_loss"]["mean"] for m in PRESSURES_MPA
         ),

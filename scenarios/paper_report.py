@@ -139,7 +139,8 @@ def write_report(r: dict, out: Path) -> Path:
             f"{_ratio(pe[m]['without_hose_loss']['max'], pe[m]['without_hose_loss']['paper_max'])}" for m in sorted(pe)) + ".",
         "",
         f"With the loss smaller than without at every supply: {'yes' if pv['with_smaller_than_without_everywhere'] else 'NO'}; "
-        f"without the loss the error grows as the supply falls (paper): {'yes' if pv['without_grows_as_pressure_falls'] else 'NO'}.",
+        f"the mean error grows as the supply falls (paper: both): with the loss {'yes' if pv['with_grows_as_pressure_falls'] else 'NO'}, "
+        f"without it {'yes' if pv['without_grows_as_pressure_falls'] else 'NO'}.",
         "The last column is the mean distance between the two nominal predictions themselves: no reality can have both errors "
         "smaller than half of it, so where it exceeds the paper's two means added "
         + ", ".join(f"({pe[m]['paper_gap_bound_deg']:.1f} deg at {m} MPa)" for m in sorted(pe))
