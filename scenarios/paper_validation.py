@@ -171,4 +171,4 @@ def fit_as_built(grid: dict[str, tuple[float, ...]] = FIT_GRID) -> tuple[Point, 
 
 if __name__ == "__main__":  # python -m scenarios.paper_validation: the fit, printed (README)
     point, score, _ = fit_as_built()
-    print(f"best {point}, misfit {score:.3f}")
+    print(f"best {point}, score (misfit + prior) {score:.3f}")
