@@ -114,14 +114,14 @@ def test_vane_passing_vents_the_pockets_air_as_the_analytic_balance_says():
 
     theta = 0.0
     for k in range(int(1.0 / dt)):  # 1 s to a steady state
-        advance_pressures(x, theta, omega, supply, dt, 1, row)
+        advance_pressures(x, theta, omega, 0.6e6, supply, dt, 1, row)
         theta += omega * dt
     m0 = stored(theta)
     mass_in = mass_out = vented = 0.0
     f0 = flows()
     for k in range(int(0.5 / dt)):  # 40 passings
         pa, pb, before = x[S_PA_MOTOR], x[S_PB_MOTOR], math.floor(p.ratio * theta / pitch + 0.5)
-        advance_pressures(x, theta, omega, supply, dt, 1, row)
+        advance_pressures(x, theta, omega, 0.6e6, supply, dt, 1, row)
         theta += omega * dt
         f1 = flows()
         mass_in += 0.5 * dt * (f0[0] + f1[0])
