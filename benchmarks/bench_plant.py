@@ -11,7 +11,11 @@ the best of each, to damp the noise of a shared machine. The goal (DESIGN) is ra
 Also reported: the air kernel alone (`pneumatic_step` over all joints, without mj_step), so
 that a poor ratio can be traced to the air or to the coupling.
 
-    PYTHONPATH=. python -m benchmarks.bench_plant [--seconds 2] [--rounds 5]
+With --as-built the same two cases also run with the as-built arm's parameters (the plant of
+scenarios and `twin paper`: reducer compliance, leakage, ... from assets/as_built/), so the cost of
+reality's extra effects is a ratio measured in the same run.
+
+    PYTHONPATH=. python -m benchmarks.bench_plant [--seconds 2] [--rounds 5] [--as-built]
 """
 
 from __future__ import annotations
@@ -36,8 +40,14 @@ def _moving(case: str, joints: tuple[str, ...]) -> tuple[str, ...]:
     return ("wrist_pitch",) if case == "one" else joints
 
 
-def _plant_for(case: str) -> Plant:
-    plant = Plant(assets.SCENE_XML)
+def _plant_for(case: str, as_built: bool = False) -> Plant:
+    params = None
+    if as_built:
+        from pneumatics import load_joint_params
+        from pneumatics.as_built import load_as_built
+
+        params = {j: load_as_built(load_joint_params(assets.joint_param_path(j)), assets.as_built_path(j)) for j in assets.JOINTS}
+    plant = Plant(assets.SCENE_XML, params)
     plant.set_supply(SUPPLY_PA)
     for j in _moving(case, plant.joints):
         plant.command(j, +1, 0.5e6, True)
@@ -94,11 +104,14 @@ def _time_kernel(plant: Plant, n: int) -> float:
     return (time.perf_counter() - t0) / n
 
 
-def bench_plant(seconds: float = 2.0, rounds: int = 5) -> dict:
-    """Steps per second of the plant and of bare MuJoCo on the same model, and their ratio."""
+def bench_plant(seconds: float = 2.0, rounds: int = 5, as_built: bool = False) -> dict:
+    """Steps per second of the plant and of bare MuJoCo on the same model, and their ratio (with
+    `as_built`, also the cases "one_as_built", "all_as_built" on the as-built arm)."""
     out: dict = {"seconds_simulated_per_measurement": seconds, "rounds": rounds, "goal_ratio": 0.8}
-    for case in ("one", "all"):
-        plant = _plant_for(case)
+    cases = ("one", "all") + (("one_as_built", "all_as_built") if as_built else ())
+    for label in cases:
+        case = label.split("_")[0]
+        plant = _plant_for(case, label.endswith("as_built"))
         moving = _moving(case, plant.joints)
         start = plant.save_state()
         m = plant.model  # the same model: same frictionloss, armature, damping
@@ -122,7 +135,7 @@ def bench_plant(seconds: float = 2.0, rounds: int = 5) -> dict:
             best_plant = min(best_plant, dt_plant)
             best_bare = min(best_bare, dt_bare)
         kernel_s = _time_kernel(plant, 20_000)
-        out[case] = {
+        out[label] = {
             "moving_joints": list(moving),
             "steps": steps,
             "plant_steps_per_s": steps / best_plant,
@@ -139,8 +152,9 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seconds", type=float, default=2.0, help="simulated seconds per measurement")
     parser.add_argument("--rounds", type=int, default=5, help="alternating plant/baseline rounds (best kept)")
+    parser.add_argument("--as-built", action="store_true", help="also the as-built arm's plant (reality of scenarios and twin paper)")
     args = parser.parse_args(argv)
-    print(json.dumps(bench_plant(args.seconds, args.rounds), indent=2))
+    print(json.dumps(bench_plant(args.seconds, args.rounds, args.as_built), indent=2))
     return 0
 
 

@@ -87,10 +87,20 @@ def closed_vs_open_loop(make_plant: Callable[[], object], angles_deg=(20, 40, 60
     return out
 
 
-def random_supply_moves(make_plant: Callable[[], object], predictor_params: JointParams | None = None, targets_deg=(45.0, 0.0, -45.0, 0.0), seed: int = 7, max_s_each: float = 6.0) -> tuple[list[float], float]:
+def error_against_pressure(make_plant: Callable[[], object], pressures_mpa=(0.5, 0.6, 0.7, 0.8), angles_deg=(30, 60, 90), predictor_params: JointParams | None = None) -> dict[float, list[float]]:
+    """Paper Fig. 20: {supply MPa: [closed-loop |final error| of a move to each angle, deg]}, the
+    wrist rig moved from 0 at each constant supply, the truth read from a fresh plant per move."""
+    return {
+        mpa: [abs(run_move(a, "closed_loop", make_plant(), predictor_params, mpa * 1e6)[0] - a) for a in angles_deg]
+        for mpa in pressures_mpa
+    }
+
+
+def random_supply_moves(make_plant: Callable[[], object], predictor_params: JointParams | None = None, targets_deg=(45.0, 0.0, -45.0, 0.0), seed: int = 7, max_s_each: float = 6.0, end_times_s: list[float] | None = None) -> tuple[list[float], float]:
     """Paper Fig. 18-19: the wrist moved through `targets_deg` under a supply jumping at random
     every 0.5 s (mean 0.6 MPa, variance 5e9 Pa^2). Returns (|final error| of each move in deg, the
-    simulated time); a move that faults raises RuntimeError with the controller's events."""
+    simulated time); each move's end time is appended to `end_times_s` if given. A move that
+    faults raises RuntimeError with the controller's events."""
     plant = make_plant()
     c = ArmController({"wrist_pitch": 0.0}, assets.WRIST_RIG_XML,
                       predictor_params=None if predictor_params is None else {"wrist_pitch": predictor_params})
@@ -103,6 +113,8 @@ def random_supply_moves(make_plant: Callable[[], object], predictor_params: Join
         if c.faulted or not c.done:
             raise RuntimeError(f"move to {target} deg under random supply failed: {c.events[-3:]}")
         errors.append(abs(math.degrees(plant.drive_angles()[0]) - target))
+        if end_times_s is not None:
+            end_times_s.append(t)
     return errors, t
 
 

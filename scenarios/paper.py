@@ -1,10 +1,16 @@
 """`twin paper --out DIR`: the paper's experiments (Sec. III-IV) run in the twin, side by side
 with the paper's figures, into DIR/paper.json, DIR/report.md and PNG plots.
 
-Every number comes from a run made here: the prediction experiments (Fig. 10-16) and the random
-supply (Fig. 18-19) are the scenario files of scenarios/; the minimum rotation (Fig. 21) and closed
-against open loop (Fig. 23) are control.experiments on the wrist rig, whose reality has a valve
-faster than the predictor believes (the same reality as wrist_closed_loop_60deg.toml).
+Reality is the as-built wrist (assets/as_built/wrist_pitch.toml: the nominal joint plus what the
+real one has, some of it calibrated on the model-validation figures only); the predictor is the
+nominal model (assets/joints/wrist_pitch.toml). Every number comes from a run made here:
+
+- model validation, Fig. 10-16 (scenarios/paper_validation.py): 1 s fully open at each supply,
+  the as-built plant measured, the nominal model with and without the hose loss predicting from
+  the same commands; the joint's speed against supply from the same runs;
+- random supply, Fig. 18-19; minimum rotation, Fig. 21; closed against open loop 20-90 deg,
+  Fig. 23; closed-loop error against supply, Fig. 20 (control.experiments, on the wrist rig).
+These are predictions: nothing in them was fitted to the paper.
 """
 
 from __future__ import annotations
@@ -15,54 +21,80 @@ from pathlib import Path
 import numpy as np
 
 import assets
-from control.experiments import closed_vs_open_loop, minimum_rotation_limit, random_supply_moves
-from pneumatics import load_joint_params
-from scenarios.runner import run_file
+from control.experiments import (
+    closed_vs_open_loop,
+    error_against_pressure,
+    minimum_rotation_limit,
+    random_supply,
+    random_supply_moves,
+)
+from pneumatics.as_built import load_as_built_effects
+from scenarios.paper_validation import KINDS, OPEN_S, PAPER, PRESSURES_MPA, rig_inertia, validation_run, wrist_models
 from twin.plant import Plant
 
-SCENARIOS = Path(__file__).resolve().parent
 P_ATM_PA = 101_325.0
 
-# the paper's numbers (Sec. III-IV)
-PAPER_MEAN_ERROR_DEG = {  # Fig. 14-16 / Sec. III: mean prediction error, by supply pressure (MPa)
-    "without_hose_loss": {0.5: 22.2, 0.6: 14.3, 0.7: 13.4, 0.8: 3.2},
-    "with_hose_loss": {0.5: 5.4, 0.6: 2.2, 0.7: 2.0, 0.8: 1.2},
-}
-PAPER_RANDOM_SUPPLY_MAX_DEG = 4.33  # Fig. 19
+PAPER_RANDOM_SUPPLY_MAX_DEG = 4.33  # Fig. 19 (manual operation: 8.35 deg on average)
+PAPER_MANUAL_DEG = 8.35
 PAPER_MIN_ROTATION_DEG = 20.0  # Fig. 21
 PAPER_CLOSED_LOOP_DEG = (1.60, 2.02)  # Fig. 23: final error range over 20-90 deg
+PAPER_CLOSED_LOOP_MEAN_DEG = 1.84
 PAPER_OPEN_LOOP_DEG = (4.04, 7.18)
+PAPER_FIG20_AT_05_DEG = 3.0  # Fig. 20: "limited to the range of -3 ~ 3 deg under 0.5 MPa", growing with pressure
+# the motor's maximum-power speed (Sec. III-B: 1UP-NRV-3A, 6000 rpm) at the joint through 1:120
+MAX_POWER_JOINT_DEG_S = 6000.0 / 60.0 * 360.0 / 120.0
+SPEED_PRESSURES_MPA = (0.3, 0.4) + PRESSURES_MPA
+RANDOM_SUPPLY_SEED = 7
 
 
-def rig_reality():
-    """The wrist rig's reality: the paper's joint with its hose, and a valve answering in 0.06 s
-    where the predictor believes 0.1 s (assumed; the gap the closed loop has to absorb)."""
-    nominal = load_joint_params(assets.joint_param_path("wrist_pitch"))
-    return nominal, nominal._replace(hose_loss=1.0, valve_time_constant_s=0.06)
+def _speeds(t: np.ndarray, angle_deg: np.ndarray) -> tuple[float, float]:
+    """(mean speed over the open second's last half, peak speed), deg/s."""
+    v = np.gradient(angle_deg, t)
+    w = (t > 0.5 * OPEN_S) & (t <= OPEN_S + 1e-9)
+    return float(v[w].mean()), float(v[t <= OPEN_S + 1e-9].max())
 
 
-def prediction_errors() -> dict:
-    """Fig. 10-16: |true - predicted| of the wrist over each prediction run, deg; and whether the
-    error without the hose loss grows as the supply pressure falls (the paper's shape)."""
-    out: dict = {"with_hose_loss": {}, "without_hose_loss": {}}
-    for kind in out:
-        for mpa in (0.5, 0.6, 0.7, 0.8):
-            r = run_file(SCENARIOS / f"wrist_prediction_0{round(mpa * 10)}_{kind}.toml")
-            a = r.telemetry.arrays()
-            e = np.degrees(np.abs(a["true_angle_rad"][:, 0] - a["predicted_angle_rad"][:, 0]))
-            out[kind][mpa] = {"mean_deg": float(e.mean()), "max_deg": float(e.max()), "paper_mean_deg": PAPER_MEAN_ERROR_DEG[kind][mpa]}
-    by_falling_pressure = [out["without_hose_loss"][m]["mean_deg"] for m in sorted(out["without_hose_loss"], reverse=True)]
-    out["without_grows_as_pressure_falls"] = all(b > a for a, b in zip(by_falling_pressure, by_falling_pressure[1:]))
-    return out
+def prediction_validation() -> tuple[dict, dict]:
+    """Fig. 10-16 and the speed against supply: (results, the runs' time series for the plots)."""
+    nominal, reality = wrist_models()
+    inertia = rig_inertia(nominal)
+    runs = {m: validation_run(reality, nominal, m, inertia) for m in SPEED_PRESSURES_MPA}
+    errors = {}
+    series = {}
+    for m in PRESSURES_MPA:
+        r = runs[m]
+        e = r.errors()
+        w = r.time_s <= OPEN_S + 1e-9
+        gap = np.abs(r.predicted_deg["with_hose_loss"] - r.predicted_deg["without_hose_loss"])[w]
+        errors[m] = {k: {**e[k], "paper_mean": PAPER[k]["mean"][m], "paper_max": PAPER[k]["max"][m]} for k in KINDS}
+        errors[m]["predictor_gap_mean_deg"] = float(gap.mean())
+        errors[m]["paper_gap_bound_deg"] = PAPER["with_hose_loss"]["mean"][m] + PAPER["without_hose_loss"]["mean"][m]
+        series[m] = {"time_s": r.time_s.tolist(), "measured_deg": r.measured_deg.tolist()}
+        series[m] |= {k: r.predicted_deg[k].tolist() for k in KINDS}
+    speed = {}
+    for m, r in runs.items():
+        real = _speeds(r.time_s, r.measured_deg)
+        nom = _speeds(r.time_s, r.predicted_deg["with_hose_loss"])
+        speed[m] = {
+            "as_built_mean_deg_s": real[0], "as_built_peak_deg_s": real[1],
+            "nominal_mean_deg_s": nom[0], "nominal_peak_deg_s": nom[1],
+            "turn_in_1s_deg": float(np.interp(OPEN_S, r.time_s, r.measured_deg)),
+        }
+    def grows_as_pressure_falls(kind: str) -> bool:
+        by_falling = [errors[m][kind]["mean"] for m in sorted(PRESSURES_MPA, reverse=True)]
+        return all(b > a for a, b in zip(by_falling, by_falling[1:]))
 
-
-def random_supply(quick: bool) -> dict:
-    """Fig. 18-19: the wrist moved 0 -> 45 -> 0 -> -45 -> 0 deg (twice in full) under a random
-    supply; the largest final error of a move."""
-    nominal, reality = rig_reality()
-    targets = (45.0, 0.0, -45.0, 0.0) * (1 if quick else 2)
-    errors, t = random_supply_moves(_rig_factory(reality), nominal, targets_deg=targets, seed=7)
-    return {"max_error_deg": max(errors), "final_errors_deg": errors, "duration_s": t, "paper_max_error_deg": PAPER_RANDOM_SUPPLY_MAX_DEG}
+    results = {
+        "errors": errors,
+        "without_grows_as_pressure_falls": grows_as_pressure_falls("without_hose_loss"),
+        "with_grows_as_pressure_falls": grows_as_pressure_falls("with_hose_loss"),
+        "with_smaller_than_without_everywhere": all(
+            errors[m]["with_hose_loss"]["mean"] < errors[m]["without_hose_loss"]["mean"] for m in PRESSURES_MPA
+        ),
+        "speed_against_supply": speed,
+        "max_power_joint_deg_s": MAX_POWER_JOINT_DEG_S,
+    }
+    return results, series
 
 
 def _rig_factory(reality):
@@ -74,135 +106,93 @@ def _rig_factory(reality):
     return make
 
 
+def random_supply_run(quick: bool) -> dict:
+    """Fig. 18-19: the wrist moved 0 -> 45 -> 0 -> -45 -> 0 deg (twice in full) under a random
+    supply; the largest final error of a move."""
+    nominal, reality = wrist_models()
+    targets = (45.0, 0.0, -45.0, 0.0) * (1 if quick else 2)
+    ends: list[float] = []
+    errors, t = random_supply_moves(_rig_factory(reality), nominal, targets_deg=targets, seed=RANDOM_SUPPLY_SEED, end_times_s=ends)
+    supply = random_supply(RANDOM_SUPPLY_SEED)  # the same draws the run saw
+    times = np.arange(0.0, t, 0.5)
+    return {
+        "move_end_s": ends, "supply_time_s": times.tolist(), "supply_gauge_mpa": [(supply(x) - P_ATM_PA) / 1e6 for x in times],
+        "max_error_deg": max(errors), "final_errors_deg": errors, "duration_s": t,
+        "paper_max_error_deg": PAPER_RANDOM_SUPPLY_MAX_DEG, "paper_manual_mean_deg": PAPER_MANUAL_DEG,
+    }
+
+
 def closed_against_open(quick: bool) -> dict:
     """Fig. 23: final error of closed and open loop at 0.5 MPa, 20-90 deg."""
-    nominal, reality = rig_reality()
+    nominal, reality = wrist_models()
     angles = (20, 50, 90) if quick else (20, 30, 40, 50, 60, 70, 80, 90)
     res = closed_vs_open_loop(_rig_factory(reality), angles_deg=angles, predictor_params=nominal)
+    closed = [res[a][0] for a in angles]
     return {
         "angles_deg": list(angles),
-        "closed_loop_error_deg": [res[a][0] for a in angles],
+        "closed_loop_error_deg": closed,
         "open_loop_error_deg": [res[a][1] for a in angles],
+        "closed_loop_mean_deg": float(np.mean(closed)),
         "closed_beats_open_everywhere": all(res[a][0] < res[a][1] for a in angles),
         "paper_closed_loop_range_deg": list(PAPER_CLOSED_LOOP_DEG),
+        "paper_closed_loop_mean_deg": PAPER_CLOSED_LOOP_MEAN_DEG,
         "paper_open_loop_range_deg": list(PAPER_OPEN_LOOP_DEG),
+    }
+
+
+def error_vs_pressure(quick: bool) -> dict:
+    """Fig. 20: closed-loop final error against the supply (moves of 30, 60, 90 deg from 0)."""
+    nominal, reality = wrist_models()
+    angles = (60,) if quick else (30, 60, 90)
+    pressures = (0.5, 0.8) if quick else PRESSURES_MPA
+    res = error_against_pressure(_rig_factory(reality), pressures, angles, nominal)
+    means = [float(np.mean(res[m])) for m in pressures]
+    return {
+        "pressures_mpa": list(pressures),
+        "angles_deg": list(angles),
+        "errors_deg": {str(m): res[m] for m in pressures},
+        "mean_error_deg": means,
+        "max_error_deg": [float(np.max(res[m])) for m in pressures],
+        "grows_with_pressure": all(b > a for a, b in zip(means, means[1:])),
+        "paper_bound_at_05_deg": PAPER_FIG20_AT_05_DEG,
     }
 
 
 def minimum_rotation(quick: bool) -> dict:
     """Fig. 21: the smallest commanded rotation from which the loop still adjusts."""
-    nominal, reality = rig_reality()
+    nominal, reality = wrist_models()
     angles = tuple(range(4, 41, 4)) if quick else tuple(range(2, 41, 2))
     limit = minimum_rotation_limit(_rig_factory(reality), predictor_params=nominal, angles_deg=angles)
     return {"limit_deg": limit, "tested_deg": list(angles), "paper_limit_deg": PAPER_MIN_ROTATION_DEG}
 
 
+def as_built_table() -> list[dict]:
+    """The as-built wrist's effects (field, nominal, as-built, source, basis) for the report."""
+    nominal, _ = wrist_models()
+    return [
+        {"field": e.field, "nominal": getattr(nominal, e.field), "as_built": e.value, "source": e.source,
+         "basis": e.basis}
+        for e in load_as_built_effects(assets.as_built_path("wrist_pitch"))
+    ]
+
+
 def reproduce(out_dir: str | Path, quick: bool = False) -> Path:
-    """Run every experiment, write paper.json, report.md and the plots; returns the report's path."""
+    """Run every experiment, write paper.json, report.md and the plots; returns the report's path.
+    `quick` shortens the control experiments (fewer angles and supplies), not the validation."""
+    from scenarios.paper_report import write_plots, write_report
+
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
+    validation, series = prediction_validation()
     results = {
-        "prediction_error": prediction_errors(),
-        "random_supply": random_supply(quick),
+        "as_built": as_built_table(),
+        "prediction_error": validation,
+        "random_supply": random_supply_run(quick),
         "minimum_rotation": minimum_rotation(quick),
         "closed_vs_open_loop": closed_against_open(quick),
+        "error_vs_pressure": error_vs_pressure(quick),
         "quick": quick,
     }
-    (out / "paper.json").write_text(json.dumps(results, indent=2, default=_json_key))
-    _plots(results, out)
-    report = out / "report.md"
-    report.write_text(_report(results))
-    return report
-
-
-def _json_key(x):
-    return float(x)
-
-
-def _plots(results: dict, out: Path) -> None:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    pe = results["prediction_error"]
-    mpas = sorted(pe["with_hose_loss"])  # (the dict also holds the trend's verdict)
-    fig, ax = plt.subplots(figsize=(6, 3.5))
-    for kind, mark in (("without_hose_loss", "o"), ("with_hose_loss", "s")):
-        ax.plot(mpas, [pe[kind][m]["mean_deg"] for m in mpas], mark + "-", label=f"twin, {kind.replace('_', ' ')}")
-        ax.plot(mpas, [pe[kind][m]["paper_mean_deg"] for m in mpas], mark + "--", alpha=0.6, label=f"paper, {kind.replace('_', ' ')}")
-    ax.set_xlabel("supply pressure, MPa (gauge)")
-    ax.set_ylabel("mean prediction error, deg")
-    ax.legend(fontsize=7)
-    fig.tight_layout()
-    fig.savefig(out / "prediction_error.png", dpi=100)
-    plt.close(fig)
-
-    co = results["closed_vs_open_loop"]
-    fig, ax = plt.subplots(figsize=(6, 3.5))
-    ax.plot(co["angles_deg"], co["closed_loop_error_deg"], "o-", label="twin, closed loop")
-    ax.plot(co["angles_deg"], co["open_loop_error_deg"], "s-", label="twin, open loop")
-    for (lo, hi), label in ((co["paper_closed_loop_range_deg"], "paper, closed"), (co["paper_open_loop_range_deg"], "paper, open")):
-        ax.axhspan(lo, hi, alpha=0.15, label=f"{label} ({lo}-{hi} deg)")
-    ax.set_xlabel("commanded rotation, deg")
-    ax.set_ylabel("final error, deg")
-    ax.legend(fontsize=7)
-    fig.tight_layout()
-    fig.savefig(out / "closed_vs_open_loop.png", dpi=100)
-    plt.close(fig)
-
-
-def _report(r: dict) -> str:
-    pe = r["prediction_error"]
-    lines = [
-        "# The paper's experiments in the twin",
-        "",
-        "Generated by `twin paper`" + (" --quick (shortened)" if r["quick"] else "") + ".",
-        "",
-        "## Prediction error, wrist, Fig. 10-16 (mean |true - predicted|, deg)",
-        "",
-        "| supply MPa | twin without hose loss | paper without | twin with hose loss | paper with |",
-        "|---|---|---|---|---|",
-    ]
-    for m in sorted(pe["with_hose_loss"]):
-        w, wo = pe["with_hose_loss"][m], pe["without_hose_loss"][m]
-        lines.append(f"| {m} | {wo['mean_deg']:.1f} | {wo['paper_mean_deg']} | {w['mean_deg']:.1f} | {w['paper_mean_deg']} |")
-    lines += [
-        "",
-        "Without the hose loss the twin's error is larger than with it at every pressure, as in the paper. "
-        + ("It grows as pressure falls, as in the paper: the wrist's brake takes its air from the driven motor "
-           "port at the arm, after the hose, and drags while that pressure is under its full release; the hose's "
-           "loss pulls it there at low supply only (README, \"The physics\")."
-           if pe["without_grows_as_pressure_falls"] else "It does NOT grow as pressure falls, unlike the paper."),
-        "",
-        "![prediction error](prediction_error.png)",
-        "",
-        "## Random supply, Fig. 18-19",
-        "",
-        f"Largest final error of {len(r['random_supply']['final_errors_deg'])} moves over {r['random_supply']['duration_s']:.0f} s: twin {r['random_supply']['max_error_deg']:.2f} deg, "
-        f"paper {r['random_supply']['paper_max_error_deg']} deg.",
-        "",
-        "## Minimum rotation, Fig. 21",
-        "",
-        f"The loop adjusts from {r['minimum_rotation']['limit_deg']} deg of commanded rotation up (twin), "
-        f"about {r['minimum_rotation']['paper_limit_deg']:.0f} deg in the paper.",
-        "",
-        "## Closed against open loop at 0.5 MPa, Fig. 23 (final error, deg)",
-        "",
-        "| rotation deg | closed loop | open loop |",
-        "|---|---|---|",
-    ]
-    co = r["closed_vs_open_loop"]
-    for a, c, o in zip(co["angles_deg"], co["closed_loop_error_deg"], co["open_loop_error_deg"]):
-        lines.append(f"| {a} | {c:.2f} | {o:.2f} |")
-    lines += [
-        "",
-        f"Paper: closed {co['paper_closed_loop_range_deg'][0]}-{co['paper_closed_loop_range_deg'][1]} deg, "
-        f"open {co['paper_open_loop_range_deg'][0]}-{co['paper_open_loop_range_deg'][1]} deg. "
-        f"Closed loop beats open loop at every angle: {'yes' if co['closed_beats_open_everywhere'] else 'NO'}.",
-        "",
-        "![closed vs open loop](closed_vs_open_loop.png)",
-        "",
-    ]
-    return "\n".join(lines)
-
+    (out / "paper.json").write_text(json.dumps({**results, "validation_series": series}, indent=2, default=float))
+    write_plots(results, series, out)
+    return write_report(results, out)

@@ -15,6 +15,7 @@ import numpy as np
 
 import assets
 from pneumatics import load_joint_params
+from pneumatics.as_built import load_as_built
 from scenarios import controllers
 from scenarios.criteria import Verdict, as_dicts, judge
 from scenarios.faults import fault_events
@@ -79,9 +80,18 @@ def model_path(scenario: Scenario) -> Path:
     return assets.WRIST_RIG_XML if scenario.model == "wrist_rig" else assets.SCENE_XML
 
 
+def reality_params(scenario: Scenario) -> dict:
+    """Reality's base parameters per joint: the as-built arm (nominal + assets/as_built/), or with
+    `[reality] arm = "nominal"` the predictor's own nominal model (a self-check)."""
+    base = {j: load_joint_params(assets.joint_param_path(j)) for j in scenario.joints}
+    if scenario.reality.arm == "nominal":
+        return base
+    return {j: load_as_built(p, assets.as_built_path(j)) for j, p in base.items()}
+
+
 def build_plant(scenario: Scenario) -> Plant:
     """Reality: the model, the start pose, the payload, and the effects the plant has."""
-    base = {j: load_joint_params(assets.joint_param_path(j)) for j in scenario.joints}
+    base = reality_params(scenario)
     plant = Plant(model_path(scenario), joint_params=joint_params_for(base, scenario.reality), joints=scenario.joints,
                   keyframe="home" if scenario.start_pose == "home" else None)
     m, d = plant.model, plant.data

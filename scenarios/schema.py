@@ -11,7 +11,9 @@ Top level:            name (str), description (str), model ("arm" | "wrist_rig")
 [payload]             mass_kg (0..40)
 [supply]              kind ("constant" | "steps" | "random"); pressure_mpa (gauge, 0..1.0);
                       steps [[time_s, pressure_mpa], ...]; mean_mpa, variance_pa2, hold_s (random)
-[reality]             hose_loss (bool); [reality.effects.<joint>] {JointParams field: value}
+[reality]             arm ("as_built" | "nominal": the as-built arm of assets/as_built/, default, or
+                      the predictor's nominal model for a self-check); hose_loss (bool);
+                      [reality.effects.<joint>] {JointParams field: value} (on top of the arm)
 [predictor]           hose_loss (bool); [predictor.effects.<joint>] {field: value}
 [control]             mode ("closed_loop" | "open_loop" | "none"), sequence ("one_after_another" |
                       "together"), min_rotation_deg (0..90), tolerance_deg (0.05..10),
@@ -77,10 +79,14 @@ class Supply:
     hold_s: float = 0.5
 
 
+ARMS = ("as_built", "nominal")
+
+
 @dataclass(frozen=True)
 class Model:
     hose_loss: bool = True
     effects: dict = field(default_factory=dict)  # joint -> {field: value}
+    arm: str = "as_built"  # reality's base: the as-built arm or the nominal twin (the predictor is always nominal)
 
 
 @dataclass(frozen=True)
@@ -211,13 +217,14 @@ def _joint_angles(path: str, where: str, table: dict, joints: tuple[str, ...]) -
 
 
 def _model(path: str, where: str, table: dict, joints: tuple[str, ...]) -> Model:
-    r = _Reader(path, table, where, {"hose_loss", "effects"})
+    r = _Reader(path, table, where, {"hose_loss", "effects"} | ({"arm"} if where == "reality" else set()))
     effects = {}
     er = _Reader(path, r.table_of("effects"), f"{where}.effects", set(joints))
     for joint, fields in er.table.items():
         fr = _Reader(path, er.table_of(joint), f"{where}.effects.{joint}", set(SPEC))
         effects[joint] = {f: fr.number(f, None, SPEC[f].low, SPEC[f].high, SPEC[f].unit) for f in fields}
-    return Model(hose_loss=r.boolean("hose_loss", True), effects=effects)
+    arm = r.choice("arm", "as_built", ARMS) if where == "reality" else "nominal"
+    return Model(hose_loss=r.boolean("hose_loss", True), effects=effects, arm=arm)
 
 
 def parse(text: str, path: str = "<scenario>") -> Scenario:

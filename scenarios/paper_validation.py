@@ -1,0 +1,174 @@
+"""The paper's model validation (Sec. III-C, Fig. 10-16) and the fit of the as-built unknowns on it.
+
+Protocol (the paper's, as written): at each supply 0.5-0.8 MPa the wrist is released and its
+valve opened fully for 1 s; the measured angle (here: the as-built plant's) is compared with two
+predictions driven by the same commands, the nominal model with the hose's pressure loss and
+without it (gap.replay: the predictor's own one-joint model). The error is |measured - predicted|
+over that 1 s ("in a one second simulation", Sec. III-C): its mean and its max. The run starts at
+-85 deg so the move stays inside the wrist's -90..90 deg slewing area (Sec. IV).
+
+`fit_as_built` calibrates the as-built file's "calibrated" effects on these figures only: it
+minimises the squared log-ratios of the 16 twin numbers (mean and max, with and without the loss,
+four supplies) to the paper's, with the one-joint model standing in for the plant (the same
+physics; the plant agrees with it to a few tenths of a degree, tests/test_plant.py).
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+import assets
+from gap.replay import DT_S, replay_run
+from gap.synth import SAMPLE_PERIOD_S, Motion, simulate_run
+from pneumatics import JointParams, load_joint_params, params_row
+from pneumatics.as_built import load_as_built
+
+JOINT = "wrist_pitch"
+PRESSURES_MPA = (0.5, 0.6, 0.7, 0.8)
+OPEN_S = 1.0  # the valve is fully open for 1 s (Sec. III-C, result 5: "in a one second simulation")
+START_DEG = -85.0  # near one end of the slewing area (-90..90 deg, Sec. IV)
+MOTION = Motion(t_release_s=0.0, t_move_s=OPEN_S, t_reverse_s=0.0, t_hold_s=0.5)
+KINDS = ("with_hose_loss", "without_hose_loss")
+
+# the paper's numbers, Sec. III-C (supply MPa -> deg); "about 40" is the text's own rounding
+PAPER = {
+    "with_hose_loss": {
+        "mean": {0.8: 1.2, 0.7: 2.0, 0.6: 2.2, 0.5: 5.4},
+        "max": {0.8: 3.3, 0.7: 4.1, 0.6: 4.3, 0.5: 7.9},
+    },
+    "without_hose_loss": {
+        "mean": {0.8: 3.2, 0.7: 13.4, 0.6: 14.3, 0.5: 22.2},
+        "max": {0.8: 6.1, 0.7: 22.3, 0.6: 27.2, 0.5: 40.0},
+    },
+}
+
+
+def wrist_models() -> tuple[JointParams, JointParams]:
+    """(nominal, as-built) parameters of the wrist: the predictor's and reality's."""
+    nominal = load_joint_params(assets.joint_param_path(JOINT))
+    return nominal, load_as_built(nominal, assets.as_built_path(JOINT))
+
+
+def rig_inertia(params: JointParams) -> float:
+    """Joint-side inertia of the wrist rig as the predictor takes it: Pinocchio's rig load plus the
+    reflected rotor (control/controller.py does the same sum)."""
+    from control.arm_model import ArmModel
+
+    arm = ArmModel(assets.WRIST_RIG_XML, (JOINT,), None)
+    return float(arm.drive_inertias(np.zeros(1))[0]) + params.ratio**2 * params.rotor_inertia_kg_m2
+
+
+@dataclass
+class ValidationRun:
+    """One supply's run: time (s), measured angle and the two predictions (deg, from the start),
+    on the SAMPLE_PERIOD_S grid up to the end of the hold."""
+
+    supply_mpa: float
+    time_s: np.ndarray
+    measured_deg: np.ndarray
+    predicted_deg: dict[str, np.ndarray]
+
+    def errors(self) -> dict[str, dict[str, float]]:
+        """{kind: {"mean", "max"}} of |measured - predicted| over the 1 s the valve is open."""
+        w = self.time_s <= OPEN_S + 1e-9
+        out = {}
+        for kind, pred in self.predicted_deg.items():
+            e = np.abs(self.measured_deg[w] - pred[w])
+            out[kind] = {"mean": float(e.mean()), "max": float(e.max())}
+        return out
+
+
+def _commands(mpa: float, k_u: float) -> dict[str, np.ndarray]:
+    t = np.round(np.arange(0.0, MOTION.total_s() + 1e-9, DT_S), 6)
+    d, u, b = MOTION.commands(t, mpa * 1e6, k_u)
+    supply = np.full(t.shape, 101_325.0 + mpa * 1e6)
+    return {"time_s": t, "direction": d, "valve_set_gauge_pa": u, "brake_released": b, "supply_pa": supply}
+
+
+def _replay(params: JointParams, cmd: dict[str, np.ndarray], inertia: float) -> tuple[np.ndarray, np.ndarray]:
+    t, th, *_ = replay_run(
+        params_row(params), cmd["time_s"], cmd["direction"], cmd["valve_set_gauge_pa"], cmd["brake_released"],
+        cmd["supply_pa"], False, math.radians(START_DEG), inertia, 0.0, MOTION.total_s(), DT_S,
+    )
+    return t, np.degrees(th) - START_DEG
+
+
+def validation_run(
+    reality: JointParams, nominal: JointParams, mpa: float, inertia: float, plant: bool = True
+) -> ValidationRun:
+    """The protocol at one supply: reality measured (the MuJoCo plant, or with `plant` False the
+    one-joint model), both predictions from the same commands."""
+    if plant:
+        run = simulate_run(reality, mpa, MOTION, start_rad=math.radians(START_DEG))
+        ok = np.isfinite(run["angle_rad"])
+        t, measured = run["time_s"][ok], np.degrees(run["angle_rad"][ok]) - START_DEG
+        cmd = {k: run[k] for k in ("time_s", "direction", "valve_set_gauge_pa", "brake_released", "supply_pa")}
+    else:
+        cmd = _commands(mpa, nominal.k_u_per_pa)
+        tt, a = _replay(reality, cmd, inertia)
+        step = int(round(SAMPLE_PERIOD_S / DT_S))
+        t, measured = tt[::step], a[::step]
+    preds = {}
+    for kind, loss in zip(KINDS, (1.0, 0.0)):
+        tt, a = _replay(nominal._replace(hose_loss=loss), cmd, inertia)
+        preds[kind] = np.interp(t, tt, a)
+    return ValidationRun(mpa, t, measured, preds)
+
+
+def misfit(runs: list[ValidationRun]) -> float:
+    """Sum of squared log-ratios twin/paper over mean and max, both kinds, every supply."""
+    total = 0.0
+    for r in runs:
+        for kind, stats in r.errors().items():
+            for stat, value in stats.items():
+                total += math.log(max(value, 1e-3) / PAPER[kind][stat][r.supply_mpa]) ** 2
+    return total
+
+
+# the calibrated unknowns and their grids: the as-built magnitudes nothing else pins down, the real
+# valve/throttle conductance over nominal, the real joint's Coulomb friction, the supply line's
+# droop under flow and the real brake's full-release pressure (README, "The as-built arm")
+FIT_GRID = {
+    "conductance_scale": (0.8, 0.9, 1.0, 1.1, 1.2, 1.35),
+    "coulomb_nm": (6.0, 9.0, 12.0, 15.0, 18.0),
+    "supply_droop_pa_s_per_kg": (0.0, 2.5e6, 5.0e6, 1.0e7),
+    "brake_release_gauge_pa": (4.25e5, 4.5e5, 4.75e5),
+}
+# The 16 figures do not pin the four down alone (several points fit within 15 %), so a departure
+# from the designer's number costs like a misfit: (ln(value / nominal) / PRIOR_LOG_SIGMA)^2, a
+# factor 1.65 as much as one paper figure off by that factor (chosen before the fit; fields whose
+# nominal is 0, the droop, carry no prior).
+PRIOR_LOG_SIGMA = 0.5
+
+
+def prior(point: dict[str, float], nominal: JointParams) -> float:
+    logs = [math.log(v / getattr(nominal, f)) for f, v in point.items() if getattr(nominal, f) > 0 and v > 0]
+    return sum((x / PRIOR_LOG_SIGMA) ** 2 for x in logs)
+
+
+Point = dict[str, float]
+
+
+def fit_as_built(grid: dict[str, tuple[float, ...]] = FIT_GRID) -> tuple[Point, float, list[tuple[Point, float]]]:
+    """Grid search of the calibrated as-built effects on the validation figures: (best values,
+    its score = misfit + prior, every point with its score). The as-built file's other effects
+    stay as it has them."""
+    nominal, reality = wrist_models()
+    inertia = rig_inertia(nominal)
+    scored = []
+    for values in itertools.product(*grid.values()):
+        point = dict(zip(grid, values))
+        r = reality._replace(**point)
+        runs = [validation_run(r, nominal, m, inertia, plant=False) for m in PRESSURES_MPA]
+        scored.append((point, misfit(runs) + prior(point, nominal)))
+    best = min(scored, key=lambda s: s[1])
+    return best[0], best[1], scored
+
+
+if __name__ == "__main__":  # python -m scenarios.paper_validation: the fit, printed (README)
+    point, score, _ = fit_as_built()
+    print(f"best {point}, score (misfit + prior) {score:.3f}")
