@@ -118,6 +118,37 @@ class CameraProcess:
         return self.collect()
 
 
+class FrameFeed:
+    """Frames of `camera` at `fps` per simulated second for a recorder: from each batch of
+    telemetry it asks a CameraProcess for the first sample at or after every 1/fps tick."""
+
+    def __init__(self, model: mujoco.MjModel, fps: float, camera: str = "global_view", width: int = 480, height: int = 360):
+        self.fps = float(fps)
+        self.camera = CameraProcess(model, camera=camera, width=width, height=height)
+        self._next_t = 0.0
+
+    @property
+    def error(self) -> str | None:
+        return self.camera.error
+
+    def request(self, telemetry, start: int) -> None:
+        """Queue the frames due among telemetry samples `start`..; returns at once."""
+        times = telemetry.column("time_s", start)
+        keep = []
+        for k, t in enumerate(times):
+            if t + 1e-9 >= self._next_t:
+                self._next_t = (np.floor(t * self.fps + 1e-9) + 1) / self.fps
+                keep.append(k)
+        if keep:
+            self.camera.request(times[keep], telemetry.column("body_pos_m", start)[keep], telemetry.column("body_quat_wxyz", start)[keep])
+
+    def collect(self) -> list[tuple[float, bytes]]:
+        return self.camera.collect()
+
+    def close(self) -> list[tuple[float, bytes]]:
+        return self.camera.close()
+
+
 def _serve(argv: list[str]) -> None:
     """The camera process: `python -m twin.camera MODEL.mjb CAMERA WIDTH HEIGHT`."""
     import io

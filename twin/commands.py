@@ -85,15 +85,17 @@ def open_recorders(scenario, rrd: Path | None, mcap: Path | None, camera_fps: fl
     plant = build_plant(scenario)
     meta = run_metadata(scenario)
     if rrd:
-        from twin.rerun_log import RerunRecorder
+        from scenarios.runner import resolve_targets
+        from twin.rerun_log import RerunRecorder, moving_joint
 
         rrd.parent.mkdir(parents=True, exist_ok=True)
-        recorders.append(RerunRecorder(rrd, plant.model, plant.joints, meta, camera_fps=camera_fps))
+        focus = moving_joint(plant.joints, plant.drive_angles(), resolve_targets(scenario, plant))
+        recorders.append(RerunRecorder(rrd, plant.model, plant.joints, meta, camera_fps=camera_fps, focus=focus))
     if mcap:
         from twin.mcap_log import McapRecorder
 
         mcap.parent.mkdir(parents=True, exist_ok=True)
-        recorders.append(McapRecorder(mcap, plant.model, plant.joints, meta))
+        recorders.append(McapRecorder(mcap, plant.model, plant.joints, meta, camera_fps=camera_fps))
     return recorders
 
 

@@ -14,7 +14,7 @@ import numpy as np
 
 import assets
 from twin.mcap_log import LogError, read_mcap
-from twin.rerun_log import RerunRecorder, body_name
+from twin.rerun_log import RerunRecorder, body_name, most_travelled_joint
 
 
 class LoggedRun:
@@ -59,7 +59,8 @@ def replay(mcap_path, rrd_path, model_path=None) -> dict:
         )
     rrd_path = Path(rrd_path)
     rrd_path.parent.mkdir(parents=True, exist_ok=True)
-    recorder = RerunRecorder(rrd_path, model, meta["joints"], meta)
+    focus = most_travelled_joint(tuple(meta["joints"]), arrays["true_angle_rad"])
+    recorder = RerunRecorder(rrd_path, model, meta["joints"], meta, focus=focus)
     try:
         recorder.write(LoggedRun(arrays, meta["joints"], meta["bodies"]), 0)
     finally:
