@@ -1,7 +1,7 @@
 """The `twin` command: one entry point with subcommands (STYLE rule 12).
 
 Each area registers its own subcommands: twin.commands (run, sweep, paper, bench),
-twin.log_commands (view, replay) and gap.commands (gap diagnose, gap bench). A user error
+twin.log_commands (view, replay), twin.plot_command (plot) and gap.commands (gap diagnose, gap bench). A user error
 (bad file, field or value) is printed as one line and exits with status 2, never a traceback.
 """
 
@@ -15,7 +15,7 @@ from pneumatics import ParameterError
 from twin.errors import UserError
 
 # modules that define `register(subparsers)`; missing ones are skipped so the CLI still starts
-COMMAND_MODULES = ("twin.commands", "twin.log_commands", "gap.commands")
+COMMAND_MODULES = ("twin.commands", "twin.log_commands", "twin.plot_command", "gap.commands")
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -31,7 +31,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--workers", type=int, default=0, help="local worker processes (default: all cores)")
     p.add_argument("--scheduler", help="Dask scheduler address: run the sweep on that cluster")
     p.add_argument("--duration", type=float, help="shorten every run to this many simulated seconds")
-    p.add_argument("--out", type=Path, help="write all summaries to this JSON file")
+    p.add_argument("--out", type=Path, help="write all summaries to this JSON file, and a table of them (one row per run) beside it as .csv")
     p.set_defaults(func=cmd_sweep)
 
     p = sub.add_parser("paper", help="reproduce the paper's experiments into DIR (paper.json, PNG plots, report.md)")
@@ -119,7 +119,7 @@ def print_summary(summary: dict) -> None:
 
 def cmd_sweep(args) -> int:
     from scenarios.schema import load
-    from scenarios.sweep import parse_grid, sweep
+    from scenarios.sweep import parse_grid, sweep, table_path, write_csv
 
     scenario = load(args.scenario)
     if args.monte_carlo < 0 or args.workers < 0:
@@ -129,7 +129,8 @@ def cmd_sweep(args) -> int:
     if args.out:
         args.out.parent.mkdir(parents=True, exist_ok=True)
         args.out.write_text(json.dumps(results, indent=2))
-        print(f"{len(results)} runs, {passed} passed; summaries in {args.out}")
+        table = write_csv(results, table_path(args.out))
+        print(f"{len(results)} runs, {passed} passed; summaries in {args.out}, one row per run in {table}")
     else:
         json.dump(results, sys.stdout, indent=2)
         print()
