@@ -124,15 +124,18 @@ class FrameFeed:
 
     def __init__(self, model: mujoco.MjModel, fps: float, camera: str = "global_view", width: int = 480, height: int = 360):
         self.fps = float(fps)
-        self.camera = CameraProcess(model, camera=camera, width=width, height=height)
         self._next_t = 0.0
+        self._missing = None if has_camera(model, camera) else f"the model has no camera named {camera!r}"
+        self.camera = None if self._missing else CameraProcess(model, camera=camera, width=width, height=height)
 
     @property
     def error(self) -> str | None:
-        return self.camera.error
+        return self._missing or self.camera.error
 
     def request(self, telemetry, start: int) -> None:
         """Queue the frames due among telemetry samples `start`..; returns at once."""
+        if self.camera is None:
+            return
         times = telemetry.column("time_s", start)
         keep = []
         for k, t in enumerate(times):
@@ -143,10 +146,14 @@ class FrameFeed:
             self.camera.request(times[keep], telemetry.column("body_pos_m", start)[keep], telemetry.column("body_quat_wxyz", start)[keep])
 
     def collect(self) -> list[tuple[float, bytes]]:
-        return self.camera.collect()
+        return self.camera.collect() if self.camera else []
 
     def close(self) -> list[tuple[float, bytes]]:
-        return self.camera.close()
+        return self.camera.close() if self.camera else []
+
+
+def has_camera(model: mujoco.MjModel, name: str) -> bool:
+    return mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_CAMERA, name) >= 0
 
 
 def _serve(argv: list[str]) -> None:

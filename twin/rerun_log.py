@@ -34,6 +34,7 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
+from twin.camera import has_camera
 from twin.errors import UserError
 
 TIMELINE = "time"
@@ -260,10 +261,12 @@ def blueprint(joints: tuple[str, ...], model: mujoco.MjModel | None = None, focu
         line_grid=False,  # the model's own floor is drawn
         eye_controls=rrb.EyeControls3D(**eye(model)) if model is not None else None,
     )
-    below = [rrb.TimeSeriesView(name="brush normal force (N)", origin="brush")]
+    below = []
     if camera:
-        below.insert(0, rrb.Spatial2DView(name="global_view camera", origin="camera"))
-    left = rrb.Vertical(arm, rrb.Horizontal(*below), row_shares=[3, 1])
+        below.append(rrb.Spatial2DView(name="global_view camera", origin="camera"))
+    if model is None or mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, "brush") >= 0:
+        below.append(rrb.TimeSeriesView(name="brush normal force (N)", origin="brush"))
+    left = rrb.Vertical(arm, rrb.Horizontal(*below), row_shares=[3, 1]) if below else arm
     right = rrb.Tabs(*(joint_views(j) for j in joints), active_tab=joints.index(focus), name="joints")
     return rrb.Blueprint(
         rrb.Horizontal(left, right, column_shares=[1, 1]),
@@ -293,7 +296,7 @@ class RerunRecorder:
         self.bodies = tuple(body_name(plant_model, b) for b in range(1, plant_model.nbody))
         self.rec = rr.RecordingStream("pneumatic_arm_twin")
         try:
-            self.rec.save(self.path, default_blueprint=blueprint(self.joints, plant_model, focus, camera=camera_fps > 0))
+            self.rec.save(self.path, default_blueprint=blueprint(self.joints, plant_model, focus, camera=camera_fps > 0 and has_camera(plant_model, "global_view")))
         except Exception as e:  # rerun raises its own error types for unwritable paths
             raise RerunLogError(f"{self.path}: cannot write a rerun recording: {e}") from e
         if meta and meta.get("scenario_name"):
