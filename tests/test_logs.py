@@ -332,16 +332,37 @@ def test_telemetry_blocks_give_back_what_was_appended():
         tel.time_at(10)
 
 
-def run_with_camera(recorder, path, fps: float = 4.0):
-    """A 1 s run of the arm logged by `recorder` (RerunRecorder or McapRecorder) with camera frames."""
+def run_with_camera(recorder, path, fps: float = 4.0, shared: bool = False):
+    """A 1 s run of the arm logged by `recorder` (RerunRecorder or McapRecorder) with camera
+    frames; with `shared`, by both, sharing one camera feed (path without suffix)."""
+    from twin.camera import FrameFeed
+
     plant = Plant(assets.SCENE_XML)
     plant.set_supply(SUPPLY_PA)
-    rec = recorder(path, plant.model, plant.joints, META, camera_fps=fps)
+    if shared:
+        feed = FrameFeed(plant.model, fps)
+        recs = [cls(path.with_suffix(ext), plant.model, plant.joints, META, camera_fps=fps, frames=feed) for cls, ext in ((RerunRecorder, ".rrd"), (McapRecorder, ".mcap"))]
+    else:
+        recs = [recorder(path, plant.model, plant.joints, META, camera_fps=fps)]
     try:
-        run(plant, Predicting(plant.joints), 1.0, recorders=(rec,))
+        run(plant, Predicting(plant.joints), 1.0, recorders=tuple(recs))
     finally:
-        rec.close()
-    return rec
+        for rec in recs:
+            rec.close()
+    return recs[0]
+
+
+def rrd_frames(path: Path) -> list[tuple[float, bytes]]:
+    """The camera frames of a recording: (time s, JPEG bytes)."""
+    import rerun as rr
+
+    out = []
+    for chunk in rr.chunk.RrdReader(path).stream():
+        if chunk.entity_path.strip("/") == "camera/global_view" and not chunk.is_static:
+            batch = chunk.to_record_batch()
+            times = np.asarray(batch.column("time").cast("int64").to_numpy()) * 1e-9
+            out += [(t, bytes(b[0])) for t, b in zip(times, batch.column("EncodedImage:blob").to_pylist()) if b]
+    return sorted(out)
 
 
 def assert_frames_at_ticks(times_s: np.ndarray, fps: float = 4.0) -> None:
@@ -355,19 +376,12 @@ def test_recording_holds_camera_frames_or_says_why(tmp_path, capsys):
     GL works, one JPEG per 1/fps simulated seconds at the right times; where it does not, none,
     and a note that names the reason."""
     rec = run_with_camera(RerunRecorder, tmp_path / "cam.rrd")
-    import rerun as rr
-
-    times = []
-    for chunk in rr.chunk.RrdReader(tmp_path / "cam.rrd").stream():
-        if chunk.entity_path.strip("/") == "camera/global_view" and not chunk.is_static:
-            batch = chunk.to_record_batch()
-            times += list(np.asarray(batch.column("time").cast("int64").to_numpy()) * 1e-9)
-            blobs = [b[0] for b in batch.column("EncodedImage:blob").to_pylist() if b]  # one blob per row
-            assert blobs and all(bytes(b[:2]) == b"\xff\xd8" for b in blobs)  # JPEG start-of-image
+    frames = rrd_frames(tmp_path / "cam.rrd")
     if rec._camera.error:
-        assert times == [] and "no camera frames" in capsys.readouterr().err
+        assert frames == [] and "no camera frames" in capsys.readouterr().err
     else:
-        assert_frames_at_ticks(np.sort(times))
+        assert all(jpeg[:2] == b"\xff\xd8" for _, jpeg in frames)  # JPEG start-of-image
+        assert_frames_at_ticks(np.array([t for t, _ in frames]))
 
 
 def test_camera_without_a_working_backend_says_why():
@@ -620,3 +634,21 @@ def test_the_real_viewer_shows_the_recording(logged, tmp_path):
     white = plots.min(axis=-1) > 0.9
     dark = plots.max(axis=-1) < 0.12
     assert dark.mean() > 0.4 and orange.sum() > 200 and white.sum() > 200
+
+
+def test_both_logs_share_one_camera(tmp_path):
+    """With both logs and a shared feed each frame is rendered once and lands in both."""
+    from foxglove_schemas_protobuf.CompressedImage_pb2 import CompressedImage
+    from mcap.reader import make_reader
+
+    from twin.mcap_log import CAMERA_TOPIC, START_TIME_NS
+
+    rec = run_with_camera(None, tmp_path / "both", shared=True)
+    if rec._camera.error:
+        pytest.skip(f"no offscreen GL here: {rec._camera.error}")
+    in_rrd = rrd_frames(tmp_path / "both.rrd")
+    with open(tmp_path / "both.mcap", "rb") as f:
+        in_mcap = [((m.log_time - START_TIME_NS) * 1e-9, CompressedImage.FromString(m.data).data) for _, _, m in make_reader(f).iter_messages(topics=[CAMERA_TOPIC])]
+    assert_frames_at_ticks(np.array([t for t, _ in in_rrd]))
+    assert [b for _, b in in_rrd] == [b for _, b in in_mcap]
+    np.testing.assert_allclose([t for t, _ in in_rrd], [t for t, _ in in_mcap], atol=1e-8)

@@ -119,12 +119,17 @@ class CameraProcess:
 
 
 class FrameFeed:
-    """Frames of `camera` at `fps` per simulated second for a recorder: from each batch of
-    telemetry it asks a CameraProcess for the first sample at or after every 1/fps tick."""
+    """Frames of `camera` at `fps` per simulated second for the recorders of one run: from each
+    batch of telemetry it asks one CameraProcess for the first sample at or after every 1/fps
+    tick. Recorders may share a feed (a run with both logs renders each frame once): asking
+    twice for the same batch asks nothing more, and each recorder reads the frames by its own
+    count (`frames_from`)."""
 
     def __init__(self, model: mujoco.MjModel, fps: float, camera: str = "global_view", width: int = 480, height: int = 360):
         self.fps = float(fps)
         self._next_t = 0.0
+        self._frames: list[tuple[float, bytes]] = []
+        self._done = False
         self._missing = None if has_camera(model, camera) else f"the model has no camera named {camera!r}"
         self.camera = None if self._missing else CameraProcess(model, camera=camera, width=width, height=height)
 
@@ -145,11 +150,16 @@ class FrameFeed:
         if keep:
             self.camera.request(times[keep], telemetry.column("body_pos_m", start)[keep], telemetry.column("body_quat_wxyz", start)[keep])
 
-    def collect(self) -> list[tuple[float, bytes]]:
-        return self.camera.collect() if self.camera else []
-
-    def close(self) -> list[tuple[float, bytes]]:
-        return self.camera.close() if self.camera else []
+    def frames_from(self, k: int, wait: bool = False) -> list[tuple[float, bytes]]:
+        """Frames k.. of those rendered so far, as (time, JPEG bytes) in the order rendered; with
+        `wait`, of all of them (this waits for the last and ends the camera process)."""
+        if self.camera is not None and not self._done:
+            if wait:
+                self._done = True
+                self._frames += self.camera.close()
+            else:
+                self._frames += self.camera.collect()
+        return self._frames[k:]
 
 
 def has_camera(model: mujoco.MjModel, name: str) -> bool:

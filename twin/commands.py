@@ -84,18 +84,23 @@ def open_recorders(scenario, rrd: Path | None, mcap: Path | None, camera_fps: fl
 
     plant = build_plant(scenario)
     meta = run_metadata(scenario)
+    frames = None
+    if rrd and mcap and camera_fps > 0:  # one camera process renders each frame for both logs
+        from twin.camera import FrameFeed
+
+        frames = FrameFeed(plant.model, camera_fps)
     if rrd:
         from scenarios.runner import resolve_targets
         from twin.rerun_log import RerunRecorder, moving_joint
 
         rrd.parent.mkdir(parents=True, exist_ok=True)
         focus = moving_joint(plant.joints, plant.drive_angles(), resolve_targets(scenario, plant))
-        recorders.append(RerunRecorder(rrd, plant.model, plant.joints, meta, camera_fps=camera_fps, focus=focus))
+        recorders.append(RerunRecorder(rrd, plant.model, plant.joints, meta, camera_fps=camera_fps, focus=focus, frames=frames))
     if mcap:
         from twin.mcap_log import McapRecorder
 
         mcap.parent.mkdir(parents=True, exist_ok=True)
-        recorders.append(McapRecorder(mcap, plant.model, plant.joints, meta, camera_fps=camera_fps))
+        recorders.append(McapRecorder(mcap, plant.model, plant.joints, meta, camera_fps=camera_fps, frames=frames))
     return recorders
 
 

@@ -274,9 +274,10 @@ class McapRecorder:
     `background=False` writes in-process; the file is the same byte for byte either way.
     `camera_fps` > 0 adds the scene's `global_view` camera as JPEG frames (twin.camera), written
     at close; where offscreen GL does not work the log goes on without them and says so.
+    `frames` is a twin.camera.FrameFeed shared with another recorder (each frame rendered once).
     """
 
-    def __init__(self, path, plant_model, joints, meta: dict | None = None, *, chunk_size: int = CHUNK_SIZE, background: bool = True, camera_fps: float = 0.0):
+    def __init__(self, path, plant_model, joints, meta: dict | None = None, *, chunk_size: int = CHUNK_SIZE, background: bool = True, camera_fps: float = 0.0, frames=None):
         import os
         import subprocess
         import sys
@@ -290,8 +291,8 @@ class McapRecorder:
         kwargs = {"chunk_size": chunk_size}
         self._inline = self._proc = None
         self._closed = False
-        self._camera, self._frames = None, []
-        if camera_fps > 0:
+        self._camera = frames
+        if self._camera is None and camera_fps > 0:
             from twin.camera import FrameFeed
 
             self._camera = FrameFeed(plant_model, camera_fps)
@@ -328,7 +329,6 @@ class McapRecorder:
         """Send telemetry samples `start`.. to the writer (each batch is flushed to the file)."""
         if self._camera is not None and len(telemetry) > start:
             self._camera.request(telemetry, start)
-            self._frames += self._camera.collect()
         if self._inline is not None:
             return self._inline.write(telemetry, start)
         self._send((telemetry.arrays(start), start))
@@ -337,7 +337,7 @@ class McapRecorder:
         """All frames, in time order (the order they were rendered in is the renderer's)."""
         if self._camera is None:
             return []
-        frames = sorted(self._frames + self._camera.close(), key=lambda f: f[0])
+        frames = sorted(self._camera.frames_from(0, wait=True), key=lambda f: f[0])
         if self._camera.error:  # the log holds everything else
             import sys
 

@@ -284,10 +284,11 @@ class RerunRecorder:
     `meta`. `camera_fps` > 0 logs the scene's `global_view` camera (the operator's aid in the
     paper) at that rate as JPEG frames, rendered by twin.camera's process where offscreen GL
     (egl or osmesa) works; where none does, the recording goes on without frames and says so.
-    `focus` is the joint whose plots the recording opens on (`moving_joint` of the plan).
+    `focus` is the joint whose plots the recording opens on (`moving_joint` of the plan);
+    `frames` a twin.camera.FrameFeed shared with another recorder (then `camera_fps` is its).
     """
 
-    def __init__(self, path, plant_model: mujoco.MjModel, joints, meta: dict | None = None, *, camera_fps: float = 0.0, focus: str | None = None):
+    def __init__(self, path, plant_model: mujoco.MjModel, joints, meta: dict | None = None, *, camera_fps: float = 0.0, focus: str | None = None, frames=None):
         import rerun as rr
 
         self.path = Path(path)
@@ -312,8 +313,8 @@ class RerunRecorder:
         self.batch_s = 10.0
         self._pending: int | None = None  # first telemetry sample not yet sent
         self._telemetry = None
-        self._camera = None
-        if self.camera_fps > 0:
+        self._camera, self._frames_seen = frames, 0
+        if self._camera is None and self.camera_fps > 0:
             from twin.camera import FrameFeed
 
             self._camera = FrameFeed(plant_model, self.camera_fps)
@@ -336,7 +337,7 @@ class RerunRecorder:
             # frames are asked for at every write, not every batch: the camera process renders
             # them while the run goes on, and close has next to nothing left to wait for
             self._camera.request(telemetry, start)
-            self._log_frames(self._camera.collect())
+            self._log_frames(self._camera.frames_from(self._frames_seen))
         if len(telemetry) > self._pending and telemetry.time_at(-1) - telemetry.time_at(self._pending) >= self.batch_s:
             self._send(telemetry, self._pending)
             self._pending = None
@@ -389,6 +390,7 @@ class RerunRecorder:
     def _log_frames(self, frames: list[tuple[float, bytes]]) -> None:
         import rerun as rr
 
+        self._frames_seen += len(frames)
         for t, jpeg in frames:
             self.rec.set_time(TIMELINE, duration=t)
             self.rec.log("camera/global_view", rr.EncodedImage(contents=jpeg, media_type="image/jpeg"))
@@ -400,7 +402,7 @@ class RerunRecorder:
         if self._pending is not None:
             self._send(self._telemetry, self._pending)
         if self._camera is not None:
-            self._log_frames(self._camera.close())
+            self._log_frames(self._camera.frames_from(self._frames_seen, wait=True))
             if self._camera.error:  # the recording holds everything else
                 print(f"twin: note: no camera frames in {self.path}: {self._camera.error}", file=sys.stderr)
         self.rec.flush()
