@@ -100,16 +100,16 @@ class Run(Log):
     summary: dict = field(default_factory=dict)
 
 
-def run(name_or_path: str | Path | Scenario, *, duration_s: float | None = None, seed: int | None = None, rrd=None, mcap=None, camera_fps: float = 0.0, **overrides) -> Run:
+def run(name_or_path: str | Path | Scenario, *, duration_s: float | None = None, seed: int | None = None, rrd=None, mcap=None, camera_fps: float = 0.0, start_time: str | None = None, **overrides) -> Run:
     """Run a scenario (shortened to `duration_s`, with another `seed`, dotted `overrides`), logging
-    to `rrd` / `mcap` if given, as `twin run` does."""
+    to `rrd` / `mcap` if given, as `twin run` does (`start_time`: its --start-time)."""
     from scenarios.runner import run_scenario
     from twin.commands import open_recorders
 
     sc = scenario(name_or_path, **overrides)
     if seed is not None:
         sc = with_overrides(sc, {"seed": seed})
-    recorders = open_recorders(sc, Path(rrd) if rrd else None, Path(mcap) if mcap else None, camera_fps)
+    recorders = open_recorders(sc, Path(rrd) if rrd else None, Path(mcap) if mcap else None, camera_fps, start_time)
     try:
         result = run_scenario(sc, recorders=tuple(recorders), duration_s=duration_s)
     finally:

@@ -652,3 +652,22 @@ def test_both_logs_share_one_camera(tmp_path):
     assert_frames_at_ticks(np.array([t for t, _ in in_rrd]))
     assert [b for _, b in in_rrd] == [b for _, b in in_mcap]
     np.testing.assert_allclose([t for t, _ in in_rrd], [t for t, _ in in_mcap], atol=1e-8)
+
+
+def test_mcap_start_time_given_or_refused(tmp_path, capsys):
+    """`--start-time` moves the MCAP's clock (and says where it came from); a time without its
+    zone or a word is refused before the run, exit 2."""
+    from mcap.reader import make_reader
+
+    wrist = str(ROOT / "scenarios" / "wrist_closed_loop_60deg.toml")
+    out = tmp_path / "t.mcap"
+    assert twin_main(["run", wrist, "--duration", "0.1", "--mcap", str(out), "--start-time", "2026-11-23T13:00:00Z"]) in (0, 1)
+    with open(out, "rb") as f:
+        reader = make_reader(f)
+        meta = {m.name: m.metadata for m in reader.iter_metadata()}["twin"]
+        start = reader.get_summary().statistics.message_start_time
+    assert start == 1_795_438_800 * 10**9  # 2026-11-23T13:00:00Z
+    assert "given: 2026-11-23T13:00:00Z" in meta["start_time_source"]
+    for bad in ("yesterday", "2026-11-23T13:00:00"):
+        assert twin_main(["run", wrist, "--duration", "0.1", "--mcap", str(tmp_path / "u.mcap"), "--start-time", bad]) == 2
+        assert "--start-time" in capsys.readouterr().err and not (tmp_path / "u.mcap").exists()

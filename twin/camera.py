@@ -130,12 +130,13 @@ class FrameFeed:
         self._next_t = 0.0
         self._frames: list[tuple[float, bytes]] = []
         self._done = False
-        self._missing = None if has_camera(model, camera) else f"the model has no camera named {camera!r}"
-        self.camera = None if self._missing else CameraProcess(model, camera=camera, width=width, height=height)
+        # a model without the camera (the wrist rig) has no frames to give, and nothing to say
+        self.camera = CameraProcess(model, camera=camera, width=width, height=height) if has_camera(model, camera) else None
 
     @property
     def error(self) -> str | None:
-        return self._missing or self.camera.error
+        """Why frames the model has a camera for could not be rendered (None: they were)."""
+        return self.camera.error if self.camera else None
 
     def request(self, telemetry, start: int) -> None:
         """Queue the frames due among telemetry samples `start`..; returns at once."""

@@ -22,6 +22,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--camera-fps", type=float, default=CAMERA_FPS, metavar="N", help=f"global-camera frames per simulated second in the recording (default {CAMERA_FPS:g}; 0: none)")
     p.add_argument("--duration", type=float, help="stop after this many simulated seconds")
     p.add_argument("--seed", type=int, help="override the scenario's seed")
+    p.add_argument("--start-time", metavar="ISO|now", help="the MCAP log's start (default 2000-01-01T00:00:00Z, so logs are deterministic; 'now': the wall clock)")
     p.set_defaults(func=cmd_run)
 
     p = sub.add_parser("sweep", help="run a scenario over a grid of field values and/or Monte Carlo seeds")
@@ -56,7 +57,7 @@ def cmd_run(args) -> int:
         raise UserError(f"--duration {args.duration}: must be > 0 s")
     if args.camera_fps < 0:
         raise UserError(f"--camera-fps {args.camera_fps}: must be >= 0 (0: no camera frames)")
-    recorders = open_recorders(scenario, args.rrd, args.mcap, args.camera_fps)
+    recorders = open_recorders(scenario, args.rrd, args.mcap, args.camera_fps, args.start_time)
     try:
         result = run_scenario(scenario, recorders=recorders, duration_s=args.duration)
     finally:
@@ -74,16 +75,18 @@ def cmd_run(args) -> int:
     return 0 if result.passed else 1
 
 
-def open_recorders(scenario, rrd: Path | None, mcap: Path | None, camera_fps: float = CAMERA_FPS) -> list:
-    """The log writers a run asked for, told what they need to know about the scenario."""
+def open_recorders(scenario, rrd: Path | None, mcap: Path | None, camera_fps: float = CAMERA_FPS, start_time: str | None = None) -> list:
+    """The log writers a run asked for, told what they need to know about the scenario;
+    `start_time` ("now" or ISO 8601) starts the MCAP's clock there (twin.mcap_log.start_time)."""
     recorders = []
     if not (rrd or mcap):
         return recorders
     from scenarios.runner import build_plant
+    from twin.mcap_log import start_time as start_meta
     from twin.provenance import run_metadata
 
+    meta = run_metadata(scenario) | (start_meta(start_time) if start_time else {})
     plant = build_plant(scenario)
-    meta = run_metadata(scenario)
     frames = None
     if rrd and mcap and camera_fps > 0:  # one camera process renders each frame for both logs
         from twin.camera import FrameFeed

@@ -112,7 +112,7 @@ class McapWriter:
         self.joints = tuple(joints)
         self.bodies = tuple(bodies)
         meta = dict(meta or {})
-        self.start_ns = int(meta.get("start_time_ns") or START_TIME_NS)
+        self.start_ns = int(meta["start_time_ns"]) if meta.get("start_time_ns") is not None else START_TIME_NS
         self._CompressedImage = CompressedImage
         self._file = _open_for_writing(self.path)
         self._writer = Writer(self._file, chunk_size=chunk_size, compression=CompressionType.ZSTD)
@@ -215,6 +215,23 @@ class McapWriter:
         self._closed = True
         self._writer.finish()
         self._file.close()
+
+
+def start_time(text: str, where: str = "--start-time") -> dict:
+    """The metadata that starts a log at `text`: "now" (the wall clock; the log then differs from
+    run to run) or an ISO 8601 time with its zone (2026-11-23T13:00:00Z). LogError otherwise."""
+    import datetime as dt
+    import time
+
+    if text == "now":
+        return {"start_time_ns": time.time_ns(), "start_time_source": "wall clock at the run's start"}
+    try:
+        when = dt.datetime.fromisoformat(text.replace("Z", "+00:00"))
+    except ValueError:
+        when = None
+    if when is None or when.tzinfo is None or not 1970 <= when.year <= 2200:
+        raise LogError(f"{where} {text!r}: expected 'now' or an ISO 8601 time with its zone between 1970 and 2200, e.g. 2026-11-23T13:00:00Z")
+    return {"start_time_ns": int(when.timestamp()) * 1_000_000_000 + when.microsecond * 1000, "start_time_source": f"given: {text}"}
 
 
 def _utc(ns: int) -> str:
