@@ -671,3 +671,16 @@ def test_mcap_start_time_given_or_refused(tmp_path, capsys):
     for bad in ("yesterday", "2026-11-23T13:00:00"):
         assert twin_main(["run", wrist, "--duration", "0.1", "--mcap", str(tmp_path / "u.mcap"), "--start-time", bad]) == 2
         assert "--start-time" in capsys.readouterr().err and not (tmp_path / "u.mcap").exists()
+
+
+def test_replay_carries_the_camera_frames_of_a_log(tmp_path):
+    """Frames in an MCAP log come back in the recording `twin replay` makes, at their times."""
+    rec = run_with_camera(McapRecorder, tmp_path / "cam.mcap")
+    if rec._camera.error:
+        pytest.skip(f"no offscreen GL here: {rec._camera.error}")
+    _, meta = read_mcap(tmp_path / "cam.mcap", frames=True)
+    assert twin_main(["replay", str(tmp_path / "cam.mcap"), "--rrd", str(tmp_path / "cam.rrd")]) == 0
+    replayed = rrd_frames(tmp_path / "cam.rrd")
+    assert [b for _, b in replayed] == [b for _, b in meta["camera_frames"]]
+    np.testing.assert_allclose([t for t, _ in replayed], [t for t, _ in meta["camera_frames"]], atol=1e-8)
+    assert_frames_at_ticks(np.array([t for t, _ in replayed]))

@@ -19,7 +19,8 @@ Times: a message's log time is the run's start plus its simulated time. The star
 START_TIME_NS (2000-01-01T00:00:00Z), unless the run's metadata gives one ("start_time_ns", e.g.
 `twin run --start-time now`): so the same scenario and seed still give the same file byte for byte
 (DESIGN rule 5), and Foxglove's clock shows simulated time as time of day since midnight. The
-start and where it came from are in the metadata record ("start_time_utc", "start_time_source").
+start and where it came from are in the metadata record ("start_time_utc", "start_time_ns",
+"start_time_source").
 Camera frames are written together at close, after the telemetry, so their place in the file
 does not depend on when the renderer delivered them (a run killed mid-way keeps its telemetry,
 not its frames).
@@ -147,6 +148,7 @@ class McapWriter:
             "overrides": json.dumps(meta.get("overrides", {}), default=str),
             "versions": json.dumps(meta.get("versions") or package_versions()),
             "start_time_utc": json.dumps(_utc(self.start_ns)),
+            "start_time_ns": json.dumps(self.start_ns),
             "start_time_source": json.dumps(meta.get("start_time_source") or "fixed epoch (deterministic logs)"),
         }
         self._writer.add_metadata("twin", info)
@@ -433,14 +435,15 @@ def _scene_update(model):
     return update
 
 
-def read_mcap(path) -> tuple[dict[str, np.ndarray], dict]:
+def read_mcap(path, frames: bool = False) -> tuple[dict[str, np.ndarray], dict]:
     """Read a log written by McapRecorder back into arrays shaped like Telemetry.arrays().
 
     Works on a file cut short (a run killed mid-way): it streams records up to the cut and keeps
     every sample whose messages all arrived. `meta` holds the metadata record (joints, bodies,
     seed, versions, ...), "scenario_text" from the attachment, and "recovery": complete (the file
     was closed properly), samples, duration_s (simulated seconds recovered), stopped_by (why
-    reading stopped early, or None).
+    reading stopped early, or None). With `frames`, meta["camera_frames"] holds the camera's
+    frames as (simulated time s, JPEG bytes) in time order.
     Raises LogError when the file is missing, is not MCAP, or is not a log of this project.
     """
     from foxglove_schemas_protobuf.FrameTransforms_pb2 import FrameTransforms
@@ -455,6 +458,7 @@ def read_mcap(path) -> tuple[dict[str, np.ndarray], dict]:
         raise LogError(f"{path}: cannot open the MCAP log: {e.strerror}") from e
     topics: dict[int, str] = {}
     samples: dict[int, dict[str, object]] = {}
+    images: list = []  # camera frames' Message records
     meta: dict = {}
     complete, stopped_by = False, None
     with f:
@@ -464,6 +468,8 @@ def read_mcap(path) -> tuple[dict[str, np.ndarray], dict]:
                     topics[rec.id] = rec.topic
                 elif isinstance(rec, Message):
                     topic = topics.get(rec.channel_id)
+                    if topic == CAMERA_TOPIC and frames:
+                        images.append(rec)
                     if topic is None or topic in ("/scene", CAMERA_TOPIC):
                         continue
                     samples.setdefault(rec.sequence, {})[topic] = rec.data
@@ -514,6 +520,11 @@ def read_mcap(path) -> tuple[dict[str, np.ndarray], dict]:
         raise LogError(f"{path}: sample {s} is malformed ({type(e).__name__}: {e})") from e
     duration = float(out["time_s"][-1] - out["time_s"][0]) if m else 0.0
     meta["recovery"] = {"complete": complete, "samples": m, "duration_s": duration, "stopped_by": stopped_by}
+    if frames:
+        from foxglove_schemas_protobuf.CompressedImage_pb2 import CompressedImage
+
+        start_ns = int(meta.get("start_time_ns", 0))  # logs written before it had a start began at 0
+        meta["camera_frames"] = sorted(((r.log_time - start_ns) * 1e-9, CompressedImage.FromString(r.data).data) for r in images)
     return out, meta
 
 

@@ -77,18 +77,19 @@ def _model_of(mcap_path, meta: dict, model_path=None) -> tuple[Path, mujoco.MjMo
 
 
 def replay(mcap_path, rrd_path, model_path=None) -> dict:
-    """Write a rerun recording of the run logged in `mcap_path`; returns the reader's recovery
-    report (samples, duration_s, complete, stopped_by). Raises LogError on a bad input."""
-    arrays, meta = read_mcap(mcap_path)
+    """Write a rerun recording of the run logged in `mcap_path` (its camera frames too); returns
+    the reader's recovery report (samples, duration_s, complete, stopped_by). Raises LogError on a bad input."""
+    arrays, meta = read_mcap(mcap_path, frames=True)
     if meta["recovery"]["samples"] == 0:
         raise LogError(f"{mcap_path}: holds no complete telemetry sample; nothing to replay")
     model_path, model = _model_of(mcap_path, meta, model_path)
     rrd_path = Path(rrd_path)
     rrd_path.parent.mkdir(parents=True, exist_ok=True)
     focus = most_travelled_joint(tuple(meta["joints"]), arrays["true_angle_rad"])
-    recorder = RerunRecorder(rrd_path, model, meta["joints"], meta, focus=focus)
+    recorder = RerunRecorder(rrd_path, model, meta["joints"], meta, focus=focus, camera_view=bool(meta["camera_frames"]))
     try:
         recorder.write(LoggedRun(arrays, meta["joints"], meta["bodies"]), 0)
+        recorder.log_frames(meta["camera_frames"])
     finally:
         recorder.close()
     return meta["recovery"]

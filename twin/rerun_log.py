@@ -285,10 +285,11 @@ class RerunRecorder:
     paper) at that rate as JPEG frames, rendered by twin.camera's process where offscreen GL
     (egl or osmesa) works; where none does, the recording goes on without frames and says so.
     `focus` is the joint whose plots the recording opens on (`moving_joint` of the plan);
-    `frames` a twin.camera.FrameFeed shared with another recorder (then `camera_fps` is its).
+    `frames` a twin.camera.FrameFeed shared with another recorder (then `camera_fps` is its);
+    `camera_view` shows the camera's view for frames logged by `log_frames` (a replay).
     """
 
-    def __init__(self, path, plant_model: mujoco.MjModel, joints, meta: dict | None = None, *, camera_fps: float = 0.0, focus: str | None = None, frames=None):
+    def __init__(self, path, plant_model: mujoco.MjModel, joints, meta: dict | None = None, *, camera_fps: float = 0.0, focus: str | None = None, frames=None, camera_view: bool = False):
         import rerun as rr
 
         self.path = Path(path)
@@ -297,7 +298,7 @@ class RerunRecorder:
         self.bodies = tuple(body_name(plant_model, b) for b in range(1, plant_model.nbody))
         self.rec = rr.RecordingStream("pneumatic_arm_twin")
         try:
-            self.rec.save(self.path, default_blueprint=blueprint(self.joints, plant_model, focus, camera=camera_fps > 0 and has_camera(plant_model, "global_view")))
+            self.rec.save(self.path, default_blueprint=blueprint(self.joints, plant_model, focus, camera=camera_view or (camera_fps > 0 and has_camera(plant_model, "global_view"))))
         except Exception as e:  # rerun raises its own error types for unwritable paths
             raise RerunLogError(f"{self.path}: cannot write a rerun recording: {e}") from e
         if meta and meta.get("scenario_name"):
@@ -337,7 +338,7 @@ class RerunRecorder:
             # frames are asked for at every write, not every batch: the camera process renders
             # them while the run goes on, and close has next to nothing left to wait for
             self._camera.request(telemetry, start)
-            self._log_frames(self._camera.frames_from(self._frames_seen))
+            self.log_frames(self._camera.frames_from(self._frames_seen))
         if len(telemetry) > self._pending and telemetry.time_at(-1) - telemetry.time_at(self._pending) >= self.batch_s:
             self._send(telemetry, self._pending)
             self._pending = None
@@ -387,7 +388,8 @@ class RerunRecorder:
             columns=rr.Arrows3D.columns(origins=a["brush_contact_m"][touching], vectors=1e-3 * a["brush_push_n"][touching]).partition(touching.astype(np.int32)),
         )
 
-    def _log_frames(self, frames: list[tuple[float, bytes]]) -> None:
+    def log_frames(self, frames: list[tuple[float, bytes]]) -> None:
+        """Log camera frames (simulated time s, JPEG bytes), e.g. those a replayed log holds."""
         import rerun as rr
 
         self._frames_seen += len(frames)
@@ -402,7 +404,7 @@ class RerunRecorder:
         if self._pending is not None:
             self._send(self._telemetry, self._pending)
         if self._camera is not None:
-            self._log_frames(self._camera.frames_from(self._frames_seen, wait=True))
+            self.log_frames(self._camera.frames_from(self._frames_seen, wait=True))
             if self._camera.error:  # the recording holds everything else
                 print(f"twin: note: no camera frames in {self.path}: {self._camera.error}", file=sys.stderr)
         self.rec.flush()
