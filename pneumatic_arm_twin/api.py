@@ -22,7 +22,8 @@ def shipped_scenario_path(name: str) -> Path:
 
     shipped = {p.stem: p for p in scenario_files()}
     if name not in shipped:
-        raise ScenarioError(f"{name}: no such scenario file, nor a shipped scenario (shipped: {', '.join(sorted(shipped))})")
+        names = ", ".join(sorted(shipped))
+        raise ScenarioError(f"{name}: no such scenario file, nor a shipped scenario (shipped: {names})")
     return shipped[name]
 
 
@@ -36,7 +37,7 @@ def scenario(name_or_path: str | Path | Scenario, **overrides) -> Scenario:
     return with_overrides(sc, overrides) if overrides else sc
 
 
-def flat_columns(arrays: dict[str, np.ndarray], joints: tuple[str, ...], bodies: tuple[str, ...]) -> dict[str, np.ndarray]:
+def flat_columns(arrays: dict[str, np.ndarray], joints: tuple[str, ...], bodies: tuple[str, ...]) -> dict:
     """Telemetry arrays as 1-D columns named `signal`, `signal.joint`, `signal.x`, `signal.body.x`."""
     from twin.telemetry import SIGNALS
 
@@ -100,7 +101,17 @@ class Run(Log):
     summary: dict = field(default_factory=dict)
 
 
-def run(name_or_path: str | Path | Scenario, *, duration_s: float | None = None, seed: int | None = None, rrd=None, mcap=None, camera_fps: float = 0.0, start_time: str | None = None, **overrides) -> Run:
+def run(
+    name_or_path: str | Path | Scenario,
+    *,
+    duration_s: float | None = None,
+    seed: int | None = None,
+    rrd=None,
+    mcap=None,
+    camera_fps: float = 0.0,
+    start_time: str | None = None,
+    **overrides,
+) -> Run:
     """Run a scenario (shortened to `duration_s`, with another `seed`, dotted `overrides`), logging
     to `rrd` / `mcap` if given, as `twin run` does (`start_time`: its --start-time)."""
     from scenarios.runner import run_scenario
@@ -116,7 +127,8 @@ def run(name_or_path: str | Path | Scenario, *, duration_s: float | None = None,
         for r in recorders:
             r.close()
     tel = result.telemetry
-    return Run(tel.arrays(), tel.joints, tel.bodies, {"scenario_name": sc.name, "seed": sc.seed}, result.passed, result.summary())
+    meta = {"scenario_name": sc.name, "seed": sc.seed}
+    return Run(tel.arrays(), tel.joints, tel.bodies, meta, result.passed, result.summary())
 
 
 def read_log(path) -> Log:
@@ -150,11 +162,20 @@ class Sweep:
         return write_csv(self.summaries, path)
 
 
-def sweep(name_or_path: str | Path | Scenario, grid: dict[str, list] | None = None, *, monte_carlo: int = 0, workers: int = 1, duration_s: float | None = None, progress: bool = False) -> Sweep:
+def sweep(
+    name_or_path: str | Path | Scenario,
+    grid: dict[str, list] | None = None,
+    *,
+    monte_carlo: int = 0,
+    workers: int = 1,
+    duration_s: float | None = None,
+    progress: bool = False,
+) -> Sweep:
     """Run a scenario over a grid of dotted fields and/or `monte_carlo` child seeds (`twin sweep`)."""
     from scenarios.sweep import sweep as _sweep
 
-    return Sweep(_sweep(scenario(name_or_path), grid or {}, monte_carlo, workers, None, duration_s, progress=progress))
+    summaries = _sweep(scenario(name_or_path), grid or {}, monte_carlo, workers, None, duration_s, progress=progress)
+    return Sweep(summaries)
 
 
 @dataclass
@@ -175,7 +196,15 @@ class Diagnosis:
         return {k: [c[k] for c in rank] for k in ("name", "heldout_rms_deg", "shrink", "fitted_values", "explains")}
 
 
-def diagnose(campaign, *, out=None, effects: list[str] | None = None, model_tolerance_deg: float | None = None, jobs: int = 2, progress: bool = False) -> Diagnosis:
+def diagnose(
+    campaign,
+    *,
+    out=None,
+    effects: list[str] | None = None,
+    model_tolerance_deg: float | None = None,
+    jobs: int = 2,
+    progress: bool = False,
+) -> Diagnosis:
     """Diagnose a calibration campaign folder (`twin gap diagnose`); `effects` limits the
     catalogue to those names; `out` also writes diagnosis.json, report.md and the plots there."""
     from gap import CATALOGUE, GapError, diagnose as _diagnose, load_campaign, write_report
@@ -193,4 +222,5 @@ def diagnose(campaign, *, out=None, effects: list[str] | None = None, model_tole
     if out is not None:
         write_report(d, out)
     top = d["which"]["top"]
-    return Diagnosis(d["which"]["verdict"], top["name"] if top else None, d["before_rms_deg"], top["heldout_rms_deg"] if top else None, d)
+    after = top["heldout_rms_deg"] if top else None
+    return Diagnosis(d["which"]["verdict"], top["name"] if top else None, d["before_rms_deg"], after, d)

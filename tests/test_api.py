@@ -102,7 +102,8 @@ def test_sweep_table_and_csv(tmp_path):
 
 def test_sweep_command_writes_the_table_beside_the_json(tmp_path, capsys):
     out = tmp_path / "s.json"
-    twin_main(["sweep", str(pat.api.shipped_scenario_path(SCENARIO)), "--set", "supply.pressure_mpa=0.6", "--duration", "0.3", "--workers", "1", "--out", str(out)])
+    path = str(pat.api.shipped_scenario_path(SCENARIO))
+    twin_main(["sweep", path, "--set", "supply.pressure_mpa=0.6", "--duration", "0.3", "--workers", "1", "--out", str(out)])
     assert "one row per run in" in capsys.readouterr().out
     summaries = json.loads(out.read_text())
     rows = list(csv.DictReader(open(tmp_path / "s.csv")))

@@ -341,7 +341,10 @@ def run_with_camera(recorder, path, fps: float = 4.0, shared: bool = False):
     plant.set_supply(SUPPLY_PA)
     if shared:
         feed = FrameFeed(plant.model, fps)
-        recs = [cls(path.with_suffix(ext), plant.model, plant.joints, META, camera_fps=fps, frames=feed) for cls, ext in ((RerunRecorder, ".rrd"), (McapRecorder, ".mcap"))]
+        recs = [
+            cls(path.with_suffix(ext), plant.model, plant.joints, META, camera_fps=fps, frames=feed)
+            for cls, ext in ((RerunRecorder, ".rrd"), (McapRecorder, ".mcap"))
+        ]
     else:
         recs = [recorder(path, plant.model, plant.joints, META, camera_fps=fps)]
     try:
@@ -509,7 +512,8 @@ def test_mcap_holds_camera_frames_as_compressed_images_or_says_why(tmp_path, cap
 
     rec = run_with_camera(McapRecorder, tmp_path / "cam.mcap")
     with open(tmp_path / "cam.mcap", "rb") as f:
-        frames = [(msg.log_time, CompressedImage.FromString(msg.data), sch.name) for sch, _, msg in make_reader(f).iter_messages(topics=[CAMERA_TOPIC])]
+        messages = make_reader(f).iter_messages(topics=[CAMERA_TOPIC])
+        frames = [(msg.log_time, CompressedImage.FromString(msg.data), sch.name) for sch, _, msg in messages]
     if rec._camera.error:
         assert frames == [] and "no camera frames" in capsys.readouterr().err
         return
@@ -648,7 +652,8 @@ def test_both_logs_share_one_camera(tmp_path):
         pytest.skip(f"no offscreen GL here: {rec._camera.error}")
     in_rrd = rrd_frames(tmp_path / "both.rrd")
     with open(tmp_path / "both.mcap", "rb") as f:
-        in_mcap = [((m.log_time - START_TIME_NS) * 1e-9, CompressedImage.FromString(m.data).data) for _, _, m in make_reader(f).iter_messages(topics=[CAMERA_TOPIC])]
+        messages = make_reader(f).iter_messages(topics=[CAMERA_TOPIC])
+        in_mcap = [((m.log_time - START_TIME_NS) * 1e-9, CompressedImage.FromString(m.data).data) for _, _, m in messages]
     assert_frames_at_ticks(np.array([t for t, _ in in_rrd]))
     assert [b for _, b in in_rrd] == [b for _, b in in_mcap]
     np.testing.assert_allclose([t for t, _ in in_rrd], [t for t, _ in in_mcap], atol=1e-8)

@@ -125,13 +125,16 @@ class FrameFeed:
     twice for the same batch asks nothing more, and each recorder reads the frames by its own
     count (`frames_from`)."""
 
-    def __init__(self, model: mujoco.MjModel, fps: float, camera: str = "global_view", width: int = 480, height: int = 360):
+    def __init__(self, model: mujoco.MjModel, fps: float, camera: str = "global_view", 
+                 width: int = 480, height: int = 360):
         self.fps = float(fps)
         self._next_t = 0.0
         self._frames: list[tuple[float, bytes]] = []
         self._done = False
         # a model without the camera (the wrist rig) has no frames to give, and nothing to say
-        self.camera = CameraProcess(model, camera=camera, width=width, height=height) if has_camera(model, camera) else None
+        self.camera = None
+        if has_camera(model, camera):
+            self.camera = CameraProcess(model, camera=camera, width=width, height=height)
 
     @property
     def error(self) -> str | None:
@@ -149,7 +152,8 @@ class FrameFeed:
                 self._next_t = (np.floor(t * self.fps + 1e-9) + 1) / self.fps
                 keep.append(k)
         if keep:
-            self.camera.request(times[keep], telemetry.column("body_pos_m", start)[keep], telemetry.column("body_quat_wxyz", start)[keep])
+            pos, quat = telemetry.column("body_pos_m", start), telemetry.column("body_quat_wxyz", start)
+            self.camera.request(times[keep], pos[keep], quat[keep])
 
     def frames_from(self, k: int, wait: bool = False) -> list[tuple[float, bytes]]:
         """Frames k.. of those rendered so far, as (time, JPEG bytes) in the order rendered; with

@@ -22,7 +22,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--camera-fps", type=float, default=CAMERA_FPS, metavar="N", help=f"global-camera frames per simulated second in the recording (default {CAMERA_FPS:g}; 0: none)")
     p.add_argument("--duration", type=float, help="stop after this many simulated seconds")
     p.add_argument("--seed", type=int, help="override the scenario's seed")
-    p.add_argument("--start-time", metavar="ISO|now", help="the MCAP log's start (default 2000-01-01T00:00:00Z, so logs are deterministic; 'now': the wall clock)")
+    p.add_argument("--start-time", metavar="ISO|now",
+                   help="the MCAP log's start (default 2000-01-01T00:00:00Z, deterministic; 'now': the wall clock)")
     p.set_defaults(func=cmd_run)
 
     p = sub.add_parser("sweep", help="run a scenario over a grid of field values and/or Monte Carlo seeds")
@@ -32,7 +33,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--workers", type=int, default=0, help="local worker processes (default: all cores)")
     p.add_argument("--scheduler", help="Dask scheduler address: run the sweep on that cluster")
     p.add_argument("--duration", type=float, help="shorten every run to this many simulated seconds")
-    p.add_argument("--out", type=Path, help="write all summaries to this JSON file, and a table of them (one row per run) beside it as .csv")
+    p.add_argument("--out", type=Path,
+                   help="write all summaries to this JSON file, and a table (a row per run) beside it as .csv")
     p.set_defaults(func=cmd_sweep)
 
     p = sub.add_parser("paper", help="reproduce the paper's experiments into DIR (paper.json, PNG plots, report.md)")
@@ -75,7 +77,8 @@ def cmd_run(args) -> int:
     return 0 if result.passed else 1
 
 
-def open_recorders(scenario, rrd: Path | None, mcap: Path | None, camera_fps: float = CAMERA_FPS, start_time: str | None = None) -> list:
+def open_recorders(scenario, rrd: Path | None, mcap: Path | None, camera_fps: float = CAMERA_FPS,
+                   start_time: str | None = None) -> list:
     """The log writers a run asked for, told what they need to know about the scenario;
     `start_time` ("now" or ISO 8601) starts the MCAP's clock there (twin.mcap_log.start_time)."""
     recorders = []
@@ -98,7 +101,8 @@ def open_recorders(scenario, rrd: Path | None, mcap: Path | None, camera_fps: fl
 
         rrd.parent.mkdir(parents=True, exist_ok=True)
         focus = moving_joint(plant.joints, plant.drive_angles(), resolve_targets(scenario, plant))
-        recorders.append(RerunRecorder(rrd, plant.model, plant.joints, meta, camera_fps=camera_fps, focus=focus, frames=frames))
+        recorders.append(RerunRecorder(rrd, plant.model, plant.joints, meta, camera_fps=camera_fps, focus=focus,
+                                       frames=frames))
     if mcap:
         from twin.mcap_log import McapRecorder
 

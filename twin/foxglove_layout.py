@@ -21,13 +21,17 @@ from twin.mcap_log import CAMERA_TOPIC
 
 LAYOUT_PATH = assets.ASSETS_DIR / "foxglove_layout.json"
 # dark-theme colours, as in the rerun recording (twin.rerun_log.SERIES_STYLES)
-WHITE, ORANGE, BLUE, RED, GREEN, YELLOW, GREY = "#f5f5f5", "#ff8c00", "#3caaff", "#ff5a5a", "#6edc6e", "#ffd23c", "#c8c8c8"
+WHITE, ORANGE, BLUE, GREY = "#f5f5f5", "#ff8c00", "#3caaff", "#c8c8c8"
+RED, GREEN, YELLOW = "#ff5a5a", "#6edc6e", "#ffd23c"
 
 
 def _plot(title: str, series: list[tuple[str, str, str]]) -> dict:
     return {
         "title": title,
-        "paths": [{"value": path, "enabled": True, "timestampMethod": "receiveTime", "label": label, "color": color} for path, label, color in series],
+        "paths": [
+            {"value": path, "enabled": True, "timestampMethod": "receiveTime", "label": label, "color": color}
+            for path, label, color in series
+        ],
         "showXAxisLabels": True,
         "showYAxisLabels": True,
         "showLegend": True,
@@ -43,18 +47,36 @@ def _split(direction: str, items: list, shares: list[float] | None = None):
     if len(items) == 1:
         return items[0]
     first = shares[0] / sum(shares)
-    return {"first": items[0], "second": _split(direction, items[1:], shares[1:]), "direction": direction, "splitPercentage": round(100 * first, 1)}
+    rest = _split(direction, items[1:], shares[1:])
+    return {"first": items[0], "second": rest, "direction": direction, "splitPercentage": round(100 * first, 1)}
 
 
 def joint_plots(j: str, k: int) -> tuple[dict, dict]:
     """The plots of joint `j` (panel ids carry its index `k`) and their split tree."""
     pick = f'.joints[:]{{name=="{j}"}}.position'
+    port = f"/joint/{j}"
     plots = {
-        f"Plot!{k}angle": _plot(f"{j}: angle (rad)", [(f"/joint_states/true{pick}", "true (plant)", WHITE), (f"/joint_states/predicted{pick}", "predicted (controller)", ORANGE), (f"/joint_states/target{pick}", "target", BLUE)]),
-        f"Plot!{k}error": _plot(f"{j}: predicted − true (rad)", [(f"/joint/{j}.predicted_minus_true_rad", "predicted − true", ORANGE)]),
-        f"Plot!{k}pressure": _plot(f"{j}: absolute pressure (Pa)", [(f"/joint/{j}.pressure_a_pa", "chamber A", RED), (f"/joint/{j}.pressure_b_pa", "chamber B", BLUE), ("/arm.supply_pa", "supply", GREY)]),
-        f"Plot!{k}valve": _plot(f"{j}: proportional valve, gauge (Pa)", [(f"/joint/{j}.valve_gauge_pa", "prop. valve set pressure", GREEN)]),
-        f"Plot!{k}commands": _plot(f"{j}: direction valve (-1, 0, +1) and brake (0 released, 1 holding)", [(f"/joint/{j}.direction", "direction valve", YELLOW), (f"/joint/{j}.brake_release", "brake release command", GREEN), (f"/joint/{j}.brake_engagement", "brake engagement", RED)]),
+        f"Plot!{k}angle": _plot(f"{j}: angle (rad)", [
+            (f"/joint_states/true{pick}", "true (plant)", WHITE),
+            (f"/joint_states/predicted{pick}", "predicted (controller)", ORANGE),
+            (f"/joint_states/target{pick}", "target", BLUE),
+        ]),
+        f"Plot!{k}error": _plot(f"{j}: predicted − true (rad)", [
+            (f"{port}.predicted_minus_true_rad", "predicted − true", ORANGE),
+        ]),
+        f"Plot!{k}pressure": _plot(f"{j}: absolute pressure (Pa)", [
+            (f"{port}.pressure_a_pa", "chamber A", RED),
+            (f"{port}.pressure_b_pa", "chamber B", BLUE),
+            ("/arm.supply_pa", "supply", GREY),
+        ]),
+        f"Plot!{k}valve": _plot(f"{j}: proportional valve, gauge (Pa)", [
+            (f"{port}.valve_gauge_pa", "prop. valve set pressure", GREEN),
+        ]),
+        f"Plot!{k}commands": _plot(f"{j}: direction valve (-1, 0, +1) and brake (0 released, 1 holding)", [
+            (f"{port}.direction", "direction valve", YELLOW),
+            (f"{port}.brake_release", "brake release command", GREEN),
+            (f"{port}.brake_engagement", "brake engagement", RED),
+        ]),
     }
     return plots, _split("column", list(plots), [3, 2, 2, 1.5, 1.5])
 
@@ -62,7 +84,12 @@ def joint_plots(j: str, k: int) -> tuple[dict, dict]:
 def layout(joints: tuple[str, ...] = assets.JOINTS, focus: str = "elbow_pitch") -> dict:
     """The layout as Foxglove stores it, opened on joint `focus`."""
     config: dict = {
-        "3D!arm": {"followTf": "world", "scene": {"enableStats": False}, "topics": {"/scene": {"visible": True}}, "layers": {"grid": {"layerId": "foxglove.Grid", "visible": False}}},
+        "3D!arm": {
+            "followTf": "world",
+            "scene": {"enableStats": False},
+            "topics": {"/scene": {"visible": True}},
+            "layers": {"grid": {"layerId": "foxglove.Grid", "visible": False}},  # the model's floor is drawn
+        },
         "Image!camera": {"imageMode": {"imageTopic": CAMERA_TOPIC}},
         "Plot!brush": _plot("brush normal force (N)", [("/arm.brush_force_n", "brush force", YELLOW)]),
     }

@@ -63,7 +63,11 @@ JOINT_DOC = {
     "brake_engagement": "brake engagement: 0 released .. 1 holding, dimensionless",
     "predicted_minus_true_rad": "controller's predicted angle minus the plant's true angle, rad",
 }
-ARM_DOC = {"time_s": "simulated time since the run's start, s", "supply_pa": "supply pressure, Pa absolute", "brush_force_n": "brush normal force on the discs, N"}
+ARM_DOC = {
+    "time_s": "simulated time since the run's start, s",
+    "supply_pa": "supply pressure, Pa absolute",
+    "brush_force_n": "brush normal force on the discs, N",
+}
 ARM_DOC |= {f"brush_contact_{x}_m": f"brush contact point, world {x}, m (null: no contact)" for x in "xyz"}
 ARM_DOC |= {f"brush_push_{x}_n": f"force of the brush on what it touches, world {x}, N" for x in "xyz"}
 JOINT_FIELDS = ("pressure_a_pa", "pressure_b_pa", "valve_gauge_pa", "direction", "brake_release", "brake_engagement")
@@ -232,8 +236,10 @@ def start_time(text: str, where: str = "--start-time") -> dict:
     except ValueError:
         when = None
     if when is None or when.tzinfo is None or not 1970 <= when.year <= 2200:
-        raise LogError(f"{where} {text!r}: expected 'now' or an ISO 8601 time with its zone between 1970 and 2200, e.g. 2026-11-23T13:00:00Z")
-    return {"start_time_ns": int(when.timestamp()) * 1_000_000_000 + when.microsecond * 1000, "start_time_source": f"given: {text}"}
+        allowed = "'now' or an ISO 8601 time with its zone between 1970 and 2200, e.g. 2026-11-23T13:00:00Z"
+        raise LogError(f"{where} {text!r}: expected {allowed}")
+    ns = int(when.timestamp()) * 1_000_000_000 + when.microsecond * 1000
+    return {"start_time_ns": ns, "start_time_source": f"given: {text}"}
 
 
 def _utc(ns: int) -> str:
@@ -296,7 +302,18 @@ class McapRecorder:
     `frames` is a twin.camera.FrameFeed shared with another recorder (each frame rendered once).
     """
 
-    def __init__(self, path, plant_model, joints, meta: dict | None = None, *, chunk_size: int = CHUNK_SIZE, background: bool = True, camera_fps: float = 0.0, frames=None):
+    def __init__(
+        self,
+        path,
+        plant_model,
+        joints,
+        meta: dict | None = None,
+        *,
+        chunk_size: int = CHUNK_SIZE,
+        background: bool = True,
+        camera_fps: float = 0.0,
+        frames=None,
+    ):
         import os
         import subprocess
         import sys
@@ -524,7 +541,9 @@ def read_mcap(path, frames: bool = False) -> tuple[dict[str, np.ndarray], dict]:
         from foxglove_schemas_protobuf.CompressedImage_pb2 import CompressedImage
 
         start_ns = int(meta.get("start_time_ns", 0))  # logs written before it had a start began at 0
-        meta["camera_frames"] = sorted(((r.log_time - start_ns) * 1e-9, CompressedImage.FromString(r.data).data) for r in images)
+        meta["camera_frames"] = sorted(
+            ((r.log_time - start_ns) * 1e-9, CompressedImage.FromString(r.data).data) for r in images
+        )
     return out, meta
 
 

@@ -86,10 +86,11 @@ def replay(mcap_path, rrd_path, model_path=None) -> dict:
     rrd_path = Path(rrd_path)
     rrd_path.parent.mkdir(parents=True, exist_ok=True)
     focus = most_travelled_joint(tuple(meta["joints"]), arrays["true_angle_rad"])
-    recorder = RerunRecorder(rrd_path, model, meta["joints"], meta, focus=focus, camera_view=bool(meta["camera_frames"]))
+    frames = meta["camera_frames"]
+    recorder = RerunRecorder(rrd_path, model, meta["joints"], meta, focus=focus, camera_view=bool(frames))
     try:
         recorder.write(LoggedRun(arrays, meta["joints"], meta["bodies"]), 0)
-        recorder.log_frames(meta["camera_frames"])
+        recorder.log_frames(frames)
     finally:
         recorder.close()
     return meta["recovery"]

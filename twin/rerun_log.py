@@ -74,7 +74,8 @@ def geom_texture(model: mujoco.MjModel, g: int) -> tuple[np.ndarray, np.ndarray]
     tint = geom_rgba(model, g)[:c] if c in (3, 4) else None
     if tint is None:
         return None
-    return np.clip(np.rint(image * tint), 0, 255).astype(np.uint8), np.asarray(model.mat_texrepeat[mat], dtype=np.float64)
+    tinted = np.clip(np.rint(image * tint), 0, 255).astype(np.uint8)
+    return tinted, np.asarray(model.mat_texrepeat[mat], dtype=np.float64)
 
 
 def geom_name(model: mujoco.MjModel, g: int) -> str:
@@ -129,7 +130,8 @@ def plane_mesh(model: mujoco.MjModel, g: int):
     hx, hy = (model.geom_size[g][0] or 2.0), (model.geom_size[g][1] or 2.0)
     textured = geom_texture(model, g)
     if textured is None:
-        return rr.Boxes3D(half_sizes=[[hx, hy, 0.001]], centers=[[0, 0, -0.001]], colors=[_rgba8(geom_rgba(model, g))], fill_mode="solid")
+        color = [_rgba8(geom_rgba(model, g))]
+        return rr.Boxes3D(half_sizes=[[hx, hy, 0.001]], centers=[[0, 0, -0.001]], colors=color, fill_mode="solid")
     image, (ru, rv) = textured
     nu, nv = max(1, int(round(ru))), max(1, int(round(rv)))
     xs, ys = np.linspace(-hx, hx, nu + 1), np.linspace(-hy, hy, nv + 1)
@@ -137,11 +139,16 @@ def plane_mesh(model: mujoco.MjModel, g: int):
     for i in range(nu):
         for j in range(nv):
             k = len(verts)
-            verts += [[xs[i], ys[j], 0.0], [xs[i + 1], ys[j], 0.0], [xs[i + 1], ys[j + 1], 0.0], [xs[i], ys[j + 1], 0.0]]
+            corners = ((xs[i], ys[j]), (xs[i + 1], ys[j]), (xs[i + 1], ys[j + 1]), (xs[i], ys[j + 1]))
+            verts += [[x, y, 0.0] for x, y in corners]
             uvs += [[0.0, 1.0], [1.0, 1.0], [1.0, 0.0], [0.0, 0.0]]
             tris += [[k, k + 1, k + 2], [k, k + 2, k + 3]]
     return rr.Mesh3D(
-        vertex_positions=verts, triangle_indices=tris, vertex_normals=[[0.0, 0.0, 1.0]] * len(verts), vertex_texcoords=uvs, albedo_texture=image
+        vertex_positions=verts,
+        triangle_indices=tris,
+        vertex_normals=[[0.0, 0.0, 1.0]] * len(verts),
+        vertex_texcoords=uvs,
+        albedo_texture=image,
     )
 
 
@@ -184,7 +191,10 @@ SERIES_STYLES = {
     "brake/release": ((110, 220, 110), 1.5, "release command"),
     "brake/engagement": ((255, 90, 90), 1.5, "engagement"),
 }
-OTHER_STYLES = {"supply/pressure_pa": ((200, 200, 200), 1.5, "supply"), "brush/force_n": ((255, 210, 60), 1.5, "brush force")}
+OTHER_STYLES = {
+    "supply/pressure_pa": ((200, 200, 200), 1.5, "supply"),
+    "brush/force_n": ((255, 210, 60), 1.5, "brush force"),
+}
 
 
 def moving_joint(joints, start_rad, targets_rad: list[dict[str, float]]) -> str:
@@ -216,12 +226,14 @@ def eye(model: mujoco.MjModel, closer: float = 0.75) -> dict:
     az, el = math.radians(model.vis.global_.azimuth), math.radians(model.vis.global_.elevation)
     forward = np.array([math.cos(el) * math.cos(az), math.cos(el) * math.sin(az), math.sin(el)])
     target = np.asarray(model.stat.center, dtype=np.float64)
-    return {"position": target - closer * 1.5 * model.stat.extent * forward, "look_target": target, "eye_up": [0.0, 0.0, 1.0]}
+    position = target - closer * 1.5 * model.stat.extent * forward
+    return {"position": position, "look_target": target, "eye_up": [0.0, 0.0, 1.0]}
 
 
 def hidden_geom_paths(model: mujoco.MjModel) -> list[str]:
     """Entity paths of geoms MuJoCo does not show by default (groups 3..5: the payload's box)."""
-    return [f"{_geom_parent_path(model, g)}/{geom_name(model, g)}" for g in range(model.ngeom) if int(model.geom_group[g]) not in VISIBLE_GROUPS]
+    hidden = [g for g in range(model.ngeom) if int(model.geom_group[g]) not in VISIBLE_GROUPS]
+    return [f"{_geom_parent_path(model, g)}/{geom_name(model, g)}" for g in hidden]
 
 
 def joint_views(j: str):
@@ -247,7 +259,8 @@ def joint_views(j: str):
     )
 
 
-def blueprint(joints: tuple[str, ...], model: mujoco.MjModel | None = None, focus: str | None = None, camera: bool = False):
+def blueprint(joints: tuple[str, ...], model: mujoco.MjModel | None = None, focus: str | None = None,
+              camera: bool = False):
     """The layout the recording opens with: the arm in 3D, close up (left), and the time series of
     one joint at a time in tabs, opened on `focus` (the joint that moves; right)."""
     import rerun.blueprint as rrb
@@ -289,7 +302,18 @@ class RerunRecorder:
     `camera_view` shows the camera's view for frames logged by `log_frames` (a replay).
     """
 
-    def __init__(self, path, plant_model: mujoco.MjModel, joints, meta: dict | None = None, *, camera_fps: float = 0.0, focus: str | None = None, frames=None, camera_view: bool = False):
+    def __init__(
+        self,
+        path,
+        plant_model: mujoco.MjModel,
+        joints,
+        meta: dict | None = None,
+        *,
+        camera_fps: float = 0.0,
+        focus: str | None = None,
+        frames=None,
+        camera_view: bool = False,
+    ):
         import rerun as rr
 
         self.path = Path(path)
@@ -298,7 +322,8 @@ class RerunRecorder:
         self.bodies = tuple(body_name(plant_model, b) for b in range(1, plant_model.nbody))
         self.rec = rr.RecordingStream("pneumatic_arm_twin")
         try:
-            self.rec.save(self.path, default_blueprint=blueprint(self.joints, plant_model, focus, camera=camera_view or (camera_fps > 0 and has_camera(plant_model, "global_view"))))
+            camera = camera_view or (camera_fps > 0 and has_camera(plant_model, "global_view"))
+            self.rec.save(self.path, default_blueprint=blueprint(self.joints, plant_model, focus, camera=camera))
         except Exception as e:  # rerun raises its own error types for unwritable paths
             raise RerunLogError(f"{self.path}: cannot write a rerun recording: {e}") from e
         if meta and meta.get("scenario_name"):
@@ -324,7 +349,7 @@ class RerunRecorder:
     def _log_series_styles(self) -> None:
         import rerun as rr
 
-        styles = {f"joints/{j}/{sub}": style for j in self.joints for sub, style in SERIES_STYLES.items()} | OTHER_STYLES
+        styles = {f"joints/{j}/{sub}": s for j in self.joints for sub, s in SERIES_STYLES.items()} | OTHER_STYLES
         for path, (color, width, name) in styles.items():
             self.rec.log(path, rr.SeriesLines(colors=[color], widths=[width], names=[name]), static=True)
 
