@@ -207,8 +207,9 @@ def diagnose(
 ) -> Diagnosis:
     """Diagnose a calibration campaign folder (`twin gap diagnose`); `effects` limits the
     catalogue to those names; `out` also writes diagnosis.json, report.md and the plots there."""
-    from gap import CATALOGUE, GapError, diagnose as _diagnose, load_campaign, write_report
+    from gap import CATALOGUE, GapError, load_campaign, write_report
     from gap.diagnose import MODEL_TOLERANCE_DEG
+    from gap.diagnose import diagnose as _diagnose  # not gap.diagnose: the submodule's name hides gap's function
 
     catalogue = CATALOGUE
     if effects is not None:
