@@ -4,11 +4,18 @@ Each point is a whole scenario run with its own seed; child seeds come from
 `np.random.SeedSequence(seed).spawn(n)` (STYLE rule 6), so a sweep gives the same results on 1
 worker, on 2, or on a Dask cluster. Local workers are joblib's processes; `scheduler` hands the
 same jobs to a Dask cluster through joblib's Dask backend.
+
+The results are one summary per run (`twin run --json`'s); `summary_table` flattens them into one
+row per run for a spreadsheet or a DataFrame, and `write_csv` writes that table (`twin sweep --out
+X.json` puts it beside the JSON as X.csv).
 """
 
 from __future__ import annotations
 
+import csv
+import io
 import itertools
+from pathlib import Path
 from typing import Iterable
 
 import joblib
@@ -18,6 +25,7 @@ from tqdm import tqdm
 from scenarios.runner import run_scenario
 from scenarios.schema import Scenario, ScenarioError, with_overrides
 from twin.args import DURATION_S, MONTE_CARLO, WORKERS, check_number
+from twin.outputs import write_atomic
 
 SCHEDULER_TIMEOUT_S = 10.0  # a scheduler that has not answered by then is taken as unreachable
 
@@ -106,3 +114,41 @@ def parse_grid(items: list[str], where: str = "--set") -> dict[str, list]:
                 parsed.append(v.strip())
         grid[key.strip()] = parsed
     return grid
+
+
+def summary_row(summary: dict) -> dict[str, object]:
+    """One run's summary as flat columns: its overrides (`set.<field>`), the run's outcome, per
+    joint `<joint>.<quantity>` (degrees), per criterion `<kind>[<subject>].value|passed`."""
+    row: dict[str, object] = {f"set.{k}": v for k, v in summary.get("overrides", {}).items()}
+    row |= {k: summary.get(k) for k in ("scenario", "seed", "passed", "duration_s", "error", "refused")}
+    for joint, values in summary.get("joints", {}).items():
+        row |= {f"{joint}.{k}": v for k, v in values.items()}
+    for c in summary.get("criteria", []):
+        row |= {f"{c['kind']}[{c['subject']}].value": c["value"], f"{c['kind']}[{c['subject']}].passed": c["passed"]}
+    return row
+
+
+def summary_table(results: list[dict]) -> tuple[list[str], list[dict[str, object]]]:
+    """Columns (in first-seen order) and one row per run; a run without a column leaves it empty."""
+    rows = [summary_row(r) for r in results]
+    columns = list(dict.fromkeys(k for row in rows for k in row))
+    return columns, rows
+
+
+def write_csv(results: list[dict], path: str | Path) -> Path:
+    """The sweep's table as CSV (None: an empty cell); numbers as Python writes them (exact)."""
+    columns, rows = summary_table(results)
+    path = Path(path)
+    text = io.StringIO(newline="")
+    writer = csv.DictWriter(text, fieldnames=columns, restval="")
+    writer.writeheader()
+    writer.writerows({k: "" if v is None else v for k, v in row.items()} for row in rows)
+    write_atomic(path, text.getvalue())
+    return path
+
+
+def table_path(json_path: str | Path) -> Path:
+    """Where the table of a sweep whose summaries go to `json_path` is written: beside it, .csv
+    (.table.csv when the JSON path itself ends in .csv)."""
+    json_path = Path(json_path)
+    return json_path.with_suffix(".table.csv" if json_path.suffix == ".csv" else ".csv")

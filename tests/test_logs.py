@@ -332,31 +332,59 @@ def test_telemetry_blocks_give_back_what_was_appended():
         tel.time_at(10)
 
 
+def run_with_camera(recorder, path, fps: float = 4.0, shared: bool = False):
+    """A 1 s run of the arm logged by `recorder` (RerunRecorder or McapRecorder) with camera
+    frames; with `shared`, by both, sharing one camera feed (path without suffix)."""
+    from twin.camera import FrameFeed
+
+    plant = Plant(assets.SCENE_XML)
+    plant.set_supply(SUPPLY_PA)
+    if shared:
+        feed = FrameFeed(plant.model, fps)
+        recs = [
+            cls(path.with_suffix(ext), plant.model, plant.joints, META, camera_fps=fps, frames=feed)
+            for cls, ext in ((RerunRecorder, ".rrd"), (McapRecorder, ".mcap"))
+        ]
+    else:
+        recs = [recorder(path, plant.model, plant.joints, META, camera_fps=fps)]
+    try:
+        run(plant, Predicting(plant.joints), 1.0, recorders=tuple(recs))
+    finally:
+        for rec in recs:
+            rec.close()
+    return recs[0]
+
+
+def rrd_frames(path: Path) -> list[tuple[float, bytes]]:
+    """The camera frames of a recording: (time s, JPEG bytes)."""
+    import rerun as rr
+
+    out = []
+    for chunk in rr.chunk.RrdReader(path).stream():
+        if chunk.entity_path.strip("/") == "camera/global_view" and not chunk.is_static:
+            batch = chunk.to_record_batch()
+            times = np.asarray(batch.column("time").cast("int64").to_numpy()) * 1e-9
+            out += [(t, bytes(b[0])) for t, b in zip(times, batch.column("EncodedImage:blob").to_pylist()) if b]
+    return sorted(out)
+
+
+def assert_frames_at_ticks(times_s: np.ndarray, fps: float = 4.0) -> None:
+    """One frame per 1/fps of a 1 s run: the first sample (every 20 ms) at or after each tick."""
+    lag = times_s - np.arange(0.0, 1.0 + 1e-9, 1.0 / fps)
+    assert len(times_s) == int(fps) + 1 and np.all((lag > -1e-9) & (lag < 0.02))
+
+
 def test_recording_holds_camera_frames_or_says_why(tmp_path, capsys):
     """`camera_fps` frames of the global camera, rendered by twin.camera's process: where offscreen
     GL works, one JPEG per 1/fps simulated seconds at the right times; where it does not, none,
     and a note that names the reason."""
-    plant = Plant(assets.SCENE_XML)
-    plant.set_supply(SUPPLY_PA)
-    rec = RerunRecorder(tmp_path / "cam.rrd", plant.model, plant.joints, META, camera_fps=4.0)
-    try:
-        run(plant, Predicting(plant.joints), 1.0, recorders=(rec,))
-    finally:
-        rec.close()
-    import rerun as rr
-
-    times = []
-    for chunk in rr.chunk.RrdReader(tmp_path / "cam.rrd").stream():
-        if chunk.entity_path.strip("/") == "camera/global_view" and not chunk.is_static:
-            batch = chunk.to_record_batch()
-            times += list(np.asarray(batch.column("time").cast("int64").to_numpy()) * 1e-9)
-            blobs = [b[0] for b in batch.column("EncodedImage:blob").to_pylist() if b]  # one blob per row
-            assert blobs and all(bytes(b[:2]) == b"\xff\xd8" for b in blobs)  # JPEG start-of-image
+    rec = run_with_camera(RerunRecorder, tmp_path / "cam.rrd")
+    frames = rrd_frames(tmp_path / "cam.rrd")
     if rec._camera.error:
-        assert times == [] and "no camera frames" in capsys.readouterr().err
+        assert frames == [] and "no camera frames" in capsys.readouterr().err
     else:
-        lag = np.sort(times) - np.arange(0.0, 1.0 + 1e-9, 0.25)  # the first sample (every 20 ms) at or after each tick
-        assert len(times) == 5 and np.all((lag > -1e-9) & (lag < 0.02))
+        assert all(jpeg[:2] == b"\xff\xd8" for _, jpeg in frames)  # JPEG start-of-image
+        assert_frames_at_ticks(np.array([t for t, _ in frames]))
 
 
 def test_camera_without_a_working_backend_says_why():
@@ -446,3 +474,231 @@ def test_brush_contact_is_logged_where_and_how_hard_it_pushes(tmp_path):
         if chunk.entity_path.strip("/") == "world/brush_contact":
             arrows += sum(len(v or []) for v in chunk.to_record_batch().column("Arrows3D:vectors").to_pylist())
     assert arrows == touching.sum()
+
+
+def test_mcap_starts_at_its_declared_epoch_with_units_in_its_schemas(logged):
+    """Log times are the fixed start (recorded in the metadata) plus simulated time, not 1970; every
+    JSON field's description names its unit."""
+    import datetime as dt
+    import json as json_
+
+    from mcap.reader import make_reader
+
+    from twin.mcap_log import START_TIME_NS
+
+    tmp, telemetry = logged
+    with open(tmp / "run.mcap", "rb") as f:
+        reader = make_reader(f)
+        summary = reader.get_summary()
+        meta = {m.name: m.metadata for m in reader.iter_metadata()}["twin"]
+        first = next(msg for _, ch, msg in reader.iter_messages(topics=["/joint_states/true"]))
+    assert json_.loads(meta["start_time_utc"]) == "2000-01-01T00:00:00Z"
+    assert dt.datetime.fromtimestamp(START_TIME_NS / 1e9, dt.timezone.utc) == dt.datetime(2000, 1, 1, tzinfo=dt.timezone.utc)
+    assert summary.statistics.message_start_time >= START_TIME_NS
+    assert first.log_time == START_TIME_NS + round(telemetry.time_at(0) * 1e9)
+    assert summary.statistics.message_end_time == START_TIME_NS + round(telemetry.time_at(-1) * 1e9)
+    units = (", Pa absolute", ", Pa gauge", ", rad", ", s", ", N", ", m", "dimensionless")
+    for schema in summary.schemas.values():
+        if schema.encoding == "jsonschema":
+            for name, prop in json_.loads(schema.data)["properties"].items():
+                assert any(u in prop["description"] for u in units) and prop["description"] != name, (schema.name, name)
+
+
+def test_mcap_holds_camera_frames_as_compressed_images_or_says_why(tmp_path, capsys):
+    """With `camera_fps` the MCAP gets the global camera's JPEG frames as foxglove.CompressedImage,
+    one per 1/fps simulated seconds, in time order; where offscreen GL fails, none and a note."""
+    from foxglove_schemas_protobuf.CompressedImage_pb2 import CompressedImage
+    from mcap.reader import make_reader
+
+    from twin.mcap_log import CAMERA_TOPIC, START_TIME_NS
+
+    rec = run_with_camera(McapRecorder, tmp_path / "cam.mcap")
+    with open(tmp_path / "cam.mcap", "rb") as f:
+        messages = make_reader(f).iter_messages(topics=[CAMERA_TOPIC])
+        frames = [(msg.log_time, CompressedImage.FromString(msg.data), sch.name) for sch, _, msg in messages]
+    if rec._camera.error:
+        assert frames == [] and "no camera frames" in capsys.readouterr().err
+        return
+    assert {s for *_, s in frames} == {"foxglove.CompressedImage"}
+    assert_frames_at_ticks((np.array([ns for ns, *_ in frames]) - START_TIME_NS) * 1e-9)  # in time order
+    assert all(img.format == "jpeg" and img.data[:2] == b"\xff\xd8" for _, img, _ in frames)
+    assert read_mcap(tmp_path / "cam.mcap")[1]["recovery"]["complete"]  # frames do not disturb the reader
+
+
+def test_shipped_foxglove_layout_is_current_and_reads_logged_channels(logged):
+    """assets/foxglove_layout.json is what twin.foxglove_layout makes, and every channel it reads
+    is one a log has; its joint filters name the log's joints."""
+    import json as json_
+    import re
+
+    from mcap.reader import make_reader
+
+    from twin.foxglove_layout import LAYOUT_PATH, layout, topics_used
+    from twin.mcap_log import CAMERA_TOPIC
+
+    shipped = json_.loads(LAYOUT_PATH.read_text())
+    assert shipped == json_.loads(json_.dumps(layout())), "regenerate: python -m twin.foxglove_layout"
+    tmp, telemetry = logged
+    with open(tmp / "run.mcap", "rb") as f:
+        topics = {c.topic for c in make_reader(f).get_summary().channels.values()}
+    assert topics_used(shipped) <= topics | {CAMERA_TOPIC}
+    paths = " ".join(p["value"] for panel in shipped["configById"].values() for p in panel.get("paths", []))
+    named = set(re.findall(r'name=="(\w+)"', paths))
+    assert named == set(telemetry.joints)
+    assert "foxglove_layout.json" in (ROOT / "pyproject.toml").read_text().replace('"*.json"', "foxglove_layout.json")
+
+
+def test_rerun_floor_is_mujocos_texture_and_the_payload_is_hidden_as_in_mujoco(logged):
+    """The floor carries MuJoCo's own checker texture (tinted by its material, repeated as MuJoCo
+    repeats it), and geoms of groups MuJoCo hides by default are left out of the 3D view."""
+    import mujoco
+    import rerun as rr
+
+    from twin.rerun_log import blueprint, geom_texture, hidden_geom_paths
+
+    tmp, _ = logged
+    m = mujoco.MjModel.from_xml_path(str(assets.SCENE_XML))
+    floor = None
+    for chunk in rr.chunk.RrdReader(tmp / "run.rrd").stream():
+        if chunk.entity_path == "/world/scene/floor":
+            batch = chunk.to_record_batch()
+            if "Mesh3D:albedo_texture_buffer" in batch.schema.names:
+                floor = batch
+    assert floor is not None, "the floor is not a textured mesh"
+    texture = np.frombuffer(bytes(floor.column("Mesh3D:albedo_texture_buffer").to_pylist()[0][0]), dtype=np.uint8)
+    g = m.geom("floor").id
+    tex = m.mat_texid[m.geom_matid[g], int(mujoco.mjtTextureRole.mjTEXROLE_RGB)]
+    np.testing.assert_array_equal(texture, m.tex_data[m.tex_adr[tex] : m.tex_adr[tex] + m.tex_height[tex] * m.tex_width[tex] * 3])
+    image, repeat = geom_texture(m, g)
+    assert len(floor.column("Mesh3D:vertex_positions").to_pylist()[0]) == 4 * int(np.prod(repeat))  # a quad per repeat
+    hidden = hidden_geom_paths(m)
+    assert hidden and all(m.geom(p.rsplit("/", 1)[1]).group >= 3 for p in hidden)
+    assert "world/arm/payload/payload" in hidden  # group 3 in arm.xml
+    arm_view = blueprint(assets.JOINTS, m, "elbow_pitch").root_container.contents[0].contents[0]
+    assert [f"- {p}" for p in hidden] == [str(c) for c in arm_view.contents][1:]
+
+
+def test_rerun_series_are_distinct_on_the_dark_theme(logged):
+    """True and predicted angles (static SeriesLines in the recording) both stand out from the
+    viewer's dark background and from each other (contrast ratio, WCAG's formula)."""
+    import rerun as rr
+
+    tmp, _ = logged
+    colors = {}
+    for chunk in rr.chunk.RrdReader(tmp / "run.rrd").stream():
+        path = chunk.entity_path
+        if chunk.is_static and path.startswith("/joints/wrist_pitch/angle_deg/"):
+            batch = chunk.to_record_batch()
+            if "SeriesLines:colors" in batch.schema.names:
+                c = batch.column("SeriesLines:colors").to_pylist()[0][0]  # packed 0xRRGGBBAA
+                colors[path.rsplit("/", 1)[1]] = np.array([(c >> 24) & 255, (c >> 16) & 255, (c >> 8) & 255]) / 255
+
+    def luminance(rgb):
+        lin = np.where(rgb <= 0.04045, rgb / 12.92, ((rgb + 0.055) / 1.055) ** 2.4)
+        return float(lin @ [0.2126, 0.7152, 0.0722])
+
+    def contrast(a, b):
+        hi, lo = sorted((luminance(a), luminance(b)), reverse=True)
+        return (hi + 0.05) / (lo + 0.05)
+
+    background = np.array([13, 16, 17]) / 255  # rerun's dark plot background
+    assert set(colors) == {"true", "predicted", "target"}
+    for name, rgb in colors.items():
+        assert contrast(rgb, background) >= 4.5, name  # WCAG AA for text: clearly visible
+    assert np.abs(colors["true"] - colors["predicted"]).max() > 0.5  # different hues, not shades
+
+
+def test_recording_opens_on_the_joint_the_plan_moves():
+    from twin.rerun_log import moving_joint, most_travelled_joint
+
+    joints = ("base_yaw", "shoulder_pitch", "elbow_pitch")
+    start = np.radians([0.0, 90.0, -30.0])
+    plan = [{"base_yaw": np.radians(10.0), "elbow_pitch": np.radians(30.0)}, {"elbow_pitch": np.radians(0.0)}]
+    assert moving_joint(joints, start, plan) == "elbow_pitch"  # 60 + 30 deg against 10 deg
+    assert moving_joint(joints, start, []) == "base_yaw"
+    true = np.radians([[0.0, 90.0, -30.0], [5.0, 80.0, -30.0], [0.0, 70.0, -30.0]])
+    assert most_travelled_joint(joints, true) == "shoulder_pitch"
+
+
+def test_the_real_viewer_shows_the_recording(logged, tmp_path):
+    """A screenshot of the rerun viewer itself on the recording (software Vulkan without a GPU):
+    its plot of the wrist's angles shows the orange prediction band and the white true line on
+    the dark background. Skipped where the viewer cannot run (no xvfb, no Vulkan driver)."""
+    from twin.screenshot import missing_requirements, screenshot
+
+    reason = missing_requirements()
+    if reason:
+        pytest.skip(f"the rerun viewer cannot run here: {reason}")
+    tmp, _ = logged
+    shot = screenshot(tmp / "run.rrd", tmp_path / "shot.png", size="1000x640")
+    import matplotlib.image as mpimg
+
+    img = mpimg.imread(shot)[..., :3]
+    h, w, _ = img.shape
+    plots = img[: h // 2, w // 2 :]  # the joint's angle plot: upper right
+    orange = (plots[..., 0] > 0.85) & (np.abs(plots[..., 1] - 0.55) < 0.12) & (plots[..., 2] < 0.2)
+    white = plots.min(axis=-1) > 0.9
+    dark = plots.max(axis=-1) < 0.12
+    assert dark.mean() > 0.4 and orange.sum() > 200 and white.sum() > 200
+
+
+def test_both_logs_share_one_camera(tmp_path):
+    """With both logs and a shared feed each frame is rendered once and lands in both."""
+    from foxglove_schemas_protobuf.CompressedImage_pb2 import CompressedImage
+    from mcap.reader import make_reader
+
+    from twin.mcap_log import CAMERA_TOPIC, START_TIME_NS
+
+    rec = run_with_camera(None, tmp_path / "both", shared=True)
+    if rec._camera.error:
+        pytest.skip(f"no offscreen GL here: {rec._camera.error}")
+    in_rrd = rrd_frames(tmp_path / "both.rrd")
+    with open(tmp_path / "both.mcap", "rb") as f:
+        messages = make_reader(f).iter_messages(topics=[CAMERA_TOPIC])
+        in_mcap = [((m.log_time - START_TIME_NS) * 1e-9, CompressedImage.FromString(m.data).data) for _, _, m in messages]
+    assert_frames_at_ticks(np.array([t for t, _ in in_rrd]))
+    assert [b for _, b in in_rrd] == [b for _, b in in_mcap]
+    np.testing.assert_allclose([t for t, _ in in_rrd], [t for t, _ in in_mcap], atol=1e-8)
+
+
+def test_mcap_start_time_given_or_refused(tmp_path, capsys):
+    """`--start-time` moves the MCAP's clock (and says where it came from); a time without its
+    zone or a word is refused before the run, exit 2."""
+    from mcap.reader import make_reader
+
+    wrist = str(ROOT / "scenarios" / "wrist_closed_loop_60deg.toml")
+    out = tmp_path / "t.mcap"
+    assert twin_main(["run", wrist, "--duration", "0.1", "--mcap", str(out), "--start-time", "2026-11-23T13:00:00Z"]) in (0, 1)
+    with open(out, "rb") as f:
+        reader = make_reader(f)
+        meta = {m.name: m.metadata for m in reader.iter_metadata()}["twin"]
+        start = reader.get_summary().statistics.message_start_time
+    assert start == 1_795_438_800 * 10**9  # 2026-11-23T13:00:00Z
+    assert "given: 2026-11-23T13:00:00Z" in meta["start_time_source"]
+    for bad in ("yesterday", "2026-11-23T13:00:00"):
+        assert twin_main(["run", wrist, "--duration", "0.1", "--mcap", str(tmp_path / "u.mcap"), "--start-time", bad]) == 2
+        assert "--start-time" in capsys.readouterr().err and not (tmp_path / "u.mcap").exists()
+
+
+def test_replay_carries_the_camera_frames_of_a_log(tmp_path):
+    """Frames in an MCAP log come back in the recording `twin replay` makes, at their times."""
+    rec = run_with_camera(McapRecorder, tmp_path / "cam.mcap")
+    if rec._camera.error:
+        pytest.skip(f"no offscreen GL here: {rec._camera.error}")
+    _, meta = read_mcap(tmp_path / "cam.mcap", frames=True)
+    assert twin_main(["replay", str(tmp_path / "cam.mcap"), "--rrd", str(tmp_path / "cam.rrd")]) == 0
+    replayed = rrd_frames(tmp_path / "cam.rrd")
+    assert [b for _, b in replayed] == [b for _, b in meta["camera_frames"]]
+    np.testing.assert_allclose([t for t, _ in replayed], [t for t, _ in meta["camera_frames"]], atol=1e-8)
+    assert_frames_at_ticks(np.array([t for t, _ in replayed]))
+
+
+def test_mcap_with_camera_frames_is_deterministic(tmp_path):
+    """Frames are written at close in time order, so when they were rendered does not matter:
+    the same run gives the same file byte for byte, frames included (DESIGN rule 5)."""
+    a = run_with_camera(McapRecorder, tmp_path / "a.mcap")
+    if a._camera.error:
+        pytest.skip(f"no offscreen GL here: {a._camera.error}")
+    run_with_camera(McapRecorder, tmp_path / "b.mcap")
+    assert len(read_mcap(tmp_path / "a.mcap", frames=True)[1]["camera_frames"]) == 5
+    assert (tmp_path / "a.mcap").read_bytes() == (tmp_path / "b.mcap").read_bytes()

@@ -118,6 +118,59 @@ class CameraProcess:
         return self.collect()
 
 
+class FrameFeed:
+    """Frames of `camera` at `fps` per simulated second for the recorders of one run: from each
+    batch of telemetry it asks one CameraProcess for the first sample at or after every 1/fps
+    tick. Recorders may share a feed (a run with both logs renders each frame once): asking
+    twice for the same batch asks nothing more, and each recorder reads the frames by its own
+    count (`frames_from`)."""
+
+    def __init__(self, model: mujoco.MjModel, fps: float, camera: str = "global_view", 
+                 width: int = 480, height: int = 360):
+        self.fps = float(fps)
+        self._next_t = 0.0
+        self._frames: list[tuple[float, bytes]] = []
+        self._done = False
+        # a model without the camera (the wrist rig) has no frames to give, and nothing to say
+        self.camera = None
+        if has_camera(model, camera):
+            self.camera = CameraProcess(model, camera=camera, width=width, height=height)
+
+    @property
+    def error(self) -> str | None:
+        """Why frames the model has a camera for could not be rendered (None: they were)."""
+        return self.camera.error if self.camera else None
+
+    def request(self, telemetry, start: int) -> None:
+        """Queue the frames due among telemetry samples `start`..; returns at once."""
+        if self.camera is None:
+            return
+        times = telemetry.column("time_s", start)
+        keep = []
+        for k, t in enumerate(times):
+            if t + 1e-9 >= self._next_t:
+                self._next_t = (np.floor(t * self.fps + 1e-9) + 1) / self.fps
+                keep.append(k)
+        if keep:
+            pos, quat = telemetry.column("body_pos_m", start), telemetry.column("body_quat_wxyz", start)
+            self.camera.request(times[keep], pos[keep], quat[keep])
+
+    def frames_from(self, k: int, wait: bool = False) -> list[tuple[float, bytes]]:
+        """Frames k.. of those rendered so far, as (time, JPEG bytes) in the order rendered; with
+        `wait`, of all of them (this waits for the last and ends the camera process)."""
+        if self.camera is not None and not self._done:
+            if wait:
+                self._done = True
+                self._frames += self.camera.close()
+            else:
+                self._frames += self.camera.collect()
+        return self._frames[k:]
+
+
+def has_camera(model: mujoco.MjModel, name: str) -> bool:
+    return mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_CAMERA, name) >= 0
+
+
 def _serve(argv: list[str]) -> None:
     """The camera process: `python -m twin.camera MODEL.mjb CAMERA WIDTH HEIGHT`."""
     import io

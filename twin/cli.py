@@ -1,10 +1,10 @@
 """The `twin` command: one entry point with subcommands (STYLE rule 12).
 
 Each area registers its own subcommands: twin.commands (run, sweep, paper, bench),
-twin.log_commands (view, replay) and gap.commands (gap diagnose, gap bench). A user error
-(bad file, field or value, on the command line too) is printed as one line and exits with status
-2, never a traceback. Ctrl-C (SIGINT) and SIGTERM (what `timeout`, systemd and docker send) both
-stop a run the same way: it finishes its logs, says so, and exits 130 or 143.
+twin.log_commands (view, replay), twin.plot_command (plot) and gap.commands (gap diagnose, gap
+bench). A user error (bad file, field or value, on the command line too) is printed as one line
+and exits with status 2, never a traceback. Ctrl-C (SIGINT) and SIGTERM (what `timeout`, systemd
+and docker send) both stop a run the same way: it finishes its logs, says so, and exits 130 or 143.
 """
 
 from __future__ import annotations
@@ -20,7 +20,7 @@ from twin.errors import Terminated, UserError
 from twin.signals import stop_on_sigterm
 
 # modules that define `register(subparsers)`; missing ones are skipped so the CLI still starts
-COMMAND_MODULES = ("twin.commands", "twin.log_commands", "gap.commands")
+COMMAND_MODULES = ("twin.commands", "twin.log_commands", "twin.plot_command", "gap.commands")
 
 
 class OneLineParser(argparse.ArgumentParser):

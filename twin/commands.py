@@ -29,6 +29,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     )
     p.add_argument("--duration", type=number(**DURATION_S), metavar="S", help="stop after this many simulated seconds")
     p.add_argument("--seed", type=number(**SEED), metavar="N", help="override the scenario's seed")
+    p.add_argument("--start-time", metavar="ISO|now",
+                   help="the MCAP log's start (default 2000-01-01T00:00:00Z, deterministic; 'now': the wall clock)")
     p.set_defaults(func=cmd_run)
 
     p = sub.add_parser("sweep", help="run a scenario over a grid of field values and/or Monte Carlo seeds")
@@ -41,7 +43,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--workers", type=number(**WORKERS), default=0, metavar="K", help="local worker processes (default 0: all cores)")
     p.add_argument("--scheduler", metavar="ADDR", help="Dask scheduler address (e.g. tcp://host:8786): run the sweep on that cluster")
     p.add_argument("--duration", type=number(**DURATION_S), metavar="S", help="shorten every run to this many simulated seconds")
-    p.add_argument("--out", type=Path, help="write all summaries to this JSON file (default: print them on stdout)")
+    p.add_argument("--out", type=Path, help="write all summaries to this JSON file, and a table (a row per run) beside it as .csv (default: print them on stdout)")
     p.set_defaults(func=cmd_sweep)
 
     p = sub.add_parser("paper", help="reproduce the paper's experiments into DIR (paper.json, PNG plots, report.md)")
@@ -67,7 +69,7 @@ def cmd_run(args) -> int:
         if path is not None:
             check_output(path, flag, inputs=[Path(scenario.path)], others={f: p for f, p in outputs.items() if f != flag})
     with OutputLock(outputs.values()):
-        recorders = open_recorders(scenario, args.rrd, args.mcap, args.camera_fps)
+        recorders = open_recorders(scenario, args.rrd, args.mcap, args.camera_fps, args.start_time)
         try:
             result = run_scenario(scenario, recorders=recorders, duration_s=args.duration)
         finally:
@@ -99,26 +101,37 @@ def close_all(recorders) -> list[str]:
     return errors
 
 
-def open_recorders(scenario, rrd: Path | None, mcap: Path | None, camera_fps: float = CAMERA_FPS) -> list:
-    """The log writers a run asked for, told what they need to know about the scenario."""
+def open_recorders(scenario, rrd: Path | None, mcap: Path | None, camera_fps: float = CAMERA_FPS,
+                   start_time: str | None = None) -> list:
+    """The log writers a run asked for, told what they need to know about the scenario;
+    `start_time` ("now" or ISO 8601) starts the MCAP's clock there (twin.mcap_log.start_time)."""
     recorders = []
     if not (rrd or mcap):
         return recorders
     from scenarios.runner import build_plant
+    from twin.mcap_log import start_time as start_meta
     from twin.provenance import run_metadata
 
+    meta = run_metadata(scenario) | (start_meta(start_time) if start_time else {})
     plant = build_plant(scenario)
-    meta = run_metadata(scenario)
+    frames = None
+    if rrd and mcap and camera_fps > 0:  # one camera process renders each frame for both logs
+        from twin.camera import FrameFeed
+
+        frames = FrameFeed(plant.model, camera_fps)
     if rrd:
-        from twin.rerun_log import RerunRecorder
+        from scenarios.runner import resolve_targets
+        from twin.rerun_log import RerunRecorder, moving_joint
 
         rrd.parent.mkdir(parents=True, exist_ok=True)
-        recorders.append(RerunRecorder(rrd, plant.model, plant.joints, meta, camera_fps=camera_fps))
+        focus = moving_joint(plant.joints, plant.drive_angles(), resolve_targets(scenario, plant))
+        recorders.append(RerunRecorder(rrd, plant.model, plant.joints, meta, camera_fps=camera_fps, focus=focus,
+                                       frames=frames))
     if mcap:
         from twin.mcap_log import McapRecorder
 
         mcap.parent.mkdir(parents=True, exist_ok=True)
-        recorders.append(McapRecorder(mcap, plant.model, plant.joints, meta))
+        recorders.append(McapRecorder(mcap, plant.model, plant.joints, meta, camera_fps=camera_fps, frames=frames))
     return recorders
 
 
@@ -142,7 +155,7 @@ def print_summary(summary: dict) -> None:
 
 def cmd_sweep(args) -> int:
     from scenarios.schema import load
-    from scenarios.sweep import parse_grid, sweep
+    from scenarios.sweep import parse_grid, sweep, table_path, write_csv
 
     scenario = load(args.scenario)
     if args.out is not None:
@@ -152,7 +165,8 @@ def cmd_sweep(args) -> int:
         passed = sum(r["passed"] for r in results)
         if args.out:
             saved = keep_result(args.out, lambda place: write_atomic(place, json.dumps(results, indent=2)), "the sweep's summaries")
-            print(f"{len(results)} runs, {passed} passed; summaries in {saved}")
+            table = keep_result(table_path(saved), lambda place: write_csv(results, place), "the sweep's table")
+            print(f"{len(results)} runs, {passed} passed; summaries in {saved}, one row per run in {table}")
         else:
             json.dump(results, sys.stdout, indent=2)
             print()

@@ -22,7 +22,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("replay", help="make a rerun recording from an MCAP log")
     p.add_argument("file", type=Path, help="an MCAP log written by `twin run --mcap` (may be cut short)")
     p.add_argument("--rrd", type=Path, required=True, help="write the recording here")
-    p.add_argument("--model", type=Path, help="MJCF the run used (default: assets/scene.xml)")
+    p.add_argument("--model", type=Path,
+                   help="MJCF the run used (default: the shipped model its scenario names, or whose bodies match)")
     p.set_defaults(func=cmd_replay)
 
 

@@ -12,6 +12,18 @@ Channels, one message per telemetry sample (50 per simulated second), `sequence`
                                    brake_release, brake_engagement, predicted_minus_true_rad
     /arm                     JSON  time_s, supply_pa (abs), brush_force_n, brush_contact_{x,y,z}_m
                                    (world, null: no contact), brush_push_{x,y,z}_n (world)
+    /camera/global_view      foxglove.CompressedImage  JPEG frames of the scene's global camera
+                                   (`camera_fps` > 0 and offscreen GL works), written at close
+
+Times: a message's log time is the run's start plus its simulated time. The start is fixed,
+START_TIME_NS (2000-01-01T00:00:00Z), unless the run's metadata gives one ("start_time_ns", e.g.
+`twin run --start-time now`): so the same scenario and seed still give the same file byte for byte
+(DESIGN rule 5), and Foxglove's clock shows simulated time as time of day since midnight. The
+start and where it came from are in the metadata record ("start_time_utc", "start_time_ns",
+"start_time_source").
+Camera frames are written together at close, after the telemetry, so their place in the file
+does not depend on when the renderer delivered them (a run killed mid-way keeps its telemetry,
+not its frames).
 
 foxglove-schemas-protobuf 0.4.0 has JointStates/JointState (name, position, velocity,
 acceleration, effort) and FrameTransforms; it has no schema for a pressure or a valve, so those
@@ -39,6 +51,25 @@ from twin.errors import UserError
 from twin.telemetry import SIGNALS
 
 CHUNK_SIZE = 32 * 1024  # bytes: ~0.3 s of telemetry, within DESIGN's 4-64 KB
+START_TIME_NS = 946_684_800 * 1_000_000_000  # 2000-01-01T00:00:00Z: the fixed start of a log (deterministic)
+CAMERA_TOPIC = "/camera/global_view"
+# what each JSON field holds, with its unit (the schemas' field descriptions)
+JOINT_DOC = {
+    "pressure_a_pa": "motor chamber A pressure, Pa absolute",
+    "pressure_b_pa": "motor chamber B pressure, Pa absolute",
+    "valve_gauge_pa": "proportional valve pressure as its sensor reads it, Pa gauge",
+    "direction": "direction valve command: -1, 0 (closed) or +1, dimensionless",
+    "brake_release": "brake release command: 0 (hold) or 1 (release), dimensionless",
+    "brake_engagement": "brake engagement: 0 released .. 1 holding, dimensionless",
+    "predicted_minus_true_rad": "controller's predicted angle minus the plant's true angle, rad",
+}
+ARM_DOC = {
+    "time_s": "simulated time since the run's start, s",
+    "supply_pa": "supply pressure, Pa absolute",
+    "brush_force_n": "brush normal force on the discs, N",
+}
+ARM_DOC |= {f"brush_contact_{x}_m": f"brush contact point, world {x}, m (null: no contact)" for x in "xyz"}
+ARM_DOC |= {f"brush_push_{x}_n": f"force of the brush on what it touches, world {x}, N" for x in "xyz"}
 JOINT_FIELDS = ("pressure_a_pa", "pressure_b_pa", "valve_gauge_pa", "direction", "brake_release", "brake_engagement")
 ANGLE_CHANNELS = {"true_angle_rad": "/joint_states/true", "predicted_angle_rad": "/joint_states/predicted", "target_angle_rad": "/joint_states/target"}
 
@@ -73,6 +104,7 @@ class McapWriter:
     """
 
     def __init__(self, path, joints, bodies, scene: bytes, meta: dict | None = None, *, chunk_size: int = CHUNK_SIZE):
+        from foxglove_schemas_protobuf.CompressedImage_pb2 import CompressedImage
         from foxglove_schemas_protobuf.FrameTransforms_pb2 import FrameTransforms
         from foxglove_schemas_protobuf.JointStates_pb2 import JointStates
         from foxglove_schemas_protobuf.SceneUpdate_pb2 import SceneUpdate
@@ -85,6 +117,8 @@ class McapWriter:
         self.joints = tuple(joints)
         self.bodies = tuple(bodies)
         meta = dict(meta or {})
+        self.start_ns = int(meta["start_time_ns"]) if meta.get("start_time_ns") is not None else START_TIME_NS
+        self._CompressedImage = CompressedImage
         self._file = _open_for_writing(self.path)
         self._writer = Writer(self._file, chunk_size=chunk_size, compression=CompressionType.ZSTD)
         self._writer.start(profile="", library="pneumatic-arm-twin")
@@ -104,12 +138,10 @@ class McapWriter:
         self._angle_ch = {sig: proto_channel(topic, JointStates) for sig, topic in ANGLE_CHANNELS.items()}
         self._tf_ch = proto_channel("/tf", FrameTransforms)
         scene_ch = proto_channel("/scene", SceneUpdate)
-        joint_doc = {f: f for f in JOINT_FIELDS} | {"predicted_minus_true_rad": "predicted - true angle, rad"}
-        self._joint_ch = [json_channel(f"/joint/{j}", joint_doc) for j in self.joints]
-        arm_doc = {"time_s": "simulated time, s", "supply_pa": "supply, Pa abs", "brush_force_n": "brush normal force, N"}
-        arm_doc |= {f"brush_contact_{x}_m": f"brush contact point {x}, world, m (null: no contact)" for x in "xyz"}
-        arm_doc |= {f"brush_push_{x}_n": f"force of the brush on what it touches, {x}, world, N" for x in "xyz"}
-        self._arm_ch = json_channel("/arm", arm_doc)
+        self._joint_ch = [json_channel(f"/joint/{j}", JOINT_DOC) for j in self.joints]
+        self._arm_ch = json_channel("/arm", ARM_DOC)
+        self._proto_channel = proto_channel
+        self._camera_ch: int | None = None  # registered with the first frame
 
         info = {
             "joints": json.dumps(self.joints),
@@ -119,11 +151,14 @@ class McapWriter:
             "scenario_path": json.dumps(meta.get("scenario_path")),
             "overrides": json.dumps(meta.get("overrides", {}), default=str),
             "versions": json.dumps(meta.get("versions") or package_versions()),
+            "start_time_utc": json.dumps(_utc(self.start_ns)),
+            "start_time_ns": json.dumps(self.start_ns),
+            "start_time_source": json.dumps(meta.get("start_time_source") or "fixed epoch (deterministic logs)"),
         }
         self._writer.add_metadata("twin", info)
         if meta.get("scenario_text") is not None:
             self._writer.add_attachment(0, 0, "scenario.toml", "application/toml", str(meta["scenario_text"]).encode())
-        self._writer.add_message(scene_ch, 0, scene, 0, sequence=0)
+        self._writer.add_message(scene_ch, self.start_ns, scene, self.start_ns, sequence=0)
         self._writer.flush()
         self._closed = False
 
@@ -145,7 +180,7 @@ class McapWriter:
         pos, quat = a["body_pos_m"], a["body_quat_wxyz"]
         for k, t in enumerate(lists["time_s"]):
             seq = start + k
-            ns = int(round(t * 1e9))
+            ns = self.start_ns + int(round(t * 1e9))
             sec, nsec = divmod(ns, 1_000_000_000)
             for sig, ch in self._angle_ch.items():
                 msg = JointStates()
@@ -167,12 +202,50 @@ class McapWriter:
             add(self._arm_ch, ns, _json_object(ARM_JSON, arm_rows[k]), ns, sequence=seq)
         self._writer.flush()  # ends the chunk and flushes the file: a kill now loses nothing
 
+    def write_frames(self, frames: list[tuple[float, bytes]], camera: str = "global_view") -> None:
+        """Append camera frames (simulated time s, JPEG bytes) as foxglove.CompressedImage."""
+        if not frames:
+            return
+        if self._camera_ch is None:
+            self._camera_ch = self._proto_channel(CAMERA_TOPIC, self._CompressedImage)
+        for k, (t, jpeg) in enumerate(frames):
+            ns = self.start_ns + int(round(t * 1e9))
+            msg = self._CompressedImage(frame_id=camera, data=jpeg, format="jpeg")
+            msg.timestamp.seconds, msg.timestamp.nanos = divmod(ns, 1_000_000_000)
+            self._writer.add_message(self._camera_ch, ns, msg.SerializeToString(), ns, sequence=k)
+        self._writer.flush()
+
     def close(self) -> None:
         if self._closed:
             return
         self._closed = True
         self._writer.finish()
         self._file.close()
+
+
+def start_time(text: str, where: str = "--start-time") -> dict:
+    """The metadata that starts a log at `text`: "now" (the wall clock; the log then differs from
+    run to run) or an ISO 8601 time with its zone (2026-11-23T13:00:00Z). LogError otherwise."""
+    import datetime as dt
+    import time
+
+    if text == "now":
+        return {"start_time_ns": time.time_ns(), "start_time_source": "wall clock at the run's start"}
+    try:
+        when = dt.datetime.fromisoformat(text.replace("Z", "+00:00"))
+    except ValueError:
+        when = None
+    if when is None or when.tzinfo is None or not 1970 <= when.year <= 2200:
+        allowed = "'now' or an ISO 8601 time with its zone between 1970 and 2200, e.g. 2026-11-23T13:00:00Z"
+        raise LogError(f"{where} {text!r}: expected {allowed}")
+    ns = int(when.timestamp()) * 1_000_000_000 + when.microsecond * 1000
+    return {"start_time_ns": ns, "start_time_source": f"given: {text}"}
+
+
+def _utc(ns: int) -> str:
+    import datetime as dt
+
+    return dt.datetime.fromtimestamp(ns // 1_000_000_000, dt.timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ")
 
 
 def _open_for_writing(path: Path):
@@ -202,6 +275,9 @@ def _serve(stdin, stdout) -> None:
                 writer.close()
                 stdout.write(b"ok\n")
                 return
+            if isinstance(msg, dict):  # {"frames": [(t, jpeg), ...]}
+                writer.write_frames(msg["frames"])
+                continue
             writer.write_arrays(*msg)
     except Exception as e:  # the run reads it at its next write or at close
         stdout.write(f"{type(e).__name__}: {e}\n".encode())
@@ -221,9 +297,23 @@ class McapRecorder:
     a spare core the run does not wait for it: the run pickles each batch of columns down a pipe.
     A plain subprocess rather than multiprocessing, which would re-import the user's main script.
     `background=False` writes in-process; the file is the same byte for byte either way.
+    `camera_fps` > 0 adds the scene's `global_view` camera as JPEG frames (twin.camera), written
+    at close; where offscreen GL does not work the log goes on without them and says so.
+    `frames` is a twin.camera.FrameFeed shared with another recorder (each frame rendered once).
     """
 
-    def __init__(self, path, plant_model, joints, meta: dict | None = None, *, chunk_size: int = CHUNK_SIZE, background: bool = True):
+    def __init__(
+        self,
+        path,
+        plant_model,
+        joints,
+        meta: dict | None = None,
+        *,
+        chunk_size: int = CHUNK_SIZE,
+        background: bool = True,
+        camera_fps: float = 0.0,
+        frames=None,
+    ):
         import os
         import subprocess
         import sys
@@ -237,6 +327,11 @@ class McapRecorder:
         kwargs = {"chunk_size": chunk_size}
         self._inline = self._proc = None
         self._closed = False
+        self._camera = frames
+        if self._camera is None and camera_fps > 0:
+            from twin.camera import FrameFeed
+
+            self._camera = FrameFeed(plant_model, camera_fps)
         if not background:
             self._inline = McapWriter(*args, **kwargs)
             return
@@ -268,17 +363,34 @@ class McapRecorder:
 
     def write(self, telemetry, start: int) -> None:
         """Send telemetry samples `start`.. to the writer (each batch is flushed to the file)."""
+        if self._camera is not None and len(telemetry) > start:
+            self._camera.request(telemetry, start)
         if self._inline is not None:
             return self._inline.write(telemetry, start)
         self._send((telemetry.arrays(start), start))
 
+    def _close_camera(self) -> list[tuple[float, bytes]]:
+        """All frames, in time order (the order they were rendered in is the renderer's)."""
+        if self._camera is None:
+            return []
+        frames = sorted(self._camera.frames_from(0, wait=True), key=lambda f: f[0])
+        if self._camera.error:  # the log holds everything else
+            import sys
+
+            print(f"twin: note: no camera frames in {self.path}: {self._camera.error}", file=sys.stderr)
+        return frames
+
     def close(self) -> None:
-        """Finish the file: waits for the writer to write all it was sent."""
+        """Finish the file: waits for the camera's frames and for the writer to write all it was sent."""
         if self._closed:
             return
+        frames = self._close_camera()
         self._closed = True
         if self._inline is not None:
+            self._inline.write_frames(frames)
             return self._inline.close()
+        if frames:
+            self._send({"frames": frames})
         self._send(None)
         reply = self._finish()
         if reply != "ok":
@@ -340,14 +452,15 @@ def _scene_update(model):
     return update
 
 
-def read_mcap(path) -> tuple[dict[str, np.ndarray], dict]:
+def read_mcap(path, frames: bool = False) -> tuple[dict[str, np.ndarray], dict]:
     """Read a log written by McapRecorder back into arrays shaped like Telemetry.arrays().
 
     Works on a file cut short (a run killed mid-way): it streams records up to the cut and keeps
     every sample whose messages all arrived. `meta` holds the metadata record (joints, bodies,
     seed, versions, ...), "scenario_text" from the attachment, and "recovery": complete (the file
     was closed properly), samples, duration_s (simulated seconds recovered), stopped_by (why
-    reading stopped early, or None).
+    reading stopped early, or None). With `frames`, meta["camera_frames"] holds the camera's
+    frames as (simulated time s, JPEG bytes) in time order.
     Raises LogError when the file is missing, is not MCAP, or is not a log of this project.
     """
     from foxglove_schemas_protobuf.FrameTransforms_pb2 import FrameTransforms
@@ -362,6 +475,7 @@ def read_mcap(path) -> tuple[dict[str, np.ndarray], dict]:
         raise LogError(f"{path}: cannot open the MCAP log: {e.strerror}") from e
     topics: dict[int, str] = {}
     samples: dict[int, dict[str, object]] = {}
+    images: list = []  # camera frames' Message records
     meta: dict = {}
     complete, stopped_by = False, None
     with f:
@@ -371,7 +485,9 @@ def read_mcap(path) -> tuple[dict[str, np.ndarray], dict]:
                     topics[rec.id] = rec.topic
                 elif isinstance(rec, Message):
                     topic = topics.get(rec.channel_id)
-                    if topic is None or topic == "/scene":
+                    if topic == CAMERA_TOPIC and frames:
+                        images.append(rec)
+                    if topic is None or topic in ("/scene", CAMERA_TOPIC):
                         continue
                     samples.setdefault(rec.sequence, {})[topic] = rec.data
                 elif isinstance(rec, Metadata) and rec.name == "twin":
@@ -421,6 +537,13 @@ def read_mcap(path) -> tuple[dict[str, np.ndarray], dict]:
         raise LogError(f"{path}: sample {s} is malformed ({type(e).__name__}: {e})") from e
     duration = float(out["time_s"][-1] - out["time_s"][0]) if m else 0.0
     meta["recovery"] = {"complete": complete, "samples": m, "duration_s": duration, "stopped_by": stopped_by}
+    if frames:
+        from foxglove_schemas_protobuf.CompressedImage_pb2 import CompressedImage
+
+        start_ns = int(meta.get("start_time_ns", 0))  # logs written before it had a start began at 0
+        meta["camera_frames"] = sorted(
+            ((r.log_time - start_ns) * 1e-9, CompressedImage.FromString(r.data).data) for r in images
+        )
     return out, meta
 
 

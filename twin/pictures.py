@@ -4,7 +4,8 @@ render_arm_png(path): the arm in the substation seen from the scene's `global_vi
 MuJoCo's offscreen renderer (MUJOCO_GL=egl or osmesa; DESIGN "Headless pictures"), or, when no GL
 backend works, a matplotlib 3D drawing of the bodies' geoms. It returns which one was used.
 plot_angles_png(arrays, path): true, predicted and target angles per joint from a run's arrays
-(Telemetry.arrays() or twin.mcap_log.read_mcap()).
+(Telemetry.arrays() or twin.mcap_log.read_mcap()); plot_run_angles(mcap, path) the same from a log
+(`twin plot`).
 """
 
 from __future__ import annotations
@@ -204,3 +205,18 @@ def plot_angles_png(arrays: dict, path, joints: tuple[str, ...] = assets.JOINTS,
     fig.savefig(path, dpi=110)
     plt.close(fig)
     return path
+
+
+def plot_run_angles(mcap_path, path, until_s: float | None = None, only_moving: bool = True) -> tuple[Path, dict]:
+    """The angles figure of a run logged as MCAP (cut short or whole; the first `until_s`
+    simulated seconds if given); returns the PNG's path and the reader's recovery report.
+    Raises twin.mcap_log.LogError on a file that is not a readable log."""
+    from twin.mcap_log import LogError, read_mcap
+
+    arrays, meta = read_mcap(mcap_path)
+    if meta["recovery"]["samples"] == 0:
+        raise LogError(f"{mcap_path}: holds no complete telemetry sample; nothing to plot")
+    if until_s is not None:
+        keep = arrays["time_s"] <= until_s
+        arrays = {k: v[keep] for k, v in arrays.items()}
+    return plot_angles_png(arrays, path, joints=tuple(meta["joints"]), only_moving=only_moving), meta["recovery"]

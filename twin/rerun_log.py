@@ -34,6 +34,7 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
+from twin.camera import has_camera
 from twin.errors import UserError
 
 TIMELINE = "time"
@@ -46,10 +47,35 @@ class RerunLogError(UserError):
     """A recording cannot be written or opened."""
 
 
+DEFAULT_GEOM_RGBA = (0.5, 0.5, 0.5, 1.0)  # MuJoCo's internal default of geom/@rgba (MJCF reference)
+VISIBLE_GROUPS = (0, 1, 2)  # geom groups MuJoCo's viewer and renderer show by default (mjv_defaultOption)
+
+
 def geom_rgba(model: mujoco.MjModel, g: int) -> np.ndarray:
-    """Colour of geom `g` (its material's if it has one, as MuJoCo draws it), RGBA 0..1."""
+    """Colour of geom `g` as MuJoCo draws it, RGBA 0..1: its own rgba where that differs from the
+    default (MJCF reference: "it takes precedence over the material"), else its material's."""
+    mat, own = model.geom_matid[g], np.asarray(model.geom_rgba[g], dtype=np.float64)
+    if mat < 0 or not np.allclose(own, DEFAULT_GEOM_RGBA):
+        return own
+    return np.asarray(model.mat_rgba[mat], dtype=np.float64)
+
+
+def geom_texture(model: mujoco.MjModel, g: int) -> tuple[np.ndarray, np.ndarray] | None:
+    """The 2D colour texture of geom `g`'s material as an (h, w, 3|4) uint8 image and its repeat
+    (u, v) over the geom, or None. MuJoCo tints the texture with the material's rgba."""
     mat = model.geom_matid[g]
-    return np.asarray(model.mat_rgba[mat] if mat >= 0 else model.geom_rgba[g], dtype=np.float64)
+    if mat < 0:
+        return None
+    tex = int(model.mat_texid[mat, int(mujoco.mjtTextureRole.mjTEXROLE_RGB)])
+    if tex < 0 or int(model.tex_type[tex]) != int(mujoco.mjtTexture.mjTEXTURE_2D):
+        return None
+    h, w, c = int(model.tex_height[tex]), int(model.tex_width[tex]), int(model.tex_nchannel[tex])
+    image = model.tex_data[model.tex_adr[tex] : model.tex_adr[tex] + h * w * c].reshape(h, w, c)
+    tint = geom_rgba(model, g)[:c] if c in (3, 4) else None
+    if tint is None:
+        return None
+    tinted = np.clip(np.rint(image * tint), 0, 255).astype(np.uint8)
+    return tinted, np.asarray(model.mat_texrepeat[mat], dtype=np.float64)
 
 
 def geom_name(model: mujoco.MjModel, g: int) -> str:
@@ -91,10 +117,39 @@ def geom_archetype(model: mujoco.MjModel, g: int):
     if t == _GEOM.mjGEOM_ELLIPSOID:
         return rr.Ellipsoids3D(half_sizes=[s[:3]], colors=color, fill_mode="solid")
     if t == _GEOM.mjGEOM_PLANE:
-        # a plane of size 0 is infinite in MuJoCo: draw 4 m x 4 m
-        hx, hy = (s[0] or 2.0), (s[1] or 2.0)
-        return rr.Boxes3D(half_sizes=[[hx, hy, 0.001]], centers=[[0, 0, -0.001]], colors=color, fill_mode="solid")
+        return plane_mesh(model, g)
     return None
+
+
+def plane_mesh(model: mujoco.MjModel, g: int):
+    """A plane as MuJoCo draws it: a quad (size 0 is infinite in MuJoCo: 4 m x 4 m here) with its
+    material's texture repeated `texrepeat` times across it (MuJoCo's rule without texuniform),
+    drawn as one textured quad per repeat, so no texture wrapping is needed of the viewer."""
+    import rerun as rr
+
+    hx, hy = (model.geom_size[g][0] or 2.0), (model.geom_size[g][1] or 2.0)
+    textured = geom_texture(model, g)
+    if textured is None:
+        color = [_rgba8(geom_rgba(model, g))]
+        return rr.Boxes3D(half_sizes=[[hx, hy, 0.001]], centers=[[0, 0, -0.001]], colors=color, fill_mode="solid")
+    image, (ru, rv) = textured
+    nu, nv = max(1, int(round(ru))), max(1, int(round(rv)))
+    xs, ys = np.linspace(-hx, hx, nu + 1), np.linspace(-hy, hy, nv + 1)
+    verts, uvs, tris = [], [], []
+    for i in range(nu):
+        for j in range(nv):
+            k = len(verts)
+            corners = ((xs[i], ys[j]), (xs[i + 1], ys[j]), (xs[i + 1], ys[j + 1]), (xs[i], ys[j + 1]))
+            verts += [[x, y, 0.0] for x, y in corners]
+            uvs += [[0.0, 1.0], [1.0, 1.0], [1.0, 0.0], [0.0, 0.0]]
+            tris += [[k, k + 1, k + 2], [k, k + 2, k + 3]]
+    return rr.Mesh3D(
+        vertex_positions=verts,
+        triangle_indices=tris,
+        vertex_normals=[[0.0, 0.0, 1.0]] * len(verts),
+        vertex_texcoords=uvs,
+        albedo_texture=image,
+    )
 
 
 def _geom_parent_path(model: mujoco.MjModel, g: int) -> str:
@@ -120,37 +175,118 @@ def log_static_geometry(rec, model: mujoco.MjModel) -> list[str]:
     return paths
 
 
-def blueprint(joints: tuple[str, ...]):
-    """3D view of the arm beside the time series: angles per joint, pressures, valves, brakes."""
+# Series styles, chosen for the viewer's default dark theme: the plant's truth a thin bright line
+# on top of the controller's belief, a wide orange band (so both show where they agree), its
+# target blue; each quantity with its unit has a view of its own
+SERIES_STYLES = {
+    "angle_deg/true": ((245, 245, 245), 1.5, "true (plant)"),
+    "angle_deg/predicted": ((255, 140, 0), 5.0, "predicted (controller)"),
+    "angle_deg/target": ((60, 170, 255), 1.5, "target"),
+    "error_deg/predicted_minus_true": ((255, 140, 0), 2.0, "predicted − true"),
+    "error_deg/target_minus_true": ((60, 170, 255), 1.5, "target − true"),
+    "pressure_pa/chamber_a": ((255, 90, 90), 1.5, "chamber A"),
+    "pressure_pa/chamber_b": ((90, 160, 255), 1.5, "chamber B"),
+    "valve/gauge_pa": ((110, 220, 110), 1.5, "prop. valve set pressure"),
+    "valve/direction": ((255, 210, 60), 1.5, "direction valve"),
+    "brake/release": ((110, 220, 110), 1.5, "release command"),
+    "brake/engagement": ((255, 90, 90), 1.5, "engagement"),
+}
+OTHER_STYLES = {
+    "supply/pressure_pa": ((200, 200, 200), 1.5, "supply"),
+    "brush/force_n": ((255, 210, 60), 1.5, "brush force"),
+}
+
+
+def moving_joint(joints, start_rad, targets_rad: list[dict[str, float]]) -> str:
+    """The joint a plan moves furthest (sum of its commanded travels from the start angles),
+    what the recording opens on; the first joint when the plan moves none."""
+    where = dict(zip(joints, (float(a) for a in start_rad)))
+    travel = dict.fromkeys(joints, 0.0)
+    for target in targets_rad:
+        for j, angle in target.items():
+            if j in where and math.isfinite(angle):
+                travel[j] += abs(angle - where[j])
+                where[j] = angle
+    best = max(joints, key=lambda j: travel[j])
+    return best if travel[best] > 0 else joints[0]
+
+
+def most_travelled_joint(joints, true_angle_rad: np.ndarray) -> str:
+    """The joint whose logged true angle travelled furthest (for a log without its plan)."""
+    if len(true_angle_rad) < 2:
+        return joints[0]
+    travel = np.nansum(np.abs(np.diff(true_angle_rad, axis=0)), axis=0)
+    return joints[int(np.argmax(travel))]
+
+
+def eye(model: mujoco.MjModel, closer: float = 0.75) -> dict:
+    """Where the 3D view's eye starts: MuJoCo's free camera (looking at the model's centre from
+    its `visual/global` azimuth and elevation), brought `closer` to the arm than MuJoCo's
+    1.5 x extent."""
+    az, el = math.radians(model.vis.global_.azimuth), math.radians(model.vis.global_.elevation)
+    forward = np.array([math.cos(el) * math.cos(az), math.cos(el) * math.sin(az), math.sin(el)])
+    target = np.asarray(model.stat.center, dtype=np.float64)
+    position = target - closer * 1.5 * model.stat.extent * forward
+    return {"position": position, "look_target": target, "eye_up": [0.0, 0.0, 1.0]}
+
+
+def hidden_geom_paths(model: mujoco.MjModel) -> list[str]:
+    """Entity paths of geoms MuJoCo does not show by default (groups 3..5: the payload's box)."""
+    hidden = [g for g in range(model.ngeom) if int(model.geom_group[g]) not in VISIBLE_GROUPS]
+    return [f"{_geom_parent_path(model, g)}/{geom_name(model, g)}" for g in hidden]
+
+
+def joint_views(j: str):
+    """One joint's time series, one view per quantity and unit."""
     import rerun.blueprint as rrb
 
-    angle_views = [
-        rrb.TimeSeriesView(name=f"{j} angle (deg)", origin=f"joints/{j}", contents=[f"joints/{j}/angle_deg/**", f"joints/{j}/error_deg/**"])
-        for j in joints
-    ]
-    pressure_views = [
-        rrb.TimeSeriesView(name=f"{j} air (Pa)", origin=f"joints/{j}", contents=[f"joints/{j}/pressure_pa/**", f"joints/{j}/valve/gauge_pa", "supply/**"])
-        for j in joints
-    ]
-    valve_views = [
-        rrb.TimeSeriesView(name=f"{j} valve & brake", origin=f"joints/{j}", contents=[f"joints/{j}/valve/direction", f"joints/{j}/brake/**"])
-        for j in joints
-    ]
-    left = rrb.Vertical(
-        rrb.Spatial3DView(name="arm", origin="world"),
+    p = f"joints/{j}"
+
+    def view(name, contents, **kw):
+        return rrb.TimeSeriesView(name=name, origin="/", contents=contents, **kw)
+
+    return rrb.Vertical(
+        view(f"{j}: angle (deg)", f"{p}/angle_deg/**"),
+        view(f"{j}: angle error (deg)", f"{p}/error_deg/**"),
+        view(f"{j}: absolute pressure (Pa)", [f"{p}/pressure_pa/**", "supply/pressure_pa"]),
+        view(f"{j}: proportional valve, gauge (Pa)", f"{p}/valve/gauge_pa"),
         rrb.Horizontal(
-            rrb.TimeSeriesView(name="brush force (N)", origin="brush"),
-            rrb.TimeSeriesView(name="supply (Pa abs)", origin="supply"),
-            rrb.Spatial2DView(name="global_view camera", origin="camera"),
+            view(f"{j}: direction valve (-1, 0, +1)", f"{p}/valve/direction"),
+            view(f"{j}: brake (0 released, 1 holding)", f"{p}/brake/**"),
         ),
-        row_shares=[3, 1],
+        row_shares=[3, 2, 2, 1.5, 1.5],
+        name=j,
     )
-    right = rrb.Vertical(
-        rrb.Tabs(*angle_views, name="angles"),
-        rrb.Tabs(*pressure_views, name="pressures"),
-        rrb.Tabs(*valve_views, name="valves and brakes"),
+
+
+def blueprint(joints: tuple[str, ...], model: mujoco.MjModel | None = None, focus: str | None = None,
+              camera: bool = False):
+    """The layout the recording opens with: the arm in 3D, close up (left), and the time series of
+    one joint at a time in tabs, opened on `focus` (the joint that moves; right)."""
+    import rerun.blueprint as rrb
+
+    focus = focus if focus in joints else joints[0]
+    hidden = [f"- {p}" for p in hidden_geom_paths(model)] if model is not None else []
+    arm = rrb.Spatial3DView(
+        name="arm",
+        origin="world",
+        contents=["+ $origin/**", *hidden],
+        line_grid=False,  # the model's own floor is drawn
+        eye_controls=rrb.EyeControls3D(**eye(model)) if model is not None else None,
     )
-    return rrb.Blueprint(rrb.Horizontal(left, right, column_shares=[1, 1]), collapse_panels=False)
+    below = []
+    if camera:
+        below.append(rrb.Spatial2DView(name="global_view camera", origin="camera"))
+    if model is None or mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, "brush") >= 0:
+        below.append(rrb.TimeSeriesView(name="brush normal force (N)", origin="brush"))
+    left = rrb.Vertical(arm, rrb.Horizontal(*below), row_shares=[3, 1]) if below else arm
+    right = rrb.Tabs(*(joint_views(j) for j in joints), active_tab=joints.index(focus), name="joints")
+    return rrb.Blueprint(
+        rrb.Horizontal(left, right, column_shares=[1, 1]),
+        rrb.BlueprintPanel(state="collapsed"),
+        rrb.SelectionPanel(state="collapsed"),
+        rrb.TimePanel(state="collapsed"),
+    )
 
 
 class RerunRecorder:
@@ -161,9 +297,23 @@ class RerunRecorder:
     `meta`. `camera_fps` > 0 logs the scene's `global_view` camera (the operator's aid in the
     paper) at that rate as JPEG frames, rendered by twin.camera's process where offscreen GL
     (egl or osmesa) works; where none does, the recording goes on without frames and says so.
+    `focus` is the joint whose plots the recording opens on (`moving_joint` of the plan);
+    `frames` a twin.camera.FrameFeed shared with another recorder (then `camera_fps` is its);
+    `camera_view` shows the camera's view for frames logged by `log_frames` (a replay).
     """
 
-    def __init__(self, path, plant_model: mujoco.MjModel, joints, meta: dict | None = None, *, camera_fps: float = 0.0):
+    def __init__(
+        self,
+        path,
+        plant_model: mujoco.MjModel,
+        joints,
+        meta: dict | None = None,
+        *,
+        camera_fps: float = 0.0,
+        focus: str | None = None,
+        frames=None,
+        camera_view: bool = False,
+    ):
         import rerun as rr
 
         self.path = Path(path)
@@ -172,7 +322,8 @@ class RerunRecorder:
         self.bodies = tuple(body_name(plant_model, b) for b in range(1, plant_model.nbody))
         self.rec = rr.RecordingStream("pneumatic_arm_twin")
         try:
-            self.rec.save(self.path, default_blueprint=blueprint(self.joints))
+            camera = camera_view or (camera_fps > 0 and has_camera(plant_model, "global_view"))
+            self.rec.save(self.path, default_blueprint=blueprint(self.joints, plant_model, focus, camera=camera))
         except Exception as e:  # rerun raises its own error types for unwritable paths
             raise RerunLogError(f"{self.path}: cannot write a rerun recording: {e}") from e
         if meta and meta.get("scenario_name"):
@@ -188,35 +339,19 @@ class RerunRecorder:
         self.batch_s = 10.0
         self._pending: int | None = None  # first telemetry sample not yet sent
         self._telemetry = None
-        self._camera = None
-        if self.camera_fps > 0:
-            from twin.camera import CameraProcess
+        self._camera, self._frames_seen = frames, 0
+        if self._camera is None and self.camera_fps > 0:
+            from twin.camera import FrameFeed
 
-            self._camera = CameraProcess(plant_model, camera="global_view", width=480, height=360)
-        self._next_frame_t = 0.0
+            self._camera = FrameFeed(plant_model, self.camera_fps)
         self._closed = False
 
     def _log_series_styles(self) -> None:
         import rerun as rr
 
-        styles = {
-            "angle_deg/true": ((40, 40, 40), "true"),
-            "angle_deg/predicted": ((220, 60, 40), "predicted"),
-            "angle_deg/target": ((40, 120, 220), "target"),
-            "error_deg/predicted_minus_true": ((220, 150, 40), "predicted − true"),
-            "error_deg/target_minus_true": ((120, 80, 200), "target − true"),
-            "pressure_pa/chamber_a": ((200, 40, 40), "chamber A"),
-            "pressure_pa/chamber_b": ((40, 80, 200), "chamber B"),
-            "valve/gauge_pa": ((40, 160, 80), "prop. valve (gauge)"),
-            "valve/direction": ((40, 40, 40), "direction"),
-            "brake/release": ((40, 160, 80), "release command"),
-            "brake/engagement": ((200, 40, 40), "engagement"),
-        }
-        for j in self.joints:
-            for sub, (color, name) in styles.items():
-                self.rec.log(f"joints/{j}/{sub}", rr.SeriesLines(colors=[color], names=[name]), static=True)
-        self.rec.log("supply/pressure_pa", rr.SeriesLines(names=["supply"]), static=True)
-        self.rec.log("brush/force_n", rr.SeriesLines(names=["brush force"]), static=True)
+        styles = {f"joints/{j}/{sub}": s for j in self.joints for sub, s in SERIES_STYLES.items()} | OTHER_STYLES
+        for path, (color, width, name) in styles.items():
+            self.rec.log(path, rr.SeriesLines(colors=[color], widths=[width], names=[name]), static=True)
 
     def write(self, telemetry, start: int) -> None:
         """Queue telemetry samples `start`..; they are sent in bulk once `batch_s` of simulated
@@ -227,7 +362,8 @@ class RerunRecorder:
         if self._camera is not None and len(telemetry) > start:
             # frames are asked for at every write, not every batch: the camera process renders
             # them while the run goes on, and close has next to nothing left to wait for
-            self._request_frames({k: telemetry.column(k, start) for k in ("time_s", "body_pos_m", "body_quat_wxyz")})
+            self._camera.request(telemetry, start)
+            self.log_frames(self._camera.frames_from(self._frames_seen))
         if len(telemetry) > self._pending and telemetry.time_at(-1) - telemetry.time_at(self._pending) >= self.batch_s:
             self._send(telemetry, self._pending)
             self._pending = None
@@ -277,20 +413,11 @@ class RerunRecorder:
             columns=rr.Arrows3D.columns(origins=a["brush_contact_m"][touching], vectors=1e-3 * a["brush_push_n"][touching]).partition(touching.astype(np.int32)),
         )
 
-    def _request_frames(self, a: dict) -> None:
-        """Queue `global_view` frames at `camera_fps` with the camera process, and log those it
-        has rendered so far (the run does not wait for them)."""
-        keep = []
-        for k, t in enumerate(a["time_s"]):
-            if t + 1e-9 >= self._next_frame_t:  # the first sample at or after each 1/fps tick
-                self._next_frame_t = (math.floor(t * self.camera_fps + 1e-9) + 1) / self.camera_fps
-                keep.append(k)
-        self._camera.request(a["time_s"][keep], a["body_pos_m"][keep], a["body_quat_wxyz"][keep])
-        self._log_frames(self._camera.collect())
-
-    def _log_frames(self, frames: list[tuple[float, bytes]]) -> None:
+    def log_frames(self, frames: list[tuple[float, bytes]]) -> None:
+        """Log camera frames (simulated time s, JPEG bytes), e.g. those a replayed log holds."""
         import rerun as rr
 
+        self._frames_seen += len(frames)
         for t, jpeg in frames:
             self.rec.set_time(TIMELINE, duration=t)
             self.rec.log("camera/global_view", rr.EncodedImage(contents=jpeg, media_type="image/jpeg"))
@@ -302,7 +429,7 @@ class RerunRecorder:
         if self._pending is not None:
             self._send(self._telemetry, self._pending)
         if self._camera is not None:
-            self._log_frames(self._camera.close())
+            self.log_frames(self._camera.frames_from(self._frames_seen, wait=True))
             if self._camera.error:  # the recording holds everything else
                 print(f"twin: note: no camera frames in {self.path}: {self._camera.error}", file=sys.stderr)
         self.rec.flush()

@@ -1,0 +1,227 @@
+"""What pneumatic_arm_twin offers (see its docstring): thin wrappers over scenarios/, twin/ and
+gap/ that return objects with arrays instead of the command line's files."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from scenarios.schema import Scenario, ScenarioError, load, with_overrides
+
+PANDAS_MISSING = (
+    "to_dataframe() needs pandas, which pneumatic-arm-twin does not install; `pip install pandas`, "
+    "or use .table() (a dict of 1-D numpy arrays, which pandas.DataFrame(...) takes as it is)"
+)
+
+
+def shipped_scenario_path(name: str) -> Path:
+    """The file of a scenario shipped with the package, by name (`insulator_cleaning`)."""
+    from scenarios.runner import scenario_files
+
+    shipped = {p.stem: p for p in scenario_files()}
+    if name not in shipped:
+        names = ", ".join(sorted(shipped))
+        raise ScenarioError(f"{name}: no such scenario file, nor a shipped scenario (shipped: {names})")
+    return shipped[name]
+
+
+def scenario(name_or_path: str | Path | Scenario, **overrides) -> Scenario:
+    """A scenario: one given, a file, or a shipped scenario by name (`insulator_cleaning`); dotted
+    `overrides` (`{"supply.pressure_mpa": 0.7}` as `**{...}`) are checked like the file."""
+    if isinstance(name_or_path, Scenario):
+        sc = name_or_path
+    else:
+        sc = load(name_or_path if Path(name_or_path).is_file() else shipped_scenario_path(str(name_or_path)))
+    return with_overrides(sc, overrides) if overrides else sc
+
+
+def flat_columns(arrays: dict[str, np.ndarray], joints: tuple[str, ...], bodies: tuple[str, ...]) -> dict:
+    """Telemetry arrays as 1-D columns named `signal`, `signal.joint`, `signal.x`, `signal.body.x`."""
+    from twin.telemetry import SIGNALS
+
+    out = {"time_s": arrays["time_s"]}
+    for name, shape in SIGNALS.items():
+        a = arrays[name]
+        axes = "wxyz" if name.endswith("wxyz") else "xyz"
+        if shape == ():
+            out[name] = a
+        elif shape == ("n",):
+            out |= {f"{name}.{j}": a[:, k] for k, j in enumerate(joints)}
+        elif shape[0] == "b":
+            out |= {f"{name}.{b}.{x}": a[:, i, c] for i, b in enumerate(bodies) for c, x in enumerate(axes)}
+        else:
+            out |= {f"{name}.{x}": a[:, c] for c, x in enumerate(axes)}
+    return out
+
+
+def _dataframe(columns: dict):
+    try:
+        import pandas as pd
+    except ImportError:
+        raise ImportError(PANDAS_MISSING) from None
+    return pd.DataFrame(columns)
+
+
+@dataclass
+class Log:
+    """A run's telemetry: arrays as twin.telemetry.Telemetry.arrays() gives them, and the joints
+    and bodies they are ordered by."""
+
+    _arrays: dict[str, np.ndarray]
+    joints: tuple[str, ...]
+    bodies: tuple[str, ...]
+    meta: dict = field(default_factory=dict)
+
+    def arrays(self) -> dict[str, np.ndarray]:
+        """Each signal as an array over samples (50 per simulated second): (T,), (T, joints), ..."""
+        return dict(self._arrays)
+
+    def table(self) -> dict[str, np.ndarray]:
+        """The telemetry as flat 1-D columns (see flat_columns)."""
+        return flat_columns(self._arrays, self.joints, self.bodies)
+
+    def to_dataframe(self):
+        """The table as a pandas DataFrame indexed by sample (pandas is imported here, on use)."""
+        return _dataframe(self.table())
+
+    def plot_angles(self, path, only_moving: bool = True) -> Path:
+        """The README's angles figure of this run (PNG)."""
+        from twin.pictures import plot_angles_png
+
+        return plot_angles_png(self._arrays, path, joints=self.joints, only_moving=only_moving)
+
+
+@dataclass
+class Run(Log):
+    """A scenario's run: its telemetry (Log), whether it passed, and `twin run --json`'s summary."""
+
+    passed: bool = False
+    summary: dict = field(default_factory=dict)
+
+
+def run(
+    name_or_path: str | Path | Scenario,
+    *,
+    duration_s: float | None = None,
+    seed: int | None = None,
+    rrd=None,
+    mcap=None,
+    camera_fps: float = 0.0,
+    start_time: str | None = None,
+    **overrides,
+) -> Run:
+    """Run a scenario (shortened to `duration_s`, with another `seed`, dotted `overrides`), logging
+    to `rrd` / `mcap` if given, as `twin run` does (`start_time`: its --start-time)."""
+    from scenarios.runner import run_scenario
+    from twin.commands import open_recorders
+
+    sc = scenario(name_or_path, **overrides)
+    if seed is not None:
+        sc = with_overrides(sc, {"seed": seed})
+    recorders = open_recorders(sc, Path(rrd) if rrd else None, Path(mcap) if mcap else None, camera_fps, start_time)
+    try:
+        result = run_scenario(sc, recorders=tuple(recorders), duration_s=duration_s)
+    finally:
+        for r in recorders:
+            r.close()
+    tel = result.telemetry
+    meta = {"scenario_name": sc.name, "seed": sc.seed}
+    return Run(tel.arrays(), tel.joints, tel.bodies, meta, result.passed, result.summary())
+
+
+def read_log(path) -> Log:
+    """A run logged with `twin run --mcap` (a file cut short gives what it holds; `meta["recovery"]`
+    says how much)."""
+    from twin.mcap_log import read_mcap
+
+    arrays, meta = read_mcap(path)
+    return Log(arrays, tuple(meta["joints"]), tuple(meta["bodies"]), meta)
+
+
+@dataclass
+class Sweep:
+    """A sweep's summaries, one per run, in the points' order."""
+
+    summaries: list[dict]
+
+    def table(self) -> dict[str, list]:
+        """One row per run as columns (see scenarios.sweep.summary_row): {column: [value per run]}."""
+        from scenarios.sweep import summary_table
+
+        columns, rows = summary_table(self.summaries)
+        return {c: [row.get(c) for row in rows] for c in columns}
+
+    def to_dataframe(self):
+        return _dataframe(self.table())
+
+    def to_csv(self, path) -> Path:
+        from scenarios.sweep import write_csv
+
+        return write_csv(self.summaries, path)
+
+
+def sweep(
+    name_or_path: str | Path | Scenario,
+    grid: dict[str, list] | None = None,
+    *,
+    monte_carlo: int = 0,
+    workers: int = 1,
+    duration_s: float | None = None,
+    progress: bool = False,
+) -> Sweep:
+    """Run a scenario over a grid of dotted fields and/or `monte_carlo` child seeds (`twin sweep`)."""
+    from scenarios.sweep import sweep as _sweep
+
+    summaries = _sweep(scenario(name_or_path), grid or {}, monte_carlo, workers, None, duration_s, progress=progress)
+    return Sweep(summaries)
+
+
+@dataclass
+class Diagnosis:
+    """A gap diagnosis: `verdict` (explained, ambiguous, outside the catalogue, no significant
+    gap), the `effect` that explains the gap (the top candidate's name, or None), the held-out
+    rms angle error before and after it, and the whole diagnosis (`details`, as diagnosis.json)."""
+
+    verdict: str
+    effect: str | None
+    before_rms_deg: float
+    after_rms_deg: float | None
+    details: dict
+
+    def ranking(self) -> dict[str, list]:
+        """The single-effect candidates, best first, as columns: name, held-out rms, shrink, fitted values."""
+        rank = self.details["which"]["ranking"]
+        return {k: [c[k] for c in rank] for k in ("name", "heldout_rms_deg", "shrink", "fitted_values", "explains")}
+
+
+def diagnose(
+    campaign,
+    *,
+    out=None,
+    effects: list[str] | None = None,
+    model_tolerance_deg: float | None = None,
+    jobs: int = 2,
+    progress: bool = False,
+) -> Diagnosis:
+    """Diagnose a calibration campaign folder (`twin gap diagnose`); `effects` limits the
+    catalogue to those names; `out` also writes diagnosis.json, report.md and the plots there."""
+    from gap import CATALOGUE, GapError, load_campaign, write_report
+    from gap.diagnose import MODEL_TOLERANCE_DEG
+    from gap.diagnose import diagnose as _diagnose  # not gap.diagnose: the submodule's name hides gap's function
+
+    catalogue = CATALOGUE
+    if effects is not None:
+        known = {e.name for e in CATALOGUE}
+        unknown = [e for e in effects if e not in known]
+        if unknown:
+            raise GapError(f"effects {unknown}: not in the catalogue ({', '.join(sorted(known))})")
+        catalogue = tuple(e for e in CATALOGUE if e.name in effects)
+    tol = MODEL_TOLERANCE_DEG if model_tolerance_deg is None else model_tolerance_deg
+    d = _diagnose(load_campaign(campaign), catalogue=catalogue, model_tolerance_deg=tol, n_jobs=jobs, progress=progress)
+    if out is not None:
+        write_report(d, out)
+    top = d["which"]["top"]
+    after = top["heldout_rms_deg"] if top else None
+    return Diagnosis(d["which"]["verdict"], top["name"] if top else None, d["before_rms_deg"], after, d)
