@@ -11,8 +11,9 @@ def register(subparsers) -> None:
     d = sub.add_parser("diagnose", help="diagnose a calibration campaign into DIR (diagnosis.json, report.md, PNG plots)")
     d.add_argument("campaign", help="folder with campaign.toml and the run files")
     d.add_argument("--out", required=True, help="output folder")
-    d.add_argument("--model-tolerance-deg", type=float, default=None, help="twin model tolerance added to the noise floor (default: gap.diagnose.MODEL_TOLERANCE_DEG)")
+    d.add_argument("--model-tolerance-deg", type=float, default=None, help="twin model tolerance added to the noise floor (default: twice the worst replay-vs-plant rms of the protocol library, gap.protocols)")
     d.add_argument("--jobs", type=int, default=2)
+    d.add_argument("--scheduler", help="Dask scheduler address: fit the candidates on that cluster (as `twin sweep --scheduler`)")
     d.set_defaults(func=cmd_diagnose)
     b = sub.add_parser("bench", help="blind check on campaigns generated from the plant with hidden effects (DIR/bench.json)")
     b.add_argument("--out", required=True)
@@ -22,20 +23,32 @@ def register(subparsers) -> None:
     b.set_defaults(func=cmd_bench)
 
 
-def run_diagnose(campaign: str | Path, out: str | Path, model_tolerance_deg: float | None = None, jobs: int = 2, progress: bool = True) -> dict:
+def run_diagnose(campaign: str | Path, out: str | Path, model_tolerance_deg: float | None = None, jobs: int = 2, progress: bool = True, scheduler: str | None = None) -> dict:
     from gap.campaign import load_campaign
-    from gap.diagnose import MODEL_TOLERANCE_DEG, diagnose
+    from gap.diagnose import diagnose
     from gap.report import write
 
-    diag = diagnose(load_campaign(campaign), model_tolerance_deg=MODEL_TOLERANCE_DEG if model_tolerance_deg is None else model_tolerance_deg, n_jobs=jobs, progress=progress)
+    diag = diagnose(load_campaign(campaign), model_tolerance_deg=model_tolerance_deg, n_jobs=jobs, progress=progress, scheduler=scheduler)
     write(diag, out)
     return diag
 
 
+def verdict_line(diag: dict) -> str:
+    """The one-line answer. For a gap outside the catalogue it names the nearest family, never a
+    candidate (a candidate's name there would read like a diagnosis)."""
+    w = diag["which"]
+    top = w["top"]
+    if w["verdict"] == "outside the catalogue":
+        return f"verdict: outside the catalogue (nearest family: {w['nearest']['family']}; nominal twin {diag['before_rms_deg']:.2f} deg rms)"
+    if top is None:
+        return f"verdict: {w['verdict']} (nominal twin {diag['before_rms_deg']:.2f} deg rms, threshold {diag['noise_floor']['significance_threshold_deg']:.2f})"
+    bound = " [fitted on a catalogue bound]" if any(top["at_bound"]) else ""
+    return f"verdict: {w['verdict']} ({top['name']}{bound}, held-out rms {diag['before_rms_deg']:.2f} -> {top['heldout_rms_deg']:.2f} deg)"
+
+
 def cmd_diagnose(args) -> int:
-    diag = run_diagnose(args.campaign, args.out, args.model_tolerance_deg, args.jobs)
-    top = diag["which"]["top"]
-    print(f"verdict: {diag['which']['verdict']}" + (f" ({top['name']}, held-out rms {diag['before_rms_deg']:.2f} -> {top['heldout_rms_deg']:.2f} deg)" if top else ""))
+    diag = run_diagnose(args.campaign, args.out, args.model_tolerance_deg, args.jobs, scheduler=args.scheduler)
+    print(verdict_line(diag))
     print(f"report: {Path(args.out) / 'report.md'}")
     return 0
 
