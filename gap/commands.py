@@ -19,7 +19,8 @@ def register(subparsers) -> None:
     b.add_argument("--out", required=True)
     b.add_argument("--quick", action="store_true", help="a few cases only (for tests)")
     b.add_argument("--jobs", type=int, default=2)
-    b.add_argument("--angle-only", action="store_true", help="campaigns without chamber-pressure transducers (the angle instrument alone)")
+    b.add_argument("--angle-only", action="store_true", help="every campaign without chamber-pressure transducers (default: half of them, in turn)")
+    b.add_argument("--only", help="the cases whose name contains this text")
     b.set_defaults(func=cmd_bench)
 
 
@@ -56,6 +57,6 @@ def cmd_diagnose(args) -> int:
 def cmd_bench(args) -> int:
     from gap.bench import run_bench
 
-    summary = run_bench(args.out, quick=args.quick, jobs=args.jobs, chamber_pressures=not args.angle_only)
+    summary = run_bench(args.out, quick=args.quick, jobs=args.jobs, chamber_pressures=False if args.angle_only else None, only=args.only)
     print({k: v for k, v in summary.items() if k != "cases"})
     return 0

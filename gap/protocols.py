@@ -72,8 +72,9 @@ def _stop(t: float) -> Segment:
 
 
 # The paper's 60-degree move at full opening: the time the nominal wrist takes to turn 60 deg at
-# each supply (gap.synth.paper_motions on the nominal plant, rounded to 10 ms)
-PAPER_MOVE_S = {0.5: 0.83, 0.6: 0.66, 0.7: 0.56, 0.8: 0.49}
+# each supply (gap.synth.paper_motions on the nominal plant; measured before the braked-stop fix
+# of pneumatics/joint.py, which does not touch the move itself)
+PAPER_MOVE_S = {0.5: 1.0, 0.6: 0.64, 0.7: 0.54, 0.8: 0.48}
 
 
 def paper_60(supply_mpa: float) -> Protocol:
@@ -81,11 +82,15 @@ def paper_60(supply_mpa: float) -> Protocol:
     return Protocol("paper_60", (Segment(t, +1),))
 
 
-# partial openings 0.85..1.0 (set points 4.3..5.1 bar gauge: the lower ones under the brake's full
-# release at 4.75 bar, so the motor-fed brake drags there, as on the real wrist)
-STAIRCASE = Protocol("staircase", tuple(s for u in (0.85, 0.9, 0.95, 1.0) for s in (Segment(0.3, +1, u), _stop(0.25))))
+# Every protocol stays inside the wrist's +-90 deg (assets/arm.xml) from a start at 0 at 0.8 MPa,
+# where a full-open move turns ~100 deg/s once the brake is clear.
+# Partial openings 0.9, 0.95, 1.0 up (set points 4.6, 4.85, 5.1 bar gauge: the first just under
+# the brake's full release at 4.75 bar, so the motor-fed brake drags there, as on the real wrist),
+# braked pauses between, then back down wide open.
+STAIRCASE = Protocol("staircase", (*(s for u in (0.9, 0.95, 1.0) for s in (Segment(0.25, +1, u), _stop(0.25))), Segment(0.5, -1)))
 BACK_AND_FORTH = Protocol("back_and_forth", (Segment(0.4, +1), Segment(0.4, -1), Segment(0.4, +1), Segment(0.4, -1)))
-STOP_AND_GO = Protocol("stop_and_go", tuple(s for _ in range(4) for s in (Segment(0.3, +1), _stop(0.3))))
+# two braked stops on the way out, two on the way back
+STOP_AND_GO = Protocol("stop_and_go", tuple(s for d in (+1, +1, -1, -1) for s in (Segment(0.35, d), _stop(0.3))))
 # a move, a direct reversal at opening 0.95 (4.85 bar: above the brake's full release), a stop
 REVERSAL = Protocol("reversal", (Segment(0.5, +1), Segment(0.6, -1, 0.95)))
 

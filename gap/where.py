@@ -85,9 +85,12 @@ def breakdown(labels: dict[str, np.ndarray], residual_rad: np.ndarray) -> dict:
 
 
 def _profile(labels: dict[str, np.ndarray], x: np.ndarray) -> np.ndarray:
-    """The pattern of `x` over the profile factors: per bin, the mean of x and its rms about that
-    mean is left out; each bin weighted by sqrt(n), so that a bin counts by its samples."""
+    """How `x` scales over the profile factors: per factor that varies, each bin's mean and rms
+    less the factor's overall mean and rms (the level is left out: nearly every effect makes the
+    twin run ahead or behind everywhere; what tells them apart is where more, where less), each
+    bin weighted by sqrt(n) so that it counts by its samples."""
     parts = []
+    mean_all, rms_all = np.mean(x), math.sqrt(np.mean(x**2))
     for factor in PROFILE_FACTORS:
         lab = labels[factor]
         bins = sorted(set(lab), key=str)
@@ -95,7 +98,8 @@ def _profile(labels: dict[str, np.ndarray], x: np.ndarray) -> np.ndarray:
             continue
         for b in bins:
             m = lab == b
-            parts += [np.mean(x[m]) * math.sqrt(m.sum()), math.sqrt(np.mean(x[m] ** 2) * m.sum())]
+            w = math.sqrt(m.sum())
+            parts += [(np.mean(x[m]) - mean_all) * w, (math.sqrt(np.mean(x[m] ** 2)) - rms_all) * w]
     return np.asarray(parts)
 
 
