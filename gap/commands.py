@@ -50,6 +50,9 @@ def verdict_line(diag: dict) -> str:
 def cmd_diagnose(args) -> int:
     diag = run_diagnose(args.campaign, args.out, args.model_tolerance_deg, args.jobs, scheduler=args.scheduler)
     print(verdict_line(diag))
+    inst = diag["instrument"]
+    print(f"instrument: latency {inst['latency_s'] * 1e3:.0f} ms ({'estimated' if inst['latency_estimated'] else 'declared'}), zero offset {inst['offset_deg']:.3f} deg, "
+          f"{inst['observed_rate_hz']:.1f} Hz, {inst['dropped_samples']} samples missing")
     print(f"report: {Path(args.out) / 'report.md'}")
     return 0
 
