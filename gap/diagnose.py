@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import math
 import sys
+import time
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -116,10 +117,12 @@ class Twin:
         # the fit's weight on squared pressure residuals, (angle floor / pressure floor)^2 in
         # rad^2/Pa^2: both channels count in units of their own floor (set by `diagnose`)
         self.pressure_weight = 0.0
+        self.n_replays = 0
 
     def replay(self, params: JointParams, rig: Rig, g: int) -> tuple[np.ndarray, ...]:
         """(t, theta, omega, p_a, p_b) of the twin through group g's commands."""
         rep = self.runs[self.groups[g][0]]
+        self.n_replays += 1  # for the report's cost line (threads may miss a count: it is a statistic)
         return replay_run(params_row(params), *rep.args, rep.run.start_rad, rep.inertia * rig.inertia_scale, 0.0, self.t_end[g] + DT_S, DT_S, rig.load_spring_nm_per_rad)
 
     def _each_run(self, effects, ks):
@@ -341,16 +344,22 @@ def normalised_rms(angle: list[np.ndarray], pressure: list[np.ndarray], floor_de
     return float(math.sqrt(np.mean(np.concatenate([_in_floors(a, p, floor_deg, floor_kpa) for a, p in zip(angle, pressure)]) ** 2)))
 
 
-def bootstrap_ci(values_per_run: list[np.ndarray], stat, rng: np.random.Generator, n_boot: int = N_BOOT) -> tuple[float, float]:
-    """95% interval of stat(concatenated samples) resampling whole runs with replacement."""
+def bootstrap_ci(values_per_run: list[np.ndarray], rng: np.random.Generator, n_boot: int = N_BOOT, root: bool = False) -> tuple[float, float]:
+    """95% interval of the mean of the concatenated samples (its square root with `root`: an rms
+    from squared values), resampling whole runs with replacement."""
     n = len(values_per_run)
     if n == 0:
         return (math.nan, math.nan)
-    out = np.empty(n_boot)
-    for b in range(n_boot):
-        pick = rng.integers(0, n, n)
-        out[b] = stat(np.concatenate([values_per_run[i] for i in pick]))
+    sums = np.array([float(np.sum(v)) for v in values_per_run])
+    counts = np.array([len(v) for v in values_per_run])
+    pick = rng.integers(0, n, (n_boot, n))
+    out = sums[pick].sum(axis=1) / np.maximum(counts[pick].sum(axis=1), 1)
+    out = np.sqrt(out) if root else out
     return float(np.quantile(out, 0.025)), float(np.quantile(out, 0.975))
+
+
+def rms_ci_deg(residuals: list[np.ndarray], rng: np.random.Generator) -> tuple[float, float]:
+    return bootstrap_ci([np.rad2deg(r) ** 2 for r in residuals], rng, 300, root=True)
 
 
 def repeat_groups(twin: Twin) -> list[list[int]]:
@@ -457,14 +466,17 @@ def diagnose(campaign: Campaign, catalogue: tuple[Effect, ...] = CATALOGUE, mode
     effects = [e for e in catalogue if not (e.discrete_value is not None and e.value_of(twin.params) == e.discrete_value)]
     skipped = [e.name for e in catalogue if e not in effects]
     run_jobs = _parallel(n_jobs, scheduler)
+    clock = {"start": time.perf_counter()}
     with _progress(len(effects), "gap: effects", progress):
         singles: list[Candidate] = run_jobs(delayed(fit_single)(twin, e, folds) for e in effects)
     singles.sort(key=score)
+    clock["singles"] = time.perf_counter()
     best = singles[0] if singles else None
     pairs: list[Candidate] = []
     if significant and best is not None and rms_deg(best.heldout) > fl.threshold_deg:
         pairs = _pair_stage(twin, singles, folds, run_jobs, progress)
         pairs.sort(key=score)
+    clock["pairs"] = time.perf_counter()
 
     judge = verdict.Judge(twin, fl, before_rms, score, rng)
     call = judge.call(significant, singles, pairs)
@@ -478,7 +490,7 @@ def diagnose(campaign: Campaign, catalogue: tuple[Effect, ...] = CATALOGUE, mode
     before_rms = rms_deg(before)
 
     def summary(c: Candidate) -> dict:
-        lo, hi = bootstrap_ci(c.heldout, lambda x: np.rad2deg(np.sqrt(np.mean(x**2))), rng, 300)
+        lo, hi = rms_ci_deg(c.heldout, rng)
         return {
             "name": c.name,
             "effects": c.effects,
@@ -507,7 +519,7 @@ def diagnose(campaign: Campaign, catalogue: tuple[Effect, ...] = CATALOGUE, mode
             ks = [k for k in range(n) if round(campaign.runs[k].supply_mpa, 4) == q]
             vals = [np.rad2deg(np.abs(res[k])) for k in ks]
             allv = np.concatenate(vals)
-            lo, hi = bootstrap_ci(vals, np.mean, rng, 300)
+            lo, hi = bootstrap_ci(vals, rng, 300)
             out[f"{q:.2f}"] = {"mean_deg": float(allv.mean()), "max_deg": float(allv.max()), "mean_ci95_deg": [lo, hi], "runs": len(ks)}
         return out
 
@@ -535,7 +547,7 @@ def diagnose(campaign: Campaign, catalogue: tuple[Effect, ...] = CATALOGUE, mode
         },
         "pressure": ({"measured": True, "noise_kpa": fl.noise_p.sigma / 1e3, "drift_kpa": fl.noise_p.drift / 1e3, "model_tolerance_kpa": MODEL_TOLERANCE_KPA, "floor_kpa": fl.floor_kpa, "before_rms_kpa": rms_kpa(before_p)} if twin.has_pressure else {"measured": False}),
         "before_rms_deg": before_rms,
-        "before_rms_ci95_deg": list(bootstrap_ci(before, lambda x: np.rad2deg(np.sqrt(np.mean(x**2))), rng, 300)),
+        "before_rms_ci95_deg": list(rms_ci_deg(before, rng)),
         "where": where.breakdown(labels, np.concatenate(before)),
         "which": {
             "verdict": call.verdict,
@@ -551,6 +563,8 @@ def diagnose(campaign: Campaign, catalogue: tuple[Effect, ...] = CATALOGUE, mode
             "skipped_already_in_twin": skipped,
         },
         "how_far": how_far,
+        "replays": twin.n_replays,
+        "timing_s": {"singles": clock["singles"] - clock["start"], "pairs": clock["pairs"] - clock["singles"], "total_fits": clock["pairs"] - clock["start"]},
         "_residuals": {"before": before, "top": top.heldout if top is not None else None, "times": [pr.ts for pr in twin.runs]},
     }
 
