@@ -11,7 +11,7 @@ def register(subparsers) -> None:
     d = sub.add_parser("diagnose", help="diagnose a calibration campaign into DIR (diagnosis.json, report.md, PNG plots)")
     d.add_argument("campaign", help="folder with campaign.toml and the run files")
     d.add_argument("--out", required=True, help="output folder")
-    d.add_argument("--model-tolerance-deg", type=float, default=None, help="twin model tolerance added to the noise floor (default: twice the worst replay-vs-plant rms of the protocol library, gap.protocols)")
+    d.add_argument("--model-tolerance-deg", type=float, default=None, help="twin model tolerance added to the noise floor (default: gap.diagnose.MODEL_TOLERANCE_DEG, twice the worst replay-vs-plant rms of the protocol library, gap.protocols)")
     d.add_argument("--jobs", type=int, default=2)
     d.add_argument("--scheduler", help="Dask scheduler address: fit the candidates on that cluster (as `twin sweep --scheduler`)")
     d.set_defaults(func=cmd_diagnose)

@@ -42,8 +42,9 @@ from gap.protocols import worst_tolerance_deg, worst_tolerance_kpa
 from gap.replay import DT_S, replay_run
 from pneumatics import JointParams, load_joint_params, params_row
 
-# The angle's model tolerance (below it a residual is no gap) is measured per motion protocol:
-# gap.protocols.worst_tolerance_deg.
+# The angle's model tolerance (below it a residual is no gap): twice the worst replay-vs-plant rms
+# over the protocol library (gap.protocols, measured per protocol), not one motion's.
+MODEL_TOLERANCE_DEG = worst_tolerance_deg()
 # The same for the motor-chamber pressures, where a campaign measured them.
 MODEL_TOLERANCE_KPA = worst_tolerance_kpa()
 SIGNIFICANCE = 2.0  # a gap is significant above SIGNIFICANCE x floor, floor = sqrt(noise^2 + drift^2/2 + tol^2)
@@ -444,7 +445,7 @@ def diagnose(campaign: Campaign, catalogue: tuple[Effect, ...] = CATALOGUE, mode
     """The diagnosis of `campaign` as a plain dict (see the module docstring for its steps)."""
     from joblib import delayed
 
-    tolerance = worst_tolerance_deg() if model_tolerance_deg is None else model_tolerance_deg
+    tolerance = MODEL_TOLERANCE_DEG if model_tolerance_deg is None else model_tolerance_deg
     twin = Twin(campaign)
     folds = folds_of(campaign)
     rng = np.random.default_rng(seed)

@@ -23,8 +23,8 @@ import numpy as np
 # rms difference replay - plant per protocol over 0.5-0.8 MPa, nominal wrist, in angle (deg) and
 # chamber pressures (kPa); measured by `python -m gap.protocols` (the README's gap section says at
 # which commit)
-TOLERANCE_DEG = {"paper_60": 0.21, "staircase": 0.28, "back_and_forth": 0.29, "stop_and_go": 0.34, "reversal": 0.21}
-TOLERANCE_KPA = {"paper_60": 3.8, "staircase": 2.3, "back_and_forth": 1.7, "stop_and_go": 8.9, "reversal": 2.9}
+TOLERANCE_DEG = {"paper_60": 0.057, "staircase": 0.023, "back_and_forth": 0.135, "stop_and_go": 0.179, "reversal": 0.050}
+TOLERANCE_KPA = {"paper_60": 0.54, "staircase": 0.17, "back_and_forth": 1.18, "stop_and_go": 0.89, "reversal": 0.61}
 TOLERANCE_FACTOR = 2.0  # the tolerance is twice the measured rms (room for what the campaigns vary)
 
 
