@@ -20,7 +20,7 @@ def register(subparsers) -> None:
     b.add_argument("--quick", action="store_true", help="a few cases only (for tests)")
     b.add_argument("--jobs", type=int, default=2)
     b.add_argument("--angle-only", action="store_true", help="every campaign without chamber-pressure transducers (default: half of them, in turn)")
-    b.add_argument("--only", help="the cases whose name contains one of these comma-separated texts")
+    b.add_argument("--only", help="only these cases, comma-separated (a trailing * matches the start of a name: none*)")
     b.set_defaults(func=cmd_bench)
 
 
