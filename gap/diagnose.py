@@ -2,10 +2,10 @@
 how far the gap shrinks on runs withheld from the fit.
 
 Steps (each a plain function of the campaign):
-1. replay every run through the nominal twin (gap.replay; repeats share one replay) -> residual
-   = measured - twin, in angle and, where the campaign measured them, chamber pressures;
-0. the reference instrument's nuisance first (gap.instrument): its zero offset from the rest
+1. the reference instrument's nuisance first (gap.instrument): its zero offset from the rest
    samples, its latency (declared, or fitted with every candidate, the nominal twin included);
+   replay every run through the nominal twin (gap.replay; repeats share one replay) -> residual
+   = measured - twin, in angle and, where the campaign measured them, chamber pressures;
 2. where (gap.where): break the angle residual down by motion phase, supply, direction, load,
    angle, speed and time since start, beside a floor of the instrument's noise and the drift
    between repeats (gap.noise, from samples both repeats have) and the twin's own model tolerance
@@ -14,10 +14,11 @@ Steps (each a plain function of the campaign):
    a bounded 1-D search around its best point) and score it on withheld runs (leave one supply
    pressure out; alternating split when there is one pressure). The objective and the ranking
    count angle and pressure samples each in units of its own floor. When no single effect brings
-   the gap to the floor, the pairs of the PAIR_POOL best singles are screened in-sample (grid point, then one round of 1-D
-   refits) and the best N_PAIRS_CV are fitted per fold (grid point, then bounded Nelder-Mead) and
-   scored on withheld runs; a verdict and a family call by the rules of gap.verdict (a pair
-   counts only with both effects off nominal and a clear margin; the family from the where-pattern);
+   the gap to the floor, the pairs of the PAIR_POOL best singles are screened in-sample (grid
+   point, then one round of 1-D refits) and the best N_PAIRS_CV are fitted per fold (grid point,
+   then bounded Nelder-Mead) and scored on withheld runs; a verdict and a family call by the
+   rules of gap.verdict (a pair counts only with both effects off nominal and a clear margin; the
+   family from the where-pattern);
 4. how far: per pressure, mean and max |error| on withheld runs before and after each effect, with
    bootstrap confidence intervals over runs.
 """
