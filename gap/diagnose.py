@@ -52,8 +52,9 @@ SIGNIFICANCE = 2.0  # a gap is significant above SIGNIFICANCE x floor, floor = s
 N_BOOT = 1000
 N_PAIRS_CV = 3  # pairs given the full cross-validated fit after the in-sample screen
 # pairs are formed from the best PAIR_POOL singles (28 pairs, not the 136 of all 17): a pair's
-# members each explain part of its gap, so each ranks high alone (on the bench's pair cases both
-# members ranked in the top 4); the screen was 80 % of a 16-run diagnosis' time
+# members each explain part of its gap, so each is expected to rank high alone; a pair of two
+# low-ranked singles is not searched. Counted: the full screen was ~70 % of the replays of a
+# diagnosis with the pair stage
 PAIR_POOL = 8
 
 
