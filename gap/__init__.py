@@ -9,7 +9,7 @@ Public surface (everything else in gap/ is internal):
     write_report(diagnosis, out_dir)         diagnosis.json, report.md and PNG plots
     CATALOGUE, Effect, NOT_IN_CATALOGUE      the candidate effects
     make_campaign(folder, reality, ...)      a synthetic campaign from the plant (gap.synth)
-    run_bench(out_dir, quick=False, chamber_pressures=True) -> dict  the blind check (gap.bench)
+    run_bench(out_dir, quick=False, chamber_pressures=None) -> dict  the blind check (gap.bench)
 Command line: `twin gap diagnose CAMPAIGN --out DIR`, `twin gap bench --out DIR`.
 """
 
@@ -35,10 +35,10 @@ def make_campaign(folder, reality, **kwargs):
     return _make(folder, reality, **kwargs)
 
 
-def run_bench(out, quick: bool = False, jobs: int = 2, chamber_pressures: bool = True) -> dict:
+def run_bench(out, quick: bool = False, jobs: int = 2, chamber_pressures: bool | None = None, only: str | None = None) -> dict:
     from gap.bench import run_bench as _run
 
-    return _run(out, quick=quick, jobs=jobs, chamber_pressures=chamber_pressures)
+    return _run(out, quick=quick, jobs=jobs, chamber_pressures=chamber_pressures, only=only)
 
 
 __all__ = ["CATALOGUE", "Campaign", "Effect", "GapError", "NOT_IN_CATALOGUE", "Run", "diagnose", "load_campaign", "make_campaign", "run_bench", "write_report"]

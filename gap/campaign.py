@@ -7,6 +7,10 @@ campaign.toml:
     rig_inertia_kg_m2 = 0.02         # optional; joint-side inertia of the rig (assets/wrist_rig.xml)
     [twin]                           # optional: the nominal twin's switches
     hose_loss = false                # default: as the joint's parameter file
+    [instrument]                     # optional: the reference angle instrument, each field optional
+    latency_s = 0.02                 # its reading lags the joint by this much (not declared: estimated)
+    noise_deg = 0.2                  # its noise, rms (not declared: estimated from repeats)
+    rate_hz = 30.0                   # its sample rate (checked against the files; dropped samples counted)
     [[runs]]
     file = "run_050_1.csv"           # CSV (or the twin's own .mcap, see read_run_file)
     supply_mpa = 0.5                 # gauge, the paper's convention
@@ -41,7 +45,7 @@ from twin.errors import UserError
 REQUIRED_COLUMNS = ("time_s", "direction", "brake_released", "supply_pa", "angle_rad")
 OPTIONAL_COLUMNS = ("valve_set_gauge_pa", "valve_opening", "p_a_pa", "p_b_pa")
 WRIST_RIG_INERTIA_KG_M2 = 0.02  # assets/wrist_rig.xml, body rig_load
-CAMPAIGN_KEYS = ("joint", "payload_kg", "hose_length_m", "rig_inertia_kg_m2", "twin", "runs")
+CAMPAIGN_KEYS = ("joint", "payload_kg", "hose_length_m", "rig_inertia_kg_m2", "twin", "instrument", "runs")
 RUN_KEYS = ("file", "supply_mpa", "start_deg", "payload_kg", "rig_inertia_kg_m2")
 TWIN_KEYS = ("hose_loss",)
 MIN_RUNS = 2  # the diagnosis fits on some runs and judges on others
@@ -57,6 +61,8 @@ SUPPLY_TOLERANCE_MPA = 0.05
 # Measured angles may pass a joint's range by the end stop's give and the instrument's offset.
 ANGLE_MARGIN_DEG = 5.0  # assumed
 MAX_ABS_PRESSURE_PA = 3e6  # above any supply of this class (0.5-0.8 MPa gauge, paper)
+# [instrument] fields and their allowed ranges (a reading 1 s late or a 10 deg noise is no reference)
+INSTRUMENT_FIELDS = (("latency_s", 0.0, 1.0, "s"), ("noise_deg", 0.0, 10.0, "deg rms"), ("rate_hz", 0.1, 1e5, "Hz"))
 
 
 class GapError(UserError):
@@ -91,6 +97,15 @@ class Run:
         return (round(self.supply_mpa, 4), round(self.start_rad, 6), self.payload_kg, self.rig_inertia_kg_m2, self.direction.tobytes(), np.round(self.valve_gauge_pa, -2).tobytes(), self.brake_released.tobytes())
 
 
+@dataclass(frozen=True)
+class Instrument:
+    """What the campaign declares of its reference angle instrument; None = not declared."""
+
+    latency_s: float | None = None
+    noise_deg: float | None = None
+    rate_hz: float | None = None
+
+
 @dataclass
 class Campaign:
     folder: Path
@@ -100,6 +115,7 @@ class Campaign:
     rig_inertia_kg_m2: float
     twin_hose_loss: float | None
     runs: list[Run]
+    instrument: Instrument = field(default_factory=Instrument)
 
 
 def _number(where: str, table: dict, key: str, low: float, high: float, unit: str, default: float | None = None) -> float:
@@ -204,6 +220,12 @@ def load_campaign(folder: str | Path) -> Campaign:
     hl = twin.get("hose_loss")
     if hl is not None and not isinstance(hl, bool):
         raise GapError(f"{path}:{_toml_line(text, 'hose_loss')}: [twin] hose_loss = {hl!r}; allowed: true or false")
+    inst = doc.get("instrument", {})
+    if not isinstance(inst, dict):
+        raise GapError(f"{path}:{_toml_line(text, 'instrument')}: instrument must be a table [instrument] with latency_s, noise_deg, rate_hz")
+    _unknown_keys(f"{path}:{_toml_line(text, '[instrument]')}", inst, tuple(f[0] for f in INSTRUMENT_FIELDS), "[instrument] ")
+    where_inst = f"{path}:{_toml_line(text, '[instrument]')} ([instrument])"
+    instrument = Instrument(*(_number(where_inst, inst, k, lo, hi, unit) if k in inst else None for k, lo, hi, unit in INSTRUMENT_FIELDS))
     runs_doc = doc.get("runs")
     if not isinstance(runs_doc, list) or not all(isinstance(r, dict) for r in runs_doc) or len(runs_doc) < MIN_RUNS:
         n = len(runs_doc) if isinstance(runs_doc, list) else 0
@@ -235,7 +257,7 @@ def load_campaign(folder: str | Path) -> Campaign:
         run.payload_kg = _number(where, r, "payload_kg", 0.0, 100.0, "kg", default=payload)
         run.rig_inertia_kg_m2 = _number(where, r, "rig_inertia_kg_m2", 0.0, 100.0, "kg·m^2", default=rig_j)
         runs.append(run)
-    return Campaign(folder, joint, payload, hose, rig_j, None if hl is None else (1.0 if hl else 0.0), runs)
+    return Campaign(folder, joint, payload, hose, rig_j, None if hl is None else (1.0 if hl else 0.0), runs, instrument)
 
 
 def read_run_file(path: Path, supply_mpa: float, start_rad: float, where: str = "", joint: str = "wrist_pitch") -> Run:

@@ -2,18 +2,23 @@
 how far the gap shrinks on runs withheld from the fit.
 
 Steps (each a plain function of the campaign):
-1. replay every run through the nominal twin (gap.replay; repeats share one replay) -> residual
+1. the reference instrument's nuisance first (gap.instrument): its zero offset from the rest
+   samples, its latency (declared, or fitted with every candidate, the nominal twin included);
+   replay every run through the nominal twin (gap.replay; repeats share one replay) -> residual
    = measured - twin, in angle and, where the campaign measured them, chamber pressures;
-2. where: break the angle residual down by motion phase, supply, direction, load, speed and time
-   since start, beside a noise floor from repeated runs and the twin's own model tolerance;
+2. where (gap.where): break the angle residual down by motion phase, supply, direction, load,
+   angle, speed and time since start, beside a floor of the instrument's noise and the drift
+   between repeats (gap.noise, from samples both repeats have) and the twin's own model tolerance
+   (measured per protocol, gap.protocols);
 3. which: for each catalogue effect, fit its one bounded parameter on training runs (a grid, then
    a bounded 1-D search around its best point) and score it on withheld runs (leave one supply
    pressure out; alternating split when there is one pressure). The objective and the ranking
    count angle and pressure samples each in units of its own floor. When no single effect brings
-   the gap to the floor, all pairs are screened in-sample (grid point, then one round of 1-D
-   refits) and the best N_PAIRS_CV are fitted per fold (grid point, then bounded Nelder-Mead) and
-   scored on withheld runs; a verdict, and for a gap outside the catalogue the nearest family
-   (that of the best candidate's leading effect);
+   the gap to the floor, the pairs of the PAIR_POOL best singles are screened in-sample (grid
+   point, then one round of 1-D refits) and the best N_PAIRS_CV are fitted per fold (grid point,
+   then bounded Nelder-Mead) and scored on withheld runs; a verdict and a family call by the
+   rules of gap.verdict (a pair counts only with both effects off nominal and a clear margin; the
+   family from the where-pattern);
 4. how far: per pressure, mean and max |error| on withheld runs before and after each effect, with
    bootstrap confidence intervals over runs.
 """
@@ -21,29 +26,36 @@ Steps (each a plain function of the campaign):
 from __future__ import annotations
 
 import math
+import sys
+import time
 from dataclasses import dataclass, field
 
 import numpy as np
 from scipy.optimize import minimize, minimize_scalar
 
 import assets
-from gap.campaign import Campaign, Run
-from gap.effects import BY_NAME, CATALOGUE, Effect
+from gap import instrument, verdict, where
+from gap.campaign import Campaign, GapError, Run
+from gap.effects import BY_NAME, CATALOGUE, Effect, Rig
+from gap.instrument import Nuisance
+from gap.noise import RepeatNoise, repeat_noise
+from gap.protocols import worst_tolerance_deg, worst_tolerance_kpa
 from gap.replay import DT_S, replay_run
 from pneumatics import JointParams, load_joint_params, params_row
 
-# The one-joint twin and the plant (MuJoCo friction constraint vs Karnopp, explicit coupling) differ
-# by 0.20 deg rms on the bench's no-effect campaigns (measured, gap bench, after the valve model
-# became pressure-regulating); twice that is the tolerance below which a residual is not a gap.
-MODEL_TOLERANCE_DEG = 0.4
-# The same for the motor-chamber pressures, where a campaign measured them: the two models differ by
-# 3.0 kPa rms on the bench's no-effect campaigns (measured, gap bench); twice that is the tolerance.
-MODEL_TOLERANCE_KPA = 6.0
-SIGNIFICANCE = 2.0  # a gap is significant above SIGNIFICANCE x floor, floor = sqrt(noise^2 + tol^2)
-EXPLAIN_SHRINK = 0.1  # ... or an effect explains it if it brings the held-out rms below this x before
-PHASE_WINDOW_S = 0.3  # start / reversal / braking: this long after the command change
+# The angle's model tolerance (below it a residual is no gap): twice the worst replay-vs-plant rms
+# over the protocol library (gap.protocols, measured per protocol), not one motion's.
+MODEL_TOLERANCE_DEG = worst_tolerance_deg()
+# The same for the motor-chamber pressures, where a campaign measured them.
+MODEL_TOLERANCE_KPA = worst_tolerance_kpa()
+SIGNIFICANCE = 2.0  # a gap is significant above SIGNIFICANCE x floor, floor = sqrt(noise^2 + drift^2/2 + tol^2)
 N_BOOT = 1000
 N_PAIRS_CV = 3  # pairs given the full cross-validated fit after the in-sample screen
+# pairs are formed from the best PAIR_POOL singles (28 pairs, not the 136 of all 17): a pair's
+# members each explain part of its gap, so each is expected to rank high alone; a pair of two
+# low-ranked singles is not searched. Counted: the full screen was ~70 % of the replays of a
+# diagnosis with the pair stage
+PAIR_POOL = 8
 
 
 @dataclass
@@ -51,7 +63,7 @@ class Prepared:
     run: Run
     args: tuple  # cmd arrays for replay
     ts: np.ndarray  # sample times
-    meas: np.ndarray  # measured angle at ts
+    meas: np.ndarray  # measured angle at ts, less the instrument's offset
     inertia: float  # the twin's joint-side inertia for this run's load (kg·m^2)
     tp: np.ndarray  # times of the pressure samples (empty: the run measured no chamber pressure)
     pmask: np.ndarray  # (2, len(tp)) bool: which of p_a, p_b was measured at each time
@@ -71,24 +83,30 @@ def nominal_inertia(rig_inertia_kg_m2: float, p: JointParams) -> float:
     return rig_inertia_kg_m2 + p.ratio**2 * p.rotor_inertia_kg_m2
 
 
-def prepare(run: Run, p: JointParams) -> Prepared:
+def prepare(run: Run, p: JointParams, offset_rad: float = 0.0) -> Prepared:
     m = run.sampled
     args = (run.time_s, run.direction, run.valve_gauge_pa, run.brake_released, run.supply_pa, run.valve_is_output)
     nan = np.full(run.time_s.shape, np.nan)
     pres = np.stack([run.extra.get("p_a_pa", nan), run.extra.get("p_b_pa", nan)])
     rows = np.isfinite(pres).any(axis=0)
     pmask = np.isfinite(pres[:, rows])
-    return Prepared(run, args, run.time_s[m], run.angle_rad[m], nominal_inertia(run.rig_inertia_kg_m2, p), run.time_s[rows], pmask, pres[:, rows][pmask])
+    return Prepared(run, args, run.time_s[m], run.angle_rad[m] - offset_rad, nominal_inertia(run.rig_inertia_kg_m2, p), run.time_s[rows], pmask, pres[:, rows][pmask])
 
 
 class Twin:
-    """The nominal twin of one campaign and how to replay a run with an effect added."""
+    """The nominal twin of one campaign and how to replay a run with an effect added.
 
-    def __init__(self, campaign: Campaign):
+    The reference instrument's nuisance (gap.instrument) is part of every comparison: its offset
+    is taken off the readings once, and its latency is a shift of the twin's angle in time,
+    searched on `latencies` with each fit (one latency for the campaign's one instrument)."""
+
+    def __init__(self, campaign: Campaign, nuisance: Nuisance | None = None):
         self.campaign = campaign
+        self.nuisance = nuisance or instrument.estimate(campaign)
+        self.latencies = self.nuisance.latencies_s
         self.params = nominal_params(campaign)
         self.inertia = nominal_inertia(campaign.rig_inertia_kg_m2, self.params)
-        self.runs = [prepare(r, self.params) for r in campaign.runs]
+        self.runs = [prepare(r, self.params, self.nuisance.offset_rad) for r in campaign.runs]
         # runs with identical commands, start and inertia (repeats) share one replay of the twin
         groups: dict[tuple, list[int]] = {}
         for k, pr in enumerate(self.runs):
@@ -102,36 +120,55 @@ class Twin:
         # the fit's weight on squared pressure residuals, (angle floor / pressure floor)^2 in
         # rad^2/Pa^2: both channels count in units of their own floor (set by `diagnose`)
         self.pressure_weight = 0.0
+        self.n_replays = 0
 
-    def residuals_of(self, params: JointParams, inertia_scale: float, ks) -> dict[int, tuple[np.ndarray, np.ndarray]]:
-        """Per run k in `ks`: (measured - twin angle at its angle samples, measured - twin chamber
-        pressures where measured). One replay per group of repeats."""
-        row = params_row(params)
+    def replay(self, params: JointParams, rig: Rig, g: int) -> tuple[np.ndarray, ...]:
+        """(t, theta, omega, p_a, p_b) of the twin through group g's commands."""
+        rep = self.runs[self.groups[g][0]]
+        self.n_replays += 1  # for the report's cost line (threads may miss a count: it is a statistic)
+        return replay_run(params_row(params), *rep.args, rep.run.start_rad, rep.inertia * rig.inertia_scale, 0.0, self.t_end[g] + DT_S, DT_S, rig.load_spring_nm_per_rad)
+
+    def _each_run(self, effects, ks):
+        """(k, twin trajectory of run k's group) for k in ks; one replay per group of repeats."""
+        p, s = apply_effects(self.params, effects)
+        traj = {g: self.replay(p, s, g) for g in dict.fromkeys(self.group_of[k] for k in ks)}
+        return [(k, traj[self.group_of[k]]) for k in ks]
+
+    def _pressure_residual(self, pr: Prepared, t, pa, pb) -> np.ndarray:
+        return pr.pmeas - np.stack([np.interp(pr.tp, t, pa), np.interp(pr.tp, t, pb)])[pr.pmask]
+
+    def residuals_with(self, effects: list[tuple[Effect, float]], ks, latency_s: float) -> dict[int, tuple[np.ndarray, np.ndarray]]:
+        """Per run k in `ks`: (measured - twin angle at its angle samples, the twin read
+        `latency_s` late; measured - twin chamber pressures where measured)."""
         out = {}
-        for g in dict.fromkeys(self.group_of[k] for k in ks):
-            rep = self.runs[self.groups[g][0]]
-            t, th, _, pa, pb = replay_run(row, *rep.args, rep.run.start_rad, rep.inertia * inertia_scale, 0.0, self.t_end[g] + DT_S, DT_S)
-            for k in self.groups[g]:
-                pr = self.runs[k]
-                pres = np.stack([np.interp(pr.tp, t, pa), np.interp(pr.tp, t, pb)])
-                out[k] = (pr.meas - np.interp(pr.ts, t, th), pr.pmeas - pres[pr.pmask])
-        return {k: out[k] for k in ks}
-
-    def residuals_with(self, effects: list[tuple[Effect, float]], ks) -> dict[int, tuple[np.ndarray, np.ndarray]]:
-        p, s = self.params, 1.0
-        for e, v in effects:
-            p, s2 = e.apply(p, v)
-            s *= s2
-        return self.residuals_of(p, s, ks)
+        for k, (t, th, _, pa, pb) in self._each_run(effects, ks):
+            pr = self.runs[k]
+            out[k] = (pr.meas - np.interp(pr.ts - latency_s, t, th), self._pressure_residual(pr, t, pa, pb))
+        return out
 
     def run_sses(self, effects, ks) -> np.ndarray:
-        """The fit's objective per run k in `ks`: squared angle residuals plus weighted squared
-        pressure residuals."""
-        res = self.residuals_with(effects, ks)
-        return np.array([np.sum(res[k][0] ** 2) + self.pressure_weight * np.sum(res[k][1] ** 2) for k in ks])
+        """The fit's objective per run k in `ks` and latency of the grid, shape (len(ks), n_latency):
+        squared angle residuals plus weighted squared pressure residuals."""
+        out = np.empty((len(ks), len(self.latencies)))
+        for i, (k, (t, th, _, pa, pb)) in enumerate(self._each_run(effects, ks)):
+            pr = self.runs[k]
+            shifted = np.interp(pr.ts[None, :] - self.latencies[:, None], t, th)
+            out[i] = np.sum((pr.meas[None, :] - shifted) ** 2, axis=1) + self.pressure_weight * np.sum(self._pressure_residual(pr, t, pa, pb) ** 2)
+        return out
+
+    def latency_of(self, effects, idx) -> float:
+        """The instrument latency that fits runs `idx` best with `effects` added."""
+        return float(self.latencies[int(np.argmin(self.run_sses(effects, idx).sum(axis=0)))])
 
     def sse(self, effects, idx) -> float:
-        return float(self.run_sses(effects, idx).sum())
+        return float(self.run_sses(effects, idx).sum(axis=0).min())
+
+
+def apply_effects(params: JointParams, effects) -> tuple[JointParams, Rig]:
+    rig = Rig()
+    for e, v in effects:
+        params, rig = e.apply(params, v, rig)
+    return params, rig
 
 
 def folds_of(campaign: Campaign) -> list[tuple[list[int], list[int]]]:
@@ -179,23 +216,27 @@ class Candidate:
     full_values: list[float]  # fitted on all runs
     heldout: list[np.ndarray] = field(default_factory=list)  # per run: withheld angle residual (rad)
     heldout_p: list[np.ndarray] = field(default_factory=list)  # per run: withheld pressure residual (Pa; empty where not measured)
+    fold_latencies: list[float] = field(default_factory=list)  # per fold, the instrument latency fitted with it (s)
+    latency_s: float = 0.0  # fitted with the full values on all runs
 
 
 def fit_single(twin: Twin, e: Effect, folds) -> Candidate:
     n = len(twin.runs)
     grid = _grid(e)
     # residual SSE of every run at every grid value, shared by all folds
-    per_run = np.array([twin.run_sses([(e, v)], range(n)) for v in grid])
+    per_run = np.array([twin.run_sses([(e, v)], range(n)) for v in grid])  # (grid, run, latency)
     heldout: list = [None] * n
     heldout_p: list = [None] * n
-    fold_values = []
+    fold_values, fold_lat = [], []
     for train, test in folds:
-        v = _fit_1d(twin, e, [], train, grid, per_run[:, train].sum(axis=1))
+        v = _fit_1d(twin, e, [], train, grid, per_run[:, train].sum(axis=1).min(axis=1))
+        lat = twin.latency_of([(e, v)], train)
         fold_values.append([v])
-        for k, r in twin.residuals_with([(e, v)], test).items():
+        fold_lat.append(lat)
+        for k, r in twin.residuals_with([(e, v)], test, lat).items():
             heldout[k], heldout_p[k] = r
-    full = _fit_1d(twin, e, [], list(range(n)), grid, per_run.sum(axis=1))
-    return Candidate(e.name, [e.name], fold_values, [full], heldout, heldout_p)
+    full = _fit_1d(twin, e, [], list(range(n)), grid, per_run.sum(axis=1).min(axis=1))
+    return Candidate(e.name, [e.name], fold_values, [full], heldout, heldout_p, fold_lat, twin.latency_of([(e, full)], list(range(n))))
 
 
 def _coord_fit(twin: Twin, ea: Effect, eb: Effect, idx: list[int], va: float, vb: float, rounds: int = 2, n_grid: int = 5, maxiter: int = 8) -> tuple[float, float]:
@@ -235,14 +276,15 @@ def screen_pair(twin: Twin, a: Candidate, b: Candidate, runs: list[int], n_grid:
     from its value in the pair, having soaked up the other)."""
     ea, eb = BY_NAME[a.name], BY_NAME[b.name]
     ga, gb, sse = pair_grid(twin, a, b, runs, n_grid)
-    total = sse.sum(axis=2)
+    total = sse.sum(axis=2).min(axis=2)
     i, j = np.unravel_index(int(np.argmin(total)), total.shape)
     va, vb = _coord_fit(twin, ea, eb, runs, float(ga[i]), float(gb[j]), rounds=1, n_grid=n_grid, maxiter=maxiter)
     return min(float(total[i, j]), twin.sse([(ea, va), (eb, vb)], runs))
 
 
 def pair_grid(twin: Twin, a: Candidate, b: Candidate, runs: list[int] | None = None, n_grid: int = 5) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """SSE of every run on a coarse 2-D grid of the pair's parameters: (grid_a, grid_b, sse[i, j, run]).
+    """SSE of every run on a coarse 2-D grid of the pair's parameters: (grid_a, grid_b,
+    sse[i, j, run, latency]).
     A grid rather than coordinate descent from the singles' values: a single effect's value,
     fitted alone, can be far from its value in the pair (it soaks up the other effect)."""
     ea, eb = BY_NAME[a.name], BY_NAME[b.name]
@@ -261,40 +303,28 @@ def fit_pair(twin: Twin, a: Candidate, b: Candidate, folds, grid: tuple[np.ndarr
     n = len(twin.runs)
 
     def fit(idx):
-        s = sse[:, :, idx].sum(axis=2)
+        s = sse[:, :, idx].sum(axis=2).min(axis=2)
         i, j = np.unravel_index(int(np.argmin(s)), s.shape)
         return _nm_fit(twin, ea, eb, idx, float(ga[i]), float(gb[j]), float(s[i, j]))
 
     heldout: list = [None] * n
     heldout_p: list = [None] * n
-    fold_values = []
+    fold_values, fold_lat = [], []
     for train, test in folds:
         va, vb = fit(train)
+        lat = twin.latency_of([(ea, va), (eb, vb)], train)
         fold_values.append([va, vb])
-        for k, r in twin.residuals_with([(ea, va), (eb, vb)], test).items():
+        fold_lat.append(lat)
+        for k, r in twin.residuals_with([(ea, va), (eb, vb)], test, lat).items():
             heldout[k], heldout_p[k] = r
     full = fit(list(range(n)))
-    return Candidate(f"{a.name}+{b.name}", [a.name, b.name], fold_values, list(full), heldout, heldout_p)
+    lat = twin.latency_of([(ea, full[0]), (eb, full[1])], list(range(n)))
+    return Candidate(f"{a.name}+{b.name}", [a.name, b.name], fold_values, list(full), heldout, heldout_p, fold_lat, lat)
 
 
 # --- statistics ----------------------------------------------------------------------------
 def rms_deg(residuals: list[np.ndarray]) -> float:
     return float(np.rad2deg(math.sqrt(np.mean(np.concatenate(residuals) ** 2))))
-
-
-def nearest_families(c: Candidate, twin: Twin, before_rms: float) -> dict:
-    """The family-level call for a gap outside the catalogue: the best candidate's leading effect
-    and its family, with the other families the candidate needed. Of a pair, the lead is the
-    effect that carries the gap: put back at its nominal value (the other kept at its fitted
-    one), it costs the fit more."""
-    lead = c.effects[0]
-    if len(c.effects) == 2:
-        fitted = [(BY_NAME[e], v) for e, v in zip(c.effects, c.full_values)]
-        runs = range(len(twin.runs))
-        without = [twin.sse([fitted[1 - i]], runs) for i in range(2)]  # effect i back at nominal
-        lead = c.effects[int(np.argmax(without))]
-    families = list(dict.fromkeys([BY_NAME[lead].family] + [BY_NAME[e].family for e in c.effects]))
-    return {"candidate": c.name, "effects": c.effects, "lead": lead, "family": BY_NAME[lead].family, "families": families, "shrink": rms_deg(c.heldout) / before_rms}
 
 
 def rms_kpa(residuals: list[np.ndarray]) -> float | None:
@@ -317,210 +347,153 @@ def normalised_rms(angle: list[np.ndarray], pressure: list[np.ndarray], floor_de
     return float(math.sqrt(np.mean(np.concatenate([_in_floors(a, p, floor_deg, floor_kpa) for a, p in zip(angle, pressure)]) ** 2)))
 
 
-def bootstrap_ci(values_per_run: list[np.ndarray], stat, rng: np.random.Generator, n_boot: int = N_BOOT) -> tuple[float, float]:
-    """95% interval of stat(concatenated samples) resampling whole runs with replacement."""
+def bootstrap_ci(values_per_run: list[np.ndarray], rng: np.random.Generator, n_boot: int = N_BOOT, root: bool = False) -> tuple[float, float]:
+    """95% interval of the mean of the concatenated samples (its square root with `root`: an rms
+    from squared values), resampling whole runs with replacement."""
     n = len(values_per_run)
     if n == 0:
         return (math.nan, math.nan)
-    out = np.empty(n_boot)
-    for b in range(n_boot):
-        pick = rng.integers(0, n, n)
-        out[b] = stat(np.concatenate([values_per_run[i] for i in pick]))
+    sums = np.array([float(np.sum(v)) for v in values_per_run])
+    counts = np.array([len(v) for v in values_per_run])
+    pick = rng.integers(0, n, (n_boot, n))
+    out = sums[pick].sum(axis=1) / np.maximum(counts[pick].sum(axis=1), 1)
+    out = np.sqrt(out) if root else out
     return float(np.quantile(out, 0.025)), float(np.quantile(out, 0.975))
 
 
-def repeat_noise(twin: Twin, series) -> tuple[float, int]:
-    """Measurement noise (rms, in the series' unit) from repeated runs: sigma = rms(difference of
-    repeats)/sqrt(2), with `series(prepared) -> (times, values)`; (nan, 0) without repeats."""
+def rms_ci_deg(residuals: list[np.ndarray], rng: np.random.Generator) -> tuple[float, float]:
+    return bootstrap_ci([np.rad2deg(r) ** 2 for r in residuals], rng, 300, root=True)
+
+
+def repeat_groups(twin: Twin) -> list[list[int]]:
     groups: dict[tuple, list[int]] = {}
     for k, pr in enumerate(twin.runs):
         groups.setdefault(pr.run.signature(), []).append(k)
-    diffs = []
-    for ks in groups.values():
-        for a, b in zip(ks, ks[1:]):
-            (ta, va), (tb, vb) = series(twin.runs[a]), series(twin.runs[b])
-            if len(ta) < 2 or len(tb) < 2:
-                continue
-            if len(ta) == len(tb) and np.allclose(ta, tb):
-                diffs.append(va - vb)
-            else:
-                diffs.append(va - np.interp(ta, tb, vb))
-    if not diffs:
-        return math.nan, 0
-    return float(np.sqrt(np.mean(np.concatenate(diffs) ** 2) / 2.0)), len(diffs)
+    return list(groups.values())
 
 
-def noise_floor_deg(twin: Twin) -> tuple[float, int]:
-    """Angle noise (deg rms) of the reference instrument, from repeated runs."""
-    sigma, n = repeat_noise(twin, lambda pr: (pr.ts, pr.meas))
-    return float(np.rad2deg(sigma)), n
+def angle_noise(twin: Twin) -> RepeatNoise:
+    """Angle noise and drift (rad) of the reference instrument, from repeated runs."""
+    return repeat_noise(repeat_groups(twin), lambda k: (twin.runs[k].ts, twin.runs[k].meas))
 
 
-def pressure_noise_kpa(twin: Twin) -> tuple[float, int]:
-    """Chamber-pressure noise (kPa rms) of the transducers (port A), from repeated runs."""
-    sigma, n = repeat_noise(twin, lambda pr: (pr.tp[pr.pmask[0]], pr.pmeas[: int(pr.pmask[0].sum())]))
-    return sigma / 1e3, n
+def pressure_noise(twin: Twin) -> RepeatNoise:
+    """Chamber-pressure noise and drift (Pa) of the transducers (port A), from repeated runs."""
+    return repeat_noise(repeat_groups(twin), lambda k: (twin.runs[k].tp[twin.runs[k].pmask[0]], twin.runs[k].pmeas[: int(twin.runs[k].pmask[0].sum())]))
 
 
-# --- where -----------------------------------------------------------------------------------
-def phases(run: Run, ts: np.ndarray) -> np.ndarray:
-    """Motion phase of each sample from the commands: start, moving, reversal, braking, holding."""
-    d = run.direction
-    change_t = [0.0]
-    prev_nonzero = [0.0]
-    last_nz = 0.0
-    out_idx = np.searchsorted(run.time_s, ts, side="right") - 1
-    labels = np.empty(len(ts), dtype=object)
-    # walk the command rows once, remembering the last direction change
-    t_change = np.zeros(len(d))
-    before = np.zeros(len(d))
-    tc, prev, lnz = 0.0, 0.0, 0.0
-    for i in range(len(d)):
-        if i > 0 and d[i] != d[i - 1]:
-            tc, prev = run.time_s[i], d[i - 1]
-            if d[i - 1] != 0:
-                lnz = d[i - 1]
-        t_change[i] = tc
-        before[i] = prev if prev != 0 else (lnz if d[i] == 0 else prev)
-    del change_t, prev_nonzero, last_nz
-    for j, i in enumerate(np.clip(out_idx, 0, len(d) - 1)):
-        since = ts[j] - t_change[i]
-        recent = since < PHASE_WINDOW_S and t_change[i] > 0
-        if d[i] != 0:
-            if recent and before[i] == -d[i]:
-                labels[j] = "reversal"
-            elif recent:
-                labels[j] = "start"
-            else:
-                labels[j] = "moving"
-        else:
-            labels[j] = "braking" if recent and before[i] != 0 else "holding"
-    return labels
-
-
-def breakdown(twin: Twin, residuals: list[np.ndarray]) -> dict:
-    """Residual rms (deg) and count per bin of each factor."""
-    rows = {"phase": [], "supply_mpa": [], "direction": [], "load_kg": [], "speed_rad_s": [], "time_since_start_s": []}
-    res_all = []
-    for pr, r in zip(twin.runs, residuals):
-        run = pr.run
-        idx = np.clip(np.searchsorted(run.time_s, pr.ts, side="right") - 1, 0, len(run.time_s) - 1)
-        t, _, om, _, _ = replay_run(params_row(twin.params), *pr.args, run.start_rad, pr.inertia, 0.0, pr.ts[-1] + DT_S, DT_S)
-        speed = np.abs(np.interp(pr.ts, t, om))
-        moving = np.nonzero(run.direction)[0]
-        t0 = run.time_s[moving[0]] if len(moving) else 0.0
-        rows["phase"] += list(phases(run, pr.ts))
-        rows["supply_mpa"] += [f"{run.supply_mpa:.2f}"] * len(pr.ts)
-        rows["load_kg"] += [f"{run.payload_kg:g}"] * len(pr.ts)
-        rows["direction"] += [{-1.0: "-1", 0.0: "0", 1.0: "+1"}[float(x)] for x in run.direction[idx]]
-        rows["speed_rad_s"] += list(np.array(["<0.1", "0.1-0.5", "0.5-1", ">1"])[np.digitize(speed, [0.1, 0.5, 1.0])])
-        rows["time_since_start_s"] += [f"{max(0.0, math.floor((x - t0) / 0.5) * 0.5):.1f}+" if x >= t0 else "before" for x in pr.ts]
-        res_all.append(r)
-    res = np.rad2deg(np.concatenate(res_all))
-    out = {}
-    for factor, labels in rows.items():
-        labels = np.asarray(labels)
-        out[factor] = {}
-        for lab in sorted(set(labels), key=str):
-            m = labels == lab
-            out[factor][str(lab)] = {"rms_deg": float(np.sqrt(np.mean(res[m] ** 2))), "mean_deg": float(np.mean(res[m])), "max_abs_deg": float(np.max(np.abs(res[m]))), "n": int(m.sum())}
-    return out
+def where_labels(twin: Twin) -> dict[str, np.ndarray]:
+    """Every angle sample's label per factor of the breakdown (gap.where), from the nominal twin."""
+    per_run = []
+    for g, ks in enumerate(twin.groups):
+        t, th, om, _, _ = twin.replay(twin.params, Rig(), g)
+        for k in ks:
+            pr = twin.runs[k]
+            per_run.append((k, where.labels_of(pr.run, pr.ts, np.interp(pr.ts, t, th), np.interp(pr.ts, t, om))))
+    return where.concat_labels([lab for _, lab in sorted(per_run, key=lambda x: x[0])])
 
 
 # --- the whole diagnosis ---------------------------------------------------------------------
-def diagnose(campaign: Campaign, catalogue: tuple[Effect, ...] = CATALOGUE, model_tolerance_deg: float = MODEL_TOLERANCE_DEG, n_jobs: int = 2, progress: bool = True, seed: int = 0) -> dict:
-    from joblib import Parallel, delayed
-    from tqdm import tqdm
+@dataclass
+class Floors:
+    """What a residual is measured against: the instrument's noise, the repeats' drift and the
+    twin's own model tolerance, in angle and (where measured) chamber pressure."""
 
+    noise_deg: float
+    noise: RepeatNoise  # from repeats (rad)
+    tolerance_deg: float
+    floor_deg: float
+    threshold_deg: float
+    noise_p: RepeatNoise  # from repeats (Pa)
+    floor_kpa: float
+
+
+def floors_of(twin: Twin, model_tolerance_deg: float) -> Floors:
+    nz = angle_noise(twin)
+    declared = twin.campaign.instrument.noise_deg
+    noise_deg = declared if declared is not None else (0.0 if math.isnan(nz.sigma) else math.degrees(nz.sigma))
+    drift_deg = 0.0 if math.isnan(nz.drift) else math.degrees(nz.drift)
+    # a run departs from its repeats' mean by drift/sqrt(2): no effect fitted to all can explain that
+    floor = math.sqrt(noise_deg**2 + drift_deg**2 / 2.0 + model_tolerance_deg**2)
+    nzp = pressure_noise(twin)
+    sp = (0.0 if math.isnan(nzp.sigma) else nzp.sigma / 1e3) ** 2 + (0.0 if math.isnan(nzp.drift) else nzp.drift / 1e3) ** 2 / 2.0
+    return Floors(noise_deg, nz, model_tolerance_deg, floor, SIGNIFICANCE * floor, nzp, math.sqrt(sp + MODEL_TOLERANCE_KPA**2))
+
+
+def _parallel(n_jobs: int, scheduler: str | None):
+    """joblib's Parallel on local threads (the compiled replay releases the GIL), or on a Dask
+    cluster at `scheduler` (as `twin sweep --scheduler`)."""
+    from joblib import Parallel, parallel_config
+
+    if scheduler:
+        try:
+            from dask.distributed import Client
+        except ImportError:
+            raise GapError("--scheduler needs Dask: pip install 'pneumatic-arm-twin[cluster]'") from None
+        client = Client(scheduler)
+
+        def run(jobs):
+            try:
+                with parallel_config(backend="dask"):
+                    return Parallel()(jobs)
+            finally:
+                client.close()
+
+        return run
+    return lambda jobs: Parallel(n_jobs=n_jobs, backend="threading")(jobs)
+
+
+def diagnose(campaign: Campaign, catalogue: tuple[Effect, ...] = CATALOGUE, model_tolerance_deg: float | None = None, n_jobs: int = 2, progress: bool = True, seed: int = 0, scheduler: str | None = None) -> dict:
+    """The diagnosis of `campaign` as a plain dict (see the module docstring for its steps)."""
+    from joblib import delayed
+
+    tolerance = MODEL_TOLERANCE_DEG if model_tolerance_deg is None else model_tolerance_deg
     twin = Twin(campaign)
     folds = folds_of(campaign)
     rng = np.random.default_rng(seed)
     n = len(twin.runs)
-    before, before_p = (list(r) for r in zip(*twin.residuals_of(twin.params, 1.0, range(n)).values()))
-    noise, n_pairs = noise_floor_deg(twin)
-    floor = math.sqrt((0.0 if math.isnan(noise) else noise) ** 2 + model_tolerance_deg**2)
-    threshold = SIGNIFICANCE * floor
-    before_rms = rms_deg(before)
-    noise_p, _ = pressure_noise_kpa(twin)
-    floor_p = math.sqrt((0.0 if math.isnan(noise_p) else noise_p) ** 2 + MODEL_TOLERANCE_KPA**2)
+    fl = floors_of(twin, tolerance)
     if twin.has_pressure:  # each channel counts in units of its own floor
-        twin.pressure_weight = (math.radians(floor) / (floor_p * 1e3)) ** 2
+        twin.pressure_weight = (math.radians(fl.floor_deg) / (fl.floor_kpa * 1e3)) ** 2
+    nominal_latency = twin.latency_of([], range(n))
+    before, before_p = (list(r) for r in zip(*twin.residuals_with([], range(n), nominal_latency).values()))
+    before_rms = rms_deg(before)
+    significant = before_rms > fl.threshold_deg
 
     def score(c: Candidate) -> float:
         """Held-out misfit in units of the floors, angle and (where measured) chamber pressure
         together: the ranking's key. Without pressures it is the angle rms over its floor."""
-        return normalised_rms(c.heldout, c.heldout_p, floor, floor_p)
+        return normalised_rms(c.heldout, c.heldout_p, fl.floor_deg, fl.floor_kpa)
 
     # effects already in the nominal twin at their catalogue value are not candidates
     effects = [e for e in catalogue if not (e.discrete_value is not None and e.value_of(twin.params) == e.discrete_value)]
     skipped = [e.name for e in catalogue if e not in effects]
-    bar = tqdm(total=len(effects), desc="gap: effects", file=__import__("sys").stderr, disable=not progress)
-
-    def job(e):
-        c = fit_single(twin, e, folds)
-        bar.update(1)
-        return c
-
-    singles: list[Candidate] = Parallel(n_jobs=n_jobs, backend="threading")(delayed(job)(e) for e in effects)
-    bar.close()
+    run_jobs = _parallel(n_jobs, scheduler)
+    clock = {"start": time.perf_counter()}
+    with _progress(len(effects), "gap: effects", progress):
+        singles: list[Candidate] = run_jobs(delayed(fit_single)(twin, e, folds) for e in effects)
     singles.sort(key=score)
-    significant = before_rms > threshold
-
-    def explains(c: Candidate) -> bool:
-        return rms_deg(c.heldout) <= max(threshold, EXPLAIN_SHRINK * before_rms)
-
-    pairs: list[Candidate] = []
+    clock["singles"] = time.perf_counter()
     best = singles[0] if singles else None
-    if significant and best is not None and rms_deg(best.heldout) > threshold:
-        # not down to the floor: a pair may do better even when the best single passes the relative test
-        # every pair is screened in-sample (`screen_pair`) over one run per distinct command and
-        # supply (repeats differ only by measurement noise); the best N_PAIRS_CV get the full
-        # grid on all runs and the cross-validated fit
-        combos = [(a, b) for i, a in enumerate(singles) for b in singles[i + 1 :]]
-        distinct = sorted({pr.run.signature(): k for k, pr in reversed(list(enumerate(twin.runs)))}.values())
-        bar = tqdm(total=len(combos), desc="gap: pairs", file=__import__("sys").stderr, disable=not progress)
-
-        def sjob(ab):
-            r = screen_pair(twin, ab[0], ab[1], distinct)
-            bar.update(1)
-            return r
-
-        screen = Parallel(n_jobs=n_jobs, backend="threading")(delayed(sjob)(ab) for ab in combos)
-        bar.close()
-        order = np.argsort(screen)[:N_PAIRS_CV]
-
-        def cv(ab):
-            return fit_pair(twin, ab[0], ab[1], folds, pair_grid(twin, ab[0], ab[1]))
-
-        pairs = Parallel(n_jobs=n_jobs, backend="threading")(delayed(cv)(combos[i]) for i in order)
+    pairs: list[Candidate] = []
+    if significant and best is not None and rms_deg(best.heldout) > fl.threshold_deg:
+        pairs = _pair_stage(twin, singles, folds, run_jobs, progress)
         pairs.sort(key=score)
+    clock["pairs"] = time.perf_counter()
 
-    # rivals: explain too, and the best is not clearly better (bootstrap over runs, 95% one-sided)
-    def rivals_of(c: Candidate, pool: list[Candidate]) -> list[str]:
-        out = []
-        ms_c = run_ms(c.heldout, c.heldout_p, floor, floor_p)
-        for o in pool:
-            if o is c or not explains(o):
-                continue
-            diff = run_ms(o.heldout, o.heldout_p, floor, floor_p) - ms_c
-            boots = np.array([np.mean(diff[rng.integers(0, n, n)]) for _ in range(400)])
-            if np.quantile(boots, 0.05) <= 0.0 or score(o) <= 1.1 * score(c):
-                out.append(o.name)
-        return out
-
-    if not significant:
-        verdict, top, rivals = "no significant gap", None, []
-    elif pairs and explains(pairs[0]) and score(pairs[0]) < 0.8 * score(best):
-        rivals = rivals_of(pairs[0], pairs)
-        verdict, top = ("ambiguous" if rivals else "explained"), pairs[0]
-    elif best is not None and explains(best):
-        rivals = rivals_of(best, singles)
-        verdict, top = ("ambiguous" if rivals else "explained"), best
-    else:
-        verdict, top, rivals = "outside the catalogue", (pairs[0] if pairs and score(pairs[0]) < score(best) else best), []
+    judge = verdict.Judge(twin, fl, before_rms, score, rng)
+    call = judge.call(significant, singles, pairs)
+    labels = where_labels(twin)
+    family = judge.family_call(singles, labels, before, nominal_latency)
+    # the instrument as best understood: the latency fitted with the answer (with the nominal twin
+    # alone a latency soaks up part of any gap that makes the twin run ahead); the nominal twin's
+    # residual, its breakdown and how far are reported at it
+    latency = call.top.latency_s if call.top is not None else nominal_latency
+    before, before_p = (list(r) for r in zip(*twin.residuals_with([], range(n), latency).values()))
+    before_rms = rms_deg(before)
 
     def summary(c: Candidate) -> dict:
-        lo, hi = bootstrap_ci(c.heldout, lambda x: np.rad2deg(np.sqrt(np.mean(x**2))), rng, 300)
+        lo, hi = rms_ci_deg(c.heldout, rng)
         return {
             "name": c.name,
             "effects": c.effects,
@@ -530,12 +503,15 @@ def diagnose(campaign: Campaign, catalogue: tuple[Effect, ...] = CATALOGUE, mode
             "nominal_values": [BY_NAME[x].value_of(twin.params) for x in c.effects],
             "fitted_values": c.full_values,
             "fold_values": c.fold_values,
+            "at_bound": verdict.at_bounds(c),
+            "off_nominal": verdict.off_nominal(c, twin.params),
+            "latency_s": c.latency_s,
             "heldout_rms_deg": rms_deg(c.heldout),
             "heldout_pressure_rms_kpa": rms_kpa(c.heldout_p),
             "score_in_floors": score(c),
             "heldout_rms_ci95_deg": [lo, hi],
             "shrink": rms_deg(c.heldout) / before_rms if before_rms > 0 else math.nan,
-            "explains": explains(c),
+            "explains": judge.explains(c),
         }
 
     pressures = sorted({round(r.supply_mpa, 4) for r in campaign.runs})
@@ -546,36 +522,86 @@ def diagnose(campaign: Campaign, catalogue: tuple[Effect, ...] = CATALOGUE, mode
             ks = [k for k in range(n) if round(campaign.runs[k].supply_mpa, 4) == q]
             vals = [np.rad2deg(np.abs(res[k])) for k in ks]
             allv = np.concatenate(vals)
-            lo, hi = bootstrap_ci(vals, np.mean, rng, 300)
+            lo, hi = bootstrap_ci(vals, rng, 300)
             out[f"{q:.2f}"] = {"mean_deg": float(allv.mean()), "max_deg": float(allv.max()), "mean_ci95_deg": [lo, hi], "runs": len(ks)}
         return out
 
     how_far = {"before": per_pressure(before)}
     for c in singles + pairs:
         how_far[c.name] = per_pressure(c.heldout)
+    top = call.top
     return {
         "campaign": str(campaign.folder),
         "joint": campaign.joint,
         "runs": [r.name for r in campaign.runs],
         "twin": {"hose_loss": twin.params.hose_loss, "inertia_kg_m2": twin.inertia},
-        "folds": "leave one supply pressure out" if len({round(r.supply_mpa, 4) for r in campaign.runs}) > 1 else "alternating split",
-        "noise_floor": {"measurement_deg": noise, "repeat_pairs": n_pairs, "model_tolerance_deg": model_tolerance_deg, "floor_deg": floor, "significance_threshold_deg": threshold},
-        "pressure": ({"measured": True, "noise_kpa": noise_p, "model_tolerance_kpa": MODEL_TOLERANCE_KPA, "floor_kpa": floor_p, "before_rms_kpa": rms_kpa(before_p)} if twin.has_pressure else {"measured": False}),
+        "folds": "leave one supply pressure out" if len(pressures) > 1 else "alternating split",
+        "instrument": instrument.describe(campaign.instrument, twin.nuisance, latency, campaign.runs),
+        "noise_floor": {
+            "measurement_deg": fl.noise_deg,
+            "measurement_from": "declared" if campaign.instrument.noise_deg is not None else "repeats",
+            "repeat_noise_deg": math.degrees(fl.noise.sigma),
+            "repeat_drift_deg": math.degrees(fl.noise.drift),
+            "repeat_pairs": fl.noise.pairs,
+            "repeat_samples": fl.noise.samples,
+            "model_tolerance_deg": fl.tolerance_deg,
+            "floor_deg": fl.floor_deg,
+            "significance_threshold_deg": fl.threshold_deg,
+        },
+        "pressure": ({"measured": True, "noise_kpa": fl.noise_p.sigma / 1e3, "drift_kpa": fl.noise_p.drift / 1e3, "model_tolerance_kpa": MODEL_TOLERANCE_KPA, "floor_kpa": fl.floor_kpa, "before_rms_kpa": rms_kpa(before_p)} if twin.has_pressure else {"measured": False}),
         "before_rms_deg": before_rms,
-        "before_rms_ci95_deg": list(bootstrap_ci(before, lambda x: np.rad2deg(np.sqrt(np.mean(x**2))), rng, 300)),
-        "where": breakdown(twin, before),
+        "before_rms_ci95_deg": list(rms_ci_deg(before, rng)),
+        "where": where.breakdown(labels, np.concatenate(before)),
         "which": {
-            "verdict": verdict,
+            "verdict": call.verdict,
             "top": summary(top) if top is not None else None,
-            "rivals": rivals,
-            # the family-level answer for a gap no catalogue entry explains: the families of the
-            # best candidate, single or pair (e.g. friction for a Stribeck curve when only Coulomb
-            # and viscous friction are catalogued)
-            "nearest": (nearest_families(top, twin, before_rms) if verdict == "outside the catalogue" and top is not None else None),
+            "rivals": call.rivals,
+            "pairs_refused": call.pairs_refused,
+            # the family-level answer: the families ranked by how well their best member matches
+            # the gap's where-pattern and fits the withheld runs (gap.verdict.Judge.family_call)
+            "nearest": family if call.verdict == "outside the catalogue" else None,
+            "families": family["evidence"],
             "ranking": [summary(c) for c in singles],
             "pairs": [summary(c) for c in pairs],
             "skipped_already_in_twin": skipped,
         },
         "how_far": how_far,
+        "replays": twin.n_replays,
+        "timing_s": {"singles": clock["singles"] - clock["start"], "pairs": clock["pairs"] - clock["singles"], "total_fits": clock["pairs"] - clock["start"]},
         "_residuals": {"before": before, "top": top.heldout if top is not None else None, "times": [pr.ts for pr in twin.runs]},
     }
+
+
+class _progress:
+    """A tqdm bar on stderr around a stage (joblib jobs cannot tick it from a Dask worker)."""
+
+    def __init__(self, total: int, desc: str, enabled: bool):
+        from tqdm import tqdm
+
+        self.bar = tqdm(total=total, desc=desc, file=sys.stderr, disable=not enabled)
+
+    def __enter__(self):
+        return self.bar
+
+    def __exit__(self, *exc):
+        self.bar.update(self.bar.total - self.bar.n)
+        self.bar.close()
+
+
+def _pair_stage(twin: Twin, singles: list[Candidate], folds, run_jobs, progress: bool) -> list[Candidate]:
+    """Every pair of the PAIR_POOL best singles screened in-sample (`screen_pair`) over one run per distinct command and supply
+    (repeats differ only by measurement noise); the best N_PAIRS_CV get the full grid on all runs
+    and the cross-validated fit."""
+    from joblib import delayed
+
+    pool = singles[:PAIR_POOL]  # singles come sorted by held-out score
+    combos = [(a, b) for i, a in enumerate(pool) for b in pool[i + 1 :]]
+    distinct = sorted({pr.run.signature(): k for k, pr in reversed(list(enumerate(twin.runs)))}.values())
+    with _progress(len(combos), "gap: pairs", progress):
+        screen = run_jobs(delayed(screen_pair)(twin, a, b, distinct) for a, b in combos)
+    order = np.argsort(screen)[:N_PAIRS_CV]
+    return run_jobs(delayed(_cv_pair)(twin, combos[i][0], combos[i][1], folds) for i in order)
+
+
+def _cv_pair(twin: Twin, a: Candidate, b: Candidate, folds) -> Candidate:
+    return fit_pair(twin, a, b, folds, pair_grid(twin, a, b))

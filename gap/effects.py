@@ -1,15 +1,25 @@
-"""The catalogue of candidate effects: each is a JointParams field (or the inertia scale) with
-bounds. Adding an effect to the twin is `params._replace(field=value)`: configuration of the one
-model in pneumatics/, never a second model.
+"""The catalogue of candidate effects: each is a JointParams field (or a property of the rig the
+joint drives: its inertia, a static load that depends on the angle) with bounds. Adding an effect
+to the twin is `params._replace(field=value)`: configuration of the one model in pneumatics/,
+never a second model.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import NamedTuple
 
 from pneumatics import JointParams
 
 INERTIA = "inertia_scale"  # not a JointParams field: scales the joint-side inertia given to the replay
+LOAD_SPRING = "load_spring_nm_per_rad"  # not a JointParams field: a static load -k (theta - 0) on the joint
+
+
+class Rig(NamedTuple):
+    """What the replay is told of the rig besides the joint: its inertia scale and angle-dependent load."""
+
+    inertia_scale: float = 1.0
+    load_spring_nm_per_rad: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -25,13 +35,13 @@ class Effect:
     equation: str = ""
 
     def value_of(self, params: JointParams) -> float:
-        return 1.0 if self.field == INERTIA else float(getattr(params, self.field))
+        return getattr(Rig(), self.field) if self.field in Rig._fields else float(getattr(params, self.field))
 
-    def apply(self, params: JointParams, value: float) -> tuple[JointParams, float]:
-        """(params with the effect at `value`, inertia scale)."""
-        if self.field == INERTIA:
-            return params, float(value)
-        return params._replace(**{self.field: float(value)}), 1.0
+    def apply(self, params: JointParams, value: float, rig: Rig = Rig()) -> tuple[JointParams, Rig]:
+        """(params, rig) with the effect at `value`."""
+        if self.field in Rig._fields:
+            return params, rig._replace(**{self.field: float(value)})
+        return params._replace(**{self.field: float(value)}), rig
 
 
 # Bounds: physically plausible ranges for the wrist class (assets/joints/wrist_pitch.toml values
@@ -51,6 +61,15 @@ CATALOGUE: tuple[Effect, ...] = (
     Effect("heat_exchange", "heat exchange (polytropic exponent)", "polytropic_n", 1.0, 1.4, family="thermal", equation="chamber law with n in 1..1.4"),
     Effect("supply_droop", "supply droop under flow", "supply_droop_pa_s_per_kg", 0.0, 5.0e7, family="supply", equation="p_s' = p_s - k * choked inlet flow (Pa·s/kg)"),
     Effect("inertia_error", "payload/inertia error", INERTIA, 0.3, 3.0, log=True, family="load", equation="joint-side inertia x scale"),
+    # a static load that depends on the angle (a cable or hose bundle, a counterbalance spring set
+    # wrong): up to 60 N·m/rad, 63 N·m at 60 deg, near the wrist's stall torque at 0.8 MPa (69 N·m)
+    Effect("angle_load", "angle-dependent static load", LOAD_SPRING, 0.0, 60.0, family="load", equation="load torque -k theta (N·m/rad), theta from the joint's zero"),
+    # the brake (pneumatics/brake.py): its full-release pressure above nominal (4.75 bar; a weak
+    # piston seal or stiffer springs) leaves the lining dragging wherever the motor port's air is
+    # under it (low supply, partial openings); up to 9 bar, above every supply: never fully clear
+    Effect("brake_incomplete_release", "brake incomplete release (full-release pressure)", "brake_release_gauge_pa", 3.25e5, 9.0e5, family="brake", equation="engagement (p_full - p_feed)/(p_full - p_start) while released (Pa)"),
+    # a worn lining holds and stops with less torque (nominal 100 N·m): a longer slide at every stop
+    Effect("brake_holding", "brake holding torque", "brake_holding_nm", 20.0, 300.0, family="brake", equation="holding and slipping torque of the engaged brake (N·m)"),
     # the reducer (pneumatics/reducer.py): lost motion up to 0.05 rad (3 deg, a badly worn gear;
     # a strain-wave gear has ~3e-4 rad) and compliance up to 2e-3 rad/N·m (7x softer than the
     # size-17 gear's 1/K1 ~ 3e-4); both grids logarithmic, they span orders of magnitude

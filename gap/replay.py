@@ -66,6 +66,7 @@ def replay_run(
     load_torque_nm: float,
     t_end_s: float,
     dt_s: float,
+    load_spring_nm_per_rad: float = 0.0,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Twin angle, speed and motor-chamber pressures on a grid t_k = k dt, k = 0..floor(t_end/dt);
     returns (t, theta, omega, p_a, p_b) with the pressures absolute at the motor end of each hose.
@@ -77,6 +78,12 @@ def replay_run(
     pressure) the valve state S_PV is set from the logged output, linearly interpolated between log
     samples (it is a continuous state), so the valve lag is not applied a second time; the dead
     zone still acts on it.
+
+    The load on the joint (a torque opposing the drive) is `load_torque_nm + load_spring_nm_per_rad
+    * theta` (a spring pulling back to 0, the static load that depends on the angle: gap.effects'
+    angle_load), taken at each step's start and held over it
+    (the one-joint model takes its load as a constant per step; over 1 ms the joint turns at most
+    ~3 mrad, a 0.3 % change of the load at 1 rad).
     """
     n_steps = int(t_end_s / dt_s + 1e-9)
     t_out = np.empty(n_steps + 1)
@@ -106,8 +113,10 @@ def replay_run(
     om_out[0] = 0.0
     pa_out[0] = atm
     pb_out[0] = atm
+    load_const_nm = load_torque_nm
     for k in range(n_steps):
         t = k * dt_s
+        load_torque_nm = load_const_nm + load_spring_nm_per_rad * y[R_THETA]  # opposes the drive: k theta pulls back to 0
         while row + 1 < n_rows and cmd_time_s[row + 1] <= t + 1e-9:
             row += 1
         cmd[C_DIRECTION] = direction[row]

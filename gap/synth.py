@@ -26,6 +26,37 @@ NOISE_RAD = np.deg2rad(0.05)  # assumed: an encoder-class reference instrument, 
 # assumed: a 0-1 MPa piezoresistive transducer on each motor port, 0.25 % FS accuracy class; its
 # sample noise taken as 1 kPa rms
 NOISE_PA = 1.0e3
+RIG_INERTIA_KG_M2 = 0.02  # assets/wrist_rig.xml rig_load
+
+
+@dataclass(frozen=True)
+class SimInstrument:
+    """A reference angle instrument as the synthetic campaigns simulate it: it samples the plant's
+    true angle at `rate_hz` (phase `phase_s`), `latency_s` late, with seeded Gaussian noise, and
+    drops each sample with probability `drop_fraction`. `declare` writes what a user would put in
+    campaign.toml's [instrument] (the fields named there), the rest is left to the diagnosis."""
+
+    name: str = "encoder_50hz"
+    rate_hz: float = 50.0
+    noise_deg: float = float(np.rad2deg(NOISE_RAD))
+    latency_s: float = 0.0
+    drop_fraction: float = 0.0
+    phase_s: float = 0.0
+    declare: tuple[str, ...] = ()
+
+    def sample_times(self, t_end_s: float, rng: np.random.Generator | None) -> np.ndarray:
+        """Sample times rounded to the 1 ms command rows the run file has, dropped ones left out."""
+        t = np.round(np.arange(self.phase_s, t_end_s + 1e-9, 1.0 / self.rate_hz), 3)
+        if self.drop_fraction > 0 and rng is not None:
+            t = t[rng.random(len(t)) >= self.drop_fraction]
+        return t
+
+
+# the two instruments of the bench: an encoder on the joint, and a camera tracking a marker
+ENCODER = SimInstrument()
+# assumed: a 30 frame/s machine-vision camera, 0.2 deg rms marker noise, 10-40 ms from exposure to
+# timestamp (the bench draws the latency per campaign), 3 % of frames lost
+CAMERA = SimInstrument("camera_30hz", 30.0, 0.2, 0.025, 0.03)
 
 
 @dataclass(frozen=True)
@@ -67,7 +98,7 @@ def wrist_params() -> JointParams:
     return load_joint_params(assets.joint_param_path(JOINT))
 
 
-def _plant_and_schedule(reality: JointParams, supply_mpa: float, motion: Motion, start_rad: float):
+def _plant_and_schedule(reality: JointParams, supply_mpa: float, motion: Motion, start_rad: float, rig_spring_nm_per_rad: float = 0.0):
     import mujoco
 
     from twin.plant import Plant
@@ -75,6 +106,9 @@ def _plant_and_schedule(reality: JointParams, supply_mpa: float, motion: Motion,
 
     plant = Plant(assets.WRIST_RIG_XML, joint_params={JOINT: reality})
     i = plant.joints.index(JOINT)
+    # a hidden angle-dependent load: MuJoCo's own joint spring (passive force -k (q - qpos_spring),
+    # qpos_spring = 0 from the model's reference pose), not the replay's law
+    plant.model.jnt_stiffness[plant.model.joint(JOINT).id] = rig_spring_nm_per_rad
     plant.data.qpos[plant.model.joint(JOINT).qposadr[0]] = start_rad
     mujoco.mj_forward(plant.model, plant.data)
     plant.align_motors()
@@ -91,14 +125,15 @@ def _plant_and_schedule(reality: JointParams, supply_mpa: float, motion: Motion,
     return plant, CommandSchedule(commands_at, n), i
 
 
-def simulate_run(reality: JointParams, supply_mpa: float, motion: Motion, start_rad: float = 0.0) -> dict[str, np.ndarray]:
-    """Run the plant (twin.plant.Plant on the wrist rig) through `motion`; 1 ms command rows and
-    the true angle every SAMPLE_PERIOD_S (NaN between samples)."""
+def simulate_run(reality: JointParams, supply_mpa: float, motion: Motion, start_rad: float = 0.0, log_period_s: float = SAMPLE_PERIOD_S, rig_spring_nm_per_rad: float = 0.0) -> dict[str, np.ndarray]:
+    """Run the plant (twin.plant.Plant on the wrist rig) through `motion` (a Motion or a
+    gap.protocols.Protocol); 1 ms command rows and the true angle and chamber pressures every
+    `log_period_s` (NaN between samples)."""
     from twin.sim import run
 
-    plant, schedule, i = _plant_and_schedule(reality, supply_mpa, motion, start_rad)
+    plant, schedule, i = _plant_and_schedule(reality, supply_mpa, motion, start_rad, rig_spring_nm_per_rad)
     supply_pa = plant.supply_pa
-    tel = run(plant, schedule, motion.total_s(), supply_pa_at=lambda t: supply_pa, log_period_s=SAMPLE_PERIOD_S)
+    tel = run(plant, schedule, motion.total_s(), supply_pa_at=lambda t: supply_pa, log_period_s=log_period_s)
     arr = tel.arrays()
     t_cmd = np.round(np.arange(0.0, motion.total_s() + 1e-9, 1e-3), 6)
     d, u, b = motion.commands(t_cmd, supply_mpa * 1e6, reality.k_u_per_pa)
@@ -127,24 +162,40 @@ def write_mcap_run(path: Path, reality: JointParams, supply_mpa: float, motion: 
     return Path(path)
 
 
-def write_run_csv(path: Path, run: dict[str, np.ndarray], rng: np.random.Generator | None = None, noise_rad: float = NOISE_RAD, chamber_pressures: bool = False, noise_pa: float = NOISE_PA) -> None:
-    """Write a run file (columns as the campaign format), adding seeded measurement noise; with
-    `chamber_pressures` also the motor ports' pressures (p_a_pa, p_b_pa) at the angle samples."""
-    measured = {"angle_rad": (run["angle_rad"], noise_rad, "{:.7f}")}
+def measure(run: dict[str, np.ndarray], instrument: SimInstrument, rng: np.random.Generator | None, chamber_pressures: bool = False, noise_pa: float = NOISE_PA) -> dict[str, np.ndarray]:
+    """What the rig's instruments record of a plant run logged every 1 ms: the angle at the
+    instrument's sample times, read `latency_s` late, with its noise; with `chamber_pressures`
+    both motor ports' transducers (no latency) every SAMPLE_PERIOD_S with `noise_pa`. NaN where
+    an instrument has no sample."""
+    t = run["time_s"]
+    out = {}
+    ts = instrument.sample_times(t[-1], rng)
+    angle = np.full(t.shape, np.nan)
+    rows = np.round(ts / 1e-3).astype(int)
+    angle[rows] = np.interp(ts - instrument.latency_s, t, run["angle_rad"])
+    if rng is not None and instrument.noise_deg > 0:
+        angle[rows] += rng.normal(0.0, np.deg2rad(instrument.noise_deg), len(rows))
+    out["angle_rad"] = angle
     if chamber_pressures:
-        measured |= {c: (run[c], noise_pa, "{:.0f}") for c in ("p_a_pa", "p_b_pa")}
-    values = {}
-    for column, (clean, sigma, _) in measured.items():
-        values[column] = clean.copy()
-        m = np.isfinite(clean)
-        if rng is not None and sigma > 0:
-            values[column][m] += rng.normal(0.0, sigma, m.sum())
+        every = np.zeros(t.shape, dtype=bool)
+        every[:: int(round(SAMPLE_PERIOD_S / 1e-3))] = True
+        for c in ("p_a_pa", "p_b_pa"):
+            out[c] = np.where(every, run[c], np.nan)
+            if rng is not None and noise_pa > 0:
+                out[c][every] += rng.normal(0.0, noise_pa, every.sum())
+    return out
+
+
+def write_run_csv(path: Path, run: dict[str, np.ndarray], measured: dict[str, np.ndarray]) -> None:
+    """Write a run file (columns as the campaign format): the commands of `run` and the
+    instruments' readings `measured` (see `measure`)."""
+    fmt = {"angle_rad": "{:.7f}", "p_a_pa": "{:.0f}", "p_b_pa": "{:.0f}"}
     with open(path, "w", newline="") as f:
         w = csv.writer(f)
         w.writerow(["time_s", "direction", "brake_released", "valve_set_gauge_pa", "supply_pa", *measured])
         for k in range(len(run["time_s"])):
             fixed = [f"{run['time_s'][k]:.4f}", int(run["direction"][k]), int(run["brake_released"][k]), f"{run['valve_set_gauge_pa'][k]:.1f}", f"{run['supply_pa'][k]:.1f}"]
-            w.writerow(fixed + ["" if not np.isfinite(values[c][k]) else fmt.format(values[c][k]) for c, (_, _, fmt) in measured.items()])
+            w.writerow(fixed + ["" if not np.isfinite(v[k]) else fmt[c].format(v[k]) for c, v in measured.items()])
 
 
 def paper_motions(reality: JointParams, pressures_mpa=PRESSURES_MPA, turn_deg: float = 60.0) -> dict[float, Motion]:
@@ -164,11 +215,12 @@ def paper_motions(reality: JointParams, pressures_mpa=PRESSURES_MPA, turn_deg: f
     return out
 
 
-def make_campaign(folder: str | Path, reality: JointParams, seed: int = 0, pressures_mpa=PRESSURES_MPA, repeats: int = 2, twin_hose_loss: bool | None = None, motion: Motion | dict[float, Motion] | None = None, noise_rad: float = NOISE_RAD, description: str = "", chamber_pressures: bool = False) -> Path:
-    """Write campaign.toml and one CSV per run (pressure x repeat) from the plant with `reality`,
-    every run through `motion` (or motion[supply MPa]);
-    with `chamber_pressures` the runs also carry both motor ports' pressures, as a calibration rig
-    with a transducer on each port would measure them."""
+def make_campaign(folder: str | Path, reality: JointParams, seed: int = 0, pressures_mpa=PRESSURES_MPA, repeats: int = 2, twin_hose_loss: bool | None = None, motion=None, instrument: SimInstrument = ENCODER, description: str = "", chamber_pressures: bool = False, rig_spring_nm_per_rad: float = 0.0) -> Path:
+    """Write campaign.toml and one CSV per run (pressure x repeat) from the plant with `reality`
+    (and a hidden rig spring), every run through `motion` (a Motion or gap.protocols.Protocol, or
+    a dict of them by supply MPa), read by `instrument`; with `chamber_pressures` the runs also
+    carry both motor ports' pressures, as a calibration rig with a transducer on each port would
+    measure them."""
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
     rng = np.random.default_rng(seed)
@@ -178,17 +230,19 @@ def make_campaign(folder: str | Path, reality: JointParams, seed: int = 0, press
         f'joint = "{JOINT}"',
         "payload_kg = 0.0  # the wrist rig turns about a vertical axis: no gravity load",
         f"hose_length_m = {reality.hose_length_m}",
-        "rig_inertia_kg_m2 = 0.02  # assets/wrist_rig.xml rig_load",
+        f"rig_inertia_kg_m2 = {RIG_INERTIA_KG_M2}  # assets/wrist_rig.xml rig_load",
     ]
     if twin_hose_loss is not None:
         lines += ["", "[twin]", f"hose_loss = {'true' if twin_hose_loss else 'false'}"]
+    if instrument.declare:
+        lines += ["", "[instrument]"] + [f"{k} = {getattr(instrument, k)!r}" for k in instrument.declare]
     cache: dict[float, dict] = {}
     for mpa in pressures_mpa:
         for r in range(repeats):
             name = f"run_{int(round(mpa * 100)):03d}_{r + 1}.csv"
-            if mpa not in cache:  # the plant is deterministic: repeats differ by measurement noise
-                cache[mpa] = simulate_run(reality, mpa, motion[mpa] if isinstance(motion, dict) else motion)
-            write_run_csv(folder / name, cache[mpa], rng, noise_rad, chamber_pressures)
+            if mpa not in cache:  # the plant is deterministic: repeats differ by what the instruments add
+                cache[mpa] = simulate_run(reality, mpa, motion[mpa] if isinstance(motion, dict) else motion, log_period_s=1e-3, rig_spring_nm_per_rad=rig_spring_nm_per_rad)
+            write_run_csv(folder / name, cache[mpa], measure(cache[mpa], instrument, rng, chamber_pressures))
             lines += ["", "[[runs]]", f'file = "{name}"', f"supply_mpa = {mpa}", f"start_deg = {{ {', '.join(f'{j} = 0.0' for j in assets.JOINTS)} }}"]
     (folder / "campaign.toml").write_text("\n".join(lines) + "\n")
     return folder

@@ -214,3 +214,129 @@ def test_mcap_runs_from_the_plant_are_diagnosed(tmp_path):
         rms[as_output] = float(np.rad2deg(np.sqrt(np.mean(np.concatenate(res) ** 2))))
     assert rms[True] < 0.5  # MODEL_TOLERANCE_DEG
     assert rms[False] > 1.5 * rms[True]
+
+
+# --- the reference instrument, the noise floor, the verdict rules, the new families ----------
+def test_repeat_noise_uses_only_samples_both_repeats_have_and_tells_drift_from_noise():
+    """Two repeats of a stop-and-go motion (2.6 rad/s moves, braked stops every 0.3 s) read by a
+    30 Hz, 0.2 deg instrument; the second repeat lost the first frame after each corner (10 of
+    90). Interpolating it across a lost corner frame takes the corner for noise; the samples both
+    repeats have give the seeded 0.2 deg. A slow 0.5 deg ramp between the repeats is reported as
+    drift and leaves the noise estimate alone."""
+    from gap.noise import repeat_noise
+
+    rng = np.random.default_rng(5)
+    t = np.round(np.arange(0.0, 3.0, 1 / 30), 3)
+    moving = (t % 0.6) < 0.3
+    truth = np.concatenate([[0.0], np.cumsum(2.6 * moving[:-1] * np.diff(t))])  # rad
+    sigma = np.deg2rad(0.2)
+    corners = np.nonzero(np.diff(moving.astype(int)))[0] + 1
+    lost = np.zeros(len(t), dtype=bool)
+    lost[corners] = True  # the first frame after each corner (10 of 90)
+    runs = {}
+    for k, ramp in enumerate((0.0, np.deg2rad(0.5))):
+        keep = ~lost if k == 1 else np.ones(len(t), dtype=bool)
+        runs[k] = (t[keep], (truth + ramp * t / 3.0 + rng.normal(0, sigma, len(t)))[keep])
+    got = repeat_noise([[0, 1]], lambda k: runs[k])
+    assert np.rad2deg(got.sigma) == pytest.approx(0.2, rel=0.2)
+    # the ramp's difference is 0.5 t/3 deg: rms 0.5/sqrt(3) = 0.29 deg
+    assert np.rad2deg(got.drift) == pytest.approx(0.5 / np.sqrt(3), rel=0.3)
+    flat = {k: (tk, vk - np.deg2rad(0.5) * tk / 3.0 * (k == 1)) for k, (tk, vk) in runs.items()}
+    assert np.rad2deg(repeat_noise([[0, 1]], lambda k: flat[k]).drift) < 0.1
+    # one repeat interpolated across the other's lost frames (the old estimate) is several times off
+    (ta, va), (tb, vb) = flat[0], flat[1]
+    naive = np.rad2deg(np.sqrt(np.mean((va - np.interp(ta, tb, vb)) ** 2) / 2))
+    assert naive > 2.5 * np.rad2deg(got.sigma)
+
+
+@pytest.fixture(scope="module")
+def camera_campaign(tmp_path_factory):
+    """No hidden effect, read by a camera: 30 Hz, 0.2 deg, 30 ms late (not declared), 3 % of frames
+    dropped; stop-and-go runs (braked stops) at 0.5 and 0.8 MPa."""
+    from dataclasses import replace
+
+    from gap import protocols
+
+    inst = replace(synth.CAMERA, latency_s=0.030)
+    motion = {q: protocols.STOP_AND_GO for q in (0.5, 0.8)}
+    return synth.make_campaign(tmp_path_factory.mktemp("gap") / "camera", synth.wrist_params(), seed=11, pressures_mpa=(0.5, 0.8), motion=motion, instrument=inst)
+
+
+def test_an_undeclared_camera_latency_is_found_as_nuisance_not_an_effect(camera_campaign, tmp_path):
+    from gap.commands import verdict_line
+
+    d = diagnose(load_campaign(camera_campaign), catalogue=FAST + _by_name("valve_dead_time"), progress=False)
+    inst = d["instrument"]
+    assert inst["latency_estimated"] and inst["latency_s"] == pytest.approx(0.030, abs=0.010)
+    assert inst["observed_rate_hz"] == pytest.approx(30.0, rel=0.05) and inst["dropped_samples"] > 0
+    assert d["noise_floor"]["measurement_deg"] == pytest.approx(0.2, rel=0.3)  # the seeded camera noise
+    assert d["which"]["verdict"] == "no significant gap", verdict_line(d)
+    # declared, it is used as declared and said so
+    c = _copy(camera_campaign, tmp_path / "declared")
+    (c / "campaign.toml").write_text((c / "campaign.toml").read_text() + "\n[instrument]\nlatency_s = 0.03\nnoise_deg = 0.2\nrate_hz = 30.0\n")
+    campaign = load_campaign(c)
+    assert campaign.instrument.latency_s == 0.03
+    from gap.diagnose import Twin
+
+    assert list(Twin(campaign).latencies) == [0.03]
+    (c / "campaign.toml").write_text((c / "campaign.toml").read_text().replace("latency_s = 0.03", "latency_s = -0.1"))
+    with pytest.raises(GapError, match=r"campaign\.toml:\d+ \(\[instrument\]\): latency_s = -0.1; allowed: a number in 0..1 s"):
+        load_campaign(c)
+
+
+def test_verdict_rules_refuse_a_pair_at_nominal_flag_bounds_and_name_only_a_family():
+    from gap.commands import verdict_line
+    from gap.diagnose import Candidate
+    from gap import verdict
+
+    p0 = synth.wrist_params()
+    at_nominal = Candidate("vane_leakage+heat_exchange", ["vane_leakage", "heat_exchange"], [], [4e-7, 1.4])
+    assert verdict.off_nominal(at_nominal, p0) == [True, False]
+    moved = Candidate("vane_leakage+heat_exchange", ["vane_leakage", "heat_exchange"], [], [4e-7, 1.2])
+    assert verdict.off_nominal(moved, p0) == [True, True]
+    assert verdict.at_bounds(Candidate("coulomb_friction", ["coulomb_friction"], [], [60.0])) == ["high"]
+    assert verdict.at_bounds(Candidate("coulomb_friction", ["coulomb_friction"], [], [31.0])) == [None]
+    outside = {"before_rms_deg": 3.0, "which": {"verdict": "outside the catalogue", "top": {"name": "coulomb_friction"}, "nearest": {"family": "friction"}}}
+    line = verdict_line(outside)
+    assert "friction" in line and "coulomb" not in line
+
+
+def test_hidden_angle_load_is_found_and_located_by_angle(tmp_path):
+    """A spring on the joint (MuJoCo's joint stiffness, 20 N·m/rad about zero) hidden in the plant:
+    the catalogue's angle-dependent load (the replay's own law) finds it, and "where" shows the
+    gap growing with the angle."""
+    from gap import protocols
+
+    folder = synth.make_campaign(tmp_path / "spring", synth.wrist_params(), seed=12, pressures_mpa=(0.5, 0.8), motion={q: protocols.paper_60(q) for q in (0.5, 0.8)}, rig_spring_nm_per_rad=20.0)
+    d = diagnose(load_campaign(folder), catalogue=FAST + _by_name("angle_load", "inertia_error"), progress=False)
+    w = d["which"]
+    assert w["verdict"] == "explained" and w["top"]["name"] == "angle_load", w["verdict"]
+    assert w["top"]["fitted_values"][0] == pytest.approx(20.0, rel=0.15)
+    by_angle = d["where"]["angle_deg"]
+    assert by_angle["+30..+60"]["rms_deg"] > 2 * by_angle["+0..+30"]["rms_deg"]
+
+
+def test_hidden_incomplete_brake_release_is_given_to_the_brake(tmp_path):
+    """The brake clears only at 6 bar (nominal 4.75): at 0.5 MPa it drags through every move."""
+    folder = synth.make_campaign(tmp_path / "brake", synth.wrist_params()._replace(brake_release_gauge_pa=6.0e5), seed=13, pressures_mpa=(0.5, 0.8))
+    d = diagnose(load_campaign(folder), catalogue=_by_name("coulomb_friction", "vane_leakage", "brake_incomplete_release", "brake_holding"), progress=False)
+    w = d["which"]
+    assert w["top"]["families"][0] == "brake" and w["verdict"] in ("explained", "ambiguous"), w["verdict"]
+    assert w["top"]["fitted_values"][0] == pytest.approx(6.0e5, rel=0.1)
+
+
+def test_bench_slice_over_both_instruments(tmp_path):
+    """A slice of `twin gap bench` (gap.bench.QUICK, 2 supplies, the whole catalogue): a hidden vane
+    leak read by the camera with chamber pressures on stop-and-go runs, and no hidden effect read
+    by the camera (stop-and-go, 35 ms latency undeclared)."""
+    from gap.bench import run_bench
+
+    s = run_bench(tmp_path, quick=True)
+    by = {r["case"]: r for r in s["cases"]}
+    assert set(by) == {"vane_leakage", "none_1"}
+    assert by["vane_leakage"]["top1"] and by["vane_leakage"]["instrument"] == "camera_30hz"
+    assert by["none_1"]["instrument"] == "camera_30hz"
+    assert s["false_alarm_rate"] == 0.0, [(r["case"], r["verdict"], r["top"]) for r in s["cases"]]
+    assert by["none_1"]["latency_found_s"] == pytest.approx(by["none_1"]["latency_s"], abs=0.010)
+    assert s["diagnose_s_max"] >= s["diagnose_s_median"] > 0
+    assert (tmp_path / "bench.json").is_file()

@@ -1,0 +1,112 @@
+"""Where the twin departs: each angle sample labelled by motion phase, supply, direction, load,
+angle, speed and time since the first move; the residual broken down by those labels; and how
+well an effect's correction matches the residual's pattern over them (the family call's evidence).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from gap.campaign import Run
+
+PHASE_WINDOW_S = 0.3  # start / reversal / braking: this long after the command change
+ANGLE_BIN_DEG = 30.0  # the angle (position) factor's bin width
+FACTORS = ("phase", "supply_mpa", "direction", "load_kg", "angle_deg", "speed_rad_s", "time_since_start_s")
+# the factors that tell the families apart (how the gap scales); phase and direction repeat them
+PROFILE_FACTORS = ("supply_mpa", "load_kg", "angle_deg", "speed_rad_s", "time_since_start_s", "phase")
+
+
+def phases(run: Run, ts: np.ndarray) -> np.ndarray:
+    """Motion phase of each sample from the commands: start, moving, reversal, braking, holding."""
+    d = run.direction
+    out_idx = np.searchsorted(run.time_s, ts, side="right") - 1
+    labels = np.empty(len(ts), dtype=object)
+    # walk the command rows once, remembering the last direction change
+    t_change = np.zeros(len(d))
+    before = np.zeros(len(d))
+    tc, prev, lnz = 0.0, 0.0, 0.0
+    for i in range(len(d)):
+        if i > 0 and d[i] != d[i - 1]:
+            tc, prev = run.time_s[i], d[i - 1]
+            if d[i - 1] != 0:
+                lnz = d[i - 1]
+        t_change[i] = tc
+        before[i] = prev if prev != 0 else (lnz if d[i] == 0 else prev)
+    for j, i in enumerate(np.clip(out_idx, 0, len(d) - 1)):
+        since = ts[j] - t_change[i]
+        recent = since < PHASE_WINDOW_S and t_change[i] > 0
+        if d[i] != 0:
+            if recent and before[i] == -d[i]:
+                labels[j] = "reversal"
+            elif recent:
+                labels[j] = "start"
+            else:
+                labels[j] = "moving"
+        else:
+            labels[j] = "braking" if recent and before[i] != 0 else "holding"
+    return labels
+
+
+def labels_of(run: Run, ts: np.ndarray, angle_rad: np.ndarray, speed_rad_s: np.ndarray) -> dict[str, np.ndarray]:
+    """Every factor's label at each sample time `ts` of `run`; angle and speed are the nominal
+    twin's at those times (the measured angle would put the instrument's noise into the bins)."""
+    idx = np.clip(np.searchsorted(run.time_s, ts, side="right") - 1, 0, len(run.time_s) - 1)
+    moving = np.nonzero(run.direction)[0]
+    t0 = run.time_s[moving[0]] if len(moving) else 0.0
+    ang = np.floor(np.rad2deg(angle_rad) / ANGLE_BIN_DEG) * ANGLE_BIN_DEG
+    return {
+        "phase": phases(run, ts),
+        "supply_mpa": np.array([f"{run.supply_mpa:.2f}"] * len(ts), dtype=object),
+        "direction": np.array([{-1.0: "-1", 0.0: "0", 1.0: "+1"}[float(x)] for x in run.direction[idx]], dtype=object),
+        "load_kg": np.array([f"{run.payload_kg:g}"] * len(ts), dtype=object),
+        "angle_deg": np.array([f"{a:+.0f}..{a + ANGLE_BIN_DEG:+.0f}" for a in ang], dtype=object),
+        "speed_rad_s": np.array(["<0.1", "0.1-0.5", "0.5-1", ">1"], dtype=object)[np.digitize(np.abs(speed_rad_s), [0.1, 0.5, 1.0])],
+        "time_since_start_s": np.array([f"{max(0.0, math.floor((x - t0) / 0.5) * 0.5):.1f}+" if x >= t0 else "before" for x in ts], dtype=object),
+    }
+
+
+def concat_labels(per_run: list[dict[str, np.ndarray]]) -> dict[str, np.ndarray]:
+    return {f: np.concatenate([lab[f] for lab in per_run]) for f in FACTORS}
+
+
+def breakdown(labels: dict[str, np.ndarray], residual_rad: np.ndarray) -> dict:
+    """Residual rms, mean and max |.| (deg) and count per bin of each factor."""
+    res = np.rad2deg(residual_rad)
+    out = {}
+    for factor in FACTORS:
+        lab = labels[factor]
+        out[factor] = {}
+        for b in sorted(set(lab), key=str):
+            m = lab == b
+            out[factor][str(b)] = {"rms_deg": float(np.sqrt(np.mean(res[m] ** 2))), "mean_deg": float(np.mean(res[m])), "max_abs_deg": float(np.max(np.abs(res[m]))), "n": int(m.sum())}
+    return out
+
+
+def _profile(labels: dict[str, np.ndarray], x: np.ndarray) -> np.ndarray:
+    """How `x` scales over the profile factors: per factor that varies, each bin's mean and rms
+    less the factor's overall mean and rms (the level is left out: nearly every effect makes the
+    twin run ahead or behind everywhere; what tells them apart is where more, where less), each
+    bin weighted by sqrt(n) so that it counts by its samples."""
+    parts = []
+    mean_all, rms_all = np.mean(x), math.sqrt(np.mean(x**2))
+    for factor in PROFILE_FACTORS:
+        lab = labels[factor]
+        bins = sorted(set(lab), key=str)
+        if len(bins) < 2:  # a factor that does not vary says nothing about scaling
+            continue
+        for b in bins:
+            m = lab == b
+            w = math.sqrt(m.sum())
+            parts += [(np.mean(x[m]) - mean_all) * w, (math.sqrt(np.mean(x[m] ** 2)) - rms_all) * w]
+    return np.asarray(parts)
+
+
+def profile_match(labels: dict[str, np.ndarray], residual_rad: np.ndarray, correction_rad: np.ndarray) -> float:
+    """Cosine similarity (-1..1) between how the residual and an effect's correction (twin with the
+    effect minus the nominal twin, at the same samples) scale with supply, load, angle, speed, time
+    since start and phase: 1 = the effect moves the twin where, and as much, as the gap is."""
+    a, b = _profile(labels, residual_rad), _profile(labels, correction_rad)
+    na, nb = np.linalg.norm(a), np.linalg.norm(b)
+    return float(a @ b / (na * nb)) if na > 0 and nb > 0 else 0.0
