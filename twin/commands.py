@@ -110,9 +110,22 @@ def print_summary(summary: dict) -> None:
     for joint, j in summary["joints"].items():
         cells = [j["target_deg"], j["true_final_deg"], j["predicted_final_deg"], j["error_deg"]]
         print(f"  {joint:<16}" + "".join(f"{'-' if v is None else f'{v:.2f}':>{w}}" for v, w in zip(cells, (9, 9, 11, 9))))
+    if summary.get("discs"):
+        print(f"  {'disc':<8}{'contact s':>10}{'peak N':>9}{'mean N':>9}{'brushed cm':>12}  cleaned")
+        for d in summary["discs"]:
+            cells = [d["contact_s"], d["peak_force_n"], d["mean_force_n"], None if d["brushed_m"] is None else 100 * d["brushed_m"]]
+            state = {True: "yes", False: "NO", None: "not judged"}[d["cleaned"]]
+            print(f"  disc_{d['disc']:<3}" + "".join(f"{'-' if v is None else f'{v:.2f}':>{w}}" for v, w in zip(cells, (10, 9, 9, 12))) + f"  {state}")
+    if summary.get("discs"):
+        judged = [d for d in summary["discs"] if d["cleaned"] is not None]
+        print(f"  discs cleaned: {sum(bool(d['cleaned']) for d in judged)} of {len(judged)} judged (contact, force band, brushed rim)")
     for c in summary["criteria"]:
-        mark = "ok  " if c["passed"] else "FAIL"
+        if summary.get("discs") and c["kind"].startswith("disc_"):
+            continue  # in the disc table above
+        mark = "ok  " if c["passed"] else "FAIL" if c.get("judged", True) else "----"
         print(f"  [{mark}] {c['kind']} {c['subject']}: {c['value']:.4g} (allowed {c['limit']})")
+    if summary.get("not_reached"):
+        print(f"  not reached (cut short, not judged): {', '.join(summary['not_reached'])}")
 
 
 def cmd_sweep(args) -> int:
