@@ -10,9 +10,10 @@ the insulator string (paper Sec. II). This model sees only what that camera's pi
   The camera is a device in the world: it reads the scene, the operator reads only its frames.
 - **the eye**: a frame is seen `latency_s` after it was taken (video link plus reaction). Depth
   along the optical axis is what one camera cannot see: the operator judges the error in the
-  picture's plane only, with the scale of the disc he is working on (its known 255 mm across, so
-  he needs no distance), and takes the picture's plane for the arm's (the camera looks 10 deg
-  down: the vertical error is read 1.6 % short). The arm works in the plane the camera faces,
+  picture's plane only, with the scale of the string (see below; he needs no distance), and takes the picture's plane for the arm's (the camera looks 10 deg
+  down: the vertical error is read 1.6 % short). The scale is the string's: its discs' known
+  spacing (the far half of each disc is hidden behind the gantry's front post, so not its width).
+  The arm works in the plane the camera faces,
   so the press depth (along x) and the height are both in the picture; what he cannot see, the
   brush's offset along y, changes the rim's x under the brush by only r - sqrt(r^2 - y^2)
   (0.4 mm at 1 cm).
@@ -32,7 +33,8 @@ the insulator string (paper Sec. II). This model sees only what that camera's pi
 
 Numbers (the paper gives none for its camera): 640 x 480 at 25 frames/s, an analogue CCTV
 camera's picture (PAL, assumed); latency 0.4 s = about 0.1 s of video link and encoding plus a
-human visual reaction time of 0.2-0.3 s (assumed, textbook simple reaction times); tolerance
+human visual reaction time of 0.2-0.3 s (assumed, textbook simple reaction times), drawn
+for each look within +-25 % from the scenario's seed; tolerance
 1 cm: the brush head's 25 mm working press (of its 50 mm stroke, assets/arm.xml) then stays
 between 18 and 42 N.
 """
@@ -51,6 +53,7 @@ from scenarios.ik import BRUSH_HALF_LENGTH_M, tool_drive_angles
 from scenarios.pinhole import Pinhole, camera_of
 from scenarios.schema import Operator as OperatorParams
 
+LATENCY_SPREAD = 0.25  # each look's latency is latency_s x (1 +- this), uniform (assumed: reaction times scatter ~25 %)
 MAX_LOOKS = 6  # corrections per disc before the operator presses where the brush is
 # the platform's belief is reset from the picture when a joint's seen pitch is further off than
 # REREAD_PX pixels at the ends of the shortest link that sets it (0.7 deg for the 80 px upper arm,
@@ -65,7 +68,7 @@ class Frame:
     time_s: float
     brush_px: np.ndarray  # (2,) centre of the brush's face, whole pixels (u right, v down)
     rim_px: np.ndarray  # (8, 2) each disc's rim point facing the arm, whole pixels
-    disc_width_px: np.ndarray  # (8,) each disc's width across the picture, whole pixels
+    disc_pitch_px: float  # the string's disc-to-disc spacing in the picture, pixels (mean over the string)
     arm_px: np.ndarray  # (4, 2) shoulder, elbow and wrist axes and the brush's centre, whole pixels
 
 
@@ -75,14 +78,9 @@ def brush_face_m(data: mujoco.MjData) -> np.ndarray:
     return head.xpos + BRUSH_HALF_LENGTH_M * head.xmat.reshape(3, 3)[:, 0]
 
 
-def disc_edges_m(model: mujoco.MjModel) -> tuple[np.ndarray, np.ndarray]:
-    """Each disc's rim point facing the arm (-x) and its far point (+x), world, (8, 3) each."""
-    near, far = [], []
-    for k in range(1, N_DISCS + 1):
-        g = model.geom(f"disc_{k}")
-        near.append(g.pos - [g.size[0], 0.0, 0.0])
-        far.append(g.pos + [g.size[0], 0.0, 0.0])
-    return np.array(near), np.array(far)
+def disc_rims_m(model: mujoco.MjModel) -> np.ndarray:
+    """Each disc's rim point facing the arm (-x), world, (8, 3)."""
+    return np.array([model.geom(f"disc_{k}").pos - [model.geom(f"disc_{k}").size[0], 0.0, 0.0] for k in range(1, N_DISCS + 1)])
 
 
 class GlobalCamera:
@@ -92,9 +90,8 @@ class GlobalCamera:
         self.data = data
         self.pinhole: Pinhole = camera_of(model, data, CAMERA, params.width_px, params.height_px)  # fixed to the world
         self.period_s = 1.0 / params.camera_fps
-        near, far = disc_edges_m(model)
-        self.rim_px = np.floor(self.pinhole.project(near))
-        self.disc_width_px = np.abs(np.floor(self.pinhole.project(far))[:, 0] - self.rim_px[:, 0])
+        self.rim_px = np.floor(self.pinhole.project(disc_rims_m(model)))
+        self.disc_pitch_px = float(abs(self.rim_px[-1, 1] - self.rim_px[0, 1]) / (N_DISCS - 1))
         self.frames: deque[Frame] = deque(maxlen=64)
         self._next_s = 0.0
 
@@ -104,7 +101,7 @@ class GlobalCamera:
             return
         d = self.data
         seen = np.floor(self.pinhole.project(np.array([brush_face_m(d), *(d.body(b).xpos for b in ARM_POINTS), d.site("brush_tip").xpos])))
-        self.frames.append(Frame(time_s, seen[0], self.rim_px, self.disc_width_px, seen[1:]))
+        self.frames.append(Frame(time_s, seen[0], self.rim_px, self.disc_pitch_px, seen[1:]))
         self._next_s += self.period_s * max(1, math.floor((time_s - self._next_s) / self.period_s) + 1)
 
     def seen(self, now_s: float, latency_s: float, taken_after_s: float) -> Frame | None:
@@ -118,18 +115,24 @@ class GlobalCamera:
 class Operator:
     """Corrects the brush's aim by what the camera shows (see the module's docstring)."""
 
-    def __init__(self, model: mujoco.MjModel, camera: GlobalCamera, params: OperatorParams):
+    def __init__(self, model: mujoco.MjModel, camera: GlobalCamera, params: OperatorParams, rng: np.random.Generator):
         self.model, self.camera, self.params = model, camera, params
+        self.rng = rng  # his reaction time varies from look to look
+        self._latency_s = self._draw_latency()
         self.aim_offset_m = np.zeros(3)  # added to every brush target's tool-tip position (world x, z)
         self.looks = 0
-        self.disc_diameter_m = 2 * float(model.geom("disc_1").size[0])  # the string's disc type is known
+        # the string's disc type is known: its unit spacing (146 mm, U70BL) is his scale in the picture
+        self.disc_pitch_m = float(model.geom("disc_1").pos[2] - model.geom("disc_2").pos[2])
         self.log: list[str] = []
 
     def picture_error_m(self, frame: Frame, disc: int, standoff_m: float) -> np.ndarray:
         """The face's error from where it should stand (world x, 0, z), as the picture shows it."""
-        scale = self.disc_diameter_m / max(frame.disc_width_px[disc - 1], 1.0)
+        scale = self.disc_pitch_m / max(frame.disc_pitch_px, 1.0)
         du, dv = frame.brush_px - frame.rim_px[disc - 1]
         return np.array([du * scale + standoff_m, 0.0, -dv * scale])
+
+    def _draw_latency(self) -> float:
+        return max(0.0, self.params.latency_s * (1.0 + LATENCY_SPREAD * (2.0 * self.rng.random() - 1.0)))
 
     @staticmethod
     def read_pose(frame: Frame) -> dict[str, float]:
@@ -155,9 +158,10 @@ class Operator:
         """Look at the brush standing off `disc`, and set the platform's belief of the pose to the
         picture's (`platform.reference(joint, angle)`). None: still waiting for a picture of the
         arm at rest; True: the aim was moved, go there again; False: close enough (or out of looks)."""
-        frame = self.camera.seen(now_s, self.params.latency_s, done_s)
+        frame = self.camera.seen(now_s, self._latency_s, done_s)
         if frame is None:
             return None
+        self._latency_s = self._draw_latency()
         seen_pose = self.read_pose(frame)
         believed = dict(zip(platform.joints, platform.predicted_angles()))
         noise = self.reading_noise_rad(frame)

@@ -156,7 +156,7 @@ def run_scenario(
     task = None
     if scenario.model == "arm" and scenario.control.mode != "none" and not refusal:
         controller.set_targets([])  # the plan was checked whole; the task feeds it one target at a time
-        controller = task = TaskController(controller, scenario, plant, targets)
+        controller = task = TaskController(controller, scenario, plant, targets, np.random.default_rng([scenario.seed, 1]))  # a stream of its own: the supply's draws stay as they were
     duration = scenario.duration_s if duration_s is None else min(duration_s, scenario.duration_s)
     supply = supply_profile(scenario.supply, duration, rng)
     events, _ = fault_events(scenario.faults)

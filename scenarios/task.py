@@ -49,7 +49,7 @@ class _StopDrive:
 class TaskController:
     """Feeds `targets` (drive angles per scenario target) to `controller` one by one."""
 
-    def __init__(self, controller: ArmController, scenario: Scenario, plant: Plant, targets: list[dict[str, float]]):
+    def __init__(self, controller: ArmController, scenario: Scenario, plant: Plant, targets: list[dict[str, float]], rng: np.random.Generator):
         self.controller, self.scenario = controller, scenario
         self.targets = targets
         self.issued: list[dict[str, float]] = [dict(t) for t in targets]  # as sent (with the operator's aim)
@@ -60,7 +60,7 @@ class TaskController:
         self.model = plant.model
         self._plant = plant if self.strategy == "true_angle" else None  # the bound's only window on the truth
         self.camera = GlobalCamera(plant.model, plant.data, scenario.operator) if self.strategy == "operator" else None
-        self.operator = Operator(plant.model, self.camera, scenario.operator) if self.camera else None
+        self.operator = Operator(plant.model, self.camera, scenario.operator, rng) if self.camera else None
         self._review_from_s = math.nan
         self._stop: _StopDrive | None = None
         self._stopped_after: set[int] = set()  # back-off targets after which the stop drive was tried

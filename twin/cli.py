@@ -15,7 +15,7 @@ from pneumatics import ParameterError
 from twin.errors import UserError
 
 # modules that define `register(subparsers)`; missing ones are skipped so the CLI still starts
-COMMAND_MODULES = ("twin.commands", "twin.log_commands", "gap.commands")
+COMMAND_MODULES = ("twin.commands", "twin.log_commands", "gap.commands", "scenarios.commands")
 
 
 def build_parser() -> argparse.ArgumentParser:
