@@ -8,7 +8,7 @@ finish noted, and a strategy that may act between them (scenario field `control.
                  upper discs), since the parallelogram keeps the forearm's pitch
     operator     the operator corrects the brush's aim by the global camera (scenarios/operator.py)
     true_angle   a bound, not a way to run the arm: the same controller handed the plant's true
-                 angles and speeds every tick (it breaks the sensorless rule on purpose)
+                 angles every tick (it breaks the sensorless rule on purpose)
 
 The task controller is what the run loop ticks (twin/sim.py's Controller protocol). It hands the
 platform's controller only the sensors; the operator sees only the camera's frames; the bound alone
@@ -71,7 +71,9 @@ class TaskController:
     def tick(self, sensors) -> np.ndarray:
         t = float(sensors.time_s)
         if self._plant is not None:
-            for j, q, w in zip(self.controller.joints, self._plant.drive_angles(), self._plant.drive_speeds()):
+            # the angle only: the speed stays the predictor's, whose stick is an exact 0 the arrival
+            # logic waits for (MuJoCo's braked joint creeps at ~1e-6 rad/s)
+            for j, q, w in zip(self.controller.joints, self._plant.drive_angles(), self.controller.predicted_speeds()):
                 self.controller.reference(j, q, w)
         if self.camera is not None:
             self.camera.capture(t)
