@@ -6,7 +6,8 @@ finish noted, and a strategy that may act between them (scenario field `control.
                  end stop (the MJCF's range, a stop the platform knows) and its predicted angle set
                  to it; only where the elbow stays in its range with the shoulder there (the string's
                  upper discs), since the parallelogram keeps the forearm's pitch
-    operator     the operator corrects the brush's aim by the global camera (scenarios/operator.py)
+    operator     the operator corrects the brush's aim by the global camera (scenarios/operator.py);
+                 he also clears the platform's faults (a move not finished in time) and goes on
     true_angle   a bound, not a way to run the arm: the same controller handed the plant's true
                  angles every tick (it breaks the sensorless rule on purpose)
 
@@ -79,6 +80,10 @@ class TaskController:
             self.camera.capture(t)
         if self._stop is not None:
             return self._drive_into_stop(sensors)
+        if self.controller.faulted and self.operator is not None and 0 <= self.k < len(self.targets):
+            # the operator sees the fault (a move that did not end in time, a refusal), clears it and
+            # goes on from where the arm is: the camera tells him whether the brush is where it must be
+            self.controller.clear_fault()
         if self.controller.done and not self.controller.faulted and self.k < len(self.targets):
             self._between_targets(t)
             if self._stop is not None:

@@ -37,6 +37,8 @@ mode = "none"
         ("[[faults]]\nkind = 'supply_lost'\nat_s = 99.0", "faults[0].at_s", "99.0"),
         ("[reality.effects.wrist_pitch]\nleak_area_m2 = -1.0", "reality.effects.wrist_pitch.leak_area_m2", "-1.0"),
         ("[reality.effects.wrist_pitch]\nmagic = 1.0", "reality.effects.wrist_pitch.magic", "not a known field"),
+        ("[control]\nstrategy = 'psychic'", "control.strategy", "'psychic'"),
+        ("[operator]\nlatency_s = -1.0", "operator.latency_s", "-1.0"),
     ],
 )
 def test_bad_fields_are_refused_with_path_field_value_and_allowed(extra, field, value):
