@@ -183,7 +183,7 @@ def test_rrd_holds_the_entities(logged):
     tmp, telemetry = logged
     paths, series, blueprints = rrd_entities(tmp / "run.rrd")
     expected = {f"/world/arm/{b}" for b in telemetry.bodies}
-    expected |= {f"/world/string/disc_{i}" for i in range(1, 9)} | {"/world/arm/brush/brush", "/world/scene/floor"}
+    expected |= {f"/world/string/disc_{i}" for i in range(1, 9)} | {"/world/arm/brush_head/brush", "/world/scene/floor"}  # the brush geom is on its spring-mounted head
     for j in telemetry.joints:
         expected |= {f"/joints/{j}/angle_deg/{s}" for s in ("true", "predicted", "target")}
         expected |= {f"/joints/{j}/error_deg/predicted_minus_true", f"/joints/{j}/pressure_pa/chamber_a", f"/joints/{j}/pressure_pa/chamber_b"}
