@@ -11,8 +11,8 @@
     disc_brushed_m   the length of the disc's rim the brush's face covered lies in min..max m
 
 A run cut short (`twin run --duration`) judges a disc only if every press target on it was
-finished in time, and the final errors only if the plan's last target was; the rest are listed as
-not judged, with why.
+finished in time, the final errors only if the plan's last target was, and the brush's overall
+force once some disc was; the rest are listed as not judged.
     max_drop_m       after the first fault, the payload never fell more than `max` m below where it was
     max_travel_deg   after the first fault, `joint` turned no more than `max` deg
     prediction_error_deg  |true - predicted| of `joint` (every predicted joint) over the run <= max
@@ -62,6 +62,8 @@ def judge(scenario: Scenario, arrays: dict[str, np.ndarray], joints: tuple[str, 
             verdicts = _judge_one(c, scenario, arrays, joints, bodies, model)
             if reached is not None and c.kind == "final_error_deg" and not (reached and reached[-1]):
                 verdicts = [replace(v, passed=False, judged=False) for v in verdicts]
+            if reached is not None and c.kind == "contact_force_n" and not any(disc_reached(scenario, k, reached) for k in range(1, 9)):
+                verdicts = [replace(v, passed=False, judged=False) for v in verdicts]  # no press finished yet
             out.extend(verdicts)
     return out
 
