@@ -98,7 +98,9 @@ class TaskController:
 
     @property
     def events(self) -> list[str]:
-        return self.controller.events + self._notes + (self.operator.log if self.operator else [])
+        """The platform's events, the re-references and the operator's looks, in time order."""
+        merged = self.controller.events + self._notes + (self.operator.log if self.operator else [])
+        return sorted(merged, key=_event_time)
 
     # -- sequencing ----------------------------------------------------------------------------
     def _between_targets(self, t: float) -> None:
@@ -192,3 +194,12 @@ class TaskController:
         for k in range(0, min(self.k, len(self.issued) - 1) + 1):
             out.update(self.issued[k])
         return out
+
+
+def _event_time(event: str) -> float:
+    """The time of an event line 't = 12.345 s: ...' (stable order for lines without one)."""
+    head = event.removeprefix("t = ").split(" s:", 1)[0]
+    try:
+        return float(head)
+    except ValueError:
+        return math.inf
