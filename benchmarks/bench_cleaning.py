@@ -45,7 +45,9 @@ def _step_us(scene: Path, pressed: bool, n: int = 4000) -> float:
 def _rigid_scene(ref: str, folder: Path) -> Path:
     """scene.xml beside the arm.xml of git `ref` (the rigid brush)."""
     root = Path(assets.SCENE_XML).parent
-    arm = subprocess.run(["git", "show", f"{ref}:assets/arm.xml"], cwd=root, capture_output=True, text=True, check=True).stdout
+    arm = subprocess.run(
+        ["git", "show", f"{ref}:assets/arm.xml"], cwd=root, capture_output=True, text=True, check=True
+    ).stdout
     (folder / "arm.xml").write_text(arm)
     shutil.copy(assets.SCENE_XML, folder / "scene.xml")
     return folder / "scene.xml"
@@ -58,7 +60,11 @@ def bench_cleaning(ref: str = "main", sim_s: float = 20.0) -> dict:
         for pressed in (False, True):
             where = "pressed" if pressed else "home"
             new, old = _step_us(Path(assets.SCENE_XML), pressed), _step_us(rigid, pressed)
-            out[f"mj_step_{where}_us"] = {"compliant": round(new, 2), "rigid": round(old, 2), "ratio": round(new / old, 3)}
+            out[f"mj_step_{where}_us"] = {
+                "compliant": round(new, 2),
+                "rigid": round(old, 2),
+                "ratio": round(new / old, 3),
+            }
     scenario = load(SCENARIO)
     wall = {}
     for strategy in ("sensorless", "operator"):

@@ -89,11 +89,15 @@ def disc_contacts(model: mujoco.MjModel, arrays: dict[str, np.ndarray], until_s:
         on = (disc == k) & (force > CONTACT_N)
         touched = force[disc == k]
         azimuth = np.arctan2(point[on, 1] - g.pos[1], point[on, 0] - g.pos[0])
-        out.append(DiscContact(
-            disc=k,
-            contact_s=_longest_run_s(on, t),
-            peak_n=float(touched.max()) if touched.size else math.nan,
-            mean_n=float(force[on].mean()) if on.any() else math.nan,
-            brushed_m=_covered_arc_m(azimuth, math.asin(min(1.0, brush_radius / float(g.size[0]))), float(g.size[0])),
-        ))
+        out.append(
+            DiscContact(
+                disc=k,
+                contact_s=_longest_run_s(on, t),
+                peak_n=float(touched.max()) if touched.size else math.nan,
+                mean_n=float(force[on].mean()) if on.any() else math.nan,
+                brushed_m=_covered_arc_m(
+                    azimuth, math.asin(min(1.0, brush_radius / float(g.size[0]))), float(g.size[0])
+                ),
+            )
+        )
     return out

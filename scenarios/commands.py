@@ -11,10 +11,18 @@ from twin.errors import UserError
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("study", help="studies over the scenarios: `twin study cleaning --out DIR`")
     studies = p.add_subparsers(dest="study", required=True)
-    c = studies.add_parser("cleaning", help="the insulator-cleaning task per strategy x supply x seed: DIR/study.json, study.md, study.png")
+    c = studies.add_parser(
+        "cleaning", help="the insulator-cleaning task per strategy x supply x seed: DIR/study.json, study.md, study.png"
+    )
     c.add_argument("--out", type=Path, required=True)
-    c.add_argument("--strategies", default="", help="comma-separated subset of sensorless,rereference,operator,true_angle (default: all)")
-    c.add_argument("--supplies", default="0.5,0.6,0.7,0.8", help="supply pressures, MPa gauge (default 0.5,0.6,0.7,0.8)")
+    c.add_argument(
+        "--strategies",
+        default="",
+        help="comma-separated subset of sensorless,rereference,operator,true_angle (default: all)",
+    )
+    c.add_argument(
+        "--supplies", default="0.5,0.6,0.7,0.8", help="supply pressures, MPa gauge (default 0.5,0.6,0.7,0.8)"
+    )
     c.add_argument("--seeds", type=int, default=2, help="child seeds per strategy and supply (default 2)")
     c.add_argument("--workers", type=int, default=0, help="local worker processes (default: all cores)")
     c.set_defaults(func=cmd_study_cleaning)

@@ -6,12 +6,14 @@ the insulator string (paper Sec. II). This model sees only what that camera's pi
 - **the camera** (`GlobalCamera`): the scene's `global_view`, a pinhole of the same pose and field
   of view MuJoCo renders (scenarios/pinhole.py), at `width_px` x `height_px` and `camera_fps`. Each
   frame holds where the brush's face and each disc's rim facing the arm are in the picture, in
-  whole pixels (the eye cannot place an edge better than a pixel), and each disc's width in it.
+  whole pixels (the eye cannot place an edge better than a pixel), the string's disc spacing in
+  it, and where the shoulder, elbow and wrist axes are.
   The camera is a device in the world: it reads the scene, the operator reads only its frames.
 - **the eye**: a frame is seen `latency_s` after it was taken (video link plus reaction). Depth
   along the optical axis is what one camera cannot see: the operator judges the error in the
-  picture's plane only, with the scale of the string (see below; he needs no distance), and takes the picture's plane for the arm's (the camera looks 10 deg
-  down: the vertical error is read 1.6 % short). The scale is the string's: its discs' known
+  picture's plane only, with the scale of the string (he needs no distance), and takes the
+  picture's plane for the arm's (the camera looks 10 deg down: the vertical error is read 1.6 %
+  short). The scale is the string's: its discs' known
   spacing (the far half of each disc is hidden behind the gantry's front post, so not its width).
   The arm works in the plane the camera faces,
   so the press depth (along x) and the height are both in the picture; what he cannot see, the
@@ -80,7 +82,9 @@ def brush_face_m(data: mujoco.MjData) -> np.ndarray:
 
 def disc_rims_m(model: mujoco.MjModel) -> np.ndarray:
     """Each disc's rim point facing the arm (-x), world, (8, 3)."""
-    return np.array([model.geom(f"disc_{k}").pos - [model.geom(f"disc_{k}").size[0], 0.0, 0.0] for k in range(1, N_DISCS + 1)])
+    return np.array(
+        [model.geom(f"disc_{k}").pos - [model.geom(f"disc_{k}").size[0], 0.0, 0.0] for k in range(1, N_DISCS + 1)]
+    )
 
 
 class GlobalCamera:
@@ -100,7 +104,11 @@ class GlobalCamera:
         if time_s + 1e-9 < self._next_s:
             return
         d = self.data
-        seen = np.floor(self.pinhole.project(np.array([brush_face_m(d), *(d.body(b).xpos for b in ARM_POINTS), d.site("brush_tip").xpos])))
+        seen = np.floor(
+            self.pinhole.project(
+                np.array([brush_face_m(d), *(d.body(b).xpos for b in ARM_POINTS), d.site("brush_tip").xpos])
+            )
+        )
         self.frames.append(Frame(time_s, seen[0], self.rim_px, self.disc_pitch_px, seen[1:]))
         self._next_s += self.period_s * max(1, math.floor((time_s - self._next_s) / self.period_s) + 1)
 
@@ -170,16 +178,23 @@ class Operator:
             for joint, angle in seen_pose.items():
                 platform.reference(joint, angle)
             self.looks += 1
-            self.log.append(f"t = {now_s:.2f} s: disc_{disc}: {worst} seen at {math.degrees(seen_pose[worst]):.1f} deg, "
-                            f"platform believed {math.degrees(believed[worst]):.1f} deg: pose re-read")
+            self.log.append(
+                f"t = {now_s:.2f} s: disc_{disc}: {worst} seen at {math.degrees(seen_pose[worst]):.1f} deg, "
+                f"platform believed {math.degrees(believed[worst]):.1f} deg: pose re-read"
+            )
             return True
         error = self.picture_error_m(frame, disc, standoff_m)
         miss = float(np.hypot(error[0], error[2]))
         if miss <= self.params.tolerance_m or self.looks >= MAX_LOOKS:
-            self.log.append(f"t = {now_s:.2f} s: disc_{disc} seen {miss * 100:.1f} cm off after {self.looks} corrections: press")
+            self.log.append(
+                f"t = {now_s:.2f} s: disc_{disc} seen {miss * 100:.1f} cm off after {self.looks} corrections: press"
+            )
             self.looks = 0
             return False
         self.looks += 1
         self.aim_offset_m -= error
-        self.log.append(f"t = {now_s:.2f} s: disc_{disc} seen {miss * 100:.1f} cm off (x {error[0] * 100:+.1f}, z {error[2] * 100:+.1f} cm): aim moved")
+        self.log.append(
+            f"t = {now_s:.2f} s: disc_{disc} seen {miss * 100:.1f} cm off "
+            f"(x {error[0] * 100:+.1f}, z {error[2] * 100:+.1f} cm): aim moved"
+        )
         return True

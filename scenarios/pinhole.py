@@ -48,4 +48,10 @@ def camera_of(model: mujoco.MjModel, data: mujoco.MjData, name: str, width_px: i
     """The named camera of a model at the pose in `data` (after mj_forward or a step)."""
     cam = data.camera(name)
     fovy = math.radians(float(model.camera(name).fovy[0]))
-    return Pinhole(cam.xpos.copy(), cam.xmat.reshape(3, 3).copy(), (height_px / 2) / math.tan(fovy / 2), int(width_px), int(height_px))
+    return Pinhole(
+        cam.xpos.copy(),
+        cam.xmat.reshape(3, 3).copy(),
+        (height_px / 2) / math.tan(fovy / 2),
+        int(width_px),
+        int(height_px),
+    )

@@ -39,11 +39,20 @@ class Row:
     final_error_deg: float  # mean of the largest |final error| over the joints
 
 
-def run_study(strategies=STRATEGIES, supplies_mpa=SUPPLIES_MPA, seeds: int = 2, workers: int = 0, duration_s: float | None = None,
-              scenario_path: Path = SCENARIO, progress: bool = True) -> list[dict]:
+def run_study(
+    strategies=STRATEGIES,
+    supplies_mpa=SUPPLIES_MPA,
+    seeds: int = 2,
+    workers: int = 0,
+    duration_s: float | None = None,
+    scenario_path: Path = SCENARIO,
+    progress: bool = True,
+) -> list[dict]:
     """Every run's summary (sweep order: strategy, supply, seed)."""
     grid = {"control.strategy": list(strategies), "supply.pressure_mpa": list(supplies_mpa)}
-    return sweep(load(scenario_path), grid, monte_carlo=seeds, workers=workers, duration_s=duration_s, progress=progress)
+    return sweep(
+        load(scenario_path), grid, monte_carlo=seeds, workers=workers, duration_s=duration_s, progress=progress
+    )
 
 
 def cleaned(summary: dict) -> int:
@@ -61,25 +70,36 @@ def rows(results: list[dict]) -> list[Row]:
         peaks = [d["peak_force_n"] for r in runs for d in r["discs"] if d["peak_force_n"] is not None]
         finished = [r["finished_s"] for r in runs]
         errors = [max(abs(j["error_deg"]) for j in r["joints"].values() if j["error_deg"] is not None) for r in runs]
-        out.append(Row(
-            strategy, mpa, len(runs), min(n), float(np.mean(n)),
-            max(peaks) if peaks else math.nan,
-            float(np.mean([sum(d["brushed_m"] for d in r["discs"]) for r in runs])),
-            float(np.mean(finished)) if all(f is not None for f in finished) else math.nan,
-            float(np.mean(errors)),
-        ))
+        out.append(
+            Row(
+                strategy,
+                mpa,
+                len(runs),
+                min(n),
+                float(np.mean(n)),
+                max(peaks) if peaks else math.nan,
+                float(np.mean([sum(d["brushed_m"] for d in r["discs"]) for r in runs])),
+                float(np.mean(finished)) if all(f is not None for f in finished) else math.nan,
+                float(np.mean(errors)),
+            )
+        )
     return out
 
 
 def table(study_rows: list[Row]) -> str:
     """A markdown table, one line per strategy and supply."""
-    lines = ["| strategy | supply MPa | runs | discs cleaned (min / mean of 8) | largest peak force N | rim brushed m | plan finished s | largest final error deg |",
-             "|---|---|---|---|---|---|---|---|"]
+    lines = [
+        "| strategy | supply MPa | runs | discs cleaned (min / mean of 8) | largest peak force N | rim brushed m "
+        "| plan finished s | largest final error deg |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
     for r in study_rows:
         finished = "not finished" if math.isnan(r.finished_s) else f"{r.finished_s:.1f}"
         peak = "-" if math.isnan(r.peak_force_n) else f"{r.peak_force_n:.0f}"
-        lines.append(f"| {r.strategy} | {r.supply_mpa:.1f} | {r.runs} | {r.cleaned_min} / {r.cleaned_mean:.2f} | {peak} | "
-                     f"{r.brushed_m:.2f} | {finished} | {r.final_error_deg:.2f} |")
+        lines.append(
+            f"| {r.strategy} | {r.supply_mpa:.1f} | {r.runs} | {r.cleaned_min} / {r.cleaned_mean:.2f} | {peak} | "
+            f"{r.brushed_m:.2f} | {finished} | {r.final_error_deg:.2f} |"
+        )
     return "\n".join(lines)
 
 
@@ -95,7 +115,12 @@ def plot(study_rows: list[Row], path: Path) -> None:
         x = [r.supply_mpa for r in mine]
         ax1.plot(x, [r.cleaned_mean for r in mine], "o-", label=strategy)
         ax2.plot(x, [r.finished_s for r in mine], "o-", label=strategy)
-    ax1.set(xlabel="supply (MPa gauge)", ylabel="discs cleaned (mean over seeds)", ylim=(-0.3, 8.3), title="discs cleaned of 8")
+    ax1.set(
+        xlabel="supply (MPa gauge)",
+        ylabel="discs cleaned (mean over seeds)",
+        ylim=(-0.3, 8.3),
+        title="discs cleaned of 8",
+    )
     ax2.set(xlabel="supply (MPa gauge)", ylabel="s", title="plan finished (missing: not finished)")
     ax1.legend()
     fig.tight_layout()

@@ -32,7 +32,9 @@ from twin.plant import Plant
 
 STOP_JOINT = "shoulder_pitch"  # the joint whose error grows (README, "Sensorless drift")
 STOP_DRIVE_S = 1.0  # open-loop drive into the stop: this long ...
-STOP_DRIVE_S_PER_RAD = 6.0  # ... plus this per rad to go (the shoulder turns ~10 deg/s at 0.5 MPa, measured in the cleaning run)
+STOP_DRIVE_S_PER_RAD = (
+    6.0  # ... plus this per rad to go (the shoulder turns ~10 deg/s at 0.5 MPa, measured in the cleaning run)
+)
 STOP_SETTLE_S = 0.3  # brake applied before the angle is taken (brake engagement ~0.1 s, assets/joints)
 ELBOW_MARGIN_RAD = math.radians(5.0)  # keep the elbow this far inside its range at the stop
 
@@ -50,7 +52,14 @@ class _StopDrive:
 class TaskController:
     """Feeds `targets` (drive angles per scenario target) to `controller` one by one."""
 
-    def __init__(self, controller: ArmController, scenario: Scenario, plant: Plant, targets: list[dict[str, float]], rng: np.random.Generator):
+    def __init__(
+        self,
+        controller: ArmController,
+        scenario: Scenario,
+        plant: Plant,
+        targets: list[dict[str, float]],
+        rng: np.random.Generator,
+    ):
         self.controller, self.scenario = controller, scenario
         self.targets = targets
         self.issued: list[dict[str, float]] = [dict(t) for t in targets]  # as sent (with the operator's aim)
@@ -110,7 +119,9 @@ class TaskController:
             self._review_from_s = t
         if 0 <= self.k and self.operator is not None and self._is_approach(self.k):
             target = self.scenario.targets[self.k]
-            verdict = self.operator.review(t, self._review_from_s, target.brush_at_disc, target.standoff_m, self.controller)
+            verdict = self.operator.review(
+                t, self._review_from_s, target.brush_at_disc, target.standoff_m, self.controller
+            )
             if verdict is None:
                 return  # waiting to see the arm at rest
             if verdict:
@@ -118,7 +129,12 @@ class TaskController:
                 self._review_from_s = math.inf  # set when this correction is done
                 self.reached[self.k] = False
                 return
-        if 0 <= self.k and self.strategy == "rereference" and self._is_back_off(self.k) and self.k not in self._stopped_after:
+        if (
+            0 <= self.k
+            and self.strategy == "rereference"
+            and self._is_back_off(self.k)
+            and self.k not in self._stopped_after
+        ):
             self._stopped_after.add(self.k)
             if self._start_stop_drive(t):
                 return
@@ -141,20 +157,35 @@ class TaskController:
             return dict(nominal)
         tilt = nominal["elbow_pitch"] + nominal["wrist_pitch"]  # the tool's absolute pitch (parallelogram)
         try:
-            return {**nominal, **self.operator.aimed(disc_rim_target(self.model, t.brush_at_disc, t.standoff_m), tilt), **t.angles_deg}
+            return {
+                **nominal,
+                **self.operator.aimed(disc_rim_target(self.model, t.brush_at_disc, t.standoff_m), tilt),
+                **t.angles_deg,
+            }
         except ValueError:
             return dict(nominal)  # the aim is out of reach: go where the plan says
 
     def _is_approach(self, k: int) -> bool:
         """A target standing off a disc, followed by a press on the same disc."""
         ts = self.scenario.targets
-        return bool(ts[k].brush_at_disc and ts[k].standoff_m > 0 and k + 1 < len(ts)
-                    and ts[k + 1].brush_at_disc == ts[k].brush_at_disc and ts[k + 1].standoff_m < 0)
+        return bool(
+            ts[k].brush_at_disc
+            and ts[k].standoff_m > 0
+            and k + 1 < len(ts)
+            and ts[k + 1].brush_at_disc == ts[k].brush_at_disc
+            and ts[k + 1].standoff_m < 0
+        )
 
     def _is_back_off(self, k: int) -> bool:
         """A target standing off a disc right after a press on it."""
         ts = self.scenario.targets
-        return bool(k >= 1 and ts[k].brush_at_disc and ts[k].standoff_m > 0 and ts[k - 1].brush_at_disc == ts[k].brush_at_disc and ts[k - 1].standoff_m < 0)
+        return bool(
+            k >= 1
+            and ts[k].brush_at_disc
+            and ts[k].standoff_m > 0
+            and ts[k - 1].brush_at_disc == ts[k].brush_at_disc
+            and ts[k - 1].standoff_m < 0
+        )
 
     # -- re-referencing at a known stop -----------------------------------------------------------
     def _start_stop_drive(self, t: float) -> bool:
@@ -183,7 +214,10 @@ class TaskController:
         if t >= s.settle_until_s:
             before = math.degrees(c.predicted_angles()[s.joint])
             c.reference(c.joints[s.joint], s.stop_rad)
-            self._notes.append(f"t = {t:.3f} s: {c.joints[s.joint]} re-referenced at its stop {math.degrees(s.stop_rad):.2f} deg (predicted {before:.2f} deg)")
+            self._notes.append(
+                f"t = {t:.3f} s: {c.joints[s.joint]} re-referenced at its stop {math.degrees(s.stop_rad):.2f} deg "
+                f"(predicted {before:.2f} deg)"
+            )
             self._stop = None
         return self._commands
 

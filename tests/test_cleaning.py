@@ -68,9 +68,15 @@ def test_brush_press_follows_hookes_law(scene, press_m):
     j = scene.joint("brush_stroke")
     k, springref = float(scene.jnt_stiffness[j.id]), float(scene.qpos_spring[j.qposadr[0]])
     samples = []  # (stroke, force): the light head on a stiff contact still trembles; its mean is at rest
-    hold_arm_at(scene, disc_drive_angles(scene, 4, -press_m), then=lambda m, d: samples.append((d.joint("brush_stroke").qpos[0], axial_contact_force(m, d))))
+    hold_arm_at(
+        scene,
+        disc_drive_angles(scene, 4, -press_m),
+        then=lambda m, d: samples.append((d.joint("brush_stroke").qpos[0], axial_contact_force(m, d))),
+    )
     stroke, force = np.mean(samples, axis=0)
-    assert force == pytest.approx(k * (springref - stroke), rel=0.03)  # the head at rest (tool level: no weight along it); 1.4 % left at 10 mm
+    assert force == pytest.approx(
+        k * (springref - stroke), rel=0.03
+    )  # the head at rest (tool level: no weight along it); 1.4 % left at 10 mm
     assert -stroke == pytest.approx(press_m, abs=1e-3)  # the contact gives < 1 mm
     assert force == pytest.approx(k * (springref + press_m), rel=0.05)
     assert 10.0 < force < 60.0
@@ -154,8 +160,13 @@ def render_segmentation(width: int, height: int) -> dict | None:
     backend is chosen when mujoco is imported); None where no offscreen backend works."""
     for backend in ("egl", "osmesa"):
         env = dict(os.environ, MUJOCO_GL=backend, PYOPENGL_PLATFORM=backend)
-        proc = subprocess.run([sys.executable, "-c", RENDER, str(assets.SCENE_XML), str(width), str(height), CAMERA],
-                              env=env, capture_output=True, text=True, timeout=120)
+        proc = subprocess.run(
+            [sys.executable, "-c", RENDER, str(assets.SCENE_XML), str(width), str(height), CAMERA],
+            env=env,
+            capture_output=True,
+            text=True,
+            timeout=120,
+        )
         if proc.returncode == 0:
             return json.loads(proc.stdout.strip().splitlines()[-1])
     return None
