@@ -125,7 +125,9 @@ def print_summary(summary: dict) -> None:
         mark = "ok  " if c["passed"] else "FAIL" if c.get("judged", True) else "----"
         print(f"  [{mark}] {c['kind']} {c['subject']}: {c['value']:.4g} (allowed {c['limit']})")
     if summary.get("not_reached"):
-        print(f"  not reached (cut short, not judged): {', '.join(summary['not_reached'])}")
+        left = summary["not_reached"]
+        discs = sorted({t.split("(")[1].rstrip(")") for t in left if "(" in t}, key=lambda d: int(d.split("_")[1]))
+        print(f"  not reached (cut short, not judged): {len(left)} targets from {left[0]}" + (f", on {', '.join(discs)}" if discs else ""))
 
 
 def cmd_sweep(args) -> int:
