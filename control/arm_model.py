@@ -57,6 +57,20 @@ def drive_coefficients(xml_path: str | Path, joints: tuple[str, ...]) -> dict[st
 
 
 def _pinocchio_model(xml_path: Path, payload_kg: float | None) -> pin.Model:
+    return _lock_undriven(_full_model(xml_path, payload_kg))
+
+
+def _lock_undriven(model: pin.Model) -> pin.Model:
+    """The model with every joint that no motor drives (the brush head's spring slide) locked at
+    its neutral position: the controller believes the head rests at its stop, where its spring's
+    preload holds it whenever the brush touches nothing."""
+    undriven = [i for i in range(1, model.njoints) if model.names[i] not in assets.JOINTS]
+    if not undriven:
+        return model
+    return pin.buildReducedModel(model, undriven, pin.neutral(model))
+
+
+def _full_model(xml_path: Path, payload_kg: float | None) -> pin.Model:
     if payload_kg is None:
         return pin.buildModelFromMJCF(str(xml_path))
     # the payload's mass as the scenario says: the same MJCF with <body name="payload"><inertial mass>

@@ -305,6 +305,20 @@ class ArmController:
         self._step_index = np.flatnonzero(moving).tolist()
         self._stepping = True
 
+    def clear_fault(self) -> None:
+        """The operator acknowledges a fault: the controller takes requests again (the arm stays
+        braked until the next plan)."""
+        if self.faulted:
+            self.events.append(f"t = {self.time_s:.3f} s: fault cleared by the operator")
+        self.faulted = False
+
+    def reference(self, joint: str, angle_rad: float, speed_rad_s: float = 0.0) -> None:
+        """Set the predictor's angle (and speed) of `joint` from outside: the joint was driven to a
+        known stop, or (a bound for studies, not the sensorless arm) the truth is handed in."""
+        i = self.joints.index(joint)
+        self.y[i, R_THETA] = float(angle_rad)
+        self.y[i, R_OMEGA] = float(speed_rad_s)
+
     # -- what the controller believes (Controller protocol) ------------------------------------
     def predicted_angles(self) -> np.ndarray:
         """Predicted drive angles, rad."""

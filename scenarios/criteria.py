@@ -2,8 +2,17 @@
 
     final_error_deg  |true - last target| of `joint` (every targeted joint if none) at the end <= max
     max_error_deg    |true - target| of `joint` over the whole run (after the first target) <= max
-    brush_on_disc    the brush came within `max` m of disc `disc`'s rim (every disc if 0)
+    brush_on_disc    the brush came within `max` m of disc `disc`'s rim (every disc if 0); a
+                     distance, not a touch: the cleaning criteria below are the ones that count
     contact_force_n  the brush's peak force on the discs lies in min..max N
+    disc_contact_s   the brush pressed on disc `disc` (every disc if 0) above CONTACT_N for an
+                     unbroken min..max s (scenarios/cleaning.py: from MuJoCo's contacts)
+    disc_force_n     the brush's peak force on the disc lies in min..max N (untouched: fails)
+    disc_brushed_m   the length of the disc's rim the brush's face covered lies in min..max m
+
+A run cut short (`twin run --duration`) judges a disc only if every press target on it was
+finished in time, the final errors only if the plan's last target was, and the brush's overall
+force once some disc was; the rest are listed as not judged.
     max_drop_m       after the first fault, the payload never fell more than `max` m below where it was
     max_travel_deg   after the first fault, `joint` turned no more than `max` deg
     prediction_error_deg  |true - predicted| of `joint` (every predicted joint) over the run <= max
@@ -12,11 +21,12 @@
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 
 import mujoco
 import numpy as np
 
+from scenarios.cleaning import DiscContact, disc_contacts
 from scenarios.schema import Criterion, Scenario
 
 
@@ -27,20 +37,55 @@ class Verdict:
     value: float
     limit: str
     passed: bool
+    judged: bool = True  # False: the run was cut short before this criterion's targets were reached
+
+
+DISC_KINDS = ("disc_contact_s", "disc_force_n", "disc_brushed_m")
 
 
 def _deg(x):
     return np.degrees(x)
 
 
-def judge(scenario: Scenario, arrays: dict[str, np.ndarray], joints: tuple[str, ...], bodies: tuple[str, ...], model: mujoco.MjModel, requested: list[dict[str, float]] | None = None) -> list[Verdict]:
-    """One verdict per criterion of the scenario (at least one each: a criterion with nothing to
-    judge fails). `requested`: the scenario's targets in rad; final_error_deg is measured against
-    the last one asked of each joint, so a plan the controller refused cannot pass it."""
+def judge(scenario: Scenario, arrays: dict[str, np.ndarray], joints: tuple[str, ...], bodies: tuple[str, ...], model: mujoco.MjModel,
+          requested: list[dict[str, float]] | None = None, reached: list[bool] | None = None) -> list[Verdict]:
+    """One verdict per criterion of the scenario (per joint or disc where it names none; at least one
+    each: a criterion with nothing to judge fails). `requested`: the scenario's targets in rad;
+    final_error_deg is measured against the last one asked of each joint, so a plan the controller
+    refused cannot pass it. `reached`: per scenario target, whether it was finished; None: the run
+    was not cut short, and everything is judged (a disc the plan never got to fails)."""
     out = []
+    contacts = disc_contacts(model, arrays) if any(c.kind in DISC_KINDS for c in scenario.criteria) else []
     for c in scenario.criteria:
-        verdicts = _judge_one(c, scenario, arrays, joints, bodies, model, requested)
-        out.extend(verdicts or [Verdict(c.kind, c.joint or "-", math.nan, _limit(c), False)])
+        if c.kind in DISC_KINDS:
+            out.extend(_judge_discs(c, scenario, contacts, reached))
+        else:
+            verdicts = _judge_one(c, scenario, arrays, joints, bodies, model, requested)
+            if reached is not None and c.kind == "final_error_deg" and not (reached and reached[-1]):
+                verdicts = [replace(v, passed=False, judged=False) for v in verdicts]
+            if reached is not None and c.kind == "contact_force_n" and not any(disc_reached(scenario, k, reached) for k in range(1, 9)):
+                verdicts = [replace(v, passed=False, judged=False) for v in verdicts]  # no press finished yet
+            out.extend(verdicts or [Verdict(c.kind, c.joint or "-", math.nan, _limit(c), False)])
+    return out
+
+
+def disc_reached(scenario: Scenario, disc: int, reached: list[bool] | None) -> bool:
+    """Every press target (negative standoff) on `disc` was finished (True when not cut short)."""
+    if reached is None:
+        return True
+    presses = [i for i, t in enumerate(scenario.targets) if t.brush_at_disc == disc and t.standoff_m < 0]
+    return bool(presses) and all(reached[i] for i in presses)
+
+
+def _judge_discs(c: Criterion, scenario: Scenario, contacts: list[DiscContact], reached: list[bool] | None) -> list[Verdict]:
+    out = []
+    for dc in contacts:
+        if c.disc and dc.disc != c.disc:
+            continue
+        value = {"disc_contact_s": dc.contact_s, "disc_force_n": dc.peak_n, "disc_brushed_m": dc.brushed_m}[c.kind]
+        judged = disc_reached(scenario, dc.disc, reached)
+        passed = judged and bool(math.isfinite(value) and _within(value, c))
+        out.append(Verdict(c.kind, f"disc_{dc.disc}", value, _limit(c), passed, judged))
     return out
 
 

@@ -17,11 +17,13 @@ import assets
 from pneumatics import load_joint_params
 from pneumatics.as_built import load_as_built
 from scenarios import controllers
-from scenarios.criteria import Verdict, as_dicts, judge
+from scenarios.cleaning import DiscContact, disc_contacts
+from scenarios.criteria import DISC_KINDS, Verdict, as_dicts, judge
 from scenarios.faults import fault_events
 from scenarios.ik import disc_drive_angles
 from scenarios.schema import Scenario, joint_params_for, load
 from scenarios.supply import supply_profile
+from scenarios.task import TaskController
 from twin.args import DURATION_S, SEED, check_number
 from twin.plant import Plant
 from twin.sim import Recorder, run
@@ -37,10 +39,19 @@ class Result:
     error: str = ""
     refusal: str = ""  # the controller refused the plan (e.g. below the minimum rotation): arm left braked
     events: list[str] = field(default_factory=list)  # what the controller reported (arrivals, faults)
+    active_target_rad: dict[str, float] | None = None  # per joint, the target in force at the end (None: the plan's last)
+    reached: list[bool] | None = None  # per scenario target, finished in time (None: the run was not cut short)
+    discs: list[DiscContact] = field(default_factory=list)  # what the brush did to each disc (arm runs)
+    finished_s: float = math.nan  # when the plan's last target was finished (NaN: it was not)
 
     @property
     def passed(self) -> bool:
-        return not self.error and all(v.passed for v in self.verdicts)
+        return not self.error and all(v.passed for v in self.verdicts if v.judged)
+
+    def _final_target(self, joint: str) -> float:
+        if self.active_target_rad is not None:
+            return self.active_target_rad.get(joint, math.nan)
+        return next((t[joint] for t in reversed(self.targets_rad) if joint in t), math.nan)
 
     def summary(self) -> dict:
         """What `twin run --json` prints: per joint the final target, true and predicted angles and
@@ -48,7 +59,7 @@ class Result:
         a = self.telemetry.arrays()
         joints = {}
         for i, j in enumerate(self.telemetry.joints):
-            target = next((t[j] for t in reversed(self.targets_rad) if j in t), math.nan)
+            target = self._final_target(j)
             true = float(a["true_angle_rad"][-1, i]) if len(a["time_s"]) else math.nan
             pred = float(a["predicted_angle_rad"][-1, i]) if len(a["time_s"]) else math.nan
             joints[j] = {
@@ -69,7 +80,31 @@ class Result:
             "controller_events": self.events,
             "joints": joints,
             "criteria": as_dicts(self.verdicts),
+            "not_reached": self._not_reached(),
+            "finished_s": None if not math.isfinite(self.finished_s) else round(self.finished_s, 3),
+            "discs": [_disc_row(d, self.verdicts) for d in self.discs],
         }
+
+    def _not_reached(self) -> list[str]:
+        """The targets the run did not finish (when it was cut short), as 'target N (disc k)'."""
+        if self.reached is None:
+            return []
+        return [f"target {i + 1}" + (f" (disc_{t.brush_at_disc})" if t.brush_at_disc else "")
+                for i, (t, done) in enumerate(zip(self.scenario.targets, self.reached)) if not done]
+
+
+def _disc_row(d: DiscContact, verdicts: list[Verdict]) -> dict:
+    """One disc's contact figures and whether its cleaning criteria held (None: not judged)."""
+    mine = [v for v in verdicts if v.kind in DISC_KINDS and v.subject == f"disc_{d.disc}"]
+    judged = [v for v in mine if v.judged]
+    return {
+        "disc": d.disc,
+        "contact_s": round(d.contact_s, 3),
+        "peak_force_n": None if not math.isfinite(d.peak_n) else round(d.peak_n, 2),
+        "mean_force_n": None if not math.isfinite(d.mean_n) else round(d.mean_n, 2),
+        "brushed_m": round(d.brushed_m, 4),
+        "cleaned": (all(v.passed for v in judged) if judged else None) if mine else None,
+    }
 
 
 def _deg(x: float):
@@ -131,6 +166,10 @@ def run_scenario(
     targets = resolve_targets(scenario, plant)
     base = {j: load_joint_params(assets.joint_param_path(j)) for j in scenario.joints}
     controller, refusal = controllers.build(scenario, plant, joint_params_for(base, scenario.predictor), targets)
+    task = None
+    if scenario.model == "arm" and scenario.control.mode != "none" and not refusal:
+        controller.set_targets([])  # the plan was checked whole; the task feeds it one target at a time
+        controller = task = TaskController(controller, scenario, plant, targets, np.random.default_rng([scenario.seed, 1]))  # a stream of its own: the supply's draws stay as they were
     duration = scenario.duration_s if duration_s is None else min(duration_s, scenario.duration_s)
     supply = supply_profile(scenario.supply, duration, rng)
     events, _ = fault_events(scenario.faults)
@@ -144,11 +183,17 @@ def run_scenario(
         if not isinstance(e, SimulationError):
             raise
         error = str(e)
-    verdicts = judge(scenario, telemetry.arrays(), plant.joints, telemetry.bodies, plant.model, targets) if len(telemetry) else []
+    cut_short = duration < scenario.duration_s
+    reached = list(task.reached) if task and cut_short else None
+    arrays = telemetry.arrays()
+    verdicts = judge(scenario, arrays, plant.joints, telemetry.bodies, plant.model, targets, reached) if len(telemetry) else []
     if refusal:  # the arm stayed braked: no error against a target the controller never took counts as met
         verdicts = [replace(v, passed=False) if v.kind == "max_error_deg" else v for v in verdicts]
     events = list(getattr(controller, "events", []))
-    return Result(scenario, telemetry, verdicts, targets, error, refusal, events)
+    discs = disc_contacts(plant.model, arrays) if scenario.model == "arm" and len(telemetry) else []
+    finished = task.finished_s[-1] if task and task.reached and task.reached[-1] else math.nan
+    return Result(scenario, telemetry, verdicts, targets, error, refusal, events,
+                  task.active_target() if task else None, reached, discs, finished)
 
 
 def run_file(path: str | Path, **kwargs) -> Result:

@@ -17,16 +17,20 @@ Top level:            name (str), description (str), model ("arm" | "wrist_rig")
 [predictor]           hose_loss (bool); [predictor.effects.<joint>] {field: value}
 [control]             mode ("closed_loop" | "open_loop" | "none"), sequence ("one_after_another" |
                       "together"), min_rotation_deg (0..90), tolerance_deg (0.05..10),
-                      move_timeout_s (0.1..600)
+                      move_timeout_s (0.1..600), strategy ("sensorless" | "rereference" |
+                      "operator" | "true_angle", scenarios/task.py; arm only)
+[operator]            camera_fps (0.5..200), latency_s (0..10), tolerance_m (0.001..0.2), width_px,
+                      height_px: the operator's view through the global camera (strategy "operator")
 [[targets]]           angles_deg {joint: deg} (drive angles) | brush_at_disc (1..8, the brush on
-                      that disc's rim by inverse kinematics), standoff_m (-0.02..0.5: brush face
+                      that disc's rim by inverse kinematics), standoff_m (-0.05..0.5: brush face
                       to rim; negative presses, default -0.006) ; dwell_s (0..600)
 [[faults]]            kind ("supply_lost" | "hose_leak" | "valve_stuck_open" | "brake_fails" |
                       "sensor_bias"), at_s (0..duration_s), joint (not for supply_lost), value
                       (only hose_leak: area m^2 up to the hose's bore; sensor_bias: Pa, +-1e6; not 0)
 [[criteria]]          kind ("final_error_deg" | "max_error_deg" | "brush_on_disc" |
-                      "contact_force_n" | "max_drop_m" | "max_travel_deg" | "prediction_error_deg"),
-                      joint, max, min (min <= max), disc (brush_on_disc only)
+                      "contact_force_n" | "disc_contact_s" | "disc_force_n" | "disc_brushed_m" |
+                      "max_drop_m" | "max_travel_deg" | "prediction_error_deg"), joint, max,
+                      min (min <= max), disc (brush_on_disc and the disc_* criteria)
 
 Beyond each field's own range, the file must agree with the model and with itself (refused
 otherwise, before any work): start and target angles inside the joints' ranges of the MJCF, brush
@@ -54,8 +58,7 @@ from scenarios.ik import disc_drive_angles, drive_to_qpos, qpos_to_drive
 from twin.errors import UserError
 
 SHIPPED_DIR = Path(__file__).resolve().parent  # the scenario files ship as package data (pyproject.toml)
-CRITERIA = ("final_error_deg", "max_error_deg", "brush_on_disc", "contact_force_n", "max_drop_m", "max_travel_deg", "prediction_error_deg")
-ARM_ONLY_CRITERIA = ("brush_on_disc", "contact_force_n", "max_drop_m")  # need the brush, the discs, the payload
+ARM_ONLY_CRITERIA = ("brush_on_disc", "contact_force_n", "disc_contact_s", "disc_force_n", "disc_brushed_m", "max_drop_m")  # need the brush, the discs, the payload
 TARGET_CRITERIA = ("final_error_deg", "max_error_deg")  # judged against the targets: need one
 # a fault's value: (low, high, unit) per kind that has one
 FAULT_VALUES = {
@@ -63,6 +66,16 @@ FAULT_VALUES = {
     "sensor_bias": (-1e6, 1e6, "Pa"),  # +-10 bar: beyond the 0.5-0.8 MPa supply's whole span
 }
 JOINT_CRITERIA = ("final_error_deg", "max_error_deg", "max_travel_deg", "prediction_error_deg")
+DISC_CRITERIA = ("brush_on_disc", "disc_contact_s", "disc_force_n", "disc_brushed_m")  # may name one disc
+
+
+CRITERIA = ("final_error_deg", "max_error_deg", "brush_on_disc", "contact_force_n", "disc_contact_s", "disc_force_n", "disc_brushed_m",
+            "max_drop_m", "max_travel_deg", "prediction_error_deg")
+# who keeps the arm on its task (scenarios/task.py): the predictor alone; the predictor re-referenced
+# at the shoulder's end stop after every disc; the operator correcting by eye through the global
+# camera (scenarios/operator.py); or, as a bound that breaks the sensorless rule, the same
+# controller fed the plant's true angles
+STRATEGIES = ("sensorless", "rereference", "operator", "true_angle")
 
 
 class ScenarioError(UserError):
@@ -96,6 +109,18 @@ class Control:
     min_rotation_deg: float = 20.0
     tolerance_deg: float = 0.5
     move_timeout_s: float = 20.0
+    strategy: str = "sensorless"
+
+
+@dataclass(frozen=True)
+class Operator:
+    """The operator watching the global camera (scenarios/operator.py has the sources)."""
+
+    camera_fps: float = 25.0
+    latency_s: float = 0.4
+    tolerance_m: float = 0.01
+    width_px: int = 640
+    height_px: int = 480
 
 
 @dataclass(frozen=True)
@@ -138,6 +163,7 @@ class Scenario:
     reality: Model = Model()
     predictor: Model = Model()
     control: Control = Control()
+    operator: Operator = Operator()
     targets: tuple[Target, ...] = ()
     faults: tuple[Fault, ...] = ()
     criteria: tuple[Criterion, ...] = ()
@@ -258,7 +284,7 @@ def parse_doc(doc: dict, path: str, text: str, overrides: dict | None = None) ->
     """A Scenario from an already-parsed TOML document (see `parse`)."""
     if not doc:
         raise ScenarioError(f"{path}: an empty scenario (no field at all); allowed: a file that says what to run (see the shipped scenarios/*.toml)")
-    top = _Reader(path, doc, "", {"name", "description", "model", "seed", "duration_s", "start", "payload", "supply", "reality", "predictor", "control", "targets", "faults", "criteria"})
+    top = _Reader(path, doc, "", {"name", "description", "model", "seed", "duration_s", "start", "payload", "supply", "reality", "predictor", "control", "operator", "targets", "faults", "criteria"})
     model = top.choice("model", "arm", ("arm", "wrist_rig"))
     joints = ("wrist_pitch",) if model == "wrist_rig" else JOINTS
     joint_names = " | ".join(joints)
@@ -284,13 +310,24 @@ def parse_doc(doc: dict, path: str, text: str, overrides: dict | None = None) ->
     if supply.kind == "steps" and not supply.steps:
         supply_r.fail("steps", [], "at least one [time_s, pressure_mpa] pair when kind = 'steps'")
 
-    ctl = _Reader(path, top.table_of("control"), "control", {"mode", "sequence", "min_rotation_deg", "tolerance_deg", "move_timeout_s"})
+    ctl = _Reader(path, top.table_of("control"), "control", {"mode", "sequence", "min_rotation_deg", "tolerance_deg", "move_timeout_s", "strategy"})
     control = Control(
         mode=ctl.choice("mode", "closed_loop", ("closed_loop", "open_loop", "none")),
         sequence=ctl.choice("sequence", "one_after_another", ("one_after_another", "together")),
         min_rotation_deg=ctl.number("min_rotation_deg", 20.0, 0.0, 90.0, "deg"),
         tolerance_deg=ctl.number("tolerance_deg", 0.5, 0.05, 10.0, "deg"),
         move_timeout_s=ctl.number("move_timeout_s", 20.0, 0.1, 600.0, "s"),
+        strategy=ctl.choice("strategy", "sensorless", STRATEGIES),
+    )
+    if control.strategy != "sensorless" and model != "arm":
+        ctl.fail("strategy", control.strategy, "'sensorless' with model = 'wrist_rig' (the others work on the arm's cleaning task)")
+    op = _Reader(path, top.table_of("operator"), "operator", {"camera_fps", "latency_s", "tolerance_m", "width_px", "height_px"})
+    operator = Operator(
+        camera_fps=op.number("camera_fps", 25.0, 0.5, 200.0, "frames/s"),
+        latency_s=op.number("latency_s", 0.4, 0.0, 10.0, "s"),
+        tolerance_m=op.number("tolerance_m", 0.01, 0.001, 0.2, "m"),
+        width_px=op.integer("width_px", 640, 16, 8192),
+        height_px=op.integer("height_px", 480, 16, 8192),
     )
 
     targets = []
@@ -302,7 +339,7 @@ def parse_doc(doc: dict, path: str, text: str, overrides: dict | None = None) ->
             tr.fail("angles_deg", {}, "angles_deg for at least one joint, or brush_at_disc 1..8")
         if disc and model != "arm":
             tr.fail("brush_at_disc", disc, "only with model = 'arm' (the rig has no brush)")
-        standoff = tr.number("standoff_m", -0.006, -0.02, 0.5, "m")
+        standoff = tr.number("standoff_m", -0.006, -0.05, 0.5, "m")
         if "standoff_m" in tr.table and not disc:
             tr.fail("standoff_m", standoff, "only with brush_at_disc")
         targets.append(Target(angles, disc, tr.number("dwell_s", 0.0, 0.0, 600.0, "s"), standoff))
@@ -342,8 +379,8 @@ def parse_doc(doc: dict, path: str, text: str, overrides: dict | None = None) ->
             cr.fail("joint", "<missing>", joint_names)
         if kind in ARM_ONLY_CRITERIA and model != "arm":
             cr.fail("kind", kind, f"a criterion the rig can be judged by ({', '.join(k for k in CRITERIA if k not in ARM_ONLY_CRITERIA)}); {kind} needs model = 'arm'")
-        if "disc" in cr.table and kind != "brush_on_disc":
-            cr.fail("disc", cr.table["disc"], "only with kind = 'brush_on_disc'")
+        if "disc" in cr.table and kind not in DISC_CRITERIA:
+            cr.fail("disc", cr.table["disc"], f"only with kind = {' | '.join(map(repr, DISC_CRITERIA))}")
         crit = Criterion(kind, joint, cr.number("max", math.inf, 0.0, math.inf), cr.number("min", -math.inf, -math.inf, math.inf), cr.integer("disc", 0, 0, 8))
         if crit.min > crit.max:
             cr.fail("min", crit.min, f"min <= max (max = {crit.max:g})")
@@ -365,6 +402,7 @@ def parse_doc(doc: dict, path: str, text: str, overrides: dict | None = None) ->
         reality=_model(path, "reality", top.table_of("reality"), joints),
         predictor=_model(path, "predictor", top.table_of("predictor"), joints),
         control=control,
+        operator=operator,
         targets=tuple(targets),
         faults=tuple(faults),
         criteria=tuple(criteria),

@@ -21,7 +21,8 @@ ARM_XML = ASSETS / "arm.xml"
 SCENE_XML = ASSETS / "scene.xml"
 
 JOINTS = ("base_yaw", "shoulder_pitch", "elbow_pitch", "wrist_pitch", "tool_roll")
-ARM_BODIES = ("base", "turret", "upper_arm", "forearm", "wrist", "tool", "brush", "payload")
+UNDRIVEN = ("brush_stroke",)  # the brush head's spring slide: no motor, the controller's model locks it
+ARM_BODIES = ("base", "turret", "upper_arm", "forearm", "wrist", "tool", "brush", "brush_head", "payload")
 PAYLOAD_KG = 20.0  # paper: maximum payload
 DISC_RADIUS_M = 0.255 / 2  # U70BL-like disc, 255 mm diameter
 DISC_SPACING_M = 0.146  # U70BL-like unit spacing
@@ -66,7 +67,7 @@ def total_warnings(d: mujoco.MjData) -> int:
 
 
 def test_scene_includes_arm_and_has_the_interface(scene: mujoco.MjModel) -> None:
-    assert [scene.joint(i).name for i in range(scene.njnt)] == list(JOINTS)
+    assert [scene.joint(i).name for i in range(scene.njnt)] == list(JOINTS + UNDRIVEN)
     assert [scene.actuator(i).name for i in range(scene.nu)] == list(JOINTS)
     for name in JOINTS:
         act = scene.actuator(name)
@@ -216,7 +217,7 @@ def test_pinocchio_gravity_equals_mujoco_at_rest(tmp_path: Path, payload_kg: flo
     model = pin.buildModelFromMJCF(str(path))
     data = model.createData()
     assert m.body("payload").mass[0] == pytest.approx(payload_kg)
-    assert model.nq == model.nv == len(JOINTS)
+    assert model.nq == model.nv == len(JOINTS + UNDRIVEN)
 
     # by name, never by index
     pin_q_index = {name: model.joints[model.getJointId(name)].idx_q for name in JOINTS}

@@ -37,6 +37,7 @@ mode = "none"
         ("[[faults]]\nkind = 'supply_lost'\nat_s = 99.0", "faults[0].at_s", "99.0"),
         ("[reality.effects.wrist_pitch]\nleak_area_m2 = -1.0", "reality.effects.wrist_pitch.leak_area_m2", "-1.0"),
         ("[reality.effects.wrist_pitch]\nmagic = 1.0", "reality.effects.wrist_pitch.magic", "not a known field"),
+        ("[operator]\nlatency_s = -1.0", "operator.latency_s", "-1.0"),
     ],
 )
 def test_bad_fields_are_refused_with_path_field_value_and_allowed(extra, field, value):
@@ -45,6 +46,11 @@ def test_bad_fields_are_refused_with_path_field_value_and_allowed(extra, field, 
     message = str(e.value)
     assert message.startswith("scenarios/bad.toml")
     assert field in message and value in message and "allowed" in message
+
+
+def test_an_unknown_strategy_is_refused():
+    with pytest.raises(ScenarioError, match=r"control.strategy = 'psychic' is not allowed; allowed: 'sensorless'"):
+        parse(MINIMAL.replace('mode = "none"', 'mode = "none"\nstrategy = "psychic"'), "scenarios/bad.toml")
 
 
 def test_every_shipped_file_parses_and_nothing_in_it_is_executed():

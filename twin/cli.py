@@ -20,7 +20,7 @@ from twin.errors import Terminated, UserError
 from twin.signals import stop_on_sigterm
 
 # modules that define `register(subparsers)`; missing ones are skipped so the CLI still starts
-COMMAND_MODULES = ("twin.commands", "twin.log_commands", "twin.plot_command", "gap.commands")
+COMMAND_MODULES = ("twin.commands", "twin.log_commands", "twin.plot_command", "gap.commands", "scenarios.commands")
 
 
 class OneLineParser(argparse.ArgumentParser):

@@ -147,10 +147,31 @@ def print_summary(summary: dict) -> None:
     print(f"  {'joint':<16}{'target':>9}{'true':>9}{'predicted':>11}{'error':>9}")
     for joint, j in summary["joints"].items():
         cells = [j["target_deg"], j["true_final_deg"], j["predicted_final_deg"], j["error_deg"]]
-        print(f"  {joint:<16}" + "".join(f"{'-' if v is None else f'{v:.2f}':>{w}}" for v, w in zip(cells, (9, 9, 11, 9))))
+        print(f"  {joint:<16}" + _cells(cells, (9, 9, 11, 9)))
+    if summary.get("discs"):
+        print(f"  {'disc':<8}{'contact s':>10}{'peak N':>9}{'mean N':>9}{'brushed cm':>12}  cleaned")
+        for d in summary["discs"]:
+            cells = [d["contact_s"], d["peak_force_n"], d["mean_force_n"], 100 * d["brushed_m"]]
+            state = {True: "yes", False: "NO", None: "not judged"}[d["cleaned"]]
+            print(f"  disc_{d['disc']:<3}" + _cells(cells, (10, 9, 9, 12)) + f"  {state}")
+        judged = [d for d in summary["discs"] if d["cleaned"] is not None]
+        cleaned = sum(bool(d["cleaned"]) for d in judged)
+        print(f"  discs cleaned: {cleaned} of {len(judged)} judged (contact, force band, brushed rim)")
     for c in summary["criteria"]:
-        mark = "ok  " if c["passed"] else "FAIL"
+        if summary.get("discs") and c["kind"].startswith("disc_"):
+            continue  # in the disc table above
+        mark = "ok  " if c["passed"] else "FAIL" if c.get("judged", True) else "----"
         print(f"  [{mark}] {c['kind']} {c['subject']}: {c['value']:.4g} (allowed {c['limit']})")
+    if summary.get("not_reached"):
+        left = summary["not_reached"]
+        discs = sorted({t.split("(")[1].rstrip(")") for t in left if "(" in t}, key=lambda d: int(d.split("_")[1]))
+        on = f", on {', '.join(discs)}" if discs else ""
+        print(f"  not reached (cut short, not judged): {len(left)} targets from {left[0]}{on}")
+
+
+def _cells(values, widths) -> str:
+    """Numbers right-aligned in columns of the given widths, '-' for None."""
+    return "".join(f"{'-' if v is None else f'{v:.2f}':>{w}}" for v, w in zip(values, widths))
 
 
 def cmd_sweep(args) -> int:

@@ -1,0 +1,103 @@
+"""What the brush did to each insulator disc, from MuJoCo's contacts as the run logged them.
+
+Every telemetry sample carries the brush's contact force (the sum of the normal forces of its
+contacts, `mj_contactForce`) and the force-weighted contact point (twin/sim.py `brush_contact`).
+The brush can touch only the discs (contype/conaffinity, assets/arm.xml and scene.xml), and the
+discs are 12.6 cm apart with a 2 cm rim, so a contact point belongs to the disc whose shell holds
+it. Per disc:
+
+    contact_s   the longest unbroken stretch with the force above CONTACT_N (s)
+    peak_n      the largest force while touching it (N)
+    mean_n      the mean force over the samples above CONTACT_N (N)
+    brushed_m   the length of rim the brush's face covered while pressing (m): the union, over
+                those samples, of the arcs the face's width spans (a chord of its diameter) centred on the contact point
+
+Nothing here reads the plan: a disc the brush never touched has contact_s 0 and NaN forces.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import mujoco
+import numpy as np
+
+N_DISCS = 8
+# a touch counts above half the head's spring preload (10 N, assets/arm.xml): any press that lifts
+# the head off its stop passes it, the contact's first sample of a graze may not
+CONTACT_N = 5.0
+# a contact point counts for a disc within its shell's half-thickness plus this much (m): the
+# force-weighted point of a face pressed on the rim's edge lies within the shell
+SHELL_MARGIN_M = 0.01
+
+
+@dataclass(frozen=True)
+class DiscContact:
+    disc: int
+    contact_s: float
+    peak_n: float
+    mean_n: float
+    brushed_m: float
+
+
+def disc_of_points(model: mujoco.MjModel, points: np.ndarray) -> np.ndarray:
+    """The disc (1..8) whose shell holds each contact point (0: none, or no contact: NaN point)."""
+    out = np.zeros(len(points), dtype=int)
+    for k in range(1, N_DISCS + 1):
+        g = model.geom(f"disc_{k}")
+        half = g.size[1] + SHELL_MARGIN_M
+        radial = np.hypot(points[:, 0] - g.pos[0], points[:, 1] - g.pos[1])
+        inside = (np.abs(points[:, 2] - g.pos[2]) <= half) & (radial <= g.size[0] + SHELL_MARGIN_M)
+        out[inside] = k
+    return out
+
+
+def _longest_run_s(mask: np.ndarray, t: np.ndarray) -> float:
+    """Duration of the longest run of consecutive True samples (first to last sample, plus one
+    sample period, so one sample counts as one period)."""
+    if not mask.any():
+        return 0.0
+    period = float(np.median(np.diff(t))) if len(t) > 1 else 0.0
+    edges = np.diff(np.concatenate(([0], mask.astype(np.int8), [0])))
+    starts, ends = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1) - 1
+    return float(max(t[e] - t[s] for s, e in zip(starts, ends)) + period)
+
+
+def _covered_arc_m(azimuth: np.ndarray, half_width_rad: float, radius_m: float) -> float:
+    """Length of the union of arcs [a - w, a + w] on a circle of radius_m."""
+    if azimuth.size == 0:
+        return 0.0
+    if half_width_rad >= math.pi:
+        return 2 * math.pi * radius_m
+    a = np.sort(np.mod(azimuth, 2 * math.pi))
+    gaps = np.diff(np.concatenate((a, [a[0] + 2 * math.pi])))  # between neighbours, around the circle
+    covered = 2 * math.pi - np.sum(np.maximum(gaps - 2 * half_width_rad, 0.0))
+    return float(covered * radius_m)
+
+
+def disc_contacts(model: mujoco.MjModel, arrays: dict[str, np.ndarray], until_s: float = math.inf) -> list[DiscContact]:
+    """Per disc, what the brush did to it up to `until_s`, from the run's contact samples."""
+    t = arrays["time_s"]
+    keep = t <= until_s
+    t, force, point = t[keep], arrays["brush_force_n"][keep], arrays["brush_contact_m"][keep]
+    disc = disc_of_points(model, np.nan_to_num(point, nan=np.inf))
+    brush_radius = float(model.geom("brush").size[0])
+    out = []
+    for k in range(1, N_DISCS + 1):
+        g = model.geom(f"disc_{k}")
+        on = (disc == k) & (force > CONTACT_N)
+        touched = force[disc == k]
+        azimuth = np.arctan2(point[on, 1] - g.pos[1], point[on, 0] - g.pos[0])
+        out.append(
+            DiscContact(
+                disc=k,
+                contact_s=_longest_run_s(on, t),
+                peak_n=float(touched.max()) if touched.size else math.nan,
+                mean_n=float(force[on].mean()) if on.any() else math.nan,
+                brushed_m=_covered_arc_m(
+                    azimuth, math.asin(min(1.0, brush_radius / float(g.size[0]))), float(g.size[0])
+                ),
+            )
+        )
+    return out

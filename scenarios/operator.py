@@ -1,0 +1,200 @@
+"""The operator on the platform, who watches the global camera and corrects the arm by eye.
+
+The paper's arm has no angle sensors; its operators steer by a camera that shows the whole arm and
+the insulator string (paper Sec. II). This model sees only what that camera's picture shows:
+
+- **the camera** (`GlobalCamera`): the scene's `global_view`, a pinhole of the same pose and field
+  of view MuJoCo renders (scenarios/pinhole.py), at `width_px` x `height_px` and `camera_fps`. Each
+  frame holds where the brush's face and each disc's rim facing the arm are in the picture, in
+  whole pixels (the eye cannot place an edge better than a pixel), the string's disc spacing in
+  it, and where the shoulder, elbow and wrist axes are.
+  The camera is a device in the world: it reads the scene, the operator reads only its frames.
+- **the eye**: a frame is seen `latency_s` after it was taken (video link plus reaction). Depth
+  along the optical axis is what one camera cannot see: the operator judges the error in the
+  picture's plane only, with the scale of the string (he needs no distance), and takes the
+  picture's plane for the arm's (the camera looks 10 deg down: the vertical error is read 1.6 %
+  short). The scale is the string's: its discs' known
+  spacing (the far half of each disc is hidden behind the gantry's front post, so not its width).
+  The arm works in the plane the camera faces,
+  so the press depth (along x) and the height are both in the picture; what he cannot see, the
+  brush's offset along y, changes the rim's x under the brush by only r - sqrt(r^2 - y^2)
+  (0.4 mm at 1 cm).
+- **the hands**: when the brush stands off a disc ready to press, he reads the arm's pose off
+  the picture (the pitch of the upper arm, the forearm and the tool: the lines between the
+  shoulder, elbow and wrist axes and the brush, as seen) and sets the platform's predicted
+  shoulder, elbow and wrist angles to it (the predictor drifts, its load model with it: once it
+  is 10-20 deg off, a small move it commands is a fraction of that in truth; measured in this
+  run, 3 deg commanded, 0.3-0.6 deg done). The base yaw he leaves: it turns the arm along the
+  optical axis, which he cannot see. He resets the belief only where it is off by more than
+  the picture's own noise (REREAD_RAD); then he compares the brush's face with where it should
+  stand (the standoff in front of the rim) and, while the error is over `tolerance_m`, moves
+  the brush's aim by the error he sees and lets the platform go there again (its inverse
+  kinematics, as a jog handle in the tool's frame would). The aim carries to the press and the
+  back-off on that disc, and to the next disc. At most MAX_LOOKS looks per disc.
+  A link 0.5 m long is ~80 px in the picture: a pixel at each end is ~0.7 deg of pitch.
+
+Numbers (the paper gives none for its camera): 640 x 480 at 25 frames/s, an analogue CCTV
+camera's picture (PAL, assumed); latency 0.4 s = about 0.1 s of video link and encoding plus a
+human visual reaction time of 0.2-0.3 s (assumed, textbook simple reaction times), drawn
+for each look within +-25 % from the scenario's seed; tolerance
+1 cm: the brush head's 25 mm working press (of its 50 mm stroke, assets/arm.xml) then stays
+between 18 and 42 N.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import deque
+from dataclasses import dataclass
+
+import mujoco
+import numpy as np
+
+from scenarios.cleaning import N_DISCS
+from scenarios.ik import BRUSH_HALF_LENGTH_M, tool_drive_angles
+from scenarios.pinhole import Pinhole, camera_of
+from scenarios.schema import Operator as OperatorParams
+
+LATENCY_SPREAD = 0.25  # each look's latency is latency_s x (1 +- this), uniform (assumed: reaction times scatter ~25 %)
+MAX_LOOKS = 6  # corrections per disc before the operator presses where the brush is
+# the platform's belief is reset from the picture when a joint's seen pitch is further off than
+# REREAD_PX pixels at the ends of the shortest link that sets it (0.7 deg for the 80 px upper arm,
+# 4.6 deg for the 25 px tool), so a reading's own noise does not trigger it
+REREAD_PX = 2.0
+ARM_POINTS = ("upper_arm", "forearm", "wrist")  # bodies whose origins are the shoulder, elbow, wrist axes
+CAMERA = "global_view"
+
+
+@dataclass(frozen=True)
+class Frame:
+    time_s: float
+    brush_px: np.ndarray  # (2,) centre of the brush's face, whole pixels (u right, v down)
+    rim_px: np.ndarray  # (8, 2) each disc's rim point facing the arm, whole pixels
+    disc_pitch_px: float  # the string's disc-to-disc spacing in the picture, pixels (mean over the string)
+    arm_px: np.ndarray  # (4, 2) shoulder, elbow and wrist axes and the brush's centre, whole pixels
+
+
+def brush_face_m(data: mujoco.MjData) -> np.ndarray:
+    """Centre of the brush's face (world): half the head's length along the tool axis."""
+    head = data.body("brush_head")
+    return head.xpos + BRUSH_HALF_LENGTH_M * head.xmat.reshape(3, 3)[:, 0]
+
+
+def disc_rims_m(model: mujoco.MjModel) -> np.ndarray:
+    """Each disc's rim point facing the arm (-x), world, (8, 3)."""
+    return np.array(
+        [model.geom(f"disc_{k}").pos - [model.geom(f"disc_{k}").size[0], 0.0, 0.0] for k in range(1, N_DISCS + 1)]
+    )
+
+
+class GlobalCamera:
+    """The global camera's frames at its frame rate, the last few kept (what the screen showed)."""
+
+    def __init__(self, model: mujoco.MjModel, data: mujoco.MjData, params: OperatorParams):
+        self.data = data
+        self.pinhole: Pinhole = camera_of(model, data, CAMERA, params.width_px, params.height_px)  # fixed to the world
+        self.period_s = 1.0 / params.camera_fps
+        self.rim_px = np.floor(self.pinhole.project(disc_rims_m(model)))
+        self.disc_pitch_px = float(abs(self.rim_px[-1, 1] - self.rim_px[0, 1]) / (N_DISCS - 1))
+        self.frames: deque[Frame] = deque(maxlen=64)
+        self._next_s = 0.0
+
+    def capture(self, time_s: float) -> None:
+        """Take a frame if one is due (called every control tick)."""
+        if time_s + 1e-9 < self._next_s:
+            return
+        d = self.data
+        seen = np.floor(
+            self.pinhole.project(
+                np.array([brush_face_m(d), *(d.body(b).xpos for b in ARM_POINTS), d.site("brush_tip").xpos])
+            )
+        )
+        self.frames.append(Frame(time_s, seen[0], self.rim_px, self.disc_pitch_px, seen[1:]))
+        self._next_s += self.period_s * max(1, math.floor((time_s - self._next_s) / self.period_s) + 1)
+
+    def seen(self, now_s: float, latency_s: float, taken_after_s: float) -> Frame | None:
+        """The newest frame taken at or after `taken_after_s` that the operator has seen by now."""
+        for f in reversed(self.frames):
+            if f.time_s + latency_s <= now_s + 1e-9:
+                return f if f.time_s >= taken_after_s - 1e-9 else None
+        return None
+
+
+class Operator:
+    """Corrects the brush's aim by what the camera shows (see the module's docstring)."""
+
+    def __init__(self, model: mujoco.MjModel, camera: GlobalCamera, params: OperatorParams, rng: np.random.Generator):
+        self.model, self.camera, self.params = model, camera, params
+        self.rng = rng  # his reaction time varies from look to look
+        self._latency_s = self._draw_latency()
+        self.aim_offset_m = np.zeros(3)  # added to every brush target's tool-tip position (world x, z)
+        self.looks = 0
+        # the string's disc type is known: its unit spacing (146 mm, U70BL) is his scale in the picture
+        self.disc_pitch_m = float(model.geom("disc_1").pos[2] - model.geom("disc_2").pos[2])
+        self.log: list[str] = []
+
+    def picture_error_m(self, frame: Frame, disc: int, standoff_m: float) -> np.ndarray:
+        """The face's error from where it should stand (world x, 0, z), as the picture shows it."""
+        scale = self.disc_pitch_m / max(frame.disc_pitch_px, 1.0)
+        du, dv = frame.brush_px - frame.rim_px[disc - 1]
+        return np.array([du * scale + standoff_m, 0.0, -dv * scale])
+
+    def _draw_latency(self) -> float:
+        return max(0.0, self.params.latency_s * (1.0 + LATENCY_SPREAD * (2.0 * self.rng.random() - 1.0)))
+
+    @staticmethod
+    def read_pose(frame: Frame) -> dict[str, float]:
+        """Drive angles of the pitch joints as the picture shows them (rad): each link's pitch is
+        its line's slope in the picture (v grows downwards)."""
+        pitch = [math.atan2(-(b[1] - a[1]), b[0] - a[0]) for a, b in zip(frame.arm_px[:-1], frame.arm_px[1:])]
+        upper, fore, tool = pitch
+        return {"shoulder_pitch": upper, "elbow_pitch": fore, "wrist_pitch": tool - fore}
+
+    @staticmethod
+    def reading_noise_rad(frame: Frame) -> dict[str, float]:
+        """How far off a pitch read from the picture may be: REREAD_PX over each link's length in
+        pixels; a drive angle that is a difference of two pitches takes the shorter link's."""
+        length = np.linalg.norm(np.diff(frame.arm_px, axis=0), axis=1)
+        upper, fore, tool = (REREAD_PX / max(n, 1.0) for n in length)
+        return {"shoulder_pitch": upper, "elbow_pitch": fore, "wrist_pitch": max(fore, tool)}
+
+    def aimed(self, tip_m: np.ndarray, tilt_rad: float) -> dict[str, float]:
+        """Drive angles for a brush target with the operator's aim applied."""
+        return tool_drive_angles(self.model, tip_m + self.aim_offset_m, tilt_rad)
+
+    def review(self, now_s: float, done_s: float, disc: int, standoff_m: float, platform) -> bool | None:
+        """Look at the brush standing off `disc`, and set the platform's belief of the pose to the
+        picture's (`platform.reference(joint, angle)`). None: still waiting for a picture of the
+        arm at rest; True: the aim was moved, go there again; False: close enough (or out of looks)."""
+        frame = self.camera.seen(now_s, self._latency_s, done_s)
+        if frame is None:
+            return None
+        self._latency_s = self._draw_latency()
+        seen_pose = self.read_pose(frame)
+        believed = dict(zip(platform.joints, platform.predicted_angles()))
+        noise = self.reading_noise_rad(frame)
+        worst = max(seen_pose, key=lambda j: abs(seen_pose[j] - believed[j]) / noise[j])
+        if self.looks < MAX_LOOKS and abs(seen_pose[worst] - believed[worst]) > noise[worst]:
+            for joint, angle in seen_pose.items():
+                platform.reference(joint, angle)
+            self.looks += 1
+            self.log.append(
+                f"t = {now_s:.2f} s: disc_{disc}: {worst} seen at {math.degrees(seen_pose[worst]):.1f} deg, "
+                f"platform believed {math.degrees(believed[worst]):.1f} deg: pose re-read"
+            )
+            return True
+        error = self.picture_error_m(frame, disc, standoff_m)
+        miss = float(np.hypot(error[0], error[2]))
+        if miss <= self.params.tolerance_m or self.looks >= MAX_LOOKS:
+            self.log.append(
+                f"t = {now_s:.2f} s: disc_{disc} seen {miss * 100:.1f} cm off after {self.looks} corrections: press"
+            )
+            self.looks = 0
+            return False
+        self.looks += 1
+        self.aim_offset_m -= error
+        self.log.append(
+            f"t = {now_s:.2f} s: disc_{disc} seen {miss * 100:.1f} cm off "
+            f"(x {error[0] * 100:+.1f}, z {error[2] * 100:+.1f} cm): aim moved"
+        )
+        return True

@@ -1,0 +1,138 @@
+"""The cleaning study: the insulator-cleaning task under each strategy, supply pressure and seed.
+
+One sweep (scenarios/sweep.py) of `scenarios/insulator_cleaning.toml` over `control.strategy` x
+`supply.pressure_mpa` x child seeds. Per run: discs cleaned out of 8 (each judged from MuJoCo's
+contacts: pressed long enough, force in the band, face on the rim), the peak force on each disc,
+the rim brushed, when the plan was finished, and the joints' final errors. Written as
+`study.json` (every run's summary), `study.md` (a table per strategy and supply) and
+`study.png` (discs cleaned and time to finish against supply).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from scenarios.schema import STRATEGIES, load
+from scenarios.sweep import sweep
+
+SCENARIO = Path(__file__).resolve().parent / "insulator_cleaning.toml"
+SUPPLIES_MPA = (0.5, 0.6, 0.7, 0.8)  # the paper's working range
+
+
+@dataclass(frozen=True)
+class Row:
+    """One strategy at one supply, over its seeds."""
+
+    strategy: str
+    supply_mpa: float
+    runs: int
+    cleaned_min: int
+    cleaned_mean: float
+    peak_force_n: float  # largest peak force on any disc, over the runs
+    brushed_m: float  # mean rim brushed per run, all discs
+    finished_s: float  # mean time the plan was finished (NaN: some run did not finish)
+    final_error_deg: float  # mean of the largest |final error| over the joints
+
+
+def run_study(
+    strategies=STRATEGIES,
+    supplies_mpa=SUPPLIES_MPA,
+    seeds: int = 2,
+    workers: int = 0,
+    duration_s: float | None = None,
+    scenario_path: Path = SCENARIO,
+    progress: bool = True,
+) -> list[dict]:
+    """Every run's summary (sweep order: strategy, supply, seed)."""
+    grid = {"control.strategy": list(strategies), "supply.pressure_mpa": list(supplies_mpa)}
+    return sweep(
+        load(scenario_path), grid, monte_carlo=seeds, workers=workers, duration_s=duration_s, progress=progress
+    )
+
+
+def cleaned(summary: dict) -> int:
+    return sum(bool(d["cleaned"]) for d in summary["discs"])
+
+
+def rows(results: list[dict]) -> list[Row]:
+    groups: dict[tuple[str, float], list[dict]] = {}
+    for r in results:
+        key = (r["overrides"]["control.strategy"], float(r["overrides"]["supply.pressure_mpa"]))
+        groups.setdefault(key, []).append(r)
+    out = []
+    for (strategy, mpa), runs in groups.items():
+        n = [cleaned(r) for r in runs]
+        peaks = [d["peak_force_n"] for r in runs for d in r["discs"] if d["peak_force_n"] is not None]
+        finished = [r["finished_s"] for r in runs]
+        errors = [max(abs(j["error_deg"]) for j in r["joints"].values() if j["error_deg"] is not None) for r in runs]
+        out.append(
+            Row(
+                strategy,
+                mpa,
+                len(runs),
+                min(n),
+                float(np.mean(n)),
+                max(peaks) if peaks else math.nan,
+                float(np.mean([sum(d["brushed_m"] for d in r["discs"]) for r in runs])),
+                float(np.mean(finished)) if all(f is not None for f in finished) else math.nan,
+                float(np.mean(errors)),
+            )
+        )
+    return out
+
+
+def table(study_rows: list[Row]) -> str:
+    """A markdown table, one line per strategy and supply."""
+    lines = [
+        "| strategy | supply MPa | runs | discs cleaned (min / mean of 8) | largest peak force N | rim brushed m "
+        "| plan finished s | largest final error deg |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
+    for r in study_rows:
+        finished = "not finished" if math.isnan(r.finished_s) else f"{r.finished_s:.1f}"
+        peak = "-" if math.isnan(r.peak_force_n) else f"{r.peak_force_n:.0f}"
+        lines.append(
+            f"| {r.strategy} | {r.supply_mpa:.1f} | {r.runs} | {r.cleaned_min} / {r.cleaned_mean:.2f} | {peak} | "
+            f"{r.brushed_m:.2f} | {finished} | {r.final_error_deg:.2f} |"
+        )
+    return "\n".join(lines)
+
+
+def plot(study_rows: list[Row], path: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(10, 4))
+    for strategy in dict.fromkeys(r.strategy for r in study_rows):
+        mine = sorted((r for r in study_rows if r.strategy == strategy), key=lambda r: r.supply_mpa)
+        x = [r.supply_mpa for r in mine]
+        ax1.plot(x, [r.cleaned_mean for r in mine], "o-", label=strategy)
+        ax2.plot(x, [r.finished_s for r in mine], "o-", label=strategy)
+    ax1.set(
+        xlabel="supply (MPa gauge)",
+        ylabel="discs cleaned (mean over seeds)",
+        ylim=(-0.3, 8.3),
+        title="discs cleaned of 8",
+    )
+    ax2.set(xlabel="supply (MPa gauge)", ylabel="s", title="plan finished (missing: not finished)")
+    ax1.legend()
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def write(results: list[dict], out: Path) -> list[Row]:
+    """study.json, study.md and study.png in `out`."""
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "study.json").write_text(json.dumps(results, indent=2))
+    study_rows = rows(results)
+    (out / "study.md").write_text("# Cleaning study\n\n" + table(study_rows) + "\n")
+    plot(study_rows, out / "study.png")
+    return study_rows

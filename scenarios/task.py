@@ -1,0 +1,239 @@
+"""The task on top of the platform's controller: a scenario's targets fed one at a time, each one's
+finish noted, and a strategy that may act between them (scenario field `control.strategy`).
+
+    sensorless   the predictor alone (the paper's platform as it is)
+    rereference  after the back-off from each disc, the shoulder is driven open loop into its upper
+                 end stop (the MJCF's range, a stop the platform knows) and its predicted angle set
+                 to it; only where the elbow stays in its range with the shoulder there (the string's
+                 upper discs), since the parallelogram keeps the forearm's pitch
+    operator     the operator corrects the brush's aim by the global camera (scenarios/operator.py);
+                 he also clears the platform's faults (a move not finished in time) and goes on
+    true_angle   a bound, not a way to run the arm: the same controller handed the plant's true
+                 angles every tick (it breaks the sensorless rule on purpose)
+
+The task controller is what the run loop ticks (twin/sim.py's Controller protocol). It hands the
+platform's controller only the sensors; the operator sees only the camera's frames; the bound alone
+reads the plant.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from control import ArmController, MotionRefused
+from pneumatics.joint import C_BRAKE_RELEASE, C_DIRECTION, C_PV_SET_GAUGE_PA
+from scenarios.ik import disc_rim_target
+from scenarios.operator import GlobalCamera, Operator
+from scenarios.schema import Scenario
+from twin.plant import Plant
+
+STOP_JOINT = "shoulder_pitch"  # the joint whose error grows (README, "Sensorless drift")
+STOP_DRIVE_S = 1.0  # open-loop drive into the stop: this long ...
+STOP_DRIVE_S_PER_RAD = (
+    6.0  # ... plus this per rad to go (the shoulder turns ~10 deg/s at 0.5 MPa, measured in the cleaning run)
+)
+STOP_SETTLE_S = 0.3  # brake applied before the angle is taken (brake engagement ~0.1 s, assets/joints)
+ELBOW_MARGIN_RAD = math.radians(5.0)  # keep the elbow this far inside its range at the stop
+
+
+@dataclass
+class _StopDrive:
+    """An open-loop drive of one joint into its stop, then a settle with the brake on."""
+
+    joint: int
+    stop_rad: float
+    drive_until_s: float
+    settle_until_s: float
+
+
+class TaskController:
+    """Feeds `targets` (drive angles per scenario target) to `controller` one by one."""
+
+    def __init__(
+        self,
+        controller: ArmController,
+        scenario: Scenario,
+        plant: Plant,
+        targets: list[dict[str, float]],
+        rng: np.random.Generator,
+    ):
+        self.controller, self.scenario = controller, scenario
+        self.targets = targets
+        self.issued: list[dict[str, float]] = [dict(t) for t in targets]  # as sent (with the operator's aim)
+        self.reached: list[bool] = [False] * len(targets)
+        self.finished_s: list[float] = [math.nan] * len(targets)
+        self.k = -1  # the target under way
+        self.strategy = scenario.control.strategy
+        self.model = plant.model
+        self._plant = plant if self.strategy == "true_angle" else None  # the bound's only window on the truth
+        self.camera = GlobalCamera(plant.model, plant.data, scenario.operator) if self.strategy == "operator" else None
+        self.operator = Operator(plant.model, self.camera, scenario.operator, rng) if self.camera else None
+        self._review_from_s = math.nan
+        self._stop: _StopDrive | None = None
+        self._stopped_after: set[int] = set()  # back-off targets after which the stop drive was tried
+        self._notes: list[str] = []
+        self._commands = np.zeros_like(controller.commands)
+
+    # -- Controller protocol -------------------------------------------------------------------
+    def tick(self, sensors) -> np.ndarray:
+        t = float(sensors.time_s)
+        if self._plant is not None:
+            # the angle only: the speed stays the predictor's, whose stick is an exact 0 the arrival
+            # logic waits for (MuJoCo's braked joint creeps at ~1e-6 rad/s)
+            for j, q, w in zip(self.controller.joints, self._plant.drive_angles(), self.controller.predicted_speeds()):
+                self.controller.reference(j, q, w)
+        if self.camera is not None:
+            self.camera.capture(t)
+        if self._stop is not None:
+            return self._drive_into_stop(sensors)
+        if self.controller.faulted and self.operator is not None and 0 <= self.k < len(self.targets):
+            # the operator sees the fault (a move that did not end in time, a refusal), clears it and
+            # goes on from where the arm is: the camera tells him whether the brush is where it must be
+            self.controller.clear_fault()
+        if self.controller.done and not self.controller.faulted and self.k < len(self.targets):
+            self._between_targets(t)
+            if self._stop is not None:
+                return self._drive_into_stop(sensors)
+        return self.controller.tick(sensors)
+
+    def predicted_angles(self) -> np.ndarray:
+        return self.controller.predicted_angles()
+
+    def target_angles(self) -> np.ndarray:
+        return self.controller.target_angles()
+
+    @property
+    def events(self) -> list[str]:
+        """The platform's events, the re-references and the operator's looks, in time order."""
+        merged = self.controller.events + self._notes + (self.operator.log if self.operator else [])
+        return sorted(merged, key=_event_time)
+
+    # -- sequencing ----------------------------------------------------------------------------
+    def _between_targets(self, t: float) -> None:
+        if 0 <= self.k and not self.reached[self.k]:
+            self.reached[self.k] = True
+            self.finished_s[self.k] = t
+            self._review_from_s = t
+        if 0 <= self.k and self.operator is not None and self._is_approach(self.k):
+            target = self.scenario.targets[self.k]
+            verdict = self.operator.review(
+                t, self._review_from_s, target.brush_at_disc, target.standoff_m, self.controller
+            )
+            if verdict is None:
+                return  # waiting to see the arm at rest
+            if verdict:
+                self._issue(self.k, dwell_s=0.0)
+                self._review_from_s = math.inf  # set when this correction is done
+                self.reached[self.k] = False
+                return
+        if (
+            0 <= self.k
+            and self.strategy == "rereference"
+            and self._is_back_off(self.k)
+            and self.k not in self._stopped_after
+        ):
+            self._stopped_after.add(self.k)
+            if self._start_stop_drive(t):
+                return
+        self.k += 1
+        if self.k < len(self.targets):
+            self._issue(self.k, self.scenario.targets[self.k].dwell_s)
+
+    def _issue(self, k: int, dwell_s: float) -> None:
+        target = self._aimed(k)
+        self.issued[k] = target
+        try:
+            self.controller.set_targets([target], sequence=self.scenario.control.sequence, dwell_s=[dwell_s])
+        except MotionRefused:
+            pass  # the controller noted it; the arm stays braked and the task goes on with the next target
+
+    def _aimed(self, k: int) -> dict[str, float]:
+        t = self.scenario.targets[k]
+        nominal = self.targets[k]
+        if self.operator is None or not t.brush_at_disc:
+            return dict(nominal)
+        tilt = nominal["elbow_pitch"] + nominal["wrist_pitch"]  # the tool's absolute pitch (parallelogram)
+        try:
+            return {
+                **nominal,
+                **self.operator.aimed(disc_rim_target(self.model, t.brush_at_disc, t.standoff_m), tilt),
+                **t.angles_deg,
+            }
+        except ValueError:
+            return dict(nominal)  # the aim is out of reach: go where the plan says
+
+    def _is_approach(self, k: int) -> bool:
+        """A target standing off a disc, followed by a press on the same disc."""
+        ts = self.scenario.targets
+        return bool(
+            ts[k].brush_at_disc
+            and ts[k].standoff_m > 0
+            and k + 1 < len(ts)
+            and ts[k + 1].brush_at_disc == ts[k].brush_at_disc
+            and ts[k + 1].standoff_m < 0
+        )
+
+    def _is_back_off(self, k: int) -> bool:
+        """A target standing off a disc right after a press on it."""
+        ts = self.scenario.targets
+        return bool(
+            k >= 1
+            and ts[k].brush_at_disc
+            and ts[k].standoff_m > 0
+            and ts[k - 1].brush_at_disc == ts[k].brush_at_disc
+            and ts[k - 1].standoff_m < 0
+        )
+
+    # -- re-referencing at a known stop -----------------------------------------------------------
+    def _start_stop_drive(self, t: float) -> bool:
+        c = self.controller
+        i = c.joints.index(STOP_JOINT)
+        e = c.joints.index("elbow_pitch")
+        stop = float(c.arm.joint_upper[i])
+        theta = c.predicted_angles()
+        elbow_relative = theta[e] - stop  # the parallelogram holds the forearm's pitch while the shoulder turns
+        if elbow_relative < c.arm.joint_lower[e] + ELBOW_MARGIN_RAD:
+            return False
+        drive_s = STOP_DRIVE_S + STOP_DRIVE_S_PER_RAD * max(stop - theta[i], 0.0)
+        self._stop = _StopDrive(i, stop, t + drive_s, t + drive_s + STOP_SETTLE_S)
+        return True
+
+    def _drive_into_stop(self, sensors) -> np.ndarray:
+        s, t = self._stop, float(sensors.time_s)
+        c = self.controller
+        self.controller.tick(sensors)  # keeps predicting (with its valves shut: its prediction is reset below)
+        self._commands[:] = 0.0
+        if t < s.drive_until_s:
+            self._commands[s.joint, C_DIRECTION] = 1.0
+            self._commands[s.joint, C_PV_SET_GAUGE_PA] = max(float(sensors.supply_pa) - c.gas.p_atm_pa, 0.0)
+            self._commands[s.joint, C_BRAKE_RELEASE] = 1.0
+            return self._commands
+        if t >= s.settle_until_s:
+            before = math.degrees(c.predicted_angles()[s.joint])
+            c.reference(c.joints[s.joint], s.stop_rad)
+            self._notes.append(
+                f"t = {t:.3f} s: {c.joints[s.joint]} re-referenced at its stop {math.degrees(s.stop_rad):.2f} deg "
+                f"(predicted {before:.2f} deg)"
+            )
+            self._stop = None
+        return self._commands
+
+    # -- what the run reached ------------------------------------------------------------------
+    def active_target(self) -> dict[str, float]:
+        """Per joint, the target in force at the end: the latest issued target naming it."""
+        out: dict[str, float] = {}
+        for k in range(0, min(self.k, len(self.issued) - 1) + 1):
+            out.update(self.issued[k])
+        return out
+
+
+def _event_time(event: str) -> float:
+    """The time of an event line 't = 12.345 s: ...' (stable order for lines without one)."""
+    head = event.removeprefix("t = ").split(" s:", 1)[0]
+    try:
+        return float(head)
+    except ValueError:
+        return math.inf
