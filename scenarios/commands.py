@@ -5,16 +5,18 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from twin.args import WORKERS, number
 from twin.errors import UserError
+from twin.outputs import OutputLock, check_output, publish_folder
 
 
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("study", help="studies over the scenarios: `twin study cleaning --out DIR`")
-    studies = p.add_subparsers(dest="study", required=True)
+    studies = p.add_subparsers(dest="study", required=True, metavar="STUDY", help="the study to run")
     c = studies.add_parser(
         "cleaning", help="the insulator-cleaning task per strategy x supply x seed: DIR/study.json, study.md, study.png"
     )
-    c.add_argument("--out", type=Path, required=True)
+    c.add_argument("--out", type=Path, required=True, metavar="DIR", help="output folder (made if missing): study.json, study.md, study.png")
     c.add_argument(
         "--strategies",
         default="",
@@ -23,8 +25,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     c.add_argument(
         "--supplies", default="0.5,0.6,0.7,0.8", help="supply pressures, MPa gauge (default 0.5,0.6,0.7,0.8)"
     )
-    c.add_argument("--seeds", type=int, default=2, help="child seeds per strategy and supply (default 2)")
-    c.add_argument("--workers", type=int, default=0, help="local worker processes (default: all cores)")
+    c.add_argument("--seeds", type=number(1, 1000, integer=True), default=2, metavar="N", help="child seeds per strategy and supply (default 2)")
+    c.add_argument("--workers", type=number(**WORKERS), default=0, metavar="K", help="local worker processes (default 0: all cores)")
     c.set_defaults(func=cmd_study_cleaning)
 
 
@@ -44,8 +46,6 @@ def _parse(args) -> tuple[list[str], list[float]]:
         if not 0.0 <= mpa <= 1.0:
             raise UserError(f"--supplies {v!r}: allowed: numbers in 0..1.0 MPa gauge, comma-separated")
         supplies.append(mpa)
-    if args.seeds < 1 or args.workers < 0:
-        raise UserError(f"--seeds {args.seeds} / --workers {args.workers}: allowed: seeds >= 1, workers >= 0")
     return strategies, supplies
 
 
@@ -53,8 +53,13 @@ def cmd_study_cleaning(args) -> int:
     from scenarios.study import run_study, table, write
 
     strategies, supplies = _parse(args)
-    results = run_study(strategies, supplies, seeds=args.seeds, workers=args.workers)
-    study_rows = write(results, args.out)
+    check_output(args.out, "--out", folder=True)
+
+    def study_into(staging: Path) -> list:
+        return write(run_study(strategies, supplies, seeds=args.seeds, workers=args.workers), staging)
+
+    with OutputLock([args.out]):
+        study_rows, folder = publish_folder(args.out, study_into, "the study")
     print(table(study_rows))
-    print(f"{len(results)} runs; {args.out / 'study.json'}, {args.out / 'study.md'}, {args.out / 'study.png'}")
+    print(f"{folder / 'study.json'}, {folder / 'study.md'}, {folder / 'study.png'}")
     return 0
