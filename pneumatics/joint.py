@@ -226,7 +226,9 @@ def at_rest(x: np.ndarray, omega: float, p: np.ndarray) -> bool:
 
 @njit
 def advance_pressures(x: np.ndarray, theta: float, omega: float, valve_gauge_pa: float, supply_pa: float, dt_s: float, substeps: int, p: np.ndarray) -> None:
-    """Integrate the four node pressures over dt with the joint moving at constant speed, in place.
+    """Integrate the four node pressures over dt with the joint moving at constant speed, in place,
+    the proportional valve's output held at `valve_gauge_pa` (its mean over the step, from
+    `advance_discrete`).
 
     Heun's method (explicit trapezoid) in `substeps` sub-steps; the motor angle advances with
     the joint inside the step so that the quarter-turn chamber switching is resolved.
@@ -316,8 +318,9 @@ def _motor_side_rates(a_v: float, a_m: float, b_v: float, b_m: float, q_m: float
 @njit
 def advance_motor_side(x: np.ndarray, theta: float, omega: float, valve_gauge_pa: float, supply_pa: float, dt_s: float, substeps: int, p: np.ndarray) -> float:
     """Integrate a non-rigid reducer's motor side and the four node pressures over dt, in place,
-    with the joint advancing linearly (theta + omega t) over the step; return the torque the gear
-    transmitted to the joint, averaged over the step (N·m: its impulse / dt).
+    with the joint advancing linearly (theta + omega t) over the step and the valve's output held
+    at `valve_gauge_pa` (as in `advance_pressures`); return the torque the gear transmitted to the
+    joint, averaged over the step (N·m: its impulse / dt).
 
     The plant's path for a non-rigid reducer (pneumatics/reducer.py): MuJoCo moves the joint side,
     this the motor side, J_m dw_m/dt = tau_drive - tau_t with J_m = ratio^2 J_rotor. The
