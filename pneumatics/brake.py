@@ -46,18 +46,22 @@ def brake_target(release_command: float, feed_gauge_pa: float, start_gauge_pa: f
 
 
 @njit
+def _time_constant(engagement: float, target: float, engage_tau_s: float, release_tau_s: float) -> float:
+    # the springs engage it; the air releases it
+    return engage_tau_s if target > engagement else release_tau_s
+
+
+@njit
 def brake_step(engagement: float, target: float, engage_tau_s: float, release_tau_s: float, dt_s: float) -> float:
     """Engagement after dt, moving toward `target` (`brake_target`)."""
-    tau = engage_tau_s if target > engagement else release_tau_s
-    return lag_toward(engagement, target, dt_s, tau)
+    return lag_toward(engagement, target, dt_s, _time_constant(engagement, target, engage_tau_s, release_tau_s))
 
 
 @njit
 def brake_mean(engagement: float, target: float, engage_tau_s: float, release_tau_s: float, dt_s: float) -> float:
     """Engagement averaged over the coming dt while it moves toward `target` (what a step that
     holds the brake's friction constant should hold)."""
-    tau = engage_tau_s if target > engagement else release_tau_s
-    return lag_mean(engagement, target, dt_s, tau)
+    return lag_mean(engagement, target, dt_s, _time_constant(engagement, target, engage_tau_s, release_tau_s))
 
 
 @njit

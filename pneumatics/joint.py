@@ -351,7 +351,7 @@ def advance_motor_side(x: np.ndarray, theta: float, omega: float, valve_gauge_pa
         th1 = theta + omega * ((i + 0.5) * h)
         th2 = theta + omega * ((i + 1) * h)
         w0 = w
-        s = 0.0 if abs(w0) < stick else math.copysign(1.0, w0)
+        s = _slide_direction(w0, p)
         k1 = _motor_side_rates(a_v, a_m, b_v, b_m, q, w, th0, omega, direction, valve, supply_pa, k, c, half, j_m, s, p)
         k2 = _motor_side_rates(a_v + 0.5 * h * k1[0], a_m + 0.5 * h * k1[1], b_v + 0.5 * h * k1[2], b_m + 0.5 * h * k1[3], q + 0.5 * h * k1[4], w + 0.5 * h * k1[5], th1, omega, direction, valve, supply_pa, k, c, half, j_m, s, p)
         k3 = _motor_side_rates(a_v + 0.5 * h * k2[0], a_m + 0.5 * h * k2[1], b_v + 0.5 * h * k2[2], b_m + 0.5 * h * k2[3], q + 0.5 * h * k2[4], w + 0.5 * h * k2[5], th1, omega, direction, valve, supply_pa, k, c, half, j_m, s, p)
