@@ -87,7 +87,17 @@ def bench_gap(jobs: int = 2, rounds: int = 3) -> dict:
     with tempfile.TemporaryDirectory() as tmp:
         for i, (name, hidden, proto, inst) in enumerate(CAMPAIGNS):
             motion = {q: protocols.library(q)[proto] for q in synth.PRESSURES_MPA}
-            folder = synth.make_campaign(Path(tmp) / f"c16_{i}", p0._replace(**hidden), seed=7 + i, pressures_mpa=synth.PRESSURES_MPA, repeats=4, motion=motion, instrument=inst, description=f"(bench_gap: {name})", chamber_pressures=True)
+            folder = synth.make_campaign(
+                Path(tmp) / f"c16_{i}",
+                p0._replace(**hidden),
+                seed=7 + i,
+                pressures_mpa=synth.PRESSURES_MPA,
+                repeats=4,
+                motion=motion,
+                instrument=inst,
+                description=f"(bench_gap: {name})",
+                chamber_pressures=True,
+            )
             campaign = load_campaign(folder)
             if i == 0:
                 replay_s = _time_replay(Twin(campaign), rounds)  # also the warm-up
@@ -95,7 +105,17 @@ def bench_gap(jobs: int = 2, rounds: int = 3) -> dict:
             code = main(["gap", "diagnose", str(folder), "--out", str(Path(tmp) / f"out{i}"), "--jobs", str(jobs)])
             wall = time.perf_counter() - t0
             d = json.loads((Path(tmp) / f"out{i}" / "diagnosis.json").read_text())
-            timings.append({"campaign": name, "runs": len(campaign.runs), "exit_code": code, "diagnose_wall_s": wall, "verdict": d["which"]["verdict"], "top": d["which"]["top"]["name"] if d["which"]["top"] else None, "pair_stage": bool(d["which"]["pairs"])})
+            timings.append(
+                {
+                    "campaign": name,
+                    "runs": len(campaign.runs),
+                    "exit_code": code,
+                    "diagnose_wall_s": wall,
+                    "verdict": d["which"]["verdict"],
+                    "top": d["which"]["top"]["name"] if d["which"]["top"] else None,
+                    "pair_stage": bool(d["which"]["pairs"]),
+                }
+            )
     reality = p0._replace(**HIDDEN)
     plant_s = _time_plant(reality, synth.PRESSURES_MPA[0], synth.Motion(), rounds)
     walls = [t["diagnose_wall_s"] for t in timings]

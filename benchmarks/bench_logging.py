@@ -62,7 +62,13 @@ class Timed:
         self.spent[self.key] += time.perf_counter() - t0
 
 
-def timed_run(seconds: float, out_dir: Path | None, spent: dict | None = None, scenario_name: str = SCENARIO, camera_fps: float = 0.0) -> float:
+def timed_run(
+    seconds: float,
+    out_dir: Path | None,
+    spent: dict | None = None,
+    scenario_name: str = SCENARIO,
+    camera_fps: float = 0.0,
+) -> float:
     """Wall time of `twin run SCENARIO [--rrd --mcap --camera-fps N]` cut to `seconds` simulated:
     the recorders opened as the command opens them, the run (plant, five controllers, telemetry),
     the logs closed. `spent` collects the time inside each recorder (open, writes, close)."""
@@ -121,7 +127,11 @@ def bench_logging(seconds: float = 60.0, rounds: int = 2, camera_fps: float = CA
         "mcap_bytes_per_simulated_s": sizes.get(".mcap", 0) / seconds,
     }
     if camera_fps > 0:  # frames rendered offscreen (software GL without a GPU) where a backend works
-        out |= {"camera_fps": camera_fps, "ratio_with_camera": best_cam / best_off, "rrd_bytes_per_simulated_s_with_camera": rrd_with_camera / seconds}
+        out |= {
+            "camera_fps": camera_fps,
+            "ratio_with_camera": best_cam / best_off,
+            "rrd_bytes_per_simulated_s_with_camera": rrd_with_camera / seconds,
+        }
     return out
 
 

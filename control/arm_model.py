@@ -101,7 +101,12 @@ class ArmModel:
     present in the model). Constant model, mutable data (Pinocchio's own split).
     """
 
-    def __init__(self, xml_path: str | Path = assets.ARM_XML, joints: tuple[str, ...] | None = None, payload_kg: float | None = None):
+    def __init__(
+        self,
+        xml_path: str | Path = assets.ARM_XML,
+        joints: tuple[str, ...] | None = None,
+        payload_kg: float | None = None,
+    ):
         xml_path = Path(xml_path)
         self.xml_path = xml_path
         self.model = _pinocchio_model(xml_path, payload_kg)
@@ -113,7 +118,9 @@ class ArmModel:
         self.joints = tuple(joints)
         n = len(self.joints)
         if m.nq != m.nv or m.nv != n:
-            raise ValueError(f"{xml_path}: {m.nv} degrees of freedom but {n} drives {self.joints}: the drive map must be square")
+            raise ValueError(
+                f"{xml_path}: {m.nv} degrees of freedom but {n} drives {self.joints}: the drive map must be square"
+            )
         coefs = drive_coefficients(xml_path, self.joints)
         C = np.zeros((n, m.nv))
         for i, j in enumerate(self.joints):

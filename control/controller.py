@@ -92,10 +92,14 @@ class ArmController:
         self.open_loop_set_point_pa = open_loop_set_point_pa
         self.rotor_inertia = self.params[:, P.RATIO] ** 2 * self.params[:, P.ROTOR_J]
         # joint torque per gauge Pa of valve pressure at stall: mean displacement x ratio x efficiency
-        self.torque_per_pa = np.array([
-            displacement_per_rad(pr.stator_radius_m, pr.rotor_radius_m, pr.vane_length_m, pr.n_vanes) * pr.ratio * pr.efficiency_forward
-            for pr in self.joint_params.values()
-        ])
+        self.torque_per_pa = np.array(
+            [
+                displacement_per_rad(pr.stator_radius_m, pr.rotor_radius_m, pr.vane_length_m, pr.n_vanes)
+                * pr.ratio
+                * pr.efficiency_forward
+                for pr in self.joint_params.values()
+            ]
+        )
         self.breakaway_pa = np.zeros((n, 2))
 
         start = self._as_array(start_angles_rad, "start pose")
@@ -141,7 +145,12 @@ class ArmController:
             raise MotionRefused(f"{what}: {a.shape[0] if a.ndim else 0} angles for the joints {self.joints}")
         return a.copy()
 
-    def set_targets(self, targets: Sequence[Mapping[str, float]] | Mapping[str, float], sequence: str = "one_after_another", dwell_s: float | Sequence[float] = 0.0) -> None:
+    def set_targets(
+        self,
+        targets: Sequence[Mapping[str, float]] | Mapping[str, float],
+        sequence: str = "one_after_another",
+        dwell_s: float | Sequence[float] = 0.0,
+    ) -> None:
         """Plan a motion: a sequence of joint-space targets ({joint: drive angle rad}, joints not
         named stay), each reached with its joints moved one after another (base to tool, as linemen
         operate) or together, then held `dwell_s`. Replaces any plan; a move under way is stopped.
@@ -172,7 +181,9 @@ class ArmController:
             for j in named:
                 v = raw[self.joints.index(j)]
                 if not math.isfinite(v):
-                    raise MotionRefused(f"target {k + 1}: {j} = {v!r} is not a number; allowed: a finite drive angle in rad")
+                    raise MotionRefused(
+                        f"target {k + 1}: {j} = {v!r} is not a number; allowed: a finite drive angle in rad"
+                    )
             full = np.where(np.isnan(raw), here, raw)
             q, ok = self.arm.joints_within_limits(full)
             if not ok.all():
@@ -231,12 +242,34 @@ class ArmController:
         if (self._plan or self._stepping) and not self.faulted:
             gauge = supply - self.gas.p_atm_pa
             if gauge < self._brake_release_pa:
-                self._fault(f"supply {gauge / 1e6:.3f} MPa gauge is below the brake release pressure {self._brake_release_pa / 1e6:.3f} MPa")
+                self._fault(
+                    f"supply {gauge / 1e6:.3f} MPa gauge is below the brake release pressure {self._brake_release_pa / 1e6:.3f} MPa"
+                )
         if not self.faulted:
             self._sequence(supply)
-        moving, timed_out, load_stale = control_step(self.mode, self.target, self.integral, self.elapsed, self.timeout, self.open_time, self.open_set_point,
-                                         self.retries, self.y, self.x, self.pv_full, self.breakaway_pa, self.load, self.torque_per_pa, self.params,
-                                         self._g, self.dt, self.commands, self.outcome, self._load_theta, self.load_update_rad)
+        moving, timed_out, load_stale = control_step(
+            self.mode,
+            self.target,
+            self.integral,
+            self.elapsed,
+            self.timeout,
+            self.open_time,
+            self.open_set_point,
+            self.retries,
+            self.y,
+            self.x,
+            self.pv_full,
+            self.breakaway_pa,
+            self.load,
+            self.torque_per_pa,
+            self.params,
+            self._g,
+            self.dt,
+            self.commands,
+            self.outcome,
+            self._load_theta,
+            self.load_update_rad,
+        )
         if self.faulted:
             self.commands[:] = 0.0
         if moving:
@@ -244,8 +277,10 @@ class ArmController:
                 self._set_load(self.y[:, R_THETA])
             if timed_out >= 0:
                 i = timed_out
-                self._fault(f"{self.joints[i]} did not reach {math.degrees(self.target[i]):.2f} deg within {self.timeout[i]:g} s "
-                            f"(predicted {math.degrees(self.y[i, R_THETA]):.2f} deg)")
+                self._fault(
+                    f"{self.joints[i]} did not reach {math.degrees(self.target[i]):.2f} deg within {self.timeout[i]:g} s "
+                    f"(predicted {math.degrees(self.y[i, R_THETA]):.2f} deg)"
+                )
                 self.commands[:] = 0.0
         predict_step(self.y, self.x, self.commands, pv, supply, self.load, self.inertia, self.params, self.dt)
         return self.commands
@@ -270,8 +305,10 @@ class ArmController:
                 if mode[i] != IDLE:
                     return
             for i in np.flatnonzero(self._step_joints):
-                self.events.append(f"t = {self.time_s:.3f} s: {self.joints[i]} at {math.degrees(self.y[i, R_THETA]):.2f} deg (predicted), "
-                                   f"target {math.degrees(self.target[i]):.2f} deg")
+                self.events.append(
+                    f"t = {self.time_s:.3f} s: {self.joints[i]} at {math.degrees(self.y[i, R_THETA]):.2f} deg (predicted), "
+                    f"target {math.degrees(self.target[i]):.2f} deg"
+                )
             self._step_joints[:] = False
             self._step_index = []
             self._stepping = False
@@ -296,7 +333,9 @@ class ArmController:
             self.timeout[i] = self.move_timeout_s
             if self.mode_name == "open_loop":
                 sp = self.pv_full[i] if self.open_loop_set_point_pa is None else self.open_loop_set_point_pa
-                self.open_time[i] = open_loop_duration(self.params[i], theta[i], step[i], sp, supply_pa, self.load[i], self.inertia[i], self.dt)
+                self.open_time[i] = open_loop_duration(
+                    self.params[i], theta[i], step[i], sp, supply_pa, self.load[i], self.inertia[i], self.dt
+                )
                 self.open_set_point[i] = math.copysign(sp, step[i] - theta[i])
                 self.mode[i] = OPEN
             else:

@@ -23,8 +23,8 @@ from typing import NamedTuple
 import numpy as np
 
 from pneumatics import params as P
-from pneumatics.joint import C_BRAKE_RELEASE, C_DIRECTION, C_PV_SET_GAUGE_PA, R_OMEGA, R_THETA, S_BRAKE, S_DIR
 from pneumatics._jit import borrowed, njit
+from pneumatics.joint import C_BRAKE_RELEASE, C_DIRECTION, C_PV_SET_GAUGE_PA, R_OMEGA, R_THETA, S_BRAKE, S_DIR
 
 IDLE, CLOSED, SETTLE, OPEN = 0, 1, 2, 3
 # per-tick outcome of a joint's move
@@ -57,7 +57,9 @@ G_KP, G_KI, G_KD, G_ILIM, G_TOL, G_VARR, G_RETRY, G_MAXRETRY, G_MARGIN = range(9
 
 
 @njit
-def pid_output(error: float, omega: float, integral: float, dt_s: float, g: np.ndarray, pv_full: float) -> tuple[float, float]:
+def pid_output(
+    error: float, omega: float, integral: float, dt_s: float, g: np.ndarray, pv_full: float
+) -> tuple[float, float]:
     """Signed set point (gauge Pa) and the updated integral (rad·s), with conditional integration."""
     ki = g[G_KI]
     u_pd = g[G_KP] * error - g[G_KD] * omega
@@ -104,10 +106,33 @@ def control_step(
     `load_update_rad` from `load_theta`).
     """
     # the caller holds every array for the whole call: no reference counting (see `borrowed`)
-    mode, target, integral, elapsed, timeout = borrowed(mode), borrowed(target), borrowed(integral), borrowed(elapsed), borrowed(timeout)
-    open_time, open_set_point, retries, y, x = borrowed(open_time), borrowed(open_set_point), borrowed(retries), borrowed(y), borrowed(x)
-    pv_full, breakaway_pa, load_nm, torque_per_pa = borrowed(pv_full), borrowed(breakaway_pa), borrowed(load_nm), borrowed(torque_per_pa)
-    params, g, commands, outcome, load_theta = borrowed(params), borrowed(g), borrowed(commands), borrowed(outcome), borrowed(load_theta)
+    mode, target, integral, elapsed, timeout = (
+        borrowed(mode),
+        borrowed(target),
+        borrowed(integral),
+        borrowed(elapsed),
+        borrowed(timeout),
+    )
+    open_time, open_set_point, retries, y, x = (
+        borrowed(open_time),
+        borrowed(open_set_point),
+        borrowed(retries),
+        borrowed(y),
+        borrowed(x),
+    )
+    pv_full, breakaway_pa, load_nm, torque_per_pa = (
+        borrowed(pv_full),
+        borrowed(breakaway_pa),
+        borrowed(load_nm),
+        borrowed(torque_per_pa),
+    )
+    params, g, commands, outcome, load_theta = (
+        borrowed(params),
+        borrowed(g),
+        borrowed(commands),
+        borrowed(outcome),
+        borrowed(load_theta),
+    )
     any_moving = False
     load_stale = False
     timed_out = -1
@@ -146,7 +171,9 @@ def control_step(
                     set_point = min(abs(u), pv_full[j])
                     breakaway = breakaway_pa[j, 0] if direction > 0.0 else breakaway_pa[j, 1]
                     # a brake fed by the motor's port drags below its full-release pressure
-                    floor = max(g[G_MARGIN] * breakaway, params[j, P.BRAKE_FED_BY_MOTOR] * params[j, P.BRAKE_RELEASE_PA])
+                    floor = max(
+                        g[G_MARGIN] * breakaway, params[j, P.BRAKE_FED_BY_MOTOR] * params[j, P.BRAKE_RELEASE_PA]
+                    )
                     set_point = max(set_point, min(floor, pv_full[j]))
                 release = 1.0
         elif m == OPEN:

@@ -58,7 +58,9 @@ def predictor_at_rest(y: np.ndarray, x: np.ndarray, command: np.ndarray, p: np.n
     atm = p[P.GAS_P_ATM]
     return (
         y[R_OMEGA] == 0.0
-        and (is_rigid(p) or (y[R_OMEGA_M] == 0.0 and abs(y[R_QM] - y[R_THETA]) <= 0.5 * p[P.BACKLASH]))  # a gear's motor may swing or unwind
+        and (
+            is_rigid(p) or (y[R_OMEGA_M] == 0.0 and abs(y[R_QM] - y[R_THETA]) <= 0.5 * p[P.BACKLASH])
+        )  # a gear's motor may swing or unwind
         and x[S_DIR] == 0.0
         and command[0] == 0.0
         and command[2] == 0.0

@@ -35,10 +35,24 @@ def make_campaign(folder, reality, **kwargs):
     return _make(folder, reality, **kwargs)
 
 
-def run_bench(out, quick: bool = False, jobs: int = 2, chamber_pressures: bool | None = None, only: str | None = None) -> dict:
+def run_bench(
+    out, quick: bool = False, jobs: int = 2, chamber_pressures: bool | None = None, only: str | None = None
+) -> dict:
     from gap.bench import run_bench as _run
 
     return _run(out, quick=quick, jobs=jobs, chamber_pressures=chamber_pressures, only=only)
 
 
-__all__ = ["CATALOGUE", "Campaign", "Effect", "GapError", "NOT_IN_CATALOGUE", "Run", "diagnose", "load_campaign", "make_campaign", "run_bench", "write_report"]
+__all__ = [
+    "CATALOGUE",
+    "Campaign",
+    "Effect",
+    "GapError",
+    "NOT_IN_CATALOGUE",
+    "Run",
+    "diagnose",
+    "load_campaign",
+    "make_campaign",
+    "run_bench",
+    "write_report",
+]

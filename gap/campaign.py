@@ -94,7 +94,15 @@ class Run:
 
     def signature(self) -> tuple:
         """Runs with the same commands and supply are repeats of one another."""
-        return (round(self.supply_mpa, 4), round(self.start_rad, 6), self.payload_kg, self.rig_inertia_kg_m2, self.direction.tobytes(), np.round(self.valve_gauge_pa, -2).tobytes(), self.brake_released.tobytes())
+        return (
+            round(self.supply_mpa, 4),
+            round(self.start_rad, 6),
+            self.payload_kg,
+            self.rig_inertia_kg_m2,
+            self.direction.tobytes(),
+            np.round(self.valve_gauge_pa, -2).tobytes(),
+            self.brake_released.tobytes(),
+        )
 
 
 @dataclass(frozen=True)
@@ -118,7 +126,9 @@ class Campaign:
     instrument: Instrument = field(default_factory=Instrument)
 
 
-def _number(where: str, table: dict, key: str, low: float, high: float, unit: str, default: float | None = None) -> float:
+def _number(
+    where: str, table: dict, key: str, low: float, high: float, unit: str, default: float | None = None
+) -> float:
     if key not in table:
         if default is not None:
             return default
@@ -151,7 +161,9 @@ def _inside(folder: Path, name: str, where: str) -> Path:
         raise GapError(f"{where}: file = {name!r} leaves the campaign folder; allowed: a file name inside {folder}")
     path = folder / name
     if not path.resolve().is_relative_to(folder.resolve()):
-        raise GapError(f"{where}: file = {name!r} leads out of the campaign folder (to {path.resolve()}); allowed: a file inside {folder}")
+        raise GapError(
+            f"{where}: file = {name!r} leads out of the campaign folder (to {path.resolve()}); allowed: a file inside {folder}"
+        )
     return path
 
 
@@ -200,7 +212,9 @@ def load_campaign(folder: str | Path) -> Campaign:
     path = folder / "campaign.toml" if folder.is_dir() else folder
     folder = path.parent
     if not path.is_file():
-        raise GapError(f"{path}: no such campaign file (a campaign is a folder with campaign.toml and one file per run)")
+        raise GapError(
+            f"{path}: no such campaign file (a campaign is a folder with campaign.toml and one file per run)"
+        )
     text = path.read_text()
     try:
         doc = tomllib.loads(text)
@@ -209,7 +223,9 @@ def load_campaign(folder: str | Path) -> Campaign:
     _unknown_keys(f"{path}", doc, CAMPAIGN_KEYS, "")
     joint = doc.get("joint")
     if joint not in assets.JOINTS:
-        raise GapError(f"{path}:{_toml_line(text, 'joint')}: joint = {joint!r} is not a joint of the arm; allowed: {', '.join(assets.JOINTS)}")
+        raise GapError(
+            f"{path}:{_toml_line(text, 'joint')}: joint = {joint!r} is not a joint of the arm; allowed: {', '.join(assets.JOINTS)}"
+        )
     payload = _number(f"{path}", doc, "payload_kg", 0.0, 100.0, "kg", default=0.0)
     hose = _number(f"{path}", doc, "hose_length_m", 0.01, 100.0, "m")
     rig_j = _number(f"{path}", doc, "rig_inertia_kg_m2", 0.0, 100.0, "kg·m^2", default=WRIST_RIG_INERTIA_KG_M2)
@@ -222,14 +238,22 @@ def load_campaign(folder: str | Path) -> Campaign:
         raise GapError(f"{path}:{_toml_line(text, 'hose_loss')}: [twin] hose_loss = {hl!r}; allowed: true or false")
     inst = doc.get("instrument", {})
     if not isinstance(inst, dict):
-        raise GapError(f"{path}:{_toml_line(text, 'instrument')}: instrument must be a table [instrument] with latency_s, noise_deg, rate_hz")
-    _unknown_keys(f"{path}:{_toml_line(text, '[instrument]')}", inst, tuple(f[0] for f in INSTRUMENT_FIELDS), "[instrument] ")
+        raise GapError(
+            f"{path}:{_toml_line(text, 'instrument')}: instrument must be a table [instrument] with latency_s, noise_deg, rate_hz"
+        )
+    _unknown_keys(
+        f"{path}:{_toml_line(text, '[instrument]')}", inst, tuple(f[0] for f in INSTRUMENT_FIELDS), "[instrument] "
+    )
     where_inst = f"{path}:{_toml_line(text, '[instrument]')} ([instrument])"
-    instrument = Instrument(*(_number(where_inst, inst, k, lo, hi, unit) if k in inst else None for k, lo, hi, unit in INSTRUMENT_FIELDS))
+    instrument = Instrument(
+        *(_number(where_inst, inst, k, lo, hi, unit) if k in inst else None for k, lo, hi, unit in INSTRUMENT_FIELDS)
+    )
     runs_doc = doc.get("runs")
     if not isinstance(runs_doc, list) or not all(isinstance(r, dict) for r in runs_doc) or len(runs_doc) < MIN_RUNS:
         n = len(runs_doc) if isinstance(runs_doc, list) else 0
-        raise GapError(f"{path}: {n} [[runs]]; allowed: at least {MIN_RUNS} [[runs]] tables (the diagnosis fits on some runs and judges on others), each with file, supply_mpa, start_deg")
+        raise GapError(
+            f"{path}: {n} [[runs]]; allowed: at least {MIN_RUNS} [[runs]] tables (the diagnosis fits on some runs and judges on others), each with file, supply_mpa, start_deg"
+        )
     runs = []
     ranges = joint_ranges_rad()
     for i, r in enumerate(runs_doc):
@@ -243,7 +267,9 @@ def load_campaign(folder: str | Path) -> Campaign:
         supply = _number(where, r, "supply_mpa", 0.0, 2.0, "MPa gauge")
         start = r.get("start_deg")
         if not isinstance(start, dict) or joint not in start:
-            raise GapError(f"{where}: start_deg must give the start angle of every joint, at least {joint!r}; e.g. start_deg = {{ {joint} = 0.0 }}")
+            raise GapError(
+                f"{where}: start_deg must give the start angle of every joint, at least {joint!r}; e.g. start_deg = {{ {joint} = 0.0 }}"
+            )
         for j, v in start.items():
             if j not in assets.JOINTS:
                 raise GapError(f"{where}: start_deg names unknown joint {j!r}; allowed: {', '.join(assets.JOINTS)}")
@@ -251,7 +277,9 @@ def load_campaign(folder: str | Path) -> Campaign:
                 raise GapError(f"{where}: start_deg.{j} = {v!r} is not a number (degrees)")
             lo, hi = (math.degrees(x) for x in ranges[j])
             if not lo <= v <= hi:
-                raise GapError(f"{where}: start_deg.{j} = {v!r} is outside the joint's range; allowed: {lo:.1f}..{hi:.1f} deg (assets/arm.xml)")
+                raise GapError(
+                    f"{where}: start_deg.{j} = {v!r} is outside the joint's range; allowed: {lo:.1f}..{hi:.1f} deg (assets/arm.xml)"
+                )
         run = read_run_file(_inside(folder, f, where), supply, math.radians(start[joint]), where, joint)
         _check_run(run, where, joint)
         run.payload_kg = _number(where, r, "payload_kg", 0.0, 100.0, "kg", default=payload)
@@ -277,10 +305,14 @@ def _read_csv_run(path: Path, supply_mpa: float, start_rad: float, joint: str) -
             raise GapError(f"{path}:1: empty run file; expected a header with {', '.join(REQUIRED_COLUMNS)}") from None
         missing = [c for c in REQUIRED_COLUMNS if c not in header]
         if missing:
-            raise GapError(f"{path}:1: missing column(s) {', '.join(missing)}; required: {', '.join(REQUIRED_COLUMNS)}; optional: {', '.join(OPTIONAL_COLUMNS)}")
+            raise GapError(
+                f"{path}:1: missing column(s) {', '.join(missing)}; required: {', '.join(REQUIRED_COLUMNS)}; optional: {', '.join(OPTIONAL_COLUMNS)}"
+            )
         unknown = [c for c in header if c not in REQUIRED_COLUMNS + OPTIONAL_COLUMNS]
         if unknown:
-            raise GapError(f"{path}:1: unknown column(s) {', '.join(unknown)}; allowed: {', '.join(REQUIRED_COLUMNS + OPTIONAL_COLUMNS)}")
+            raise GapError(
+                f"{path}:1: unknown column(s) {', '.join(unknown)}; allowed: {', '.join(REQUIRED_COLUMNS + OPTIONAL_COLUMNS)}"
+            )
         if "valve_opening" in header and "valve_set_gauge_pa" in header:
             raise GapError(f"{path}:1: both valve_opening and valve_set_gauge_pa; allowed: at most one of them")
         cols = {h: [] for h in header}
@@ -305,7 +337,9 @@ def _read_csv_run(path: Path, supply_mpa: float, start_rad: float, joint: str) -
                 cols[h].append(x)
             t = cols["time_s"]
             if len(t) > 1 and not t[-1] > t[-2]:
-                raise GapError(f"{path}:{line_no}: time_s = {t[-1]:g} does not increase (previous {t[-2]:g}); allowed: time strictly increasing from row to row")
+                raise GapError(
+                    f"{path}:{line_no}: time_s = {t[-1]:g} does not increase (previous {t[-2]:g}); allowed: time strictly increasing from row to row"
+                )
             d = cols["direction"][-1]
             if d not in (-1.0, 0.0, 1.0):
                 raise GapError(f"{path}:{line_no}: direction = {d:g}; allowed: -1, 0, +1")
@@ -313,17 +347,23 @@ def _read_csv_run(path: Path, supply_mpa: float, start_rad: float, joint: str) -
             if b not in (0.0, 1.0):
                 raise GapError(f"{path}:{line_no}: brake_released = {b:g}; allowed: 0 or 1")
             if "valve_set_gauge_pa" in cols and not 0.0 <= cols["valve_set_gauge_pa"][-1] <= 3e6:
-                raise GapError(f"{path}:{line_no}: valve_set_gauge_pa = {cols['valve_set_gauge_pa'][-1]:g}; allowed: gauge Pa in 0..3e6")
+                raise GapError(
+                    f"{path}:{line_no}: valve_set_gauge_pa = {cols['valve_set_gauge_pa'][-1]:g}; allowed: gauge Pa in 0..3e6"
+                )
             if "valve_opening" in cols and not 0.0 <= cols["valve_opening"][-1] <= 1.0:
                 raise GapError(f"{path}:{line_no}: valve_opening = {cols['valve_opening'][-1]:g}; allowed: 0..1")
             for h in ("supply_pa", "p_a_pa", "p_b_pa"):
                 v = cols[h][-1] if h in cols else math.nan
                 if not math.isnan(v) and not 0.0 < v < MAX_ABS_PRESSURE_PA:
-                    raise GapError(f"{path}:{line_no}: {h} = {v:g}; allowed: absolute Pa above 0 and below {MAX_ABS_PRESSURE_PA:g}")
+                    raise GapError(
+                        f"{path}:{line_no}: {h} = {v:g}; allowed: absolute Pa above 0 and below {MAX_ABS_PRESSURE_PA:g}"
+                    )
     a = {h: np.asarray(v, dtype=np.float64) for h, v in cols.items()}
     n = len(a["time_s"])
     if n < 2 or np.isfinite(a["angle_rad"]).sum() < 2:
-        raise GapError(f"{path}: needs at least 2 rows and 2 angle samples, has {n} rows and {int(np.isfinite(a['angle_rad']).sum())} samples")
+        raise GapError(
+            f"{path}: needs at least 2 rows and 2 angle samples, has {n} rows and {int(np.isfinite(a['angle_rad']).sum())} samples"
+        )
     if "valve_set_gauge_pa" in a:
         valve = a["valve_set_gauge_pa"]
     elif "valve_opening" in a:
@@ -331,7 +371,19 @@ def _read_csv_run(path: Path, supply_mpa: float, start_rad: float, joint: str) -
     else:
         valve = a["supply_pa"] - AIR.p_atm_pa
     extra = {k: a[k] for k in ("p_a_pa", "p_b_pa") if k in a}
-    return Run(path.stem, path, supply_mpa, start_rad, a["time_s"] - a["time_s"][0], a["direction"], a["brake_released"], valve, a["supply_pa"], a["angle_rad"], extra)
+    return Run(
+        path.stem,
+        path,
+        supply_mpa,
+        start_rad,
+        a["time_s"] - a["time_s"][0],
+        a["direction"],
+        a["brake_released"],
+        valve,
+        a["supply_pa"],
+        a["angle_rad"],
+        extra,
+    )
 
 
 def _read_mcap_run(path: Path, supply_mpa: float, start_rad: float, joint: str = "wrist_pitch") -> Run:
@@ -361,7 +413,11 @@ def _read_mcap_run(path: Path, supply_mpa: float, start_rad: float, joint: str =
     if len(t) < 2:
         raise GapError(f"{path}: {len(t)} log sample(s); a run needs at least 2")
     return Run(
-        path.stem, path, supply_mpa, start_rad, t - t[0],
+        path.stem,
+        path,
+        supply_mpa,
+        start_rad,
+        t - t[0],
         np.asarray(arrays["direction"])[:, j].astype(float),
         np.asarray(arrays["brake_release"])[:, j].astype(float),
         np.asarray(arrays["valve_gauge_pa"])[:, j].astype(float),

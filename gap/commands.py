@@ -10,27 +10,57 @@ from twin.outputs import OutputLock, check_output, publish_folder
 
 def register(subparsers) -> None:
     p = subparsers.add_parser("gap", help="sim-to-real gap diagnosis")
-    sub = p.add_subparsers(dest="gap_command", required=True, metavar="COMMAND", help="diagnose a campaign, or check the diagnosis blind")
-    d = sub.add_parser("diagnose", help="diagnose a calibration campaign into DIR (diagnosis.json, report.md, PNG plots)")
+    sub = p.add_subparsers(
+        dest="gap_command", required=True, metavar="COMMAND", help="diagnose a campaign, or check the diagnosis blind"
+    )
+    d = sub.add_parser(
+        "diagnose", help="diagnose a calibration campaign into DIR (diagnosis.json, report.md, PNG plots)"
+    )
     d.add_argument("campaign", help="folder with campaign.toml and the run files")
-    d.add_argument("--out", required=True, metavar="DIR", help="output folder (made if missing; not the campaign's own folder)")
     d.add_argument(
-        "--model-tolerance-deg", type=number(**MODEL_TOLERANCE_DEG), default=None, metavar="DEG",
+        "--out", required=True, metavar="DIR", help="output folder (made if missing; not the campaign's own folder)"
+    )
+    d.add_argument(
+        "--model-tolerance-deg",
+        type=number(**MODEL_TOLERANCE_DEG),
+        default=None,
+        metavar="DEG",
         help="twin model tolerance added to the noise floor (default: gap.diagnose.MODEL_TOLERANCE_DEG, twice the worst replay-vs-plant rms of the protocol library, gap.protocols)",
     )
     d.add_argument("--jobs", type=number(**JOBS), default=2, metavar="N", help="parallel fits (default 2)")
-    d.add_argument("--scheduler", metavar="ADDR", help="Dask scheduler address: fit the candidates on that cluster (as `twin sweep --scheduler`)")
+    d.add_argument(
+        "--scheduler",
+        metavar="ADDR",
+        help="Dask scheduler address: fit the candidates on that cluster (as `twin sweep --scheduler`)",
+    )
     d.set_defaults(func=cmd_diagnose)
-    b = sub.add_parser("bench", help="blind check on campaigns generated from the plant with hidden effects (DIR/bench.json)")
+    b = sub.add_parser(
+        "bench", help="blind check on campaigns generated from the plant with hidden effects (DIR/bench.json)"
+    )
     b.add_argument("--out", required=True, metavar="DIR", help="output folder: the generated campaigns and bench.json")
     b.add_argument("--quick", action="store_true", help="a few cases only (for tests)")
     b.add_argument("--jobs", type=number(**JOBS), default=2, metavar="N", help="parallel fits (default 2)")
-    b.add_argument("--angle-only", action="store_true", help="every campaign without chamber-pressure transducers (default: half of them, in turn)")
-    b.add_argument("--only", metavar="CASES", help="only these cases, comma-separated (a trailing * matches the start of a name: none*)")
+    b.add_argument(
+        "--angle-only",
+        action="store_true",
+        help="every campaign without chamber-pressure transducers (default: half of them, in turn)",
+    )
+    b.add_argument(
+        "--only",
+        metavar="CASES",
+        help="only these cases, comma-separated (a trailing * matches the start of a name: none*)",
+    )
     b.set_defaults(func=cmd_bench)
 
 
-def run_diagnose(campaign: str | Path, out: str | Path, model_tolerance_deg: float | None = None, jobs: int = 2, progress: bool = True, scheduler: str | None = None) -> dict:
+def run_diagnose(
+    campaign: str | Path,
+    out: str | Path,
+    model_tolerance_deg: float | None = None,
+    jobs: int = 2,
+    progress: bool = True,
+    scheduler: str | None = None,
+) -> dict:
     """Check the numbers, the campaign and `out`, then diagnose and write the report into `out`.
     The report's files arrive whole; if `out` fails after the work they are kept beside it (where:
     diag["_out"])."""
@@ -74,8 +104,10 @@ def cmd_diagnose(args) -> int:
     diag = run_diagnose(args.campaign, args.out, args.model_tolerance_deg, args.jobs, scheduler=args.scheduler)
     print(verdict_line(diag))
     inst = diag["instrument"]
-    print(f"instrument: latency {inst['latency_s'] * 1e3:.0f} ms ({'estimated' if inst['latency_estimated'] else 'declared'}), zero offset {inst['offset_deg']:.3f} deg, "
-          f"{inst['observed_rate_hz']:.1f} Hz, {inst['dropped_samples']} samples missing")
+    print(
+        f"instrument: latency {inst['latency_s'] * 1e3:.0f} ms ({'estimated' if inst['latency_estimated'] else 'declared'}), zero offset {inst['offset_deg']:.3f} deg, "
+        f"{inst['observed_rate_hz']:.1f} Hz, {inst['dropped_samples']} samples missing"
+    )
     print(f"report: {diag['_out'] / 'report.md'}")
     return 0
 
@@ -84,8 +116,15 @@ def cmd_bench(args) -> int:
     from gap.bench import run_bench
 
     check_output(Path(args.out), "--out", folder=True)
+
     def bench_into(staging: Path) -> dict:
-        return run_bench(staging, quick=args.quick, jobs=args.jobs, chamber_pressures=False if args.angle_only else None, only=args.only)
+        return run_bench(
+            staging,
+            quick=args.quick,
+            jobs=args.jobs,
+            chamber_pressures=False if args.angle_only else None,
+            only=args.only,
+        )
 
     with OutputLock([Path(args.out)]):
         summary, _ = publish_folder(Path(args.out), bench_into, "the bench's results")

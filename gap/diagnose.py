@@ -90,7 +90,16 @@ def prepare(run: Run, p: JointParams, offset_rad: float = 0.0) -> Prepared:
     pres = np.stack([run.extra.get("p_a_pa", nan), run.extra.get("p_b_pa", nan)])
     rows = np.isfinite(pres).any(axis=0)
     pmask = np.isfinite(pres[:, rows])
-    return Prepared(run, args, run.time_s[m], run.angle_rad[m] - offset_rad, nominal_inertia(run.rig_inertia_kg_m2, p), run.time_s[rows], pmask, pres[:, rows][pmask])
+    return Prepared(
+        run,
+        args,
+        run.time_s[m],
+        run.angle_rad[m] - offset_rad,
+        nominal_inertia(run.rig_inertia_kg_m2, p),
+        run.time_s[rows],
+        pmask,
+        pres[:, rows][pmask],
+    )
 
 
 class Twin:
@@ -126,7 +135,16 @@ class Twin:
         """(t, theta, omega, p_a, p_b) of the twin through group g's commands."""
         rep = self.runs[self.groups[g][0]]
         self.n_replays += 1  # for the report's cost line (threads may miss a count: it is a statistic)
-        return replay_run(params_row(params), *rep.args, rep.run.start_rad, rep.inertia * rig.inertia_scale, 0.0, self.t_end[g] + DT_S, DT_S, rig.load_spring_nm_per_rad)
+        return replay_run(
+            params_row(params),
+            *rep.args,
+            rep.run.start_rad,
+            rep.inertia * rig.inertia_scale,
+            0.0,
+            self.t_end[g] + DT_S,
+            DT_S,
+            rig.load_spring_nm_per_rad,
+        )
 
     def _each_run(self, effects, ks):
         """(k, twin trajectory of run k's group) for k in ks; one replay per group of repeats."""
@@ -137,7 +155,9 @@ class Twin:
     def _pressure_residual(self, pr: Prepared, t, pa, pb) -> np.ndarray:
         return pr.pmeas - np.stack([np.interp(pr.tp, t, pa), np.interp(pr.tp, t, pb)])[pr.pmask]
 
-    def residuals_with(self, effects: list[tuple[Effect, float]], ks, latency_s: float) -> dict[int, tuple[np.ndarray, np.ndarray]]:
+    def residuals_with(
+        self, effects: list[tuple[Effect, float]], ks, latency_s: float
+    ) -> dict[int, tuple[np.ndarray, np.ndarray]]:
         """Per run k in `ks`: (measured - twin angle at its angle samples, the twin read
         `latency_s` late; measured - twin chamber pressures where measured)."""
         out = {}
@@ -153,7 +173,9 @@ class Twin:
         for i, (k, (t, th, _, pa, pb)) in enumerate(self._each_run(effects, ks)):
             pr = self.runs[k]
             shifted = np.interp(pr.ts[None, :] - self.latencies[:, None], t, th)
-            out[i] = np.sum((pr.meas[None, :] - shifted) ** 2, axis=1) + self.pressure_weight * np.sum(self._pressure_residual(pr, t, pa, pb) ** 2)
+            out[i] = np.sum((pr.meas[None, :] - shifted) ** 2, axis=1) + self.pressure_weight * np.sum(
+                self._pressure_residual(pr, t, pa, pb) ** 2
+            )
         return out
 
     def latency_of(self, effects, idx) -> float:
@@ -176,7 +198,13 @@ def folds_of(campaign: Campaign) -> list[tuple[list[int], list[int]]]:
     pressures = sorted({round(r.supply_mpa, 4) for r in campaign.runs})
     n = len(campaign.runs)
     if len(pressures) >= 2:
-        return [([k for k in range(n) if round(campaign.runs[k].supply_mpa, 4) != q], [k for k in range(n) if round(campaign.runs[k].supply_mpa, 4) == q]) for q in pressures]
+        return [
+            (
+                [k for k in range(n) if round(campaign.runs[k].supply_mpa, 4) != q],
+                [k for k in range(n) if round(campaign.runs[k].supply_mpa, 4) == q],
+            )
+            for q in pressures
+        ]
     even = list(range(0, n, 2))
     odd = list(range(1, n, 2))
     return [(even, odd), (odd, even)] if odd else [(even, even)]
@@ -192,7 +220,15 @@ def _grid(e: Effect, n: int = 8) -> np.ndarray:
     return np.linspace(e.low, e.high, n + 1)
 
 
-def _fit_1d(twin: Twin, e: Effect, fixed: list[tuple[Effect, float]], idx: list[int], grid: np.ndarray, grid_sse: np.ndarray | None, maxiter: int = 10) -> float:
+def _fit_1d(
+    twin: Twin,
+    e: Effect,
+    fixed: list[tuple[Effect, float]],
+    idx: list[int],
+    grid: np.ndarray,
+    grid_sse: np.ndarray | None,
+    maxiter: int = 10,
+) -> float:
     """Bounded 1-D fit of effect `e` (others `fixed`) on runs `idx`: best grid point, then Brent's
     bounded search between its neighbours."""
     if e.discrete_value is not None:
@@ -204,7 +240,12 @@ def _fit_1d(twin: Twin, e: Effect, fixed: list[tuple[Effect, float]], idx: list[
     hi = grid[min(j + 1, len(grid) - 1)]
     if hi <= lo:
         return float(grid[j])
-    res = minimize_scalar(lambda v: twin.sse(fixed + [(e, v)], idx), bounds=(lo, hi), method="bounded", options={"xatol": (hi - lo) * 2e-3, "maxiter": maxiter})
+    res = minimize_scalar(
+        lambda v: twin.sse(fixed + [(e, v)], idx),
+        bounds=(lo, hi),
+        method="bounded",
+        options={"xatol": (hi - lo) * 2e-3, "maxiter": maxiter},
+    )
     return float(res.x) if res.fun < grid_sse[j] else float(grid[j])
 
 
@@ -215,7 +256,9 @@ class Candidate:
     fold_values: list[list[float]]  # per fold, fitted value of each effect
     full_values: list[float]  # fitted on all runs
     heldout: list[np.ndarray] = field(default_factory=list)  # per run: withheld angle residual (rad)
-    heldout_p: list[np.ndarray] = field(default_factory=list)  # per run: withheld pressure residual (Pa; empty where not measured)
+    heldout_p: list[np.ndarray] = field(
+        default_factory=list
+    )  # per run: withheld pressure residual (Pa; empty where not measured)
     fold_latencies: list[float] = field(default_factory=list)  # per fold, the instrument latency fitted with it (s)
     latency_s: float = 0.0  # fitted with the full values on all runs
 
@@ -236,10 +279,29 @@ def fit_single(twin: Twin, e: Effect, folds) -> Candidate:
         for k, r in twin.residuals_with([(e, v)], test, lat).items():
             heldout[k], heldout_p[k] = r
     full = _fit_1d(twin, e, [], list(range(n)), grid, per_run.sum(axis=1).min(axis=1))
-    return Candidate(e.name, [e.name], fold_values, [full], heldout, heldout_p, fold_lat, twin.latency_of([(e, full)], list(range(n))))
+    return Candidate(
+        e.name,
+        [e.name],
+        fold_values,
+        [full],
+        heldout,
+        heldout_p,
+        fold_lat,
+        twin.latency_of([(e, full)], list(range(n))),
+    )
 
 
-def _coord_fit(twin: Twin, ea: Effect, eb: Effect, idx: list[int], va: float, vb: float, rounds: int = 2, n_grid: int = 5, maxiter: int = 8) -> tuple[float, float]:
+def _coord_fit(
+    twin: Twin,
+    ea: Effect,
+    eb: Effect,
+    idx: list[int],
+    va: float,
+    vb: float,
+    rounds: int = 2,
+    n_grid: int = 5,
+    maxiter: int = 8,
+) -> tuple[float, float]:
     """Coordinate descent of a pair's two parameters on runs `idx` (each a bounded 1-D fit)."""
     for _ in range(rounds):
         va = _fit_1d(twin, ea, [(eb, vb)], idx, _grid(ea, n_grid), None, maxiter)
@@ -247,7 +309,9 @@ def _coord_fit(twin: Twin, ea: Effect, eb: Effect, idx: list[int], va: float, vb
     return va, vb
 
 
-def _nm_fit(twin: Twin, ea: Effect, eb: Effect, idx: list[int], va: float, vb: float, sse0: float, maxfev: int = 40) -> tuple[float, float]:
+def _nm_fit(
+    twin: Twin, ea: Effect, eb: Effect, idx: list[int], va: float, vb: float, sse0: float, maxfev: int = 40
+) -> tuple[float, float]:
     """Bounded Nelder-Mead on the pair's two parameters (scaled to their catalogue ranges), from
     a grid point: follows the correlated valleys (leak vs friction) that coordinate descent crawls."""
     if ea.discrete_value is not None or eb.discrete_value is not None:  # a switch: only the other to fit
@@ -262,7 +326,18 @@ def _nm_fit(twin: Twin, ea: Effect, eb: Effect, idx: list[int], va: float, vb: f
         return twin.sse([(ea, float(v[0])), (eb, float(v[1]))], idx)
 
     z0 = (np.array([va, vb]) - low) / span
-    res = minimize(f, z0, method="Nelder-Mead", bounds=[(0.0, 1.0), (0.0, 1.0)], options={"maxfev": maxfev, "xatol": 2e-3, "fatol": 1e-9, "initial_simplex": [z0, z0 + [0.08 if z0[0] < 0.9 else -0.08, 0], z0 + [0, 0.08 if z0[1] < 0.9 else -0.08]]})
+    res = minimize(
+        f,
+        z0,
+        method="Nelder-Mead",
+        bounds=[(0.0, 1.0), (0.0, 1.0)],
+        options={
+            "maxfev": maxfev,
+            "xatol": 2e-3,
+            "fatol": 1e-9,
+            "initial_simplex": [z0, z0 + [0.08 if z0[0] < 0.9 else -0.08, 0], z0 + [0, 0.08 if z0[1] < 0.9 else -0.08]],
+        },
+    )
     if res.fun >= sse0:
         return va, vb
     v = low + np.clip(res.x, 0.0, 1.0) * span
@@ -282,7 +357,9 @@ def screen_pair(twin: Twin, a: Candidate, b: Candidate, runs: list[int], n_grid:
     return min(float(total[i, j]), twin.sse([(ea, va), (eb, vb)], runs))
 
 
-def pair_grid(twin: Twin, a: Candidate, b: Candidate, runs: list[int] | None = None, n_grid: int = 5) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def pair_grid(
+    twin: Twin, a: Candidate, b: Candidate, runs: list[int] | None = None, n_grid: int = 5
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """SSE of every run on a coarse 2-D grid of the pair's parameters: (grid_a, grid_b,
     sse[i, j, run, latency]).
     A grid rather than coordinate descent from the singles' values: a single effect's value,
@@ -294,7 +371,9 @@ def pair_grid(twin: Twin, a: Candidate, b: Candidate, runs: list[int] | None = N
     return ga, gb, sse
 
 
-def fit_pair(twin: Twin, a: Candidate, b: Candidate, folds, grid: tuple[np.ndarray, np.ndarray, np.ndarray]) -> Candidate:
+def fit_pair(
+    twin: Twin, a: Candidate, b: Candidate, folds, grid: tuple[np.ndarray, np.ndarray, np.ndarray]
+) -> Candidate:
     """Both effects fitted together on each fold's training runs (best point of the 2-D grid on
     those runs, then coordinate descent), scored on its withheld runs; the reported values are
     fitted on all runs the same way."""
@@ -344,10 +423,16 @@ def run_ms(angle: list[np.ndarray], pressure: list[np.ndarray], floor_deg: float
 
 def normalised_rms(angle: list[np.ndarray], pressure: list[np.ndarray], floor_deg: float, floor_kpa: float) -> float:
     """rms misfit of all samples, angle and pressure, each in units of its own floor."""
-    return float(math.sqrt(np.mean(np.concatenate([_in_floors(a, p, floor_deg, floor_kpa) for a, p in zip(angle, pressure)]) ** 2)))
+    return float(
+        math.sqrt(
+            np.mean(np.concatenate([_in_floors(a, p, floor_deg, floor_kpa) for a, p in zip(angle, pressure)]) ** 2)
+        )
+    )
 
 
-def bootstrap_ci(values_per_run: list[np.ndarray], rng: np.random.Generator, n_boot: int = N_BOOT, root: bool = False) -> tuple[float, float]:
+def bootstrap_ci(
+    values_per_run: list[np.ndarray], rng: np.random.Generator, n_boot: int = N_BOOT, root: bool = False
+) -> tuple[float, float]:
     """95% interval of the mean of the concatenated samples (its square root with `root`: an rms
     from squared values), resampling whole runs with replacement."""
     n = len(values_per_run)
@@ -379,7 +464,10 @@ def angle_noise(twin: Twin) -> RepeatNoise:
 
 def pressure_noise(twin: Twin) -> RepeatNoise:
     """Chamber-pressure noise and drift (Pa) of the transducers (port A), from repeated runs."""
-    return repeat_noise(repeat_groups(twin), lambda k: (twin.runs[k].tp[twin.runs[k].pmask[0]], twin.runs[k].pmeas[: int(twin.runs[k].pmask[0].sum())]))
+    return repeat_noise(
+        repeat_groups(twin),
+        lambda k: (twin.runs[k].tp[twin.runs[k].pmask[0]], twin.runs[k].pmeas[: int(twin.runs[k].pmask[0].sum())]),
+    )
 
 
 def where_labels(twin: Twin) -> dict[str, np.ndarray]:
@@ -416,8 +504,12 @@ def floors_of(twin: Twin, model_tolerance_deg: float) -> Floors:
     # a run departs from its repeats' mean by drift/sqrt(2): no effect fitted to all can explain that
     floor = math.sqrt(noise_deg**2 + drift_deg**2 / 2.0 + model_tolerance_deg**2)
     nzp = pressure_noise(twin)
-    sp = (0.0 if math.isnan(nzp.sigma) else nzp.sigma / 1e3) ** 2 + (0.0 if math.isnan(nzp.drift) else nzp.drift / 1e3) ** 2 / 2.0
-    return Floors(noise_deg, nz, model_tolerance_deg, floor, SIGNIFICANCE * floor, nzp, math.sqrt(sp + MODEL_TOLERANCE_KPA**2))
+    sp = (0.0 if math.isnan(nzp.sigma) else nzp.sigma / 1e3) ** 2 + (
+        0.0 if math.isnan(nzp.drift) else nzp.drift / 1e3
+    ) ** 2 / 2.0
+    return Floors(
+        noise_deg, nz, model_tolerance_deg, floor, SIGNIFICANCE * floor, nzp, math.sqrt(sp + MODEL_TOLERANCE_KPA**2)
+    )
 
 
 def _parallel(n_jobs: int, scheduler: str | None):
@@ -443,7 +535,15 @@ def _parallel(n_jobs: int, scheduler: str | None):
     return lambda jobs: Parallel(n_jobs=n_jobs, backend="threading")(jobs)
 
 
-def diagnose(campaign: Campaign, catalogue: tuple[Effect, ...] = CATALOGUE, model_tolerance_deg: float | None = None, n_jobs: int = 2, progress: bool = True, seed: int = 0, scheduler: str | None = None) -> dict:
+def diagnose(
+    campaign: Campaign,
+    catalogue: tuple[Effect, ...] = CATALOGUE,
+    model_tolerance_deg: float | None = None,
+    n_jobs: int = 2,
+    progress: bool = True,
+    seed: int = 0,
+    scheduler: str | None = None,
+) -> dict:
     """The diagnosis of `campaign` as a plain dict (see the module docstring for its steps)."""
     from joblib import delayed
 
@@ -466,7 +566,9 @@ def diagnose(campaign: Campaign, catalogue: tuple[Effect, ...] = CATALOGUE, mode
         return normalised_rms(c.heldout, c.heldout_p, fl.floor_deg, fl.floor_kpa)
 
     # effects already in the nominal twin at their catalogue value are not candidates
-    effects = [e for e in catalogue if not (e.discrete_value is not None and e.value_of(twin.params) == e.discrete_value)]
+    effects = [
+        e for e in catalogue if not (e.discrete_value is not None and e.value_of(twin.params) == e.discrete_value)
+    ]
     skipped = [e.name for e in catalogue if e not in effects]
     run_jobs = _parallel(n_jobs, scheduler)
     clock = {"start": time.perf_counter()}
@@ -523,7 +625,12 @@ def diagnose(campaign: Campaign, catalogue: tuple[Effect, ...] = CATALOGUE, mode
             vals = [np.rad2deg(np.abs(res[k])) for k in ks]
             allv = np.concatenate(vals)
             lo, hi = bootstrap_ci(vals, rng, 300)
-            out[f"{q:.2f}"] = {"mean_deg": float(allv.mean()), "max_deg": float(allv.max()), "mean_ci95_deg": [lo, hi], "runs": len(ks)}
+            out[f"{q:.2f}"] = {
+                "mean_deg": float(allv.mean()),
+                "max_deg": float(allv.max()),
+                "mean_ci95_deg": [lo, hi],
+                "runs": len(ks),
+            }
         return out
 
     how_far = {"before": per_pressure(before)}
@@ -548,7 +655,18 @@ def diagnose(campaign: Campaign, catalogue: tuple[Effect, ...] = CATALOGUE, mode
             "floor_deg": fl.floor_deg,
             "significance_threshold_deg": fl.threshold_deg,
         },
-        "pressure": ({"measured": True, "noise_kpa": fl.noise_p.sigma / 1e3, "drift_kpa": fl.noise_p.drift / 1e3, "model_tolerance_kpa": MODEL_TOLERANCE_KPA, "floor_kpa": fl.floor_kpa, "before_rms_kpa": rms_kpa(before_p)} if twin.has_pressure else {"measured": False}),
+        "pressure": (
+            {
+                "measured": True,
+                "noise_kpa": fl.noise_p.sigma / 1e3,
+                "drift_kpa": fl.noise_p.drift / 1e3,
+                "model_tolerance_kpa": MODEL_TOLERANCE_KPA,
+                "floor_kpa": fl.floor_kpa,
+                "before_rms_kpa": rms_kpa(before_p),
+            }
+            if twin.has_pressure
+            else {"measured": False}
+        ),
         "before_rms_deg": before_rms,
         "before_rms_ci95_deg": list(rms_ci_deg(before, rng)),
         "where": where.breakdown(labels, np.concatenate(before)),
@@ -567,8 +685,16 @@ def diagnose(campaign: Campaign, catalogue: tuple[Effect, ...] = CATALOGUE, mode
         },
         "how_far": how_far,
         "replays": twin.n_replays,
-        "timing_s": {"singles": clock["singles"] - clock["start"], "pairs": clock["pairs"] - clock["singles"], "total_fits": clock["pairs"] - clock["start"]},
-        "_residuals": {"before": before, "top": top.heldout if top is not None else None, "times": [pr.ts for pr in twin.runs]},
+        "timing_s": {
+            "singles": clock["singles"] - clock["start"],
+            "pairs": clock["pairs"] - clock["singles"],
+            "total_fits": clock["pairs"] - clock["start"],
+        },
+        "_residuals": {
+            "before": before,
+            "top": top.heldout if top is not None else None,
+            "times": [pr.ts for pr in twin.runs],
+        },
     }
 
 

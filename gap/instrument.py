@@ -59,7 +59,11 @@ def describe(instrument: Instrument, nuisance: Nuisance, latency_s: float, runs:
     got = sum(int(r.sampled.sum()) for r in runs)
     rate = 1.0 / period if period > 0 else math.nan
     return {
-        "declared": {"latency_s": instrument.latency_s, "noise_deg": instrument.noise_deg, "rate_hz": instrument.rate_hz},
+        "declared": {
+            "latency_s": instrument.latency_s,
+            "noise_deg": instrument.noise_deg,
+            "rate_hz": instrument.rate_hz,
+        },
         "latency_s": latency_s,
         "latency_estimated": instrument.latency_s is None,
         "offset_deg": math.degrees(nuisance.offset_rad),

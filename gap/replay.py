@@ -116,7 +116,9 @@ def replay_run(
     load_const_nm = load_torque_nm
     for k in range(n_steps):
         t = k * dt_s
-        load_torque_nm = load_const_nm + load_spring_nm_per_rad * y[R_THETA]  # opposes the drive: k theta pulls back to 0
+        load_torque_nm = (
+            load_const_nm + load_spring_nm_per_rad * y[R_THETA]
+        )  # opposes the drive: k theta pulls back to 0
         while row + 1 < n_rows and cmd_time_s[row + 1] <= t + 1e-9:
             row += 1
         cmd[C_DIRECTION] = direction[row]
@@ -136,4 +138,3 @@ def replay_run(
         pa_out[k + 1] = y[R_PA_MOTOR]
         pb_out[k + 1] = y[R_PB_MOTOR]
     return t_out, th_out, om_out, pa_out, pb_out
-

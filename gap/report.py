@@ -30,9 +30,19 @@ def _f(x) -> str:
 def _instrument_line(inst: dict) -> str:
     """What the diagnosis found of the reference instrument (declared, estimated, observed)."""
     dec = inst["declared"]
-    lat = f"latency {inst['latency_s'] * 1e3:.0f} ms " + ("(estimated with every fit, nuisance: not an effect of the arm)" if inst["latency_estimated"] else "(declared)")
-    rate = f"{inst['observed_rate_hz']:.1f} Hz observed" + (f" (declared {dec['rate_hz']:g} Hz: **does not match**)" if inst["rate_mismatch"] else (f" (declared {dec['rate_hz']:g} Hz)" if dec["rate_hz"] else ""))
-    off = f"zero offset {inst['offset_deg']:.3f} deg from {inst['offset_rest_samples']} rest samples before the first command (taken off)" if inst["offset_rest_samples"] else "no rest samples before the first command: zero offset not estimated"
+    lat = f"latency {inst['latency_s'] * 1e3:.0f} ms " + (
+        "(estimated with every fit, nuisance: not an effect of the arm)" if inst["latency_estimated"] else "(declared)"
+    )
+    rate = f"{inst['observed_rate_hz']:.1f} Hz observed" + (
+        f" (declared {dec['rate_hz']:g} Hz: **does not match**)"
+        if inst["rate_mismatch"]
+        else (f" (declared {dec['rate_hz']:g} Hz)" if dec["rate_hz"] else "")
+    )
+    off = (
+        f"zero offset {inst['offset_deg']:.3f} deg from {inst['offset_rest_samples']} rest samples before the first command (taken off)"
+        if inst["offset_rest_samples"]
+        else "no rest samples before the first command: zero offset not estimated"
+    )
     return f"Reference instrument: {lat}; {rate}, {inst['dropped_samples']} of {inst['samples'] + inst['dropped_samples']} samples missing; {off}."
 
 
@@ -53,8 +63,20 @@ def write(diag: dict, out: str | Path) -> dict[str, Path]:
         ax.plot(t, np.rad2deg(r), color="tab:red", alpha=0.5, lw=1, label="nominal twin" if k == 0 else None)
     if res["top"] is not None:
         for k, (t, r) in enumerate(zip(res["times"], res["top"])):
-            ax.plot(t, np.rad2deg(r), color="tab:blue", alpha=0.6, lw=1, label=f"+ {diag['which']['top']['name']} (withheld)" if k == 0 else None)
-    ax.axhspan(-diag["noise_floor"]["significance_threshold_deg"], diag["noise_floor"]["significance_threshold_deg"], color="0.85", label="significance band")
+            ax.plot(
+                t,
+                np.rad2deg(r),
+                color="tab:blue",
+                alpha=0.6,
+                lw=1,
+                label=f"+ {diag['which']['top']['name']} (withheld)" if k == 0 else None,
+            )
+    ax.axhspan(
+        -diag["noise_floor"]["significance_threshold_deg"],
+        diag["noise_floor"]["significance_threshold_deg"],
+        color="0.85",
+        label="significance band",
+    )
     ax.set_xlabel("time since run start, s")
     ax.set_ylabel("measured - twin, deg")
     ax.legend()
@@ -118,39 +140,101 @@ def write(diag: dict, out: str | Path) -> dict[str, Path]:
         f"noise floor {nf['floor_deg']:.2f} deg (measurement noise {nf['measurement_deg']:.3f} deg, {nf['measurement_from']}; from {nf['repeat_pairs']} repeat pairs on {nf['repeat_samples']} shared samples: noise {_f(nf['repeat_noise_deg'])} deg, drift between repeats {_f(nf['repeat_drift_deg'])} deg rms; "
         f"model tolerance {nf['model_tolerance_deg']:.2f} deg, measured per protocol, gap.protocols); "
         f"significant above {nf['significance_threshold_deg']:.2f} deg.",
-        *([f"Chamber pressures measured: the fit weighs them in units of their floor {diag['pressure']['floor_kpa']:.1f} kPa (transducer noise {diag['pressure']['noise_kpa']:.2f} kPa, model tolerance {diag['pressure']['model_tolerance_kpa']} kPa); nominal twin pressure residual {diag['pressure']['before_rms_kpa']:.1f} kPa rms. Candidates are ranked by held-out misfit in units of the floors, angle and pressure together."] if diag.get("pressure", {}).get("measured") else []),
+        *(
+            [
+                f"Chamber pressures measured: the fit weighs them in units of their floor {diag['pressure']['floor_kpa']:.1f} kPa (transducer noise {diag['pressure']['noise_kpa']:.2f} kPa, model tolerance {diag['pressure']['model_tolerance_kpa']} kPa); nominal twin pressure residual {diag['pressure']['before_rms_kpa']:.1f} kPa rms. Candidates are ranked by held-out misfit in units of the floors, angle and pressure together."
+            ]
+            if diag.get("pressure", {}).get("measured")
+            else []
+        ),
         "",
         f"## Verdict: **{w['verdict']}**",
         "",
     ]
     if w.get("nearest"):
         nb = w["nearest"]
-        how = f"its best member's correction matches the gap's where-pattern ({nb['where_match']:.2f}) and fits the withheld runs best of the families that do" if nb["by_where"] else f"no family's correction matches the gap's where-pattern well; this one comes closest ({nb['where_match']:.2f})"
-        lines += [f"No catalogue entry or pair explains the gap. Nearest family: **{nb['family']}** ({how}). The unmodelled effect may be another form of it, or something not catalogued.", ""]
+        how = (
+            f"its best member's correction matches the gap's where-pattern ({nb['where_match']:.2f}) and fits the withheld runs best of the families that do"
+            if nb["by_where"]
+            else f"no family's correction matches the gap's where-pattern well; this one comes closest ({nb['where_match']:.2f})"
+        )
+        lines += [
+            f"No catalogue entry or pair explains the gap. Nearest family: **{nb['family']}** ({how}). The unmodelled effect may be another form of it, or something not catalogued.",
+            "",
+        ]
     elif top is not None:
-        vals = ", ".join(f"{f} = {v:.4g} (nominal {n:.4g})" + (f" **on its catalogue bound ({b})**" if b else "") for f, v, n, b in zip(top["fields"], top["fitted_values"], top["nominal_values"], top["at_bound"]))
-        lines += [f"Best: **{top['name']}** ({' + '.join(top['labels'])}): {vals}; held-out rms {top['heldout_rms_deg']:.2f} deg, shrink {top['shrink']:.2f}.", ""]
+        vals = ", ".join(
+            f"{f} = {v:.4g} (nominal {n:.4g})" + (f" **on its catalogue bound ({b})**" if b else "")
+            for f, v, n, b in zip(top["fields"], top["fitted_values"], top["nominal_values"], top["at_bound"])
+        )
+        lines += [
+            f"Best: **{top['name']}** ({' + '.join(top['labels'])}): {vals}; held-out rms {top['heldout_rms_deg']:.2f} deg, shrink {top['shrink']:.2f}.",
+            "",
+        ]
         if any(top["at_bound"]):
-            lines += ["A fitted value on a catalogue bound: the true value may lie beyond it, or the effect stands in for another.", ""]
+            lines += [
+                "A fitted value on a catalogue bound: the true value may lie beyond it, or the effect stands in for another.",
+                "",
+            ]
     if w.get("pairs_refused"):
-        lines += ["Pairs that do not count: " + "; ".join(f"{r['pair']} ({r['why']})" for r in w["pairs_refused"]) + ".", ""]
+        lines += [
+            "Pairs that do not count: " + "; ".join(f"{r['pair']} ({r['why']})" for r in w["pairs_refused"]) + ".",
+            "",
+        ]
     if w["rivals"]:
         lines += [f"Rivals that fit the withheld runs as well: {', '.join(w['rivals'])}.", ""]
-    lines += ["## Families (where-pattern match of each family's best member, and its held-out misfit)", "", "| family | best member | where match | misfit in floors | shrink |", "|---|---|---|---|---|"]
-    lines += [f"| {x['family']} | {x['best']} | {x['where_match']:.2f} | {x['score_in_floors']:.2f} | {x['shrink']:.3f} |" for x in w["families"]]
+    lines += [
+        "## Families (where-pattern match of each family's best member, and its held-out misfit)",
+        "",
+        "| family | best member | where match | misfit in floors | shrink |",
+        "|---|---|---|---|---|",
+    ]
+    lines += [
+        f"| {x['family']} | {x['best']} | {x['where_match']:.2f} | {x['score_in_floors']:.2f} | {x['shrink']:.3f} |"
+        for x in w["families"]
+    ]
     lines += ["", "## Where", "", "![where](where.png) ![residual](residual.png)", ""]
     for factor, bins in diag["where"].items():
-        lines += [f"**{factor}**: " + "; ".join(f"{k}: {v['rms_deg']:.2f} deg rms (n={v['n']})" for k, v in bins.items()), ""]
-    lines += ["## Which (held-out misfit per candidate, best first)", "", "| candidate | held-out rms deg (95% CI) | held-out pressure rms kPa | misfit in floors | shrink | fitted (on a bound: !) | instrument latency s |", "|---|---|---|---|---|---|---|"]
+        lines += [
+            f"**{factor}**: " + "; ".join(f"{k}: {v['rms_deg']:.2f} deg rms (n={v['n']})" for k, v in bins.items()),
+            "",
+        ]
+    lines += [
+        "## Which (held-out misfit per candidate, best first)",
+        "",
+        "| candidate | held-out rms deg (95% CI) | held-out pressure rms kPa | misfit in floors | shrink | fitted (on a bound: !) | instrument latency s |",
+        "|---|---|---|---|---|---|---|",
+    ]
     for c in w["ranking"] + w["pairs"]:
         kpa = "—" if c["heldout_pressure_rms_kpa"] is None else f"{c['heldout_pressure_rms_kpa']:.1f}"
-        lines.append(f"| {c['name']} | {c['heldout_rms_deg']:.3f} ({c['heldout_rms_ci95_deg'][0]:.3f}..{c['heldout_rms_ci95_deg'][1]:.3f}) | {kpa} | {c['score_in_floors']:.2f} | {c['shrink']:.3f} | " + ", ".join(f"{f}={v:.4g}" + (" !" if b else "") for f, v, b in zip(c["fields"], c["fitted_values"], c["at_bound"])) + f" | {c['latency_s']:.3f} |")
+        lines.append(
+            f"| {c['name']} | {c['heldout_rms_deg']:.3f} ({c['heldout_rms_ci95_deg'][0]:.3f}..{c['heldout_rms_ci95_deg'][1]:.3f}) | {kpa} | {c['score_in_floors']:.2f} | {c['shrink']:.3f} | "
+            + ", ".join(
+                f"{f}={v:.4g}" + (" !" if b else "") for f, v, b in zip(c["fields"], c["fitted_values"], c["at_bound"])
+            )
+            + f" | {c['latency_s']:.3f} |"
+        )
     if w["skipped_already_in_twin"]:
         lines += ["", f"Already in the nominal twin (not candidates): {', '.join(w['skipped_already_in_twin'])}."]
-    lines += ["", "Not yet in the catalogue: " + "; ".join(NOT_IN_CATALOGUE) + ".", "", "## How far (withheld runs, mean / max |error| deg per supply)", "", "![how far](how_far.png) ![ranking](ranking.png)", ""]
+    lines += [
+        "",
+        "Not yet in the catalogue: " + "; ".join(NOT_IN_CATALOGUE) + ".",
+        "",
+        "## How far (withheld runs, mean / max |error| deg per supply)",
+        "",
+        "![how far](how_far.png) ![ranking](ranking.png)",
+        "",
+    ]
     qs = list(hf["before"])
     lines += ["| model | " + " | ".join(f"{q} MPa" for q in qs) + " |", "|---|" + "---|" * len(qs)]
     for name, table in hf.items():
-        lines.append(f"| {name} | " + " | ".join(f"{table[q]['mean_deg']:.2f} / {table[q]['max_deg']:.2f} (CI {table[q]['mean_ci95_deg'][0]:.2f}..{table[q]['mean_ci95_deg'][1]:.2f})" for q in qs) + " |")
+        lines.append(
+            f"| {name} | "
+            + " | ".join(
+                f"{table[q]['mean_deg']:.2f} / {table[q]['max_deg']:.2f} (CI {table[q]['mean_ci95_deg'][0]:.2f}..{table[q]['mean_ci95_deg'][1]:.2f})"
+                for q in qs
+            )
+            + " |"
+        )
     paths["report"].write_text("\n".join(lines) + "\n")
     return paths

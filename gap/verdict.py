@@ -41,7 +41,11 @@ def _unit(e, v: float) -> float:
     """Where `v` lies in effect e's range, 0..1 (logarithmic for log effects, 0 mapped to 0)."""
     if e.log:
         lo = e.low if e.low > 0 else e.high / 100.0
-        return 0.0 if v <= lo * 0.5 and e.low == 0 else float(np.clip(math.log(max(v, lo) / lo) / math.log(e.high / lo), 0.0, 1.0))
+        return (
+            0.0
+            if v <= lo * 0.5 and e.low == 0
+            else float(np.clip(math.log(max(v, lo) / lo) / math.log(e.high / lo), 0.0, 1.0))
+        )
     return (v - e.low) / (e.high - e.low)
 
 
@@ -63,7 +67,9 @@ def at_bounds(c) -> list[str | None]:
             out.append(None)
             continue
         span = e.high - e.low
-        out.append("high" if v >= e.high - AT_BOUND * span else "low" if (v <= e.low + AT_BOUND * span and e.low > 0) else None)
+        out.append(
+            "high" if v >= e.high - AT_BOUND * span else "low" if (v <= e.low + AT_BOUND * span and e.low > 0) else None
+        )
     return out
 
 
@@ -128,7 +134,9 @@ class Judge:
             return Call("ambiguous" if rivals else "explained", best, rivals, refused)
         return Call("outside the catalogue", best, [], refused)
 
-    def family_call(self, singles: list, labels: dict[str, np.ndarray], before: list[np.ndarray], latency_s: float) -> dict:
+    def family_call(
+        self, singles: list, labels: dict[str, np.ndarray], before: list[np.ndarray], latency_s: float
+    ) -> dict:
         """The families ranked by where-evidence and held-out fit (module docstring)."""
         from gap.diagnose import rms_deg
 
@@ -139,10 +147,21 @@ class Judge:
             e = BY_NAME[c.name]
             res = self.twin.residuals_with([(e, c.full_values[0])], range(n), latency_s)
             correction = gap - np.concatenate([res[k][0] for k in range(n)])
-            entry = {"family": e.family, "best": c.name, "score_in_floors": self.score(c), "shrink": rms_deg(c.heldout) / self.before_rms if self.before_rms > 0 else math.nan, "where_match": where.profile_match(labels, gap, correction)}
+            entry = {
+                "family": e.family,
+                "best": c.name,
+                "score_in_floors": self.score(c),
+                "shrink": rms_deg(c.heldout) / self.before_rms if self.before_rms > 0 else math.nan,
+                "where_match": where.profile_match(labels, gap, correction),
+            }
             if e.family not in best_of or entry["score_in_floors"] < best_of[e.family]["score_in_floors"]:
                 best_of[e.family] = entry
         evidence = sorted(best_of.values(), key=lambda x: x["score_in_floors"])
         eligible = [x for x in evidence if x["where_match"] >= PROFILE_MIN]
         chosen = eligible[0] if eligible else (max(evidence, key=lambda x: x["where_match"]) if evidence else None)
-        return {"family": chosen["family"] if chosen else None, "where_match": chosen["where_match"] if chosen else None, "by_where": bool(eligible), "evidence": evidence}
+        return {
+            "family": chosen["family"] if chosen else None,
+            "where_match": chosen["where_match"] if chosen else None,
+            "by_where": bool(eligible),
+            "evidence": evidence,
+        }

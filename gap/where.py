@@ -62,8 +62,12 @@ def labels_of(run: Run, ts: np.ndarray, angle_rad: np.ndarray, speed_rad_s: np.n
         "direction": np.array([{-1.0: "-1", 0.0: "0", 1.0: "+1"}[float(x)] for x in run.direction[idx]], dtype=object),
         "load_kg": np.array([f"{run.payload_kg:g}"] * len(ts), dtype=object),
         "angle_deg": np.array([f"{a:+.0f}..{a + ANGLE_BIN_DEG:+.0f}" for a in ang], dtype=object),
-        "speed_rad_s": np.array(["<0.1", "0.1-0.5", "0.5-1", ">1"], dtype=object)[np.digitize(np.abs(speed_rad_s), [0.1, 0.5, 1.0])],
-        "time_since_start_s": np.array([f"{max(0.0, math.floor((x - t0) / 0.5) * 0.5):.1f}+" if x >= t0 else "before" for x in ts], dtype=object),
+        "speed_rad_s": np.array(["<0.1", "0.1-0.5", "0.5-1", ">1"], dtype=object)[
+            np.digitize(np.abs(speed_rad_s), [0.1, 0.5, 1.0])
+        ],
+        "time_since_start_s": np.array(
+            [f"{max(0.0, math.floor((x - t0) / 0.5) * 0.5):.1f}+" if x >= t0 else "before" for x in ts], dtype=object
+        ),
     }
 
 
@@ -80,7 +84,12 @@ def breakdown(labels: dict[str, np.ndarray], residual_rad: np.ndarray) -> dict:
         out[factor] = {}
         for b in sorted(set(lab), key=str):
             m = lab == b
-            out[factor][str(b)] = {"rms_deg": float(np.sqrt(np.mean(res[m] ** 2))), "mean_deg": float(np.mean(res[m])), "max_abs_deg": float(np.max(np.abs(res[m]))), "n": int(m.sum())}
+            out[factor][str(b)] = {
+                "rms_deg": float(np.sqrt(np.mean(res[m] ** 2))),
+                "mean_deg": float(np.mean(res[m])),
+                "max_abs_deg": float(np.max(np.abs(res[m]))),
+                "n": int(m.sum()),
+            }
     return out
 
 

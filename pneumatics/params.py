@@ -53,7 +53,9 @@ class JointParams(NamedTuple):
     brake_holding_nm: float
     brake_release_gauge_pa: float  # full release: the lining is clear from this feed pressure on
     brake_release_start_gauge_pa: float  # the lining begins to lift (the springs' preload)
-    brake_fed_by_motor: float  # 1: air from the motor's pressurised port at the arm; 0: the supply (pneumatics/brake.py)
+    brake_fed_by_motor: (
+        float  # 1: air from the motor's pressurised port at the arm; 0: the supply (pneumatics/brake.py)
+    )
     brake_engage_time_constant_s: float
     brake_release_time_constant_s: float
     # [friction] joint side
@@ -166,7 +168,9 @@ def validated(params: JointParams, source: str = "<parameters>") -> JointParams:
             f"{source}: [brake] brake_release_start_gauge_pa = {params.brake_release_start_gauge_pa:g} must not exceed "
             f"brake_release_gauge_pa = {params.brake_release_gauge_pa:g} (the lining lifts before it is clear)"
         )
-    if (params.reducer_backlash_rad > 0.0 or params.reducer_compliance_rad_per_nm > 0.0) and params.rotor_inertia_kg_m2 == 0.0:
+    if (
+        params.reducer_backlash_rad > 0.0 or params.reducer_compliance_rad_per_nm > 0.0
+    ) and params.rotor_inertia_kg_m2 == 0.0:
         raise ParameterError(
             f"{source}: [motor] rotor_inertia_kg_m2 = 0 with a non-rigid reducer (reducer_backlash_rad = {params.reducer_backlash_rad:g}, "
             f"reducer_compliance_rad_per_nm = {params.reducer_compliance_rad_per_nm:g}); allowed: a rotor inertia > 0 (the motor side is a body of its own)"
@@ -202,7 +206,9 @@ def load_joint_params(path: str | Path) -> JointParams:
     defaults = JointParams._field_defaults
     for field, spec in SPEC.items():
         if field not in values and field not in defaults:
-            raise ParameterError(f"{path}: [{spec.section}] {field} is missing; allowed: a number in {spec.low:g}..{spec.high:g} {spec.unit}")
+            raise ParameterError(
+                f"{path}: [{spec.section}] {field} is missing; allowed: a number in {spec.low:g}..{spec.high:g} {spec.unit}"
+            )
     return validated(JointParams(**values), str(path))
 
 
@@ -217,9 +223,13 @@ STATOR, ROTOR, VANE_L, N_VANES, DEAD_V, ROTOR_J = (_COLUMNS[f] for f in JointPar
 RATIO, ETA_F, ETA_B = (_COLUMNS[f] for f in JointParams._fields[6:9])
 HOSE_L, HOSE_D, HOSE_LOSS = (_COLUMNS[f] for f in JointParams._fields[9:12])
 A_IN, A_EX, K_U, VALVE_TAU, SOLENOID_DELAY = (_COLUMNS[f] for f in JointParams._fields[12:17])
-BRAKE_HOLD, BRAKE_RELEASE_PA, BRAKE_START_PA, BRAKE_FED_BY_MOTOR, BRAKE_TAU_ON, BRAKE_TAU_OFF = (_COLUMNS[f] for f in JointParams._fields[17:23])
+BRAKE_HOLD, BRAKE_RELEASE_PA, BRAKE_START_PA, BRAKE_FED_BY_MOTOR, BRAKE_TAU_ON, BRAKE_TAU_OFF = (
+    _COLUMNS[f] for f in JointParams._fields[17:23]
+)
 COULOMB, VISCOUS, STICK_SPEED = (_COLUMNS[f] for f in JointParams._fields[23:26])
-LEAK_A, STRIBECK_EXCESS, STRIBECK_SPEED, DEAD_ZONE, COND_SCALE, POLY_N, RIPPLE, DROOP, HOSE_LEAK_A = (_COLUMNS[f] for f in JointParams._fields[26:35])
+LEAK_A, STRIBECK_EXCESS, STRIBECK_SPEED, DEAD_ZONE, COND_SCALE, POLY_N, RIPPLE, DROOP, HOSE_LEAK_A = (
+    _COLUMNS[f] for f in JointParams._fields[26:35]
+)
 PV_DEAD_TIME = _COLUMNS["valve_set_dead_time_s"]
 BACKLASH, COMPLIANCE = _COLUMNS["reducer_backlash_rad"], _COLUMNS["reducer_compliance_rad_per_nm"]
 GAS_R, GAS_K, GAS_T, GAS_P_ATM, GAS_MU = (_COLUMNS["gas_" + f] for f in Gas._fields)

@@ -16,7 +16,13 @@ def register(sub: argparse._SubParsersAction) -> None:
     c = studies.add_parser(
         "cleaning", help="the insulator-cleaning task per strategy x supply x seed: DIR/study.json, study.md, study.png"
     )
-    c.add_argument("--out", type=Path, required=True, metavar="DIR", help="output folder (made if missing): study.json, study.md, study.png")
+    c.add_argument(
+        "--out",
+        type=Path,
+        required=True,
+        metavar="DIR",
+        help="output folder (made if missing): study.json, study.md, study.png",
+    )
     c.add_argument(
         "--strategies",
         default="",
@@ -25,8 +31,20 @@ def register(sub: argparse._SubParsersAction) -> None:
     c.add_argument(
         "--supplies", default="0.5,0.6,0.7,0.8", help="supply pressures, MPa gauge (default 0.5,0.6,0.7,0.8)"
     )
-    c.add_argument("--seeds", type=number(1, 1000, integer=True), default=2, metavar="N", help="child seeds per strategy and supply (default 2)")
-    c.add_argument("--workers", type=number(**WORKERS), default=0, metavar="K", help="local worker processes (default 0: all cores)")
+    c.add_argument(
+        "--seeds",
+        type=number(1, 1000, integer=True),
+        default=2,
+        metavar="N",
+        help="child seeds per strategy and supply (default 2)",
+    )
+    c.add_argument(
+        "--workers",
+        type=number(**WORKERS),
+        default=0,
+        metavar="K",
+        help="local worker processes (default 0: all cores)",
+    )
     c.set_defaults(func=cmd_study_cleaning)
 
 

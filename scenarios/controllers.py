@@ -39,7 +39,9 @@ def build(scenario: Scenario, plant: Plant, predictor_params: dict[str, JointPar
         payload_kg=scenario.payload_kg if scenario.model == "arm" else None,
     )
     try:
-        controller.set_targets(targets, sequence=scenario.control.sequence, dwell_s=[t.dwell_s for t in scenario.targets])
+        controller.set_targets(
+            targets, sequence=scenario.control.sequence, dwell_s=[t.dwell_s for t in scenario.targets]
+        )
     except MotionRefused as e:
         return controller, str(e)
     return controller, ""

@@ -91,8 +91,18 @@ def _commands(mpa: float, k_u: float) -> dict[str, np.ndarray]:
 
 def _replay(params: JointParams, cmd: dict[str, np.ndarray], inertia: float) -> tuple[np.ndarray, np.ndarray]:
     t, th, *_ = replay_run(
-        params_row(params), cmd["time_s"], cmd["direction"], cmd["valve_set_gauge_pa"], cmd["brake_released"],
-        cmd["supply_pa"], False, math.radians(START_DEG), inertia, 0.0, MOTION.total_s(), DT_S,
+        params_row(params),
+        cmd["time_s"],
+        cmd["direction"],
+        cmd["valve_set_gauge_pa"],
+        cmd["brake_released"],
+        cmd["supply_pa"],
+        False,
+        math.radians(START_DEG),
+        inertia,
+        0.0,
+        MOTION.total_s(),
+        DT_S,
     )
     return t, np.degrees(th) - START_DEG
 

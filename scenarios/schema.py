@@ -58,19 +58,40 @@ from scenarios.ik import disc_drive_angles, drive_to_qpos, qpos_to_drive
 from twin.errors import UserError
 
 SHIPPED_DIR = Path(__file__).resolve().parent  # the scenario files ship as package data (pyproject.toml)
-ARM_ONLY_CRITERIA = ("brush_on_disc", "contact_force_n", "disc_contact_s", "disc_force_n", "disc_brushed_m", "max_drop_m")  # need the brush, the discs, the payload
+ARM_ONLY_CRITERIA = (
+    "brush_on_disc",
+    "contact_force_n",
+    "disc_contact_s",
+    "disc_force_n",
+    "disc_brushed_m",
+    "max_drop_m",
+)  # need the brush, the discs, the payload
 TARGET_CRITERIA = ("final_error_deg", "max_error_deg")  # judged against the targets: need one
 # a fault's value: (low, high, unit) per kind that has one
 FAULT_VALUES = {
-    "hose_leak": (0.0, 5.1e-5, "m^2"),  # at most the whole bore of the hose: 8 mm the widest (assets/joints/*.toml); per joint below
+    "hose_leak": (
+        0.0,
+        5.1e-5,
+        "m^2",
+    ),  # at most the whole bore of the hose: 8 mm the widest (assets/joints/*.toml); per joint below
     "sensor_bias": (-1e6, 1e6, "Pa"),  # +-10 bar: beyond the 0.5-0.8 MPa supply's whole span
 }
 JOINT_CRITERIA = ("final_error_deg", "max_error_deg", "max_travel_deg", "prediction_error_deg")
 DISC_CRITERIA = ("brush_on_disc", "disc_contact_s", "disc_force_n", "disc_brushed_m")  # may name one disc
 
 
-CRITERIA = ("final_error_deg", "max_error_deg", "brush_on_disc", "contact_force_n", "disc_contact_s", "disc_force_n", "disc_brushed_m",
-            "max_drop_m", "max_travel_deg", "prediction_error_deg")
+CRITERIA = (
+    "final_error_deg",
+    "max_error_deg",
+    "brush_on_disc",
+    "contact_force_n",
+    "disc_contact_s",
+    "disc_force_n",
+    "disc_brushed_m",
+    "max_drop_m",
+    "max_travel_deg",
+    "prediction_error_deg",
+)
 # who keeps the arm on its task (scenarios/task.py): the predictor alone; the predictor re-referenced
 # at the shoulder's end stop after every disc; the operator correcting by eye through the global
 # camera (scenarios/operator.py); or, as a bound that breaks the sensorless rule, the same
@@ -182,7 +203,9 @@ class _Reader:
         self.path, self.table, self.where = path, table, where
         unknown = sorted(set(table) - allowed)
         if unknown:
-            raise ScenarioError(f"{path}: {self._name(unknown[0])} is not a known field; allowed: {', '.join(sorted(allowed))}")
+            raise ScenarioError(
+                f"{path}: {self._name(unknown[0])} is not a known field; allowed: {', '.join(sorted(allowed))}"
+            )
 
     def _name(self, key: str) -> str:
         return f"{self.where}.{key}" if self.where else key
@@ -194,7 +217,12 @@ class _Reader:
         if key not in self.table and default is not None:
             return float(default)  # an unset bound may be infinite
         value = self.table.get(key, default)
-        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) or not low <= value <= high:
+        if (
+            isinstance(value, bool)
+            or not isinstance(value, (int, float))
+            or not math.isfinite(value)
+            or not low <= value <= high
+        ):
             self.fail(key, value, f"a number in {low:g}..{high:g}{' ' + unit if unit else ''}")
         return float(value)
 
@@ -283,22 +311,52 @@ def with_overrides(scenario: Scenario, overrides: dict[str, object]) -> Scenario
 def parse_doc(doc: dict, path: str, text: str, overrides: dict | None = None) -> Scenario:
     """A Scenario from an already-parsed TOML document (see `parse`)."""
     if not doc:
-        raise ScenarioError(f"{path}: an empty scenario (no field at all); allowed: a file that says what to run (see the shipped scenarios/*.toml)")
-    top = _Reader(path, doc, "", {"name", "description", "model", "seed", "duration_s", "start", "payload", "supply", "reality", "predictor", "control", "operator", "targets", "faults", "criteria"})
+        raise ScenarioError(
+            f"{path}: an empty scenario (no field at all); allowed: a file that says what to run (see the shipped scenarios/*.toml)"
+        )
+    top = _Reader(
+        path,
+        doc,
+        "",
+        {
+            "name",
+            "description",
+            "model",
+            "seed",
+            "duration_s",
+            "start",
+            "payload",
+            "supply",
+            "reality",
+            "predictor",
+            "control",
+            "operator",
+            "targets",
+            "faults",
+            "criteria",
+        },
+    )
     model = top.choice("model", "arm", ("arm", "wrist_rig"))
     joints = ("wrist_pitch",) if model == "wrist_rig" else JOINTS
     joint_names = " | ".join(joints)
 
     start = _Reader(path, top.table_of("start"), "start", {"pose", "angles_deg"})
-    supply_r = _Reader(path, top.table_of("supply"), "supply", {"kind", "pressure_mpa", "steps", "mean_mpa", "variance_pa2", "hold_s"})
+    supply_r = _Reader(
+        path, top.table_of("supply"), "supply", {"kind", "pressure_mpa", "steps", "mean_mpa", "variance_pa2", "hold_s"}
+    )
     steps = supply_r.table.get("steps", [])
-    if not isinstance(steps, list) or not all(isinstance(s, list) and len(s) == 2 and all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in s) for s in steps):
+    if not isinstance(steps, list) or not all(
+        isinstance(s, list) and len(s) == 2 and all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in s)
+        for s in steps
+    ):
         supply_r.fail("steps", steps, "a list of [time_s, pressure_mpa] pairs")
     for k, (t, mpa) in enumerate(steps):
-        if not (math.isfinite(t) and 0 <= t and 0 <= mpa <= 1.0):
+        if not (math.isfinite(t) and t >= 0 and 0 <= mpa <= 1.0):
             supply_r.fail("steps", [t, mpa], "time_s >= 0 (finite) and pressure_mpa in 0..1")
         if k and not t > steps[k - 1][0]:
-            supply_r.fail("steps", [t, mpa], f"time_s increasing from pair to pair (the pair before is at {steps[k - 1][0]:g} s)")
+            supply_r.fail(
+                "steps", [t, mpa], f"time_s increasing from pair to pair (the pair before is at {steps[k - 1][0]:g} s)"
+            )
     supply = Supply(
         kind=supply_r.choice("kind", "constant", ("constant", "steps", "random")),
         pressure_mpa=supply_r.number("pressure_mpa", 0.6, 0.0, 1.0, "MPa gauge"),
@@ -310,7 +368,12 @@ def parse_doc(doc: dict, path: str, text: str, overrides: dict | None = None) ->
     if supply.kind == "steps" and not supply.steps:
         supply_r.fail("steps", [], "at least one [time_s, pressure_mpa] pair when kind = 'steps'")
 
-    ctl = _Reader(path, top.table_of("control"), "control", {"mode", "sequence", "min_rotation_deg", "tolerance_deg", "move_timeout_s", "strategy"})
+    ctl = _Reader(
+        path,
+        top.table_of("control"),
+        "control",
+        {"mode", "sequence", "min_rotation_deg", "tolerance_deg", "move_timeout_s", "strategy"},
+    )
     control = Control(
         mode=ctl.choice("mode", "closed_loop", ("closed_loop", "open_loop", "none")),
         sequence=ctl.choice("sequence", "one_after_another", ("one_after_another", "together")),
@@ -320,8 +383,14 @@ def parse_doc(doc: dict, path: str, text: str, overrides: dict | None = None) ->
         strategy=ctl.choice("strategy", "sensorless", STRATEGIES),
     )
     if control.strategy != "sensorless" and model != "arm":
-        ctl.fail("strategy", control.strategy, "'sensorless' with model = 'wrist_rig' (the others work on the arm's cleaning task)")
-    op = _Reader(path, top.table_of("operator"), "operator", {"camera_fps", "latency_s", "tolerance_m", "width_px", "height_px"})
+        ctl.fail(
+            "strategy",
+            control.strategy,
+            "'sensorless' with model = 'wrist_rig' (the others work on the arm's cleaning task)",
+        )
+    op = _Reader(
+        path, top.table_of("operator"), "operator", {"camera_fps", "latency_s", "tolerance_m", "width_px", "height_px"}
+    )
     operator = Operator(
         camera_fps=op.number("camera_fps", 25.0, 0.5, 200.0, "frames/s"),
         latency_s=op.number("latency_s", 0.4, 0.0, 10.0, "s"),
@@ -357,9 +426,17 @@ def parse_doc(doc: dict, path: str, text: str, overrides: dict | None = None) ->
             if value == 0.0:
                 fr.fail("value", value, f"a {kind} other than 0 (0 is no fault)")
             if kind == "hose_leak" and joint in joints and value > _hose_bore_m2(joint):
-                fr.fail("value", value, f"a leak area in 0..{_hose_bore_m2(joint):.3g} m^2 (the whole bore of {joint}'s hose)")
+                fr.fail(
+                    "value",
+                    value,
+                    f"a leak area in 0..{_hose_bore_m2(joint):.3g} m^2 (the whole bore of {joint}'s hose)",
+                )
         elif "value" in fr.table:
-            fr.fail("value", fr.table["value"], f"no value for kind = {kind!r} (a value only with {', '.join(FAULT_VALUES)})")
+            fr.fail(
+                "value",
+                fr.table["value"],
+                f"no value for kind = {kind!r} (a value only with {', '.join(FAULT_VALUES)})",
+            )
         else:
             value = 0.0
         if kind == "supply_lost" and joint:
@@ -378,10 +455,20 @@ def parse_doc(doc: dict, path: str, text: str, overrides: dict | None = None) ->
         if kind == "max_travel_deg" and not joint:
             cr.fail("joint", "<missing>", joint_names)
         if kind in ARM_ONLY_CRITERIA and model != "arm":
-            cr.fail("kind", kind, f"a criterion the rig can be judged by ({', '.join(k for k in CRITERIA if k not in ARM_ONLY_CRITERIA)}); {kind} needs model = 'arm'")
+            cr.fail(
+                "kind",
+                kind,
+                f"a criterion the rig can be judged by ({', '.join(k for k in CRITERIA if k not in ARM_ONLY_CRITERIA)}); {kind} needs model = 'arm'",
+            )
         if "disc" in cr.table and kind not in DISC_CRITERIA:
             cr.fail("disc", cr.table["disc"], f"only with kind = {' | '.join(map(repr, DISC_CRITERIA))}")
-        crit = Criterion(kind, joint, cr.number("max", math.inf, 0.0, math.inf), cr.number("min", -math.inf, -math.inf, math.inf), cr.integer("disc", 0, 0, 8))
+        crit = Criterion(
+            kind,
+            joint,
+            cr.number("max", math.inf, 0.0, math.inf),
+            cr.number("min", -math.inf, -math.inf, math.inf),
+            cr.integer("disc", 0, 0, 8),
+        )
         if crit.min > crit.max:
             cr.fail("min", crit.min, f"min <= max (max = {crit.max:g})")
         if kind in TARGET_CRITERIA or kind == "prediction_error_deg":
@@ -397,7 +484,9 @@ def parse_doc(doc: dict, path: str, text: str, overrides: dict | None = None) ->
         duration_s=duration,
         start_pose=start.choice("pose", "home", ("home", "zero")),
         start_angles_deg=_joint_angles(path, "start.angles_deg", start.table_of("angles_deg"), joints),
-        payload_kg=_Reader(path, top.table_of("payload"), "payload", {"mass_kg"}).number("mass_kg", 20.0, 0.0, 40.0, "kg"),
+        payload_kg=_Reader(path, top.table_of("payload"), "payload", {"mass_kg"}).number(
+            "mass_kg", 20.0, 0.0, 40.0, "kg"
+        ),
         supply=supply,
         reality=_model(path, "reality", top.table_of("reality"), joints),
         predictor=_model(path, "predictor", top.table_of("predictor"), joints),
@@ -417,15 +506,21 @@ def _hose_bore_m2(joint: str) -> float:
     return math.pi / 4 * load_joint_params(assets.joint_param_path(joint)).hose_diameter_m ** 2
 
 
-def _needs_a_plan(cr: "_Reader", kind: str, joint: str, targets: list[Target], control: Control) -> None:
+def _needs_a_plan(cr: _Reader, kind: str, joint: str, targets: list[Target], control: Control) -> None:
     """A criterion judged against targets or a prediction needs them: without, it would pass on nothing."""
     if control.mode == "none":
-        cr.fail("kind", kind, "a criterion that holds without a controller (control.mode = 'none' moves nothing, predicts nothing): max_travel_deg, max_drop_m, ...")
+        cr.fail(
+            "kind",
+            kind,
+            "a criterion that holds without a controller (control.mode = 'none' moves nothing, predicts nothing): max_travel_deg, max_drop_m, ...",
+        )
     if kind not in TARGET_CRITERIA:
         return
     targeted = {j for t in targets for j in (JOINTS if t.brush_at_disc else t.angles_deg)}
     if not targeted:
-        cr.fail("kind", kind, "a criterion the scenario can be judged by: it has no [[targets]] to measure an error against")
+        cr.fail(
+            "kind", kind, "a criterion the scenario can be judged by: it has no [[targets]] to measure an error against"
+        )
     if joint and joint not in targeted:
         cr.fail("joint", joint, f"a joint some target moves ({', '.join(sorted(targeted))})")
 
@@ -460,7 +555,10 @@ def check_against_model(s: Scenario) -> None:
         return f"{ranges[j][0]:.1f}..{ranges[j][1]:.1f} deg ({j}'s range in assets/{source})"
 
     key = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_KEY, "home")
-    start = {j: float(m.key_qpos[key][m.joint(j).qposadr[0]]) if s.start_pose == "home" and key >= 0 else 0.0 for j in s.joints}
+    start = {
+        j: float(m.key_qpos[key][m.joint(j).qposadr[0]]) if s.start_pose == "home" and key >= 0 else 0.0
+        for j in s.joints
+    }
     for j, deg in s.start_angles_deg.items():
         if not ranges[j][0] <= deg <= ranges[j][1]:
             raise ScenarioError(f"{s.path}: start.angles_deg.{j} = {deg!r} is not allowed; allowed: {allowed(j)}")
@@ -479,7 +577,9 @@ def check_against_model(s: Scenario) -> None:
         for j, q in drive_to_qpos(drive).items():
             if j in ranges and not math.radians(ranges[j][0]) - 1e-9 <= q <= math.radians(ranges[j][1]) + 1e-9:
                 if j in t.angles_deg and j != "elbow_pitch":
-                    raise ScenarioError(f"{s.path}: targets[{i}].angles_deg.{j} = {t.angles_deg[j]!r} is not allowed; allowed: {allowed(j)}")
+                    raise ScenarioError(
+                        f"{s.path}: targets[{i}].angles_deg.{j} = {t.angles_deg[j]!r} is not allowed; allowed: {allowed(j)}"
+                    )
                 raise ScenarioError(
                     f"{s.path}: targets[{i}] puts joint {j} at {math.degrees(q):.1f} deg (drive angles {', '.join(f'{k} {math.degrees(v):.1f}' for k, v in drive.items())} deg; "
                     f"the elbow's drive angle is the forearm's pitch, shoulder + elbow joint); allowed: {allowed(j)}"
@@ -499,7 +599,9 @@ def find(name_or_path: str | Path) -> Path:
     shipped = SHIPPED_DIR / f"{path.stem}.toml"
     if shipped.is_file():
         return shipped
-    raise ScenarioError(f"{path}: no such scenario file; allowed: a path to a scenario file or a shipped scenario's name ({', '.join(shipped_names())})")
+    raise ScenarioError(
+        f"{path}: no such scenario file; allowed: a path to a scenario file or a shipped scenario's name ({', '.join(shipped_names())})"
+    )
 
 
 def load(path: str | Path) -> Scenario:

@@ -15,8 +15,8 @@ from __future__ import annotations
 import csv
 import io
 import itertools
+from collections.abc import Iterable
 from pathlib import Path
-from typing import Iterable
 
 import joblib
 import numpy as np
@@ -86,7 +86,9 @@ def sweep(
         try:
             client = Client(scheduler, timeout=SCHEDULER_TIMEOUT_S)
         except (OSError, TimeoutError, ValueError, TypeError) as e:
-            raise ScenarioError(f"--scheduler {scheduler}: no Dask scheduler answers there ({type(e).__name__}: {e}); allowed: the address of a running scheduler, e.g. tcp://host:8786") from None
+            raise ScenarioError(
+                f"--scheduler {scheduler}: no Dask scheduler answers there ({type(e).__name__}: {e}); allowed: the address of a running scheduler, e.g. tcp://host:8786"
+            ) from None
         try:
             with joblib.parallel_config(backend="dask"):
                 results = joblib.Parallel(return_as="generator")(jobs)

@@ -113,11 +113,11 @@ class TaskController:
 
     # -- sequencing ----------------------------------------------------------------------------
     def _between_targets(self, t: float) -> None:
-        if 0 <= self.k and not self.reached[self.k]:
+        if self.k >= 0 and not self.reached[self.k]:
             self.reached[self.k] = True
             self.finished_s[self.k] = t
             self._review_from_s = t
-        if 0 <= self.k and self.operator is not None and self._is_approach(self.k):
+        if self.k >= 0 and self.operator is not None and self._is_approach(self.k):
             target = self.scenario.targets[self.k]
             verdict = self.operator.review(
                 t, self._review_from_s, target.brush_at_disc, target.standoff_m, self.controller
@@ -130,7 +130,7 @@ class TaskController:
                 self.reached[self.k] = False
                 return
         if (
-            0 <= self.k
+            self.k >= 0
             and self.strategy == "rereference"
             and self._is_back_off(self.k)
             and self.k not in self._stopped_after

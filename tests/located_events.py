@@ -92,7 +92,11 @@ class _Joint:
             drive = joint_torque(y[PA_M], y[PB_M], self.ratio * y[THETA], slide, p)
         else:
             drive = self.tau_t(y)
-        return drive - self.load + stribeck_excess_torque(omega, p[P.STRIBECK_EXCESS], p[P.STRIBECK_SPEED], 0.5 * p[P.STRIBECK_SPEED])
+        return (
+            drive
+            - self.load
+            + stribeck_excess_torque(omega, p[P.STRIBECK_EXCESS], p[P.STRIBECK_SPEED], 0.5 * p[P.STRIBECK_SPEED])
+        )
 
     def motor_drive(self, y: np.ndarray, direction: float) -> float:
         return joint_torque(y[PA_M], y[PB_M], self.ratio * y[QM], direction, self.p)
@@ -120,14 +124,18 @@ class _Modes:
         return joint_mode, motor_mode
 
 
-def _rates(t, y, j: _Joint, modes: tuple[float, float], direction: float, valve_set: float, release: float) -> np.ndarray:
+def _rates(
+    t, y, j: _Joint, modes: tuple[float, float], direction: float, valve_set: float, release: float
+) -> np.ndarray:
     p = j.p
     s, s_m = modes
     out = np.zeros(10)
     limit = j.dry_limit(y)
     if s != 0.0:
         out[THETA] = y[OMEGA]
-        out[OMEGA] = (j.joint_drive(y, y[OMEGA], s) - s * limit - p[P.VISCOUS] * y[OMEGA]) / (j.inertia if j.rigid else j.j_j)
+        out[OMEGA] = (j.joint_drive(y, y[OMEGA], s) - s * limit - p[P.VISCOUS] * y[OMEGA]) / (
+            j.inertia if j.rigid else j.j_j
+        )
     if j.rigid:
         out[QM], out[WM] = out[THETA], out[OMEGA]
         phi, w_motor = j.ratio * y[THETA], j.ratio * y[OMEGA]
@@ -136,7 +144,9 @@ def _rates(t, y, j: _Joint, modes: tuple[float, float], direction: float, valve_
             out[QM] = y[WM]
             out[WM] = (j.motor_drive(y, s_m) - j.tau_t(y)) / j.j_m
         phi, w_motor = j.ratio * y[QM], j.ratio * y[WM]
-    out[PA_V:PB_M + 1] = pressure_rates(y[PA_V], y[PA_M], y[PB_V], y[PB_M], phi, w_motor, direction, y[PV], j.supply, p)
+    out[PA_V : PB_M + 1] = pressure_rates(
+        y[PA_V], y[PA_M], y[PB_V], y[PB_M], phi, w_motor, direction, y[PV], j.supply, p
+    )
     target = proportional_valve_target(valve_set, j.supply - p[P.GAS_P_ATM])
     out[PV] = (target - y[PV]) / p[P.VALVE_TAU] if p[P.VALVE_TAU] > 0.0 else 0.0
     feed = brake_feed_gauge_pa(p[P.BRAKE_FED_BY_MOTOR], j.supply, y[PA_M], y[PB_M], p[P.GAS_P_ATM])
@@ -227,8 +237,10 @@ def _until_event(fun, t0: float, y0: np.ndarray, t1: float, events: list, t_eval
         roots = []
         for e, a, b in zip(events, g_old, g_new):
             if (e.direction > 0 and a <= 0.0 < b) or (e.direction < 0 and a >= 0.0 > b):
+
                 def h(t, e=e, a=a, b=b):
                     return a if t == t_prev else (b if t == t_new else e(t, dense(t)))
+
                 roots.append((t_prev if a == 0.0 else brentq(h, t_prev, t_new, xtol=1e-13), e.tag))
         if roots:
             t_event = min(r for r, _ in roots)
@@ -241,7 +253,17 @@ def _until_event(fun, t0: float, y0: np.ndarray, t1: float, events: list, t_eval
         g_old = g_new
 
 
-def solve(p: np.ndarray, commands: list[Command], t_end_s: float, *, theta0_rad: float = 0.0, inertia_kg_m2: float, load_nm: float = 0.0, supply_pa: float, t_eval: np.ndarray) -> Solution:
+def solve(
+    p: np.ndarray,
+    commands: list[Command],
+    t_end_s: float,
+    *,
+    theta0_rad: float = 0.0,
+    inertia_kg_m2: float,
+    load_nm: float = 0.0,
+    supply_pa: float,
+    t_eval: np.ndarray,
+) -> Solution:
     """The joint from rest (brake engaged, air at atmosphere) through `commands`, sampled at `t_eval`."""
     t_end_s = max(t_end_s, float(t_eval[-1]))  # a grid made by rounding may end a hair past t_end
     joint = _Joint(np.asarray(p, dtype=float), inertia_kg_m2, load_nm, supply_pa)

@@ -31,7 +31,9 @@ def test_run_gives_the_telemetry_it_logged(wrist):
     # the wrist really turned toward its 60 deg target (not a run of constants)
     turned = np.degrees(a["true_angle_rad"][-1, 0] - a["true_angle_rad"][0, 0])
     assert 10.0 < turned < 70.0
-    assert run.summary["joints"]["wrist_pitch"]["true_final_deg"] == pytest.approx(np.degrees(a["true_angle_rad"][-1, 0]), abs=1e-3)
+    assert run.summary["joints"]["wrist_pitch"]["true_final_deg"] == pytest.approx(
+        np.degrees(a["true_angle_rad"][-1, 0]), abs=1e-3
+    )
     log = pat.read_log(tmp / "wrist.mcap")
     assert log.meta["recovery"]["complete"]
     for name, value in a.items():
@@ -97,13 +99,17 @@ def test_sweep_table_and_csv(tmp_path):
     assert table["wrist_pitch.true_final_deg"] == [s["joints"]["wrist_pitch"]["true_final_deg"] for s in sw.summaries]
     rows = list(csv.DictReader(open(sw.to_csv(tmp_path / "sweep.csv"))))
     assert [float(r["wrist_pitch.true_final_deg"]) for r in rows] == table["wrist_pitch.true_final_deg"]
-    assert [r["final_error_deg[wrist_pitch].passed"] for r in rows] == [str(v) for v in table["final_error_deg[wrist_pitch].passed"]]
+    assert [r["final_error_deg[wrist_pitch].passed"] for r in rows] == [
+        str(v) for v in table["final_error_deg[wrist_pitch].passed"]
+    ]
 
 
 def test_sweep_command_writes_the_table_beside_the_json(tmp_path, capsys):
     out = tmp_path / "s.json"
     path = str(pat.api.shipped_scenario_path(SCENARIO))
-    twin_main(["sweep", path, "--set", "supply.pressure_mpa=0.6", "--duration", "0.3", "--workers", "1", "--out", str(out)])
+    twin_main(
+        ["sweep", path, "--set", "supply.pressure_mpa=0.6", "--duration", "0.3", "--workers", "1", "--out", str(out)]
+    )
     assert "one row per run in" in capsys.readouterr().out
     summaries = json.loads(out.read_text())
     rows = list(csv.DictReader(open(tmp_path / "s.csv")))
@@ -114,7 +120,9 @@ def test_diagnose_names_a_hidden_leak(tmp_path):
     """A campaign from the plant with a vane leak the twin lacks: the API's diagnosis names it."""
     from gap import synth
 
-    folder = synth.make_campaign(tmp_path / "leak", synth.wrist_params()._replace(leak_area_m2=4e-7), seed=2, pressures_mpa=(0.5, 0.8))
+    folder = synth.make_campaign(
+        tmp_path / "leak", synth.wrist_params()._replace(leak_area_m2=4e-7), seed=2, pressures_mpa=(0.5, 0.8)
+    )
     d = pat.diagnose(folder, effects=["vane_leakage", "coulomb_friction"], out=tmp_path / "report")
     assert d.verdict == "explained" and d.effect == "vane_leakage"
     assert d.after_rms_deg < 0.3 * d.before_rms_deg

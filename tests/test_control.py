@@ -17,7 +17,15 @@ import numpy as np
 import pytest
 
 import assets
-from control import ArmController, ArmModel, MotionRefused, closed_vs_open_loop, minimum_rotation_limit, random_supply_moves, run_until_done
+from control import (
+    ArmController,
+    ArmModel,
+    MotionRefused,
+    closed_vs_open_loop,
+    minimum_rotation_limit,
+    random_supply_moves,
+    run_until_done,
+)
 from pneumatics import load_joint_params
 from twin.plant import Plant, Sensors
 

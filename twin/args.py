@@ -27,7 +27,9 @@ def _problem(value, low: float, high: float, above: bool, integer: bool) -> str 
     return None
 
 
-def check_number(name: str, value, low: float, high: float, unit: str = "", *, above: bool = False, integer: bool = False):
+def check_number(
+    name: str, value, low: float, high: float, unit: str = "", *, above: bool = False, integer: bool = False
+):
     """`value` if it is a finite number in low..high (`above`: strictly above `low`), else UserError."""
     problem = _problem(value, low, high, above, integer)
     if problem:
@@ -45,7 +47,9 @@ def number(low: float, high: float, unit: str = "", *, above: bool = False, inte
             value = text
         problem = _problem(value, low, high, above, integer)
         if problem:
-            raise argparse.ArgumentTypeError(f"{text!r} {problem}; allowed: {_allowed(low, high, unit, above, integer)}")
+            raise argparse.ArgumentTypeError(
+                f"{text!r} {problem}; allowed: {_allowed(low, high, unit, above, integer)}"
+            )
         return value
 
     parse.__name__ = "number"  # argparse names the type in some messages

@@ -39,7 +39,14 @@ class CameraProcess:
     renders, or the child dies, `error` says why and later requests are dropped.
     """
 
-    def __init__(self, model: mujoco.MjModel, camera: str = "global_view", width: int = 480, height: int = 360, backends: tuple[str, ...] | None = None):
+    def __init__(
+        self,
+        model: mujoco.MjModel,
+        camera: str = "global_view",
+        width: int = 480,
+        height: int = 360,
+        backends: tuple[str, ...] | None = None,
+    ):
         self._dir = tempfile.TemporaryDirectory(prefix="twin-camera-")
         self._mjb = Path(self._dir.name) / "model.mjb"
         mujoco.mj_saveModel(model, str(self._mjb), None)  # the exact compiled model, no XML paths needed
@@ -61,7 +68,14 @@ class CameraProcess:
             env["PYTHONPATH"] = os.pathsep.join([root, os.environ.get("PYTHONPATH", "")]).rstrip(os.pathsep)
             err_path = Path(self._dir.name) / f"stderr-{backend}.txt"
             with open(err_path, "wb") as err:  # own session: a terminal's Ctrl-C is the run's to handle
-                proc = subprocess.Popen([sys.executable, "-m", "twin.camera", str(self._mjb), *self._args], stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=err, env=env, start_new_session=True)
+                proc = subprocess.Popen(
+                    [sys.executable, "-m", "twin.camera", str(self._mjb), *self._args],
+                    stdin=subprocess.PIPE,
+                    stdout=subprocess.PIPE,
+                    stderr=err,
+                    env=env,
+                    start_new_session=True,
+                )
             if proc.stdout.readline().strip() == b"ready":
                 self.backend = backend
                 return proc
@@ -125,8 +139,9 @@ class FrameFeed:
     twice for the same batch asks nothing more, and each recorder reads the frames by its own
     count (`frames_from`)."""
 
-    def __init__(self, model: mujoco.MjModel, fps: float, camera: str = "global_view", 
-                 width: int = 480, height: int = 360):
+    def __init__(
+        self, model: mujoco.MjModel, fps: float, camera: str = "global_view", width: int = 480, height: int = 360
+    ):
         self.fps = float(fps)
         self._next_t = 0.0
         self._frames: list[tuple[float, bytes]] = []

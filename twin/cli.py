@@ -40,8 +40,12 @@ def version() -> str:
 
 def build_parser() -> argparse.ArgumentParser:
     parser = OneLineParser(prog="twin", description="Digital twin of the sensorless pneumatic manipulator.")
-    parser.add_argument("--version", action="version", version=f"%(prog)s {version()}", help="print the version and exit")
-    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND", help="what to do (each has its own --help)")
+    parser.add_argument(
+        "--version", action="version", version=f"%(prog)s {version()}", help="print the version and exit"
+    )
+    sub = parser.add_subparsers(
+        dest="command", required=True, metavar="COMMAND", help="what to do (each has its own --help)"
+    )
     for name in COMMAND_MODULES:
         try:
             module = importlib.import_module(name)

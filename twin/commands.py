@@ -24,26 +24,57 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--rrd", type=Path, help="write a rerun recording here")
     p.add_argument("--mcap", type=Path, help="write an MCAP log here")
     p.add_argument(
-        "--camera-fps", type=number(**CAMERA_FPS_RANGE), default=CAMERA_FPS, metavar="N",
+        "--camera-fps",
+        type=number(**CAMERA_FPS_RANGE),
+        default=CAMERA_FPS,
+        metavar="N",
         help=f"global-camera frames per simulated second in the recording (default {CAMERA_FPS:g}; 0: none; at most the log rate, 50)",
     )
     p.add_argument("--duration", type=number(**DURATION_S), metavar="S", help="stop after this many simulated seconds")
     p.add_argument("--seed", type=number(**SEED), metavar="N", help="override the scenario's seed")
-    p.add_argument("--start-time", metavar="ISO|now",
-                   help="the MCAP log's start (default 2000-01-01T00:00:00Z, deterministic; 'now': the wall clock)")
+    p.add_argument(
+        "--start-time",
+        metavar="ISO|now",
+        help="the MCAP log's start (default 2000-01-01T00:00:00Z, deterministic; 'now': the wall clock)",
+    )
     p.set_defaults(func=cmd_run)
 
     p = sub.add_parser("sweep", help="run a scenario over a grid of field values and/or Monte Carlo seeds")
     p.add_argument("scenario", help="scenario TOML file, or the name of a shipped one")
-    p.add_argument("--set", action="append", default=[], metavar="FIELD=V1,V2", help="grid over a scenario field, e.g. supply.pressure_mpa=0.5,0.6,0.7 (repeatable)")
     p.add_argument(
-        "--monte-carlo", type=number(**MONTE_CARLO), default=0, metavar="N",
+        "--set",
+        action="append",
+        default=[],
+        metavar="FIELD=V1,V2",
+        help="grid over a scenario field, e.g. supply.pressure_mpa=0.5,0.6,0.7 (repeatable)",
+    )
+    p.add_argument(
+        "--monte-carlo",
+        type=number(**MONTE_CARLO),
+        default=0,
+        metavar="N",
         help="N runs per grid point with child seeds (default 0: the scenario's own seed only)",
     )
-    p.add_argument("--workers", type=number(**WORKERS), default=0, metavar="K", help="local worker processes (default 0: all cores)")
-    p.add_argument("--scheduler", metavar="ADDR", help="Dask scheduler address (e.g. tcp://host:8786): run the sweep on that cluster")
-    p.add_argument("--duration", type=number(**DURATION_S), metavar="S", help="shorten every run to this many simulated seconds")
-    p.add_argument("--out", type=Path, help="write all summaries to this JSON file, and a table (a row per run) beside it as .csv (default: print them on stdout)")
+    p.add_argument(
+        "--workers",
+        type=number(**WORKERS),
+        default=0,
+        metavar="K",
+        help="local worker processes (default 0: all cores)",
+    )
+    p.add_argument(
+        "--scheduler",
+        metavar="ADDR",
+        help="Dask scheduler address (e.g. tcp://host:8786): run the sweep on that cluster",
+    )
+    p.add_argument(
+        "--duration", type=number(**DURATION_S), metavar="S", help="shorten every run to this many simulated seconds"
+    )
+    p.add_argument(
+        "--out",
+        type=Path,
+        help="write all summaries to this JSON file, and a table (a row per run) beside it as .csv (default: print them on stdout)",
+    )
     p.set_defaults(func=cmd_sweep)
 
     p = sub.add_parser("paper", help="reproduce the paper's experiments into DIR (paper.json, PNG plots, report.md)")
@@ -67,7 +98,9 @@ def cmd_run(args) -> int:
     outputs = {"--rrd": args.rrd, "--mcap": args.mcap}
     for flag, path in outputs.items():
         if path is not None:
-            check_output(path, flag, inputs=[Path(scenario.path)], others={f: p for f, p in outputs.items() if f != flag})
+            check_output(
+                path, flag, inputs=[Path(scenario.path)], others={f: p for f, p in outputs.items() if f != flag}
+            )
     with OutputLock(outputs.values()):
         recorders = open_recorders(scenario, args.rrd, args.mcap, args.camera_fps, args.start_time)
         try:
@@ -101,8 +134,9 @@ def close_all(recorders) -> list[str]:
     return errors
 
 
-def open_recorders(scenario, rrd: Path | None, mcap: Path | None, camera_fps: float = CAMERA_FPS,
-                   start_time: str | None = None) -> list:
+def open_recorders(
+    scenario, rrd: Path | None, mcap: Path | None, camera_fps: float = CAMERA_FPS, start_time: str | None = None
+) -> list:
     """The log writers a run asked for, told what they need to know about the scenario;
     `start_time` ("now" or ISO 8601) starts the MCAP's clock there (twin.mcap_log.start_time)."""
     recorders = []
@@ -125,8 +159,9 @@ def open_recorders(scenario, rrd: Path | None, mcap: Path | None, camera_fps: fl
 
         rrd.parent.mkdir(parents=True, exist_ok=True)
         focus = moving_joint(plant.joints, plant.drive_angles(), resolve_targets(scenario, plant))
-        recorders.append(RerunRecorder(rrd, plant.model, plant.joints, meta, camera_fps=camera_fps, focus=focus,
-                                       frames=frames))
+        recorders.append(
+            RerunRecorder(rrd, plant.model, plant.joints, meta, camera_fps=camera_fps, focus=focus, frames=frames)
+        )
     if mcap:
         from twin.mcap_log import McapRecorder
 
@@ -185,7 +220,9 @@ def cmd_sweep(args) -> int:
         results = sweep(scenario, parse_grid(args.set), args.monte_carlo, args.workers, args.scheduler, args.duration)
         passed = sum(r["passed"] for r in results)
         if args.out:
-            saved = keep_result(args.out, lambda place: write_atomic(place, json.dumps(results, indent=2)), "the sweep's summaries")
+            saved = keep_result(
+                args.out, lambda place: write_atomic(place, json.dumps(results, indent=2)), "the sweep's summaries"
+            )
             table = keep_result(table_path(saved), lambda place: write_csv(results, place), "the sweep's table")
             print(f"{len(results)} runs, {passed} passed; summaries in {saved}, one row per run in {table}")
         else:
@@ -200,7 +237,9 @@ def cmd_paper(args) -> int:
 
     check_output(args.out, "--out", folder=True)
     with OutputLock([args.out]):
-        report, folder = publish_folder(args.out, lambda staging: reproduce(staging, quick=args.quick), "the paper's experiments")
+        report, folder = publish_folder(
+            args.out, lambda staging: reproduce(staging, quick=args.quick), "the paper's experiments"
+        )
     print(f"paper's experiments reproduced: {folder / report.name}")
     return 0
 

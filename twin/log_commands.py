@@ -22,8 +22,11 @@ def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("replay", help="make a rerun recording from an MCAP log")
     p.add_argument("file", type=Path, help="an MCAP log written by `twin run --mcap` (may be cut short)")
     p.add_argument("--rrd", type=Path, required=True, help="write the recording here")
-    p.add_argument("--model", type=Path,
-                   help="MJCF the run used (default: the shipped model its scenario names, or whose bodies match)")
+    p.add_argument(
+        "--model",
+        type=Path,
+        help="MJCF the run used (default: the shipped model its scenario names, or whose bodies match)",
+    )
     p.set_defaults(func=cmd_replay)
 
 
@@ -67,7 +70,10 @@ def cmd_view(args) -> int:
         return 1
     time.sleep(2.0)  # a viewer that cannot start (no GPU, no display) exits at once
     if proc.poll() not in (None, 0):
-        print(f"twin: the rerun viewer exited with status {proc.returncode}; try `{' '.join(cmd[:-1] + ['--web-viewer', cmd[-1]])}`", file=sys.stderr)
+        print(
+            f"twin: the rerun viewer exited with status {proc.returncode}; try `{' '.join(cmd[:-1] + ['--web-viewer', cmd[-1]])}`",
+            file=sys.stderr,
+        )
         return 1
     print(f"rerun viewer started (pid {proc.pid}) on {args.file}")
     return 0

@@ -71,7 +71,11 @@ ARM_DOC = {
 ARM_DOC |= {f"brush_contact_{x}_m": f"brush contact point, world {x}, m (null: no contact)" for x in "xyz"}
 ARM_DOC |= {f"brush_push_{x}_n": f"force of the brush on what it touches, world {x}, N" for x in "xyz"}
 JOINT_FIELDS = ("pressure_a_pa", "pressure_b_pa", "valve_gauge_pa", "direction", "brake_release", "brake_engagement")
-ANGLE_CHANNELS = {"true_angle_rad": "/joint_states/true", "predicted_angle_rad": "/joint_states/predicted", "target_angle_rad": "/joint_states/target"}
+ANGLE_CHANNELS = {
+    "true_angle_rad": "/joint_states/true",
+    "predicted_angle_rad": "/joint_states/predicted",
+    "target_angle_rad": "/joint_states/target",
+}
 
 
 JOINT_JSON = "{" + ",".join(f'"{f}":%r' for f in (*JOINT_FIELDS, "predicted_minus_true_rad")) + "}"
@@ -125,13 +129,20 @@ class McapWriter:
 
         def proto_channel(topic: str, cls) -> int:
             schema = self._writer.register_schema(
-                name=cls.DESCRIPTOR.full_name, encoding="protobuf", data=build_file_descriptor_set(cls).SerializeToString()
+                name=cls.DESCRIPTOR.full_name,
+                encoding="protobuf",
+                data=build_file_descriptor_set(cls).SerializeToString(),
             )
             return self._writer.register_channel(topic=topic, message_encoding="protobuf", schema_id=schema)
 
         def json_channel(topic: str, fields: dict[str, str]) -> int:
-            schema = {"type": "object", "properties": {k: {"type": ["number", "null"], "description": d} for k, d in fields.items()}}
-            sid = self._writer.register_schema(name=topic.strip("/").replace("/", "."), encoding="jsonschema", data=json.dumps(schema).encode())
+            schema = {
+                "type": "object",
+                "properties": {k: {"type": ["number", "null"], "description": d} for k, d in fields.items()},
+            }
+            sid = self._writer.register_schema(
+                name=topic.strip("/").replace("/", "."), encoding="jsonschema", data=json.dumps(schema).encode()
+            )
             return self._writer.register_channel(topic=topic, message_encoding="json", schema_id=sid)
 
         self._JointStates, self._FrameTransforms = JointStates, FrameTransforms
@@ -175,8 +186,12 @@ class McapWriter:
         JointStates, FrameTransforms = self._JointStates, self._FrameTransforms
         lists = {k: a[k].tolist() for k in ("time_s", *ANGLE_CHANNELS)}
         # per joint and sample, the JSON fields in order: (T, n, fields) -> nested lists
-        rows = np.stack([a[f] for f in JOINT_FIELDS] + [a["predicted_angle_rad"] - a["true_angle_rad"]], axis=-1).tolist()
-        arm_rows = np.concatenate([np.stack([a[f] for f in ARM_SCALARS], axis=-1)] + [a[v] for v in ARM_VECTORS], axis=-1).tolist()
+        rows = np.stack(
+            [a[f] for f in JOINT_FIELDS] + [a["predicted_angle_rad"] - a["true_angle_rad"]], axis=-1
+        ).tolist()
+        arm_rows = np.concatenate(
+            [np.stack([a[f] for f in ARM_SCALARS], axis=-1)] + [a[v] for v in ARM_VECTORS], axis=-1
+        ).tolist()
         pos, quat = a["body_pos_m"], a["body_quat_wxyz"]
         for k, t in enumerate(lists["time_s"]):
             seq = start + k
@@ -245,7 +260,7 @@ def start_time(text: str, where: str = "--start-time") -> dict:
 def _utc(ns: int) -> str:
     import datetime as dt
 
-    return dt.datetime.fromtimestamp(ns // 1_000_000_000, dt.timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ")
+    return dt.datetime.fromtimestamp(ns // 1_000_000_000, dt.UTC).strftime("%Y-%m-%dT%H:%M:%SZ")
 
 
 def _open_for_writing(path: Path):
@@ -338,7 +353,13 @@ class McapRecorder:
         root = str(Path(__file__).resolve().parent.parent)  # where `twin` is importable from
         env = dict(os.environ, PYTHONPATH=os.pathsep.join([root, os.environ.get("PYTHONPATH", "")]).rstrip(os.pathsep))
         # a session of its own: Ctrl-C in a terminal reaches the run, which then finishes the file
-        self._proc = subprocess.Popen([sys.executable, "-m", "twin.mcap_log"], stdin=subprocess.PIPE, stdout=subprocess.PIPE, env=env, start_new_session=True)
+        self._proc = subprocess.Popen(
+            [sys.executable, "-m", "twin.mcap_log"],
+            stdin=subprocess.PIPE,
+            stdout=subprocess.PIPE,
+            env=env,
+            start_new_session=True,
+        )
         self._send((args, kwargs))
 
     def _send(self, obj) -> None:
@@ -422,7 +443,9 @@ def _scene_update(model):
             mujoco.mju_quat2Mat(R, q)
             c = p + R.reshape(3, 3) @ np.asarray(offset)
             prim.pose.position.x, prim.pose.position.y, prim.pose.position.z = (float(v) for v in c)
-            prim.pose.orientation.w, prim.pose.orientation.x, prim.pose.orientation.y, prim.pose.orientation.z = (float(v) for v in q)
+            prim.pose.orientation.w, prim.pose.orientation.x, prim.pose.orientation.y, prim.pose.orientation.z = (
+                float(v) for v in q
+            )
             prim.color.r, prim.color.g, prim.color.b, prim.color.a = r, gr, bl, al
 
         if t == G.mjGEOM_BOX:
@@ -500,9 +523,15 @@ def read_mcap(path, frames: bool = False) -> tuple[dict[str, np.ndarray], dict]:
             if not topics:
                 raise LogError(f"{path}: not a readable MCAP file ({type(e).__name__}: {e})") from e
             where = f"at byte {f.tell()} of {path.stat().st_size}"
-            stopped_by = f"cut short or damaged {where}: {type(e).__name__}: {e}" if str(e) else f"cut short or damaged {where}: {type(e).__name__}"
+            stopped_by = (
+                f"cut short or damaged {where}: {type(e).__name__}: {e}"
+                if str(e)
+                else f"cut short or damaged {where}: {type(e).__name__}"
+            )
     if "joints" not in meta or "bodies" not in meta:
-        raise LogError(f"{path}: an MCAP file, but not a log of this project (no 'twin' metadata record with joints and bodies)")
+        raise LogError(
+            f"{path}: an MCAP file, but not a log of this project (no 'twin' metadata record with joints and bodies)"
+        )
     joints, bodies = tuple(meta["joints"]), tuple(meta["bodies"])
     needed = set(ANGLE_CHANNELS.values()) | {"/tf", "/arm"} | {f"/joint/{j}" for j in joints}
     seqs = sorted(s for s, msgs in samples.items() if needed <= msgs.keys())

@@ -23,7 +23,9 @@ def ids(model: mujoco.MjModel, kind: mujoco.mjtObj, names) -> np.ndarray:
     for name in names:
         i = mujoco.mj_name2id(model, kind, name)
         if i < 0:
-            raise KeyError(f"{mujoco.mjOBJECTSTRING[kind] if hasattr(mujoco, 'mjOBJECTSTRING') else kind}: no {name!r} in the model")
+            raise KeyError(
+                f"{mujoco.mjOBJECTSTRING[kind] if hasattr(mujoco, 'mjOBJECTSTRING') else kind}: no {name!r} in the model"
+            )
         out.append(i)
     return np.array(out, dtype=np.int64)
 

@@ -16,8 +16,8 @@ import shutil
 import sys
 import tempfile
 import time
+from collections.abc import Callable, Iterable
 from pathlib import Path
-from typing import Callable, Iterable
 
 from twin.errors import UserError
 
@@ -82,7 +82,9 @@ def write_atomic(path: Path, data: str | bytes) -> None:
     path = Path(path)
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
     try:
-        os.fchmod(fd, path.stat().st_mode & 0o7777 if path.is_file() else 0o666 & ~_umask())  # mkstemp's 0600 is for secrets
+        os.fchmod(
+            fd, path.stat().st_mode & 0o7777 if path.is_file() else 0o666 & ~_umask()
+        )  # mkstemp's 0600 is for secrets
         with os.fdopen(fd, "wb") as f:
             f.write(data.encode() if isinstance(data, str) else data)
             f.flush()
@@ -151,7 +153,7 @@ class OutputLock:
     def lock_path(path: Path) -> Path:
         return path.parent / f".{path.name}.lock"
 
-    def __enter__(self) -> "OutputLock":
+    def __enter__(self) -> OutputLock:
         try:
             for p in self.paths:
                 self._acquire(p)

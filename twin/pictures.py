@@ -48,9 +48,21 @@ class PoseRenderer:
     unclosed mujoco.Renderer prints an OpenGL error at interpreter exit)."""
 
     # what a software GL (llvmpipe, no GPU) spends most on: 82 ms a 480x360 frame with them, 14 without
-    COSTLY_EFFECTS = (mujoco.mjtRndFlag.mjRND_SHADOW, mujoco.mjtRndFlag.mjRND_REFLECTION, mujoco.mjtRndFlag.mjRND_SKYBOX, mujoco.mjtRndFlag.mjRND_HAZE)
+    COSTLY_EFFECTS = (
+        mujoco.mjtRndFlag.mjRND_SHADOW,
+        mujoco.mjtRndFlag.mjRND_REFLECTION,
+        mujoco.mjtRndFlag.mjRND_SKYBOX,
+        mujoco.mjtRndFlag.mjRND_HAZE,
+    )
 
-    def __init__(self, model: mujoco.MjModel, camera: str = "global_view", width: int = 640, height: int = 480, plain: bool = False):
+    def __init__(
+        self,
+        model: mujoco.MjModel,
+        camera: str = "global_view",
+        width: int = 640,
+        height: int = 480,
+        plain: bool = False,
+    ):
         # MuJoCo reads MUJOCO_GL once, at import: set it (egl or osmesa) before starting Python
         self.model, self.camera, self.plain = model, camera, plain
         self.data = mujoco.MjData(model)
@@ -79,7 +91,9 @@ def _home_data(model: mujoco.MjModel) -> mujoco.MjData:
     return data
 
 
-def render_arm_png(path, model_path=assets.SCENE_XML, qpos: np.ndarray | None = None, width: int = 960, height: int = 720) -> str:
+def render_arm_png(
+    path, model_path=assets.SCENE_XML, qpos: np.ndarray | None = None, width: int = 960, height: int = 720
+) -> str:
     """Write a PNG of the arm (keyframe "home" unless `qpos` is given) from `global_view`.
 
     Returns "mujoco-<backend>" when MuJoCo rendered it offscreen, or "matplotlib" for the fallback
@@ -125,7 +139,16 @@ def _render_in_subprocess(model_path, qpos: np.ndarray, backend: str, width: int
             "np.save(sys.argv[5], r.render()); r.close()\n"
         )
         env = dict(os.environ, MUJOCO_GL=backend, PYOPENGL_PLATFORM=backend)
-        args = [sys.executable, "-c", code, str(model_path), ",".join(repr(float(q)) for q in qpos), str(width), str(height), str(out)]
+        args = [
+            sys.executable,
+            "-c",
+            code,
+            str(model_path),
+            ",".join(repr(float(q)) for q in qpos),
+            str(width),
+            str(height),
+            str(out),
+        ]
         proc = subprocess.run(args, env=env, capture_output=True, text=True, timeout=120)
         if proc.returncode != 0 or not out.exists():
             raise RuntimeError(f"MUJOCO_GL={backend}: {proc.stderr.strip().splitlines()[-1:] or proc.returncode}")
@@ -165,7 +188,18 @@ def _draw_geoms_matplotlib(model: mujoco.MjModel, data: mujoco.MjData, path: Pat
             ax.plot_surface(P[..., 0], P[..., 1], P[..., 2], color=color, linewidth=0, alpha=0.9)
         elif t == mujoco.mjtGeom.mjGEOM_SPHERE:
             v = np.linspace(0, np.pi, 8)
-            P = s[0] * np.stack([np.outer(np.cos(u), np.sin(v)), np.outer(np.sin(u), np.sin(v)), np.outer(np.ones_like(u), np.cos(v))], -1) + pos
+            P = (
+                s[0]
+                * np.stack(
+                    [
+                        np.outer(np.cos(u), np.sin(v)),
+                        np.outer(np.sin(u), np.sin(v)),
+                        np.outer(np.ones_like(u), np.cos(v)),
+                    ],
+                    -1,
+                )
+                + pos
+            )
             ax.plot_surface(P[..., 0], P[..., 1], P[..., 2], color=color, linewidth=0, alpha=0.9)
     ax.set_xlim(-0.6, 1.2), ax.set_ylim(-0.9, 0.9), ax.set_zlim(0, 1.8)
     ax.set_box_aspect((1.8, 1.8, 1.8))

@@ -198,7 +198,17 @@ class Plant:
             commands[stuck, J.C_DIRECTION] = self.stuck_direction[stuck]
             commands[stuck, J.C_PV_SET_GAUGE_PA] = np.inf  # stuck fully open: the supply passes
         if plant_steps is not None:
-            plant_steps(n, *self._addresses, self.air, commands, self.params, *self._fixed_arrays, self.supply_pa, self.dt, SUBSTEPS)
+            plant_steps(
+                n,
+                *self._addresses,
+                self.air,
+                commands,
+                self.params,
+                *self._fixed_arrays,
+                self.supply_pa,
+                self.dt,
+                SUBSTEPS,
+            )
         else:
             args = (self.air, commands, self.params, *self._fixed_arrays, self.supply_pa, self.dt, SUBSTEPS)
             for _ in range(n):
@@ -271,7 +281,14 @@ class Plant:
     def save_state(self) -> PlantState:
         buf = np.empty(self._state_size)
         mujoco.mj_getState(self.model, self.data, buf, mujoco.mjtState.mjSTATE_INTEGRATION)
-        return PlantState(buf, self.air.copy(), self.commands.copy(), self.supply_pa, self.sensor_bias_pa.copy(), self.stuck_direction.copy())
+        return PlantState(
+            buf,
+            self.air.copy(),
+            self.commands.copy(),
+            self.supply_pa,
+            self.sensor_bias_pa.copy(),
+            self.stuck_direction.copy(),
+        )
 
     def restore_state(self, state: PlantState) -> None:
         mujoco.mj_setState(self.model, self.data, state.mujoco_state, mujoco.mjtState.mjSTATE_INTEGRATION)

@@ -111,7 +111,9 @@ def geom_archetype(model: mujoco.MjModel, g: int):
     if t == _GEOM.mjGEOM_CYLINDER:
         return rr.Cylinders3D(lengths=[2 * s[1]], radii=[s[0]], colors=color, fill_mode="solid")
     if t == _GEOM.mjGEOM_CAPSULE:
-        return rr.Capsules3D(lengths=[2 * s[1]], radii=[s[0]], translations=[[0, 0, -s[1]]], colors=color, fill_mode="solid")
+        return rr.Capsules3D(
+            lengths=[2 * s[1]], radii=[s[0]], translations=[[0, 0, -s[1]]], colors=color, fill_mode="solid"
+        )
     if t == _GEOM.mjGEOM_SPHERE:
         return rr.Ellipsoids3D(half_sizes=[[s[0]] * 3], colors=color, fill_mode="solid")
     if t == _GEOM.mjGEOM_ELLIPSOID:
@@ -259,8 +261,9 @@ def joint_views(j: str):
     )
 
 
-def blueprint(joints: tuple[str, ...], model: mujoco.MjModel | None = None, focus: str | None = None,
-              camera: bool = False):
+def blueprint(
+    joints: tuple[str, ...], model: mujoco.MjModel | None = None, focus: str | None = None, camera: bool = False
+):
     """The layout the recording opens with: the arm in 3D, close up (left), and the time series of
     one joint at a time in tabs, opened on `focus` (the joint that moves; right)."""
     import rerun.blueprint as rrb
@@ -328,7 +331,9 @@ class RerunRecorder:
             raise RerunLogError(f"{self.path}: cannot write a rerun recording: {e}") from e
         if meta and meta.get("scenario_name"):
             self.rec.send_recording_name(str(meta["scenario_name"]))
-        self.rec.log("meta", rr.TextDocument(json.dumps(meta or {}, indent=2, default=str), media_type="text/plain"), static=True)
+        self.rec.log(
+            "meta", rr.TextDocument(json.dumps(meta or {}, indent=2, default=str), media_type="text/plain"), static=True
+        )
         log_static_geometry(self.rec, plant_model)
         self._log_series_styles()
         self.camera_fps = float(camera_fps)
@@ -384,7 +389,9 @@ class RerunRecorder:
             send(
                 f"world/arm/{body}",
                 indexes=idx,
-                columns=rr.Transform3D.columns(translation=a["body_pos_m"][:, i], quaternion=wxyz_to_xyzw(a["body_quat_wxyz"][:, i])),
+                columns=rr.Transform3D.columns(
+                    translation=a["body_pos_m"][:, i], quaternion=wxyz_to_xyzw(a["body_quat_wxyz"][:, i])
+                ),
             )
         true_deg = np.degrees(a["true_angle_rad"])
         pred_deg = np.degrees(a["predicted_angle_rad"])
@@ -410,7 +417,9 @@ class RerunRecorder:
         send(
             "world/brush_contact",
             indexes=idx,
-            columns=rr.Arrows3D.columns(origins=a["brush_contact_m"][touching], vectors=1e-3 * a["brush_push_n"][touching]).partition(touching.astype(np.int32)),
+            columns=rr.Arrows3D.columns(
+                origins=a["brush_contact_m"][touching], vectors=1e-3 * a["brush_push_n"][touching]
+            ).partition(touching.astype(np.int32)),
         )
 
     def log_frames(self, frames: list[tuple[float, bytes]]) -> None:

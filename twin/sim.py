@@ -9,8 +9,9 @@ and `target_angles()`; it is handed only `plant.sensors()`, never the plant.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Callable, Protocol
+from typing import Protocol
 
 import mujoco
 import numpy as np
