@@ -23,10 +23,10 @@ import assets
 from control.arm_model import ArmModel
 from control.open_loop import open_loop_duration
 from control.pid import CLOSED, IDLE, OPEN, PidGains, control_step, gains_row
-from control.predictor import initial_rigid_state, initial_valve_state, predict_step
+from control.predictor import predict_step
 from pneumatics import AIR, Gas, JointParams, load_joint_params, params_row
 from pneumatics import params as P
-from pneumatics.joint import C_BRAKE_RELEASE, N_COMMAND, R_OMEGA, R_THETA
+from pneumatics.joint import C_BRAKE_RELEASE, N_COMMAND, R_OMEGA, R_THETA, initial_rigid_state, initial_state
 from pneumatics.motor import displacement_per_rad
 
 MODES = ("closed_loop", "open_loop")
@@ -108,7 +108,7 @@ class ArmController:
             raise MotionRefused(f"start pose: {', '.join(bad)} is not a number; allowed: a finite drive angle in rad")
         atm = gas.p_atm_pa
         self.y = np.vstack([initial_rigid_state(a, atm) for a in start])
-        self.x = np.vstack([initial_valve_state(atm) for _ in start])
+        self.x = np.vstack([initial_state(atm, True) for _ in start])
         self.commands = np.zeros((n, N_COMMAND))
         self.mode = np.zeros(n, dtype=np.int64)
         self.target = start.copy()

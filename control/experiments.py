@@ -15,6 +15,7 @@ import numpy as np
 
 import assets
 from control.controller import ArmController
+from control.loop import run_ticks
 from control.pid import PidGains
 from pneumatics import JointParams
 from pneumatics.joint import S_PV
@@ -27,6 +28,43 @@ class _SelfSensors:
     time_s: float
     supply_pa: float
     valve_gauge_pa: np.ndarray
+
+
+class SelfLoop:
+    """The controller's own nominal model as the plant (no plant given): its valve state stands
+    for the sensors, and a physics step is a control period (the controller ticks once per step)."""
+
+    def __init__(self, controller: ArmController):
+        self.controller = controller
+        self.commands = np.zeros_like(controller.commands)
+        self.time = 0.0
+        self.supply_pa = P_ATM_PA
+
+    def sensors(self) -> _SelfSensors:
+        return _SelfSensors(self.time, self.supply_pa, self.controller.x[:, S_PV].copy())
+
+    def set_supply(self, supply_pa: float) -> None:
+        self.supply_pa = supply_pa
+
+    def step(self, n: int = 1, check_warnings: bool = True) -> None:
+        self.time += self.controller.dt
+
+
+class _UntilDone:
+    """`run_ticks`'s stop rule of `run_until_done`: the simulated time (summed tick by tick) under
+    `max_s` and the controller done for less than `settle_s`."""
+
+    def __init__(self, controller: ArmController, max_s: float, settle_s: float):
+        self.controller, self.max_s, self.settle_s = controller, max_s, settle_s
+        self.t = 0.0
+        self.after = 0.0
+
+    def __call__(self, k: int) -> bool:
+        if k > 0:  # a tick has run
+            self.t += self.controller.dt
+            if self.controller.done:
+                self.after += self.controller.dt
+        return self.t < self.max_s and self.after < self.settle_s
 
 
 def random_supply(
@@ -55,22 +93,12 @@ def run_until_done(
     steps_per_tick: int = 2,
 ) -> float:
     """Tick the controller (and step the plant) until its plan is done, then `settle_s` more; returns
-    the simulated time. Without a plant the controller's own valve state stands for the sensors."""
+    the simulated time of this call. `supply_pa_at` is a function of the plant's time. Without a
+    plant the controller's own valve state stands for the sensors (`SelfLoop`)."""
     supply = supply_pa_at if callable(supply_pa_at) else (lambda t, s=float(supply_pa_at): s)
-    t = 0.0
-    after = 0.0
-    dt = controller.dt
-    while t < max_s and after < settle_s:
-        if plant is not None:
-            plant.set_supply(supply(t))
-            plant.commands[:] = controller.tick(plant.sensors())
-            plant.step(steps_per_tick)
-        else:
-            controller.tick(_SelfSensors(t, supply(t), controller.x[:, S_PV].copy()))
-        t += dt
-        if controller.done:
-            after += dt
-    return t
+    until = _UntilDone(controller, max_s, settle_s)
+    run_ticks(controller, SelfLoop(controller) if plant is None else plant, steps_per_tick, until, supply)
+    return until.t
 
 
 def run_move(
@@ -154,7 +182,7 @@ def random_supply_moves(
     t = 0.0
     for target in targets_deg:
         c.set_targets({"wrist_pitch": math.radians(target)})
-        t += run_until_done(c, plant, lambda s, t0=t: supply(t0 + s), max_s=max_s_each)
+        t += run_until_done(c, plant, supply, max_s=max_s_each)
         if c.faulted or not c.done:
             raise RuntimeError(f"move to {target} deg under random supply failed: {c.events[-3:]}")
         errors.append(abs(math.degrees(plant.drive_angles()[0]) - target))

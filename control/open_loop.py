@@ -10,10 +10,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from control.predictor import initial_rigid_state
 from pneumatics import params as P
 from pneumatics._jit import njit
-from pneumatics.joint import N_COMMAND, R_THETA, advance_discrete, initial_state, single_joint_step
+from pneumatics.joint import N_COMMAND, R_THETA, advance_discrete, initial_rigid_state, initial_state, single_joint_step
 
 
 @njit

@@ -82,6 +82,7 @@ C_DIRECTION, C_PV_SET_GAUGE_PA, C_BRAKE_RELEASE = range(3)
 N_COMMAND = 3
 
 
+@njit
 def initial_state(p_atm_pa: float, brake_engaged: bool = True, theta_rad: float = 0.0) -> np.ndarray:
     """A joint at rest at `theta_rad`: every node at atmospheric pressure, valves closed, brake as
     given, the motor side at the joint's angle (an untwisted reducer)."""
@@ -554,6 +555,17 @@ def advance_motor_side(
 # the paper's rigid reducer it is slaved to the joint (q_m = theta, w_m = w).
 R_THETA, R_OMEGA, R_PA_VALVE, R_PA_MOTOR, R_PB_VALVE, R_PB_MOTOR, R_QM, R_OMEGA_M = range(8)
 N_RIGID = 8
+
+
+@njit
+def initial_rigid_state(theta_rad: float, p_atm_pa: float) -> np.ndarray:
+    """One-joint state (R_* columns) at rest at `theta_rad`, air at atmosphere, reducer untwisted:
+    where the predictor (control/) and the replay of a run (gap/) start."""
+    y = np.zeros(N_RIGID)
+    y[R_THETA] = theta_rad
+    y[R_QM] = theta_rad
+    y[R_PA_VALVE] = y[R_PA_MOTOR] = y[R_PB_VALVE] = y[R_PB_MOTOR] = p_atm_pa
+    return y
 
 
 @njit
