@@ -22,7 +22,7 @@ import numpy as np
 import assets
 from control.arm_model import ArmModel
 from control.open_loop import open_loop_duration
-from control.pid import CLOSED, IDLE, OPEN, PidGains, control_step, gains_row
+from control.pid import CLOSED, IDLE, OPEN, Belief, Moves, PidGains, control_step, gains_row
 from control.predictor import predict_step
 from pneumatics import AIR, Gas, JointParams, load_joint_params, params_row
 from pneumatics import params as P
@@ -120,7 +120,24 @@ class ArmController:
         self.retries = np.zeros(n)
         self.outcome = np.zeros(n, dtype=np.int64)
         self.load_update_rad = float(load_update_rad)
+        self.load = np.zeros(n)
+        self._load_theta = np.zeros(n)
         self._set_load(start)
+        # the same arrays, named, as control_step takes them
+        self._moves = Moves(
+            self.mode,
+            self.target,
+            self.integral,
+            self.elapsed,
+            self.timeout,
+            self.open_time,
+            self.open_set_point,
+            self.retries,
+            self.outcome,
+        )
+        self._belief = Belief(
+            self.y, self.x, self.params, self.load, self._load_theta, self.torque_per_pa, self.pv_full, self.breakaway_pa
+        )
         self.inertia = self.arm.drive_inertias(start) + self.rotor_inertia
         self._plan: list[tuple[np.ndarray, float]] = []  # (targets with NaN = stays, dwell_s)
         self._step_joints = np.zeros(n, dtype=bool)
@@ -248,27 +265,7 @@ class ArmController:
         if not self.faulted:
             self._sequence(supply)
         moving, timed_out, load_stale = control_step(
-            self.mode,
-            self.target,
-            self.integral,
-            self.elapsed,
-            self.timeout,
-            self.open_time,
-            self.open_set_point,
-            self.retries,
-            self.y,
-            self.x,
-            self.pv_full,
-            self.breakaway_pa,
-            self.load,
-            self.torque_per_pa,
-            self.params,
-            self._g,
-            self.dt,
-            self.commands,
-            self.outcome,
-            self._load_theta,
-            self.load_update_rad,
+            self._moves, self._belief, self._g, self.dt, self.load_update_rad, self.commands
         )
         if self.faulted:
             self.commands[:] = 0.0
@@ -287,8 +284,8 @@ class ArmController:
 
     def _set_load(self, theta: np.ndarray) -> None:
         # the load torques from Pinocchio at the predicted configuration, and where they were taken
-        self.load = self.arm.load_torques(theta)
-        self._load_theta = np.array(theta, dtype=float)
+        self.load[:] = self.arm.load_torques(theta)  # in place: control_step's Belief holds these arrays
+        self._load_theta[:] = theta
 
     def _fault(self, why: str) -> None:
         if not self.faulted:

@@ -74,65 +74,58 @@ def pid_output(
     return u, new_integral
 
 
+class Moves(NamedTuple):
+    """Each joint's move under way, (n,) arrays that `control_step` advances in place."""
+
+    mode: np.ndarray  # int64 move mode (IDLE, CLOSED, SETTLE, OPEN)
+    target: np.ndarray  # target drive angle, rad
+    integral: np.ndarray  # PID integral, rad·s
+    elapsed: np.ndarray  # time in the current move, s
+    timeout: np.ndarray  # time-out of the current move, s
+    open_time: np.ndarray  # open-loop valve time, s (OPEN mode)
+    open_set_point: np.ndarray  # signed open-loop set point, gauge Pa (OPEN mode)
+    retries: np.ndarray  # re-moves so far
+    outcome: np.ndarray  # int64 written each tick: BUSY, ARRIVED, TIMED_OUT
+
+
+class Belief(NamedTuple):
+    """What the controller believes of each joint: the predictor's state and what it derives."""
+
+    y: np.ndarray  # (n, N_RIGID) predicted one-joint states
+    x: np.ndarray  # (n, N_STATE) the predictor's valve/brake states
+    params: np.ndarray  # (n, N_COLUMNS) the predictor's parameter rows (Coulomb friction)
+    load_nm: np.ndarray  # (n,) predicted load torque on each drive, N·m
+    load_theta: np.ndarray  # (n,) predicted drive angles at which `load_nm` was computed, rad
+    torque_per_pa: np.ndarray  # (n,) joint torque per gauge Pa of valve pressure at stall, N·m/Pa
+    pv_full: np.ndarray  # (n,) set point of full opening, gauge Pa (the supply)
+    breakaway_pa: np.ndarray  # (n, 2) written: valve pressure at which the joint breaks free turning +, -; gauge Pa
+
+
 @njit
 def control_step(
-    mode: np.ndarray,  # (n,) int64 move mode, in place
-    target: np.ndarray,  # (n,) target drive angle, rad
-    integral: np.ndarray,  # (n,) PID integral, rad·s, in place
-    elapsed: np.ndarray,  # (n,) time in the current move, s, in place
-    timeout: np.ndarray,  # (n,) time-out of the current move, s
-    open_time: np.ndarray,  # (n,) open-loop valve time, s (OPEN mode)
-    open_set_point: np.ndarray,  # (n,) signed open-loop set point, gauge Pa (OPEN mode)
-    retries: np.ndarray,  # (n,) re-moves so far, in place
-    y: np.ndarray,  # (n, N_RIGID) predicted one-joint states
-    x: np.ndarray,  # (n, N_STATE) the predictor's valve/brake states
-    pv_full: np.ndarray,  # (n,) set point of full opening, gauge Pa (the supply)
-    breakaway_pa: np.ndarray,  # (n, 2) written: valve pressure at which the joint breaks free turning +, -; gauge Pa
-    load_nm: np.ndarray,  # (n,) predicted load torque on each drive, N·m
-    torque_per_pa: np.ndarray,  # (n,) joint torque per gauge Pa of valve pressure at stall, N·m/Pa
-    params: np.ndarray,  # (n, N_COLUMNS) the predictor's parameter rows (Coulomb friction)
+    moves: Moves,  # advanced in place
+    belief: Belief,  # breakaway_pa written
     g: np.ndarray,  # gains_row
     dt_s: float,
-    commands: np.ndarray,  # (n, 3) written
-    outcome: np.ndarray,  # (n,) int64 written: BUSY, ARRIVED, TIMED_OUT
-    load_theta: np.ndarray,  # (n,) predicted drive angles at which `load_nm` was computed, rad
     load_update_rad: float,  # how far a predicted angle may move before the load is stale, rad
+    commands: np.ndarray,  # (n, 3) written
 ) -> tuple[bool, int, bool]:
     """One control period of every joint's move: the commands to issue now.
 
     The breakaway pressure of a joint is the valve pressure whose stall torque just overcomes its
     Coulomb friction and the predicted load, turning + and -. Returns (whether any joint was
     moving, the first joint that timed out or -1, whether a predicted angle has moved more than
-    `load_update_rad` from `load_theta`).
+    `load_update_rad` from `belief.load_theta`).
     """
     # the caller holds every array for the whole call: no reference counting (see `borrowed`)
-    mode, target, integral, elapsed, timeout = (
-        borrowed(mode),
-        borrowed(target),
-        borrowed(integral),
-        borrowed(elapsed),
-        borrowed(timeout),
-    )
-    open_time, open_set_point, retries, y, x = (
-        borrowed(open_time),
-        borrowed(open_set_point),
-        borrowed(retries),
-        borrowed(y),
-        borrowed(x),
-    )
-    pv_full, breakaway_pa, load_nm, torque_per_pa = (
-        borrowed(pv_full),
-        borrowed(breakaway_pa),
-        borrowed(load_nm),
-        borrowed(torque_per_pa),
-    )
-    params, g, commands, outcome, load_theta = (
-        borrowed(params),
-        borrowed(g),
-        borrowed(commands),
-        borrowed(outcome),
-        borrowed(load_theta),
-    )
+    mode, target, integral = borrowed(moves.mode), borrowed(moves.target), borrowed(moves.integral)
+    elapsed, timeout, retries = borrowed(moves.elapsed), borrowed(moves.timeout), borrowed(moves.retries)
+    open_time, open_set_point = borrowed(moves.open_time), borrowed(moves.open_set_point)
+    outcome = borrowed(moves.outcome)
+    y, x, params = borrowed(belief.y), borrowed(belief.x), borrowed(belief.params)
+    load_nm, load_theta = borrowed(belief.load_nm), borrowed(belief.load_theta)
+    torque_per_pa, pv_full = borrowed(belief.torque_per_pa), borrowed(belief.pv_full)
+    breakaway_pa, g, commands = borrowed(belief.breakaway_pa), borrowed(g), borrowed(commands)
     any_moving = False
     load_stale = False
     timed_out = -1
