@@ -22,7 +22,8 @@ import numpy as np
 import assets
 from control.arm_model import ArmModel
 from control.open_loop import open_loop_duration
-from control.pid import CLOSED, IDLE, OPEN, Belief, Moves, PidGains, control_step, gains_row
+from control import pid
+from control.pid import CLOSED, IDLE, OPEN, PidGains, control_step, gains_row
 from control.predictor import predict_step
 from pneumatics import AIR, Gas, JointParams, load_joint_params, params_row
 from pneumatics import params as P
@@ -86,22 +87,8 @@ class ArmController:
         self.min_rotation_rad = float(min_rotation_rad)
         self.move_timeout_s = float(move_timeout_s)
         self.dt = float(control_period_s)
-        # the proportional valve's largest set point, gauge Pa: fully open, it passes the supply
-        # (updated every tick from the measured supply; 1/k_u, full opening, until then)
-        self.pv_full = 1.0 / self.params[:, P.K_U]
         self.open_loop_set_point_pa = open_loop_set_point_pa
         self.rotor_inertia = self.params[:, P.RATIO] ** 2 * self.params[:, P.ROTOR_J]
-        # joint torque per gauge Pa of valve pressure at stall: mean displacement x ratio x efficiency
-        self.torque_per_pa = np.array(
-            [
-                displacement_per_rad(pr.stator_radius_m, pr.rotor_radius_m, pr.vane_length_m, pr.n_vanes)
-                * pr.ratio
-                * pr.efficiency_forward
-                for pr in self.joint_params.values()
-            ]
-        )
-        self.breakaway_pa = np.zeros((n, 2))
-
         start = self._as_array(start_angles_rad, "start pose")
         bad = [f"{j} = {v!r}" for j, v in zip(self.joints, start) if not math.isfinite(v)]
         if bad:
@@ -110,34 +97,9 @@ class ArmController:
         self.y = np.vstack([initial_rigid_state(a, atm) for a in start])
         self.x = np.vstack([initial_state(atm, True) for _ in start])
         self.commands = np.zeros((n, N_COMMAND))
-        self.mode = np.zeros(n, dtype=np.int64)
-        self.target = start.copy()
-        self.integral = np.zeros(n)
-        self.elapsed = np.zeros(n)
-        self.timeout = np.full(n, self.move_timeout_s)
-        self.open_time = np.zeros(n)
-        self.open_set_point = np.zeros(n)
-        self.retries = np.zeros(n)
-        self.outcome = np.zeros(n, dtype=np.int64)
+        self._make_tables(start)
         self.load_update_rad = float(load_update_rad)
-        self.load = np.zeros(n)
-        self._load_theta = np.zeros(n)
         self._set_load(start)
-        # the same arrays, named, as control_step takes them
-        self._moves = Moves(
-            self.mode,
-            self.target,
-            self.integral,
-            self.elapsed,
-            self.timeout,
-            self.open_time,
-            self.open_set_point,
-            self.retries,
-            self.outcome,
-        )
-        self._belief = Belief(
-            self.y, self.x, self.params, self.load, self._load_theta, self.torque_per_pa, self.pv_full, self.breakaway_pa
-        )
         self.inertia = self.arm.drive_inertias(start) + self.rotor_inertia
         self._plan: list[tuple[np.ndarray, float]] = []  # (targets with NaN = stays, dwell_s)
         self._step_joints = np.zeros(n, dtype=bool)
@@ -149,6 +111,34 @@ class ArmController:
         self.faulted = False
         self.events: list[str] = []  # what happened, for the operator (refusals, arrivals, faults)
         self.time_s = 0.0
+
+    def _make_tables(self, start: np.ndarray) -> None:
+        """The per-joint tables control_step works on (control/pid.py), and a named view of each
+        column (the views are what the rest of the controller reads and writes)."""
+        n = len(self.joints)
+        self._modes = np.zeros((n, pid.N_MODES_COLUMNS), dtype=np.int64)
+        self._moves = np.zeros((n, pid.N_MOVE_COLUMNS))
+        self._drives = np.zeros((n, pid.N_DRIVE_COLUMNS))
+        self.mode, self.outcome = self._modes[:, pid.K_MODE], self._modes[:, pid.K_OUTCOME]
+        self.target, self.integral = self._moves[:, pid.M_TARGET], self._moves[:, pid.M_INTEGRAL]
+        self.elapsed, self.timeout = self._moves[:, pid.M_ELAPSED], self._moves[:, pid.M_TIMEOUT]
+        self.open_time, self.retries = self._moves[:, pid.M_OPEN_TIME], self._moves[:, pid.M_RETRIES]
+        self.open_set_point = self._moves[:, pid.M_OPEN_SET_POINT]
+        self.load, self._load_theta = self._drives[:, pid.D_LOAD], self._drives[:, pid.D_LOAD_THETA]
+        self.torque_per_pa, self.pv_full = self._drives[:, pid.D_TORQUE_PER_PA], self._drives[:, pid.D_PV_FULL]
+        self.breakaway_pa = self._drives[:, pid.D_BREAKAWAY_POS : pid.D_BREAKAWAY_NEG + 1]
+        self.target[:] = start
+        self.timeout[:] = self.move_timeout_s
+        # the proportional valve's largest set point, gauge Pa: fully open, it passes the supply
+        # (updated every tick from the measured supply; 1/k_u, full opening, until then)
+        self.pv_full[:] = 1.0 / self.params[:, P.K_U]
+        # joint torque per gauge Pa of valve pressure at stall: mean displacement x ratio x efficiency
+        self.torque_per_pa[:] = [
+            displacement_per_rad(pr.stator_radius_m, pr.rotor_radius_m, pr.vane_length_m, pr.n_vanes)
+            * pr.ratio
+            * pr.efficiency_forward
+            for pr in self.joint_params.values()
+        ]
 
     # -- the operator's requests ------------------------------------------------------------
     def _as_array(self, angles, what: str) -> np.ndarray:
@@ -265,7 +255,16 @@ class ArmController:
         if not self.faulted:
             self._sequence(supply)
         moving, timed_out, load_stale = control_step(
-            self._moves, self._belief, self._g, self.dt, self.load_update_rad, self.commands
+            self._modes,
+            self._moves,
+            self._drives,
+            self.y,
+            self.x,
+            self.params,
+            self._g,
+            self.dt,
+            self.load_update_rad,
+            self.commands,
         )
         if self.faulted:
             self.commands[:] = 0.0

@@ -83,4 +83,3 @@ def predict_step(
             continue
         advance_discrete(x[j], commands[j], supply_pa, dt_s, p)
         single_joint_step(y[j], x[j], commands[j], valve_gauge_pa[j], supply_pa, load_nm[j], inertia_kg_m2[j], dt_s, p)
-
