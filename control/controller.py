@@ -20,10 +20,10 @@ from pathlib import Path
 import numpy as np
 
 import assets
+from control import pid
 from control.arm_model import ArmModel
 from control.open_loop import open_loop_duration
-from control import pid
-from control.pid import CLOSED, IDLE, OPEN, PidGains, control_step, gains_row
+from control.pid import CLOSED, DEFAULT_GAINS, IDLE, OPEN, PidGains, control_step, gains_row
 from control.predictor import predict_step
 from pneumatics import AIR, Gas, JointParams, load_joint_params, params_row
 from pneumatics import params as P
@@ -59,7 +59,7 @@ class ArmController:
         xml_path: str | Path = assets.ARM_XML,
         joints: tuple[str, ...] | None = None,
         predictor_params: Mapping[str, JointParams] | None = None,
-        gains: PidGains = PidGains(),
+        gains: PidGains = DEFAULT_GAINS,
         mode: str = "closed_loop",
         min_rotation_rad: float = math.radians(20.0),
         move_timeout_s: float = 20.0,
@@ -90,7 +90,7 @@ class ArmController:
         self.open_loop_set_point_pa = open_loop_set_point_pa
         self.rotor_inertia = self.params[:, P.RATIO] ** 2 * self.params[:, P.ROTOR_J]
         start = self._as_array(start_angles_rad, "start pose")
-        bad = [f"{j} = {v!r}" for j, v in zip(self.joints, start) if not math.isfinite(v)]
+        bad = [f"{j} = {v!r}" for j, v in zip(self.joints, start, strict=True) if not math.isfinite(v)]
         if bad:
             raise MotionRefused(f"start pose: {', '.join(bad)} is not a number; allowed: a finite drive angle in rad")
         atm = gas.p_atm_pa
@@ -182,7 +182,7 @@ class ArmController:
         here = self.y[:, R_THETA].copy()
         plan = []
         lo, hi = self.arm.joint_lower, self.arm.joint_upper
-        for k, (tgt, dwell) in enumerate(zip(targets, dwells)):
+        for k, (tgt, dwell) in enumerate(zip(targets, dwells, strict=True)):
             raw = self._as_array(tgt, f"target {k + 1}")
             named = [j for j in tgt] if isinstance(tgt, Mapping) else list(self.joints)
             for j in named:
@@ -198,7 +198,8 @@ class ArmController:
                 name = self.arm.model.names[i + 1]
                 raise MotionRefused(
                     f"target {k + 1}: joint {name} would be at {math.degrees(q[i]):.2f} deg; allowed: "
-                    f"{math.degrees(lo[i]):.2f}..{math.degrees(hi[i]):.2f} deg (drive angles {np.round(np.degrees(full), 2).tolist()} deg)"
+                    f"{math.degrees(lo[i]):.2f}..{math.degrees(hi[i]):.2f} deg "
+                    f"(drive angles {np.round(np.degrees(full), 2).tolist()} deg)"
                 )
             delta = full - here
             tol = self.gains.tolerance_rad
@@ -206,8 +207,9 @@ class ArmController:
             if small.any():
                 i = int(np.flatnonzero(small)[0])
                 raise MotionRefused(
-                    f"target {k + 1}: {self.joints[i]} rotation {math.degrees(delta[i]):.2f} deg (to {math.degrees(full[i]):.2f} deg) is below "
-                    f"the minimum rotation; allowed: 0 or |rotation| >= {math.degrees(self.min_rotation_rad):.1f} deg; jog it by hand"
+                    f"target {k + 1}: {self.joints[i]} rotation {math.degrees(delta[i]):.2f} deg "
+                    f"(to {math.degrees(full[i]):.2f} deg) is below the minimum rotation; allowed: 0 or "
+                    f"|rotation| >= {math.degrees(self.min_rotation_rad):.1f} deg; jog it by hand"
                 )
             moving = np.abs(delta) > tol
             if sequence == "together":
@@ -250,7 +252,8 @@ class ArmController:
             gauge = supply - self.gas.p_atm_pa
             if gauge < self._brake_release_pa:
                 self._fault(
-                    f"supply {gauge / 1e6:.3f} MPa gauge is below the brake release pressure {self._brake_release_pa / 1e6:.3f} MPa"
+                    f"supply {gauge / 1e6:.3f} MPa gauge is below the brake release pressure "
+                    f"{self._brake_release_pa / 1e6:.3f} MPa"
                 )
         if not self.faulted:
             self._sequence(supply)
@@ -274,7 +277,8 @@ class ArmController:
             if timed_out >= 0:
                 i = timed_out
                 self._fault(
-                    f"{self.joints[i]} did not reach {math.degrees(self.target[i]):.2f} deg within {self.timeout[i]:g} s "
+                    f"{self.joints[i]} did not reach {math.degrees(self.target[i]):.2f} deg "
+                    f"within {self.timeout[i]:g} s "
                     f"(predicted {math.degrees(self.y[i, R_THETA]):.2f} deg)"
                 )
                 self.commands[:] = 0.0
@@ -302,7 +306,8 @@ class ArmController:
                     return
             for i in np.flatnonzero(self._step_joints):
                 self.events.append(
-                    f"t = {self.time_s:.3f} s: {self.joints[i]} at {math.degrees(self.y[i, R_THETA]):.2f} deg (predicted), "
+                    f"t = {self.time_s:.3f} s: {self.joints[i]} "
+                    f"at {math.degrees(self.y[i, R_THETA]):.2f} deg (predicted), "
                     f"target {math.degrees(self.target[i]):.2f} deg"
                 )
             self._step_joints[:] = False

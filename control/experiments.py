@@ -16,7 +16,7 @@ import numpy as np
 import assets
 from control.controller import ArmController
 from control.loop import run_ticks
-from control.pid import PidGains
+from control.pid import DEFAULT_GAINS, PidGains
 from pneumatics import JointParams
 from pneumatics.joint import S_PV
 
@@ -127,7 +127,7 @@ def run_move(
     supply_gauge_pa: float = 0.5e6,
     joint: str = "wrist_pitch",
     xml_path=assets.WRIST_RIG_XML,
-    gains: PidGains = PidGains(),
+    gains: PidGains = DEFAULT_GAINS,
     min_rotation_deg: float = 20.0,
 ) -> tuple[float, float]:
     """One move of the wrist rig from 0 to `target_deg`: (final true angle or NaN without a plant,
@@ -214,7 +214,7 @@ def minimum_rotation_limit(
     predictor_params: JointParams | None = None,
     angles_deg=tuple(range(2, 41, 2)),
     supply_gauge_pa: float = 0.5e6,
-    gains: PidGains = PidGains(),
+    gains: PidGains = DEFAULT_GAINS,
     tolerance_deg: float = 2.0,
     relative_tolerance: float = 0.1,
 ) -> float:

@@ -73,7 +73,8 @@ def open_loop_duration(
     )
     if t < 0.0:
         raise ValueError(
-            f"open loop: the nominal model does not reach {np.degrees(target_rad):.1f} deg from {np.degrees(start_rad):.1f} deg "
+            f"open loop: the nominal model does not reach {np.degrees(target_rad):.1f} deg "
+            f"from {np.degrees(start_rad):.1f} deg "
             f"within {max_s:g} s at supply {(supply_pa - params_row[P.GAS_P_ATM]) / 1e6:.3f} MPa gauge"
         )
     return t

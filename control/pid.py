@@ -49,6 +49,9 @@ class PidGains(NamedTuple):
     breakaway_margin: float = 1.2
 
 
+DEFAULT_GAINS = PidGains()  # immutable: safe as a default argument
+
+
 def gains_row(g: PidGains) -> np.ndarray:
     return np.array(tuple(g), dtype=np.float64)
 

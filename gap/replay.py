@@ -3,7 +3,8 @@
 The twin used for fitting is `pneumatics.joint.single_joint_step` (the predictor's model) driven
 by the run's own command rows: per 1 ms step the valves advance with `advance_discrete`
 (solenoid delay, proportional valve lag), then the rigid body (with the motor side of a
-non-rigid reducer) and the four node pressures take one RK4 step and the brake follows its air. The whole run is one @njit call, so a run of a few seconds replays in a few ms
+non-rigid reducer) and the four node pressures take one RK4 step and the brake follows its air.
+The whole run is one @njit call, so a run of a few seconds replays in a few ms
 and the effect search can afford thousands of replays.
 """
 
