@@ -12,7 +12,6 @@ No MuJoCo here: the tendons are read from the XML with xml.etree.
 
 from __future__ import annotations
 
-import os
 import tempfile
 import xml.etree.ElementTree as ET
 from pathlib import Path
@@ -85,13 +84,27 @@ def _full_model(xml_path: Path, payload_kg: float | None) -> pin.Model:
                 found = True
     if not found:
         raise ValueError(f"{xml_path}: no body 'payload' with an <inertial> to set payload_kg = {payload_kg:g}")
-    fd, tmp = tempfile.mkstemp(suffix=".xml", dir=str(xml_path.parent))
-    try:
-        with os.fdopen(fd, "wb") as f:
-            ET.ElementTree(root).write(f)
-        return pin.buildModelFromMJCF(tmp)
-    finally:
-        os.unlink(tmp)
+    _anchor_asset_paths(root, xml_path.parent)
+    # written to a folder of its own, never beside the MJCF: the installed package may be read-only
+    with tempfile.TemporaryDirectory() as folder:
+        copy = Path(folder) / xml_path.name
+        ET.ElementTree(root).write(copy)
+        return pin.buildModelFromMJCF(str(copy))
+
+
+def _anchor_asset_paths(root: ET.Element, base: Path) -> None:
+    """Make the MJCF's file references absolute (from the folder `base` it was read from), so that a
+    copy written elsewhere finds its meshes and textures: the compiler's asset folders if it names
+    any (mesh files are relative to them), else each element's `file`."""
+    folders = [c for c in root.iter("compiler") if {"meshdir", "texturedir", "assetdir"} & set(c.attrib)]
+    for compiler in folders:
+        for key in ("meshdir", "texturedir", "assetdir"):
+            if key in compiler.attrib:
+                compiler.set(key, str(base / compiler.attrib[key]))
+    if not folders:
+        for element in root.iter():
+            if "file" in element.attrib:
+                element.set("file", str(base / element.attrib["file"]))
 
 
 class ArmModel:

@@ -10,10 +10,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from control.predictor import initial_rigid_state
 from pneumatics import params as P
 from pneumatics._jit import njit
-from pneumatics.joint import N_COMMAND, R_THETA, advance_discrete, initial_state, single_joint_step
+from pneumatics.joint import N_COMMAND, R_THETA, advance_discrete, initial_rigid_state, initial_state, single_joint_step
 
 
 @njit
@@ -74,7 +73,8 @@ def open_loop_duration(
     )
     if t < 0.0:
         raise ValueError(
-            f"open loop: the nominal model does not reach {np.degrees(target_rad):.1f} deg from {np.degrees(start_rad):.1f} deg "
+            f"open loop: the nominal model does not reach {np.degrees(target_rad):.1f} deg "
+            f"from {np.degrees(start_rad):.1f} deg "
             f"within {max_s:g} s at supply {(supply_pa - params_row[P.GAS_P_ATM]) / 1e6:.3f} MPa gauge"
         )
     return t

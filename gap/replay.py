@@ -3,7 +3,8 @@
 The twin used for fitting is `pneumatics.joint.single_joint_step` (the predictor's model) driven
 by the run's own command rows: per 1 ms step the valves advance with `advance_discrete`
 (solenoid delay, proportional valve lag), then the rigid body (with the motor side of a
-non-rigid reducer) and the four node pressures take one RK4 step and the brake follows its air. The whole run is one @njit call, so a run of a few seconds replays in a few ms
+non-rigid reducer) and the four node pressures take one RK4 step and the brake follows its air.
+The whole run is one @njit call, so a run of a few seconds replays in a few ms
 and the effect search can afford thousands of replays.
 """
 
@@ -18,22 +19,14 @@ from pneumatics.joint import (
     C_DIRECTION,
     C_PV_SET_GAUGE_PA,
     N_COMMAND,
-    N_RIGID,
-    N_STATE,
     R_OMEGA,
     R_PA_MOTOR,
-    R_PA_VALVE,
     R_PB_MOTOR,
-    R_PB_VALVE,
-    R_QM,
     R_THETA,
-    S_BRAKE,
-    S_PA_MOTOR,
-    S_PA_VALVE,
-    S_PB_MOTOR,
-    S_PB_VALVE,
     S_PV,
     advance_discrete,
+    initial_rigid_state,
+    initial_state,
     single_joint_step,
 )
 
@@ -91,20 +84,9 @@ def replay_run(
     om_out = np.empty(n_steps + 1)
     pa_out = np.empty(n_steps + 1)
     pb_out = np.empty(n_steps + 1)
-    x = np.zeros(N_STATE)
     atm = p[P.GAS_P_ATM]
-    x[S_PA_VALVE] = atm
-    x[S_PA_MOTOR] = atm
-    x[S_PB_VALVE] = atm
-    x[S_PB_MOTOR] = atm
-    x[S_BRAKE] = 1.0
-    y = np.zeros(N_RIGID)
-    y[R_THETA] = theta0_rad
-    y[R_PA_VALVE] = atm
-    y[R_PA_MOTOR] = atm
-    y[R_PB_VALVE] = atm
-    y[R_PB_MOTOR] = atm
-    y[R_QM] = theta0_rad  # an untwisted reducer, at rest
+    x = initial_state(atm, True, 0.0)
+    y = initial_rigid_state(theta0_rad, atm)
     cmd = np.zeros(N_COMMAND)
     row = 0
     n_rows = cmd_time_s.shape[0]

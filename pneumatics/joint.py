@@ -38,6 +38,7 @@ from pneumatics.chamber import chamber_pressure_rate
 from pneumatics.friction import coulomb_viscous_torque, reducer_output_torque, stribeck_excess_torque
 from pneumatics.gas import isentropic_temperature
 from pneumatics.hose import hose_mass_flow, hose_volume
+from pneumatics.integrators import heun_increment, rk4_increment
 from pneumatics.motor import chamber_geometry, vane_torque
 from pneumatics.orifice import orifice_mass_flow
 from pneumatics.reducer import (
@@ -82,6 +83,7 @@ C_DIRECTION, C_PV_SET_GAUGE_PA, C_BRAKE_RELEASE = range(3)
 N_COMMAND = 3
 
 
+@njit
 def initial_state(p_atm_pa: float, brake_engaged: bool = True, theta_rad: float = 0.0) -> np.ndarray:
     """A joint at rest at `theta_rad`: every node at atmospheric pressure, valves closed, brake as
     given, the motor side at the joint's angle (an untwisted reducer)."""
@@ -330,10 +332,10 @@ def advance_pressures(
             supply_pa,
             p,
         )
-        a_v += 0.5 * h * (k1[0] + k2[0])
-        a_m += 0.5 * h * (k1[1] + k2[1])
-        b_v += 0.5 * h * (k1[2] + k2[2])
-        b_m += 0.5 * h * (k1[3] + k2[3])
+        a_v += heun_increment(h, k1[0], k2[0])
+        a_m += heun_increment(h, k1[1], k2[1])
+        b_v += heun_increment(h, k1[2], k2[2])
+        b_m += heun_increment(h, k1[3], k2[3])
     x[S_PA_VALVE] = a_v
     x[S_PA_MOTOR] = a_m
     x[S_PB_VALVE] = b_v
@@ -420,6 +422,45 @@ def _motor_side_rates(
 
 
 @njit
+def _motor_side_stage(
+    y0: tuple[float, float, float, float, float, float],
+    rates: tuple[float, float, float, float, float, float, float],
+    c: float,
+    theta: float,
+    omega: float,
+    direction: float,
+    valve: float,
+    supply_pa: float,
+    k: float,
+    damping_nms: float,
+    half_gap: float,
+    j_motor: float,
+    slide_m: float,
+    p: np.ndarray,
+) -> tuple[float, float, float, float, float, float, float]:
+    # `_motor_side_rates` at the state y0 + c * rates (the four pressures, q_m, w_m): an RK4 stage
+    return _motor_side_rates(
+        y0[0] + c * rates[0],
+        y0[1] + c * rates[1],
+        y0[2] + c * rates[2],
+        y0[3] + c * rates[3],
+        y0[4] + c * rates[4],
+        y0[5] + c * rates[5],
+        theta,
+        omega,
+        direction,
+        valve,
+        supply_pa,
+        k,
+        damping_nms,
+        half_gap,
+        j_motor,
+        slide_m,
+        p,
+    )
+
+
+@njit
 def advance_motor_side(
     x: np.ndarray,
     theta: float,
@@ -466,70 +507,17 @@ def advance_motor_side(
         w0 = w
         s = _slide_direction(w0, p)
         k1 = _motor_side_rates(a_v, a_m, b_v, b_m, q, w, th0, omega, direction, valve, supply_pa, k, c, half, j_m, s, p)
-        k2 = _motor_side_rates(
-            a_v + 0.5 * h * k1[0],
-            a_m + 0.5 * h * k1[1],
-            b_v + 0.5 * h * k1[2],
-            b_m + 0.5 * h * k1[3],
-            q + 0.5 * h * k1[4],
-            w + 0.5 * h * k1[5],
-            th1,
-            omega,
-            direction,
-            valve,
-            supply_pa,
-            k,
-            c,
-            half,
-            j_m,
-            s,
-            p,
-        )
-        k3 = _motor_side_rates(
-            a_v + 0.5 * h * k2[0],
-            a_m + 0.5 * h * k2[1],
-            b_v + 0.5 * h * k2[2],
-            b_m + 0.5 * h * k2[3],
-            q + 0.5 * h * k2[4],
-            w + 0.5 * h * k2[5],
-            th1,
-            omega,
-            direction,
-            valve,
-            supply_pa,
-            k,
-            c,
-            half,
-            j_m,
-            s,
-            p,
-        )
-        k4 = _motor_side_rates(
-            a_v + h * k3[0],
-            a_m + h * k3[1],
-            b_v + h * k3[2],
-            b_m + h * k3[3],
-            q + h * k3[4],
-            w + h * k3[5],
-            th2,
-            omega,
-            direction,
-            valve,
-            supply_pa,
-            k,
-            c,
-            half,
-            j_m,
-            s,
-            p,
-        )
-        a_v += h / 6.0 * (k1[0] + 2.0 * k2[0] + 2.0 * k3[0] + k4[0])
-        a_m += h / 6.0 * (k1[1] + 2.0 * k2[1] + 2.0 * k3[1] + k4[1])
-        b_v += h / 6.0 * (k1[2] + 2.0 * k2[2] + 2.0 * k3[2] + k4[2])
-        b_m += h / 6.0 * (k1[3] + 2.0 * k2[3] + 2.0 * k3[3] + k4[3])
-        q += h / 6.0 * (k1[4] + 2.0 * k2[4] + 2.0 * k3[4] + k4[4])
-        w += h / 6.0 * (k1[5] + 2.0 * k2[5] + 2.0 * k3[5] + k4[5])
-        impulse += h / 6.0 * (k1[6] + 2.0 * k2[6] + 2.0 * k3[6] + k4[6])
+        y0 = (a_v, a_m, b_v, b_m, q, w)
+        k2 = _motor_side_stage(y0, k1, 0.5 * h, th1, omega, direction, valve, supply_pa, k, c, half, j_m, s, p)
+        k3 = _motor_side_stage(y0, k2, 0.5 * h, th1, omega, direction, valve, supply_pa, k, c, half, j_m, s, p)
+        k4 = _motor_side_stage(y0, k3, h, th2, omega, direction, valve, supply_pa, k, c, half, j_m, s, p)
+        a_v += rk4_increment(h, k1[0], k2[0], k3[0], k4[0])
+        a_m += rk4_increment(h, k1[1], k2[1], k3[1], k4[1])
+        b_v += rk4_increment(h, k1[2], k2[2], k3[2], k4[2])
+        b_m += rk4_increment(h, k1[3], k2[3], k3[3], k4[3])
+        q += rk4_increment(h, k1[4], k2[4], k3[4], k4[4])
+        w += rk4_increment(h, k1[5], k2[5], k3[5], k4[5])
+        impulse += rk4_increment(h, k1[6], k2[6], k3[6], k4[6])
         if s != 0.0 and s * w < 0.0:
             phi = ratio * q
             q, w = stop_or_turn(
@@ -554,6 +542,17 @@ def advance_motor_side(
 # the paper's rigid reducer it is slaved to the joint (q_m = theta, w_m = w).
 R_THETA, R_OMEGA, R_PA_VALVE, R_PA_MOTOR, R_PB_VALVE, R_PB_MOTOR, R_QM, R_OMEGA_M = range(8)
 N_RIGID = 8
+
+
+@njit
+def initial_rigid_state(theta_rad: float, p_atm_pa: float) -> np.ndarray:
+    """One-joint state (R_* columns) at rest at `theta_rad`, air at atmosphere, reducer untwisted:
+    where the predictor (control/) and the replay of a run (gap/) start."""
+    y = np.zeros(N_RIGID)
+    y[R_THETA] = theta_rad
+    y[R_QM] = theta_rad
+    y[R_PA_VALVE] = y[R_PA_MOTOR] = y[R_PB_VALVE] = y[R_PB_MOTOR] = p_atm_pa
+    return y
 
 
 @njit
@@ -752,7 +751,7 @@ def single_joint_rk4(
             tmp, direction, valve_gauge_pa, supply_pa, load_torque_nm, inertia_kg_m2, brake_engagement, s, s_m, p, k4
         )
         for i in range(N_RIGID):
-            y[i] += h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
+            y[i] += rk4_increment(h, k1[i], k2[i], k3[i], k4[i])
         if s != 0.0 and s * y[R_OMEGA] < 0.0:
             jump = 2.0 * s * coulomb
             if rigid:  # the gear's efficiency turns with the joint
