@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import argparse
 
-from twin.checks import allowed, problem
+from twin.checks import WORKERS, allowed, problem
 
 
 def number(low: float, high: float, unit: str = "", *, above: bool = False, integer: bool = False):
@@ -24,3 +24,14 @@ def number(low: float, high: float, unit: str = "", *, above: bool = False, inte
 
     parse.__name__ = "number"  # argparse names the type in some messages
     return parse
+
+
+def add_workers(parser: argparse.ArgumentParser) -> None:
+    """`--workers K`, as every command that runs scenarios in parallel takes it."""
+    parser.add_argument(
+        "--workers",
+        type=number(**WORKERS),
+        default=0,
+        metavar="K",
+        help="local worker processes (default 0: all cores)",
+    )

@@ -9,9 +9,9 @@ import sys
 from pathlib import Path
 
 from twin.checks import CAMERA_FPS as CAMERA_FPS_RANGE
-from twin.checks import DURATION_S, MONTE_CARLO, RECORDING_CAMERA_FPS, SEED, WORKERS
+from twin.checks import DURATION_S, MONTE_CARLO, RECORDING_CAMERA_FPS, SEED
 from twin.outputs import OutputLock, check_output, keep_result, publish_folder, write_atomic
-from twin_cli.args import number
+from twin_cli.args import add_workers, number
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -55,13 +55,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         metavar="N",
         help="N runs per grid point with child seeds (default 0: the scenario's own seed only)",
     )
-    p.add_argument(
-        "--workers",
-        type=number(**WORKERS),
-        default=0,
-        metavar="K",
-        help="local worker processes (default 0: all cores)",
-    )
+    add_workers(p)
     p.add_argument(
         "--scheduler",
         metavar="ADDR",

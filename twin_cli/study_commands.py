@@ -5,10 +5,9 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from twin.checks import WORKERS
 from twin.errors import UserError
 from twin.outputs import OutputLock, check_output, publish_folder
-from twin_cli.args import number
+from twin_cli.args import add_workers, number
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -39,13 +38,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         metavar="N",
         help="child seeds per strategy and supply (default 2)",
     )
-    c.add_argument(
-        "--workers",
-        type=number(**WORKERS),
-        default=0,
-        metavar="K",
-        help="local worker processes (default 0: all cores)",
-    )
+    add_workers(c)
     c.set_defaults(func=cmd_study_cleaning)
 
 
