@@ -6,6 +6,10 @@ diagnose, gap bench). A user error (bad file, field or value, on the command lin
 as one line and exits with status 2, never a traceback. Ctrl-C (SIGINT) and SIGTERM (what
 `timeout`, systemd and docker send) both stop a run the same way: it finishes its logs, says so,
 and exits 130 or 143.
+
+A command imports the libraries it calls when it runs, not at its module's top: imported there
+they take `twin --help` from 0.45 s to 2.2 s (`python -X importtime -c "import twin_cli.cli"`,
+cumulative import time); what is left, 0.4 s, is numba, which pneumatics (ParameterError) loads.
 """
 
 from __future__ import annotations
