@@ -17,7 +17,7 @@ from twin.plant import Plant
 
 def bench_control(n_ticks: int = 3000, sim_s: float = 3.0) -> dict:
     plant = Plant(assets.SCENE_XML)
-    start = dict(zip(plant.joints, plant.drive_angles()))
+    start = dict(zip(plant.joints, plant.drive_angles(), strict=True))
     c = ArmController(start)
     c.set_targets(
         [{"base_yaw": math.radians(60.0), "wrist_pitch": start["wrist_pitch"] - math.radians(40.0)}],

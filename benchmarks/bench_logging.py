@@ -22,7 +22,10 @@ from pathlib import Path
 
 import numpy as np
 
-from twin.commands import CAMERA_FPS
+from scenarios.recording import open_recorders
+from scenarios.runner import run_scenario, scenario_files
+from scenarios.schema import load
+from twin.checks import RECORDING_CAMERA_FPS
 from twin.sim import CommandSchedule
 
 SCENARIO = "insulator_cleaning"  # the multi-joint task: all five controllers, contact, moving bodies
@@ -72,10 +75,6 @@ def timed_run(
     """Wall time of `twin run SCENARIO [--rrd --mcap --camera-fps N]` cut to `seconds` simulated:
     the recorders opened as the command opens them, the run (plant, five controllers, telemetry),
     the logs closed. `spent` collects the time inside each recorder (open, writes, close)."""
-    from scenarios.runner import run_scenario, scenario_files
-    from scenarios.schema import load
-    from twin.commands import open_recorders
-
     scenario = load(next(p for p in scenario_files() if p.stem == scenario_name))
     spent = {} if spent is None else spent
     t0 = time.perf_counter()
@@ -92,7 +91,7 @@ def timed_run(
     return time.perf_counter() - t0
 
 
-def bench_logging(seconds: float = 60.0, rounds: int = 2, camera_fps: float = CAMERA_FPS) -> dict:
+def bench_logging(seconds: float = 60.0, rounds: int = 2, camera_fps: float = RECORDING_CAMERA_FPS) -> dict:
     """Run time with both logs on as a ratio to the same run with logging off; and the same with
     the global camera's frames in the recording as well (`twin run`'s default)."""
     timed_run(0.2, None)  # warm-up: numba cache, imports

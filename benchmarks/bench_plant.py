@@ -28,9 +28,11 @@ import mujoco
 import numpy as np
 
 import assets
+from pneumatics import load_joint_params
 from pneumatics._jit import borrowed, njit
+from pneumatics.as_built import load_as_built
 from twin.kernel import pneumatic_step
-from twin.plant import Plant
+from twin.plant import SUBSTEPS, Plant
 
 SUPPLY_PA = 101_325.0 + 0.5e6  # the paper's 0.5 MPa gauge
 REVERSE_S = 0.25  # moving joints reverse this often
@@ -43,9 +45,6 @@ def _moving(case: str, joints: tuple[str, ...]) -> tuple[str, ...]:
 def _plant_for(case: str, as_built: bool = False) -> Plant:
     params = None
     if as_built:
-        from pneumatics import load_joint_params
-        from pneumatics.as_built import load_as_built
-
         params = {
             j: load_as_built(load_joint_params(assets.joint_param_path(j)), assets.as_built_path(j))
             for j in assets.JOINTS
@@ -114,8 +113,6 @@ def _kernel_only(
 
 
 def _time_kernel(plant: Plant, n: int) -> float:
-    import twin.plant as tp
-
     x = plant.air.copy()
     qpos, qvel, ctrl, frictionloss = (a.copy() for a in plant._mujoco_arrays)
     args = (
@@ -131,7 +128,7 @@ def _time_kernel(plant: Plant, n: int) -> float:
         frictionloss,
         plant.supply_pa,
         plant.dt,
-        tp.SUBSTEPS,
+        SUBSTEPS,
     )
     _kernel_only(10, *args)  # compile
     t0 = time.perf_counter()

@@ -26,7 +26,7 @@ def build(scenario: Scenario, plant: Plant, predictor_params: dict[str, JointPar
     refused plan leaves the arm braked and the refusal's message for the summary."""
     if scenario.control.mode == "none":
         return idle(len(plant.joints)), ""
-    start = dict(zip(plant.joints, plant.drive_angles()))
+    start = dict(zip(plant.joints, plant.drive_angles(), strict=True))
     controller = ArmController(
         start,
         xml_path=assets.WRIST_RIG_XML if scenario.model == "wrist_rig" else assets.ARM_XML,

@@ -15,6 +15,7 @@ These are predictions: nothing in them was fitted to the paper.
 
 from __future__ import annotations
 
+import itertools
 import json
 from pathlib import Path
 
@@ -29,6 +30,7 @@ from control.experiments import (
     random_supply_moves,
 )
 from pneumatics.as_built import load_as_built_effects
+from scenarios.paper_report import write_plots, write_report
 from scenarios.paper_validation import KINDS, OPEN_S, PAPER, PRESSURES_MPA, rig_inertia, validation_run, wrist_models
 from twin.plant import Plant
 
@@ -85,7 +87,7 @@ def prediction_validation() -> tuple[dict, dict]:
 
     def grows_as_pressure_falls(kind: str) -> bool:
         by_falling = [errors[m][kind]["mean"] for m in sorted(PRESSURES_MPA, reverse=True)]
-        return all(b > a for a, b in zip(by_falling, by_falling[1:]))
+        return all(b > a for a, b in itertools.pairwise(by_falling))
 
     results = {
         "errors": errors,
@@ -163,7 +165,7 @@ def error_vs_pressure(quick: bool) -> dict:
         "errors_deg": {str(m): res[m] for m in pressures},
         "mean_error_deg": means,
         "max_error_deg": [float(np.max(res[m])) for m in pressures],
-        "grows_with_pressure": all(b > a for a, b in zip(means, means[1:])),
+        "grows_with_pressure": all(b > a for a, b in itertools.pairwise(means)),
         "paper_bound_at_05_deg": PAPER_FIG20_AT_05_DEG,
     }
 
@@ -194,8 +196,6 @@ def as_built_table() -> list[dict]:
 def reproduce(out_dir: str | Path, quick: bool = False) -> Path:
     """Run every experiment, write paper.json, report.md and the plots; returns the report's path.
     `quick` shortens the control experiments (fewer angles and supplies), not the validation."""
-    from scenarios.paper_report import write_plots, write_report
-
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     validation, series = prediction_validation()

@@ -5,7 +5,13 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from matplotlib.figure import Figure
+
 KIND_LABEL = {"with_hose_loss": "with hose loss", "without_hose_loss": "without hose loss"}
+
+
+def _yes(holds: bool) -> str:
+    return "yes" if holds else "NO"
 
 
 def _ratio(twin: float, paper: float) -> str:
@@ -13,15 +19,9 @@ def _ratio(twin: float, paper: float) -> str:
 
 
 def write_plots(r: dict, series: dict, out: Path) -> None:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
     def save(fig, name: str) -> None:
         fig.tight_layout()
         fig.savefig(out / name, dpi=100)
-        plt.close(fig)
 
     def finish(fig, ax, xlabel: str, ylabel: str, title: str, name: str) -> None:
         ax.set_xlabel(xlabel)
@@ -31,8 +31,9 @@ def write_plots(r: dict, series: dict, out: Path) -> None:
         save(fig, name)
 
     mpas = sorted(series)
-    fig, axes = plt.subplots(1, len(mpas), figsize=(3.2 * len(mpas), 3.2), sharey=True)
-    for ax, m in zip(axes, mpas):
+    fig = Figure(figsize=(3.2 * len(mpas), 3.2))
+    axes = fig.subplots(1, len(mpas), sharey=True)
+    for ax, m in zip(axes, mpas, strict=True):
         s = series[m]
         ax.plot(s["time_s"], s["measured_deg"], "k-", label="measured (as-built plant)")
         ax.plot(s["time_s"], s["with_hose_loss"], "-", label="model with hose loss")
@@ -46,8 +47,9 @@ def write_plots(r: dict, series: dict, out: Path) -> None:
     save(fig, "validation_timeseries.png")
 
     pe = r["prediction_error"]["errors"]
-    fig, axes = plt.subplots(1, 2, figsize=(9, 3.5))
-    for ax, stat in zip(axes, ("mean", "max")):
+    fig = Figure(figsize=(9, 3.5))
+    axes = fig.subplots(1, 2)
+    for ax, stat in zip(axes, ("mean", "max"), strict=True):
         for kind, mark in (("without_hose_loss", "o"), ("with_hose_loss", "s")):
             ax.plot(mpas, [pe[m][kind][stat] for m in mpas], mark + "-", label=f"twin, {KIND_LABEL[kind]}")
             ax.plot(
@@ -63,14 +65,15 @@ def write_plots(r: dict, series: dict, out: Path) -> None:
     axes[0].legend(fontsize=7)
     save(fig, "prediction_error.png")
 
-    fig, axes = plt.subplots(1, 2, figsize=(9, 3.5), sharey=True)
-    for ax, kind in zip(axes, ("with_hose_loss", "without_hose_loss")):
+    fig = Figure(figsize=(9, 3.5))
+    axes = fig.subplots(1, 2, sharey=True)
+    for ax, kind in zip(axes, ("with_hose_loss", "without_hose_loss"), strict=True):
         for m in mpas:
             s = series[m]
             n = sum(1 for t in s["time_s"] if t <= 1.0 + 1e-9)
             ax.plot(
                 s["measured_deg"][:n],
-                [abs(a - b) for a, b in zip(s["measured_deg"][:n], s[kind][:n])],
+                [abs(a - b) for a, b in zip(s["measured_deg"][:n], s[kind][:n], strict=False)],
                 label=f"{m} MPa",
             )
         ax.set_xlabel("measured rotation, deg")
@@ -83,7 +86,8 @@ def write_plots(r: dict, series: dict, out: Path) -> None:
 
     sp = r["prediction_error"]["speed_against_supply"]
     ps = sorted(sp)
-    fig, ax = plt.subplots(figsize=(6, 3.5))
+    fig = Figure(figsize=(6, 3.5))
+    ax = fig.subplots()
     ax.plot(ps, [sp[m]["as_built_mean_deg_s"] for m in ps], "ko-", label="as-built plant, mean over 0.5-1 s")
     ax.plot(ps, [sp[m]["as_built_peak_deg_s"] for m in ps], "k^:", label="as-built plant, peak")
     ax.plot(ps, [sp[m]["nominal_mean_deg_s"] for m in ps], "s-", label="nominal model, mean over 0.5-1 s")
@@ -100,7 +104,8 @@ def write_plots(r: dict, series: dict, out: Path) -> None:
     )
 
     rs = r["random_supply"]
-    fig, (top, bottom) = plt.subplots(2, 1, figsize=(6, 4.5), sharex=True)
+    fig = Figure(figsize=(6, 4.5))
+    top, bottom = fig.subplots(2, 1, sharex=True)
     top.step(rs["supply_time_s"], rs["supply_gauge_mpa"], where="post")
     top.set_ylabel("supply, MPa (gauge)")
     top.set_title("Fig. 18-19: random supply (0.5 s each) and the final error of each move", fontsize=10)
@@ -109,7 +114,8 @@ def write_plots(r: dict, series: dict, out: Path) -> None:
     finish(fig, bottom, "time, s", "|final error|, deg", "", "random_supply.png")
 
     co = r["closed_vs_open_loop"]
-    fig, ax = plt.subplots(figsize=(6, 3.5))
+    fig = Figure(figsize=(6, 3.5))
+    ax = fig.subplots()
     ax.plot(co["angles_deg"], co["closed_loop_error_deg"], "o-", label="twin, closed loop")
     ax.plot(co["angles_deg"], co["open_loop_error_deg"], "s-", label="twin, open loop")
     for (lo, hi), label in (
@@ -127,7 +133,8 @@ def write_plots(r: dict, series: dict, out: Path) -> None:
     )
 
     ep = r["error_vs_pressure"]
-    fig, ax = plt.subplots(figsize=(6, 3.5))
+    fig = Figure(figsize=(6, 3.5))
+    ax = fig.subplots()
     ax.plot(ep["pressures_mpa"], ep["mean_error_deg"], "o-", label=f"twin, mean over {ep['angles_deg']} deg moves")
     ax.plot(ep["pressures_mpa"], ep["max_error_deg"], "^:", label="twin, max")
     ax.axhline(ep["paper_bound_at_05_deg"], color="r", ls="--", label="paper: within 3 deg at 0.5 MPa")
@@ -165,14 +172,16 @@ def write_report(r: dict, out: Path) -> Path:
         "",
         "## Model validation, Fig. 10-16: |measured - predicted| over the 1 s the valve is fully open, deg",
         "",
-        "| supply MPa | with loss: mean (paper) | max (paper) | without loss: mean (paper) | max (paper) | mean gap of the two models |",
+        "| supply MPa | with loss: mean (paper) | max (paper) | without loss: mean (paper) | max (paper) "
+        "| mean gap of the two models |",
         "|---|---|---|---|---|---|",
     ]
     for m in sorted(pe):
         w, wo = pe[m]["with_hose_loss"], pe[m]["without_hose_loss"]
         lines.append(
             f"| {m} | {w['mean']:.1f} ({w['paper_mean']}) | {w['max']:.1f} ({w['paper_max']}) | "
-            f"{wo['mean']:.1f} ({wo['paper_mean']}) | {wo['max']:.1f} ({wo['paper_max']}) | {pe[m]['predictor_gap_mean_deg']:.1f} |"
+            f"{wo['mean']:.1f} ({wo['paper_mean']}) | {wo['max']:.1f} ({wo['paper_max']}) | "
+            f"{pe[m]['predictor_gap_mean_deg']:.1f} |"
         )
     lines += [
         "",
@@ -186,11 +195,12 @@ def write_report(r: dict, out: Path) -> Path:
         )
         + ".",
         "",
-        f"With the loss smaller than without at every supply: {'yes' if pv['with_smaller_than_without_everywhere'] else 'NO'}; "
-        f"the mean error grows as the supply falls (paper: both): with the loss {'yes' if pv['with_grows_as_pressure_falls'] else 'NO'}, "
-        f"without it {'yes' if pv['without_grows_as_pressure_falls'] else 'NO'}.",
-        "The last column is the mean distance between the two nominal predictions themselves: no reality can have both errors "
-        "smaller than half of it, so where it exceeds the paper's two means added "
+        f"With the loss smaller than without at every supply: {_yes(pv['with_smaller_than_without_everywhere'])}; "
+        f"the mean error grows as the supply falls (paper: both): "
+        f"with the loss {_yes(pv['with_grows_as_pressure_falls'])}, "
+        f"without it {_yes(pv['without_grows_as_pressure_falls'])}.",
+        "The last column is the mean distance between the two nominal predictions themselves: "
+        "no reality can have both errors smaller than half of it, so where it exceeds the paper's two means added "
         + ", ".join(f"({pe[m]['paper_gap_bound_deg']:.1f} deg at {m} MPa)" for m in sorted(pe))
         + " the paper's pair cannot be met by any as-built arm; only a change of the nominal model could.",
         "",
@@ -209,12 +219,15 @@ def write_report(r: dict, out: Path) -> Path:
     for m in sorted(sp):
         s = sp[m]
         lines.append(
-            f"| {m} | {s['as_built_mean_deg_s']:.0f} | {s['as_built_peak_deg_s']:.0f} | {s['nominal_mean_deg_s']:.0f} | {s['turn_in_1s_deg']:.0f} |"
+            f"| {m} | {s['as_built_mean_deg_s']:.0f} | {s['as_built_peak_deg_s']:.0f} | "
+            f"{s['nominal_mean_deg_s']:.0f} | {s['turn_in_1s_deg']:.0f} |"
         )
     lines += [
         "",
-        f"deg/s; the motor's maximum-power point (6000 rpm, paper Sec. III-B) is {pv['max_power_joint_deg_s']:.0f} deg/s at the joint "
-        'through 1:120. The exhaust throttle (0.8 mm^2) holds the joint\'s steady speed well below it (README, "Joint speed against supply").',
+        f"deg/s; the motor's maximum-power point (6000 rpm, paper Sec. III-B) is "
+        f"{pv['max_power_joint_deg_s']:.0f} deg/s at the joint "
+        "through 1:120. The exhaust throttle (0.8 mm^2) holds the joint's steady speed well below it "
+        '(README, "Joint speed against supply").',
         "",
         "![speed against supply](speed_vs_supply.png)",
         "",
@@ -223,7 +236,8 @@ def write_report(r: dict, out: Path) -> Path:
     ]
     rs = r["random_supply"]
     lines += [
-        f"Largest final error of {len(rs['final_errors_deg'])} moves (0, 45, 0, -45, 0 deg) over {rs['duration_s']:.0f} s under a "
+        f"Largest final error of {len(rs['final_errors_deg'])} moves (0, 45, 0, -45, 0 deg) "
+        f"over {rs['duration_s']:.0f} s under a "
         f"supply drawn every 0.5 s (mean 0.6 MPa, variance 5e9 Pa^2): twin {rs['max_error_deg']:.2f} deg, paper "
         f"{rs['paper_max_error_deg']} deg (manual operation {rs['paper_manual_mean_deg']} deg on average).",
         "",
@@ -240,15 +254,17 @@ def write_report(r: dict, out: Path) -> Path:
         "|---|---|---|",
     ]
     co = r["closed_vs_open_loop"]
-    for a, c, o in zip(co["angles_deg"], co["closed_loop_error_deg"], co["open_loop_error_deg"]):
+    for a, c, o in zip(co["angles_deg"], co["closed_loop_error_deg"], co["open_loop_error_deg"], strict=True):
         lines.append(f"| {a} | {c:.2f} | {o:.2f} |")
     lines += [
         "",
         f"Twin: closed {min(co['closed_loop_error_deg']):.2f}-{max(co['closed_loop_error_deg']):.2f} deg (mean "
-        f"{co['closed_loop_mean_deg']:.2f}), open {min(co['open_loop_error_deg']):.2f}-{max(co['open_loop_error_deg']):.2f} deg. "
+        f"{co['closed_loop_mean_deg']:.2f}), "
+        f"open {min(co['open_loop_error_deg']):.2f}-{max(co['open_loop_error_deg']):.2f} deg. "
         f"Paper: closed {co['paper_closed_loop_range_deg'][0]}-{co['paper_closed_loop_range_deg'][1]} deg (mean "
-        f"{co['paper_closed_loop_mean_deg']}), open {co['paper_open_loop_range_deg'][0]}-{co['paper_open_loop_range_deg'][1]} deg. "
-        f"Closed loop beats open loop at every angle: {'yes' if co['closed_beats_open_everywhere'] else 'NO'}.",
+        f"{co['paper_closed_loop_mean_deg']}), "
+        f"open {co['paper_open_loop_range_deg'][0]}-{co['paper_open_loop_range_deg'][1]} deg. "
+        f"Closed loop beats open loop at every angle: {_yes(co['closed_beats_open_everywhere'])}.",
         "",
         "![closed vs open loop](closed_vs_open_loop.png)",
         "",
@@ -258,12 +274,12 @@ def write_report(r: dict, out: Path) -> Path:
         "|---|" + "---|" * (len(r["error_vs_pressure"]["angles_deg"]) + 1),
     ]
     ep = r["error_vs_pressure"]
-    for m, mean in zip(ep["pressures_mpa"], ep["mean_error_deg"]):
+    for m, mean in zip(ep["pressures_mpa"], ep["mean_error_deg"], strict=True):
         lines.append(f"| {m} | " + " | ".join(f"{e:.2f}" for e in ep["errors_deg"][str(m)]) + f" | {mean:.2f} |")
     lines += [
         "",
-        f"Paper: the error grows with the supply, within +-{ep['paper_bound_at_05_deg']:.0f} deg at 0.5 MPa. Twin: grows with the "
-        f"supply: {'yes' if ep['grows_with_pressure'] else 'NO'}.",
+        f"Paper: the error grows with the supply, within +-{ep['paper_bound_at_05_deg']:.0f} deg at 0.5 MPa. "
+        f"Twin: grows with the supply: {_yes(ep['grows_with_pressure'])}.",
         "",
         "![error against pressure](error_vs_pressure.png)",
         "",

@@ -24,7 +24,8 @@ from scenarios.ik import disc_drive_angles
 from scenarios.schema import Scenario, joint_params_for, load
 from scenarios.supply import supply_profile
 from scenarios.task import TaskController
-from twin.args import DURATION_S, SEED, check_number
+from twin.checks import DURATION_S, SEED, check_number
+from twin.model import SimulationError
 from twin.plant import Plant
 from twin.sim import Recorder, run
 from twin.telemetry import Telemetry
@@ -93,7 +94,7 @@ class Result:
             return []
         return [
             f"target {i + 1}" + (f" (disc_{t.brush_at_disc})" if t.brush_at_disc else "")
-            for i, (t, done) in enumerate(zip(self.scenario.targets, self.reached))
+            for i, (t, done) in enumerate(zip(self.scenario.targets, self.reached, strict=False))
             if not done
         ]
 
@@ -191,11 +192,7 @@ def run_scenario(
     )
     try:
         run(plant, controller, duration, supply_pa_at=supply, events=events, recorders=recorders, telemetry=telemetry)
-    except Exception as e:  # a divergence: keep what was logged, report it as a failed run
-        from twin.model import SimulationError
-
-        if not isinstance(e, SimulationError):
-            raise
+    except SimulationError as e:  # a divergence: keep what was logged, report it as a failed run
         error = str(e)
     cut_short = duration < scenario.duration_s
     reached = list(task.reached) if task and cut_short else None

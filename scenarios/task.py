@@ -18,6 +18,7 @@ reads the plant.
 
 from __future__ import annotations
 
+import contextlib
 import math
 from dataclasses import dataclass
 
@@ -83,7 +84,9 @@ class TaskController:
         if self._plant is not None:
             # the angle only: the speed stays the predictor's, whose stick is an exact 0 the arrival
             # logic waits for (MuJoCo's braked joint creeps at ~1e-6 rad/s)
-            for j, q, w in zip(self.controller.joints, self._plant.drive_angles(), self.controller.predicted_speeds()):
+            for j, q, w in zip(
+                self.controller.joints, self._plant.drive_angles(), self.controller.predicted_speeds(), strict=True
+            ):
                 self.controller.reference(j, q, w)
         if self.camera is not None:
             self.camera.capture(t)
@@ -145,10 +148,9 @@ class TaskController:
     def _issue(self, k: int, dwell_s: float) -> None:
         target = self._aimed(k)
         self.issued[k] = target
-        try:
+        # refused: the controller noted it; the arm stays braked and the task goes on with the next target
+        with contextlib.suppress(MotionRefused):
             self.controller.set_targets([target], sequence=self.scenario.control.sequence, dwell_s=[dwell_s])
-        except MotionRefused:
-            pass  # the controller noted it; the arm stays braked and the task goes on with the next target
 
     def _aimed(self, k: int) -> dict[str, float]:
         t = self.scenario.targets[k]

@@ -13,7 +13,7 @@ import pytest
 import pneumatic_arm_twin as pat
 from gap import GapError
 from scenarios.schema import ScenarioError
-from twin.cli import main as twin_main
+from twin_cli.cli import main as twin_main
 
 SCENARIO = "wrist_closed_loop_60deg"  # the paper's Fig. 23 rig: one joint, 60 deg at 0.5 MPa
 

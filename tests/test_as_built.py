@@ -214,7 +214,7 @@ def test_twin_paper_quick_writes_every_figure_with_the_papers_numbers(tmp_path):
     and max beside the paper's, the report shows them, every plot exists, and the control
     experiments, predictions against the as-built wrist, land within a factor 2 of the paper's
     where the README says they do."""
-    from twin.cli import main as twin_main
+    from twin_cli.cli import main as twin_main
 
     assert twin_main(["paper", "--out", str(tmp_path), "--quick"]) == 0
     r = json.loads((tmp_path / "paper.json").read_text())

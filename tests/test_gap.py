@@ -192,7 +192,7 @@ def test_malformed_campaigns_name_file_line_and_problem(campaigns, tmp_path):
 
 
 def test_cli_gap_diagnose_writes_json_report_and_plots(campaigns, tmp_path, capsys):
-    from twin.cli import main
+    from twin_cli.cli import main
 
     out = tmp_path / "out"
     assert main(["gap", "diagnose", str(campaigns["leak"]), "--out", str(out)]) == 0
@@ -309,7 +309,7 @@ def camera_campaign(tmp_path_factory):
 
 
 def test_an_undeclared_camera_latency_is_found_as_nuisance_not_an_effect(camera_campaign, tmp_path):
-    from gap.commands import verdict_line
+    from gap.run import verdict_line
 
     d = diagnose(load_campaign(camera_campaign), catalogue=FAST + _by_name("valve_dead_time"), progress=False)
     inst = d["instrument"]
@@ -336,8 +336,8 @@ def test_an_undeclared_camera_latency_is_found_as_nuisance_not_an_effect(camera_
 
 def test_verdict_rules_refuse_a_pair_at_nominal_flag_bounds_and_name_only_a_family():
     from gap import verdict
-    from gap.commands import verdict_line
     from gap.diagnose import Candidate
+    from gap.run import verdict_line
 
     p0 = synth.wrist_params()
     at_nominal = Candidate("vane_leakage+heat_exchange", ["vane_leakage", "heat_exchange"], [], [4e-7, 1.4])

@@ -26,11 +26,11 @@ from test_scenarios import MINIMAL
 
 from gap.campaign import GapError, load_campaign
 from scenarios.schema import SHIPPED_DIR, ScenarioError, load, parse
-from twin.cli import build_parser, main
 from twin.errors import UserError
 from twin.mcap_log import LogError, McapWriter, read_mcap
 from twin.outputs import OutputLock, check_output, keep_result, publish_folder, write_atomic
 from twin.telemetry import SIGNALS
+from twin_cli.cli import build_parser, main
 
 ROOT = Path(__file__).resolve().parent.parent
 RIG = MINIMAL.replace('mode = "none"', 'mode = "closed_loop"')  # a 0.2 s wrist-rig scenario
@@ -425,7 +425,7 @@ def test_a_folder_of_results_arrives_whole_or_is_kept_beside(tmp_path, capsys):
 
 
 def test_a_log_that_fails_at_the_end_costs_neither_the_summary_nor_the_other_log(tmp_path, monkeypatch, capsys):
-    import twin.commands
+    import scenarios.recording
 
     closed = []
 
@@ -440,7 +440,7 @@ def test_a_log_that_fails_at_the_end_costs_neither_the_summary_nor_the_other_log
         def close(self):
             closed.append(True)
 
-    monkeypatch.setattr(twin.commands, "open_recorders", lambda *a: [Full(), Fine()])
+    monkeypatch.setattr(scenarios.recording, "open_recorders", lambda *a: [Full(), Fine()])
     s = tmp_path / "s.toml"
     s.write_text(RIG)
     assert main(["run", str(s), "--json"]) == 2
@@ -536,7 +536,7 @@ def test_sigterm_finishes_the_logs_like_ctrl_c_and_a_second_writer_is_refused(tm
         [
             sys.executable,
             "-m",
-            "twin.cli",
+            "twin_cli.cli",
             "run",
             str(scenario),
             "--mcap",
@@ -571,7 +571,7 @@ def test_sigterm_finishes_the_logs_like_ctrl_c_and_a_second_writer_is_refused(tm
 
 
 def test_the_python_api_checks_its_numbers_too(tmp_path):
-    from gap.commands import run_diagnose
+    from gap.run import run_diagnose
     from scenarios.runner import run_scenario
     from scenarios.sweep import sweep
 

@@ -15,12 +15,12 @@ import pytest
 
 import assets
 from benchmarks.bench_logging import SUPPLY_PA, wrist_schedule
-from twin.cli import main as twin_main
 from twin.errors import UserError
 from twin.mcap_log import LogError, McapRecorder, read_mcap
 from twin.plant import Plant
 from twin.rerun_log import RerunRecorder
 from twin.sim import run
+from twin_cli.cli import main as twin_main
 
 ROOT = Path(__file__).resolve().parents[1]
 META = {
@@ -308,7 +308,7 @@ def test_body_poses_place_every_geom_as_mujoco_does(logged):
     put every geom where MuJoCo's own kinematics put it."""
     import mujoco
 
-    from twin.pictures import pose_geoms
+    from twin.render import pose_geoms
 
     m = mujoco.MjModel.from_xml_path(str(assets.SCENE_XML))
     plant = Plant(assets.SCENE_XML)
@@ -449,7 +449,7 @@ def test_ctrl_c_finishes_the_logs(tmp_path):
     mcap, rrd = tmp_path / "run.mcap", tmp_path / "run.rrd"
     env = dict(os.environ, PYTHONPATH=str(ROOT))
     proc = subprocess.Popen(
-        [sys.executable, "-m", "twin.cli", "run", str(long), "--mcap", str(mcap), "--rrd", str(rrd)],
+        [sys.executable, "-m", "twin_cli.cli", "run", str(long), "--mcap", str(mcap), "--rrd", str(rrd)],
         cwd=ROOT,
         env=env,
         start_new_session=True,

@@ -13,7 +13,7 @@ from scenarios.runner import run_file, run_scenario, scenario_files
 from scenarios.schema import ScenarioError, load, parse, with_overrides
 from scenarios.supply import supply_profile
 from scenarios.sweep import child_seeds, parse_grid, sweep, sweep_points
-from twin.cli import main as twin_main
+from twin_cli.cli import main as twin_main
 
 MINIMAL = """
 name = "t"

@@ -9,6 +9,7 @@ fails after the work, and never written by two runs at once (DESIGN rule 6, "not
 
 from __future__ import annotations
 
+import contextlib
 import errno
 import fcntl
 import os
@@ -91,10 +92,8 @@ def write_atomic(path: Path, data: str | bytes) -> None:
             os.fsync(f.fileno())
         os.replace(tmp, path)
     except BaseException:
-        try:
+        with contextlib.suppress(OSError):
             os.unlink(tmp)
-        except OSError:
-            pass
         raise
 
 
@@ -189,10 +188,8 @@ class OutputLock:
 
     def release(self) -> None:
         for lock, fd in self._held:
-            try:
+            with contextlib.suppress(OSError):
                 os.unlink(lock)
-            except OSError:
-                pass
             os.close(fd)
         self._held.clear()
 

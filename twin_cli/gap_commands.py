@@ -4,8 +4,9 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from twin.args import JOBS, MODEL_TOLERANCE_DEG, check_number, number
+from twin.checks import JOBS, MODEL_TOLERANCE_DEG
 from twin.outputs import OutputLock, check_output, publish_folder
+from twin_cli.args import number
 
 
 def register(subparsers) -> None:
@@ -25,7 +26,10 @@ def register(subparsers) -> None:
         type=number(**MODEL_TOLERANCE_DEG),
         default=None,
         metavar="DEG",
-        help="twin model tolerance added to the noise floor (default: gap.diagnose.MODEL_TOLERANCE_DEG, twice the worst replay-vs-plant rms of the protocol library, gap.protocols)",
+        help=(
+            "twin model tolerance added to the noise floor (default: gap.diagnose.MODEL_TOLERANCE_DEG, "
+            "twice the worst replay-vs-plant rms of the protocol library, gap.protocols)"
+        ),
     )
     d.add_argument("--jobs", type=number(**JOBS), default=2, metavar="N", help="parallel fits (default 2)")
     d.add_argument(
@@ -53,59 +57,16 @@ def register(subparsers) -> None:
     b.set_defaults(func=cmd_bench)
 
 
-def run_diagnose(
-    campaign: str | Path,
-    out: str | Path,
-    model_tolerance_deg: float | None = None,
-    jobs: int = 2,
-    progress: bool = True,
-    scheduler: str | None = None,
-) -> dict:
-    """Check the numbers, the campaign and `out`, then diagnose and write the report into `out`.
-    The report's files arrive whole; if `out` fails after the work they are kept beside it (where:
-    diag["_out"])."""
-    from gap.campaign import load_campaign
-    from gap.diagnose import MODEL_TOLERANCE_DEG as DEFAULT_TOLERANCE_DEG
-    from gap.diagnose import diagnose
-    from gap.report import write
-
-    tolerance = DEFAULT_TOLERANCE_DEG if model_tolerance_deg is None else model_tolerance_deg
-    check_number("model_tolerance_deg", tolerance, **MODEL_TOLERANCE_DEG)
-    check_number("jobs", jobs, **JOBS)
-    loaded = load_campaign(campaign)
-    out = Path(out)
-    check_output(out, "--out", folder=True, inputs=[loaded.folder, *(r.path for r in loaded.runs)])
-
-    def diagnose_into(staging: Path) -> dict:
-        diag = diagnose(loaded, model_tolerance_deg=tolerance, n_jobs=jobs, progress=progress, scheduler=scheduler)
-        write(diag, staging)
-        return diag
-
-    with OutputLock([out]):
-        diag, folder = publish_folder(out, diagnose_into, "the diagnosis")
-    diag["_out"] = folder
-    return diag
-
-
-def verdict_line(diag: dict) -> str:
-    """The one-line answer. For a gap outside the catalogue it names the nearest family, never a
-    candidate (a candidate's name there would read like a diagnosis)."""
-    w = diag["which"]
-    top = w["top"]
-    if w["verdict"] == "outside the catalogue":
-        return f"verdict: outside the catalogue (nearest family: {w['nearest']['family']}; nominal twin {diag['before_rms_deg']:.2f} deg rms)"
-    if top is None:
-        return f"verdict: {w['verdict']} (nominal twin {diag['before_rms_deg']:.2f} deg rms, threshold {diag['noise_floor']['significance_threshold_deg']:.2f})"
-    bound = " [fitted on a catalogue bound]" if any(top["at_bound"]) else ""
-    return f"verdict: {w['verdict']} ({top['name']}{bound}, held-out rms {diag['before_rms_deg']:.2f} -> {top['heldout_rms_deg']:.2f} deg)"
-
-
 def cmd_diagnose(args) -> int:
+    # on use: at the top, the libraries take `twin --help` from 0.45 to 2.2 s
+    from gap.run import run_diagnose, verdict_line
+
     diag = run_diagnose(args.campaign, args.out, args.model_tolerance_deg, args.jobs, scheduler=args.scheduler)
     print(verdict_line(diag))
     inst = diag["instrument"]
+    how = "estimated" if inst["latency_estimated"] else "declared"
     print(
-        f"instrument: latency {inst['latency_s'] * 1e3:.0f} ms ({'estimated' if inst['latency_estimated'] else 'declared'}), zero offset {inst['offset_deg']:.3f} deg, "
+        f"instrument: latency {inst['latency_s'] * 1e3:.0f} ms ({how}), zero offset {inst['offset_deg']:.3f} deg, "
         f"{inst['observed_rate_hz']:.1f} Hz, {inst['dropped_samples']} samples missing"
     )
     print(f"report: {diag['_out'] / 'report.md'}")
@@ -113,6 +74,7 @@ def cmd_diagnose(args) -> int:
 
 
 def cmd_bench(args) -> int:
+    # on use: at the top, the libraries take `twin --help` from 0.45 to 2.2 s
     from gap.bench import run_bench
 
     check_output(Path(args.out), "--out", folder=True)

@@ -8,13 +8,10 @@ import json
 import sys
 from pathlib import Path
 
-from twin.args import CAMERA_FPS as CAMERA_FPS_RANGE
-from twin.args import DURATION_S, MONTE_CARLO, SEED, WORKERS, number
-from twin.errors import UserError
+from twin.checks import CAMERA_FPS as CAMERA_FPS_RANGE
+from twin.checks import DURATION_S, MONTE_CARLO, RECORDING_CAMERA_FPS, SEED
 from twin.outputs import OutputLock, check_output, keep_result, publish_folder, write_atomic
-from twin.signals import shielded
-
-CAMERA_FPS = 2.0  # the operator's global-camera view in recordings: "a few frames per second"
+from twin_cli.args import add_workers, number
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -26,9 +23,12 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--camera-fps",
         type=number(**CAMERA_FPS_RANGE),
-        default=CAMERA_FPS,
+        default=RECORDING_CAMERA_FPS,
         metavar="N",
-        help=f"global-camera frames per simulated second in the recording (default {CAMERA_FPS:g}; 0: none; at most the log rate, 50)",
+        help=(
+            f"global-camera frames per simulated second in the recording "
+            f"(default {RECORDING_CAMERA_FPS:g}; 0: none; at most the log rate, 50)"
+        ),
     )
     p.add_argument("--duration", type=number(**DURATION_S), metavar="S", help="stop after this many simulated seconds")
     p.add_argument("--seed", type=number(**SEED), metavar="N", help="override the scenario's seed")
@@ -55,13 +55,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         metavar="N",
         help="N runs per grid point with child seeds (default 0: the scenario's own seed only)",
     )
-    p.add_argument(
-        "--workers",
-        type=number(**WORKERS),
-        default=0,
-        metavar="K",
-        help="local worker processes (default 0: all cores)",
-    )
+    add_workers(p)
     p.add_argument(
         "--scheduler",
         metavar="ADDR",
@@ -73,7 +67,10 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--out",
         type=Path,
-        help="write all summaries to this JSON file, and a table (a row per run) beside it as .csv (default: print them on stdout)",
+        help=(
+            "write all summaries to this JSON file, and a table (a row per run) beside it as .csv "
+            "(default: print them on stdout)"
+        ),
     )
     p.set_defaults(func=cmd_sweep)
 
@@ -89,6 +86,8 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def cmd_run(args) -> int:
+    # on use: at the top, the libraries take `twin --help` from 0.45 to 2.2 s
+    from scenarios.recording import close_all, open_recorders
     from scenarios.runner import run_scenario
     from scenarios.schema import load, with_overrides
 
@@ -119,55 +118,6 @@ def cmd_run(args) -> int:
     for e in log_errors:  # the summary above is the run's result; a log that failed is said after it
         print(f"twin: error: {e}", file=sys.stderr)
     return 2 if log_errors else 0 if result.passed else 1
-
-
-def close_all(recorders) -> list[str]:
-    """Close every recorder, also when one fails (a full disk, a vanished folder) or a signal
-    arrives: the others still finish their files. Returns what failed, for after the summary."""
-    errors = []
-    with shielded():  # Ctrl-C or SIGTERM now would cut the very files it asks to keep
-        for r in recorders:
-            try:
-                r.close()
-            except (UserError, OSError) as e:
-                errors.append(str(e))
-    return errors
-
-
-def open_recorders(
-    scenario, rrd: Path | None, mcap: Path | None, camera_fps: float = CAMERA_FPS, start_time: str | None = None
-) -> list:
-    """The log writers a run asked for, told what they need to know about the scenario;
-    `start_time` ("now" or ISO 8601) starts the MCAP's clock there (twin.mcap_log.start_time)."""
-    recorders = []
-    if not (rrd or mcap):
-        return recorders
-    from scenarios.runner import build_plant
-    from twin.mcap_log import start_time as start_meta
-    from twin.provenance import run_metadata
-
-    meta = run_metadata(scenario) | (start_meta(start_time) if start_time else {})
-    plant = build_plant(scenario)
-    frames = None
-    if rrd and mcap and camera_fps > 0:  # one camera process renders each frame for both logs
-        from twin.camera import FrameFeed
-
-        frames = FrameFeed(plant.model, camera_fps)
-    if rrd:
-        from scenarios.runner import resolve_targets
-        from twin.rerun_log import RerunRecorder, moving_joint
-
-        rrd.parent.mkdir(parents=True, exist_ok=True)
-        focus = moving_joint(plant.joints, plant.drive_angles(), resolve_targets(scenario, plant))
-        recorders.append(
-            RerunRecorder(rrd, plant.model, plant.joints, meta, camera_fps=camera_fps, focus=focus, frames=frames)
-        )
-    if mcap:
-        from twin.mcap_log import McapRecorder
-
-        mcap.parent.mkdir(parents=True, exist_ok=True)
-        recorders.append(McapRecorder(mcap, plant.model, plant.joints, meta, camera_fps=camera_fps, frames=frames))
-    return recorders
 
 
 def print_summary(summary: dict) -> None:
@@ -206,10 +156,11 @@ def print_summary(summary: dict) -> None:
 
 def _cells(values, widths) -> str:
     """Numbers right-aligned in columns of the given widths, '-' for None."""
-    return "".join(f"{'-' if v is None else f'{v:.2f}':>{w}}" for v, w in zip(values, widths))
+    return "".join(f"{'-' if v is None else f'{v:.2f}':>{w}}" for v, w in zip(values, widths, strict=True))
 
 
 def cmd_sweep(args) -> int:
+    # on use: at the top, the libraries take `twin --help` from 0.45 to 2.2 s
     from scenarios.schema import load
     from scenarios.sweep import parse_grid, sweep, table_path, write_csv
 
@@ -233,6 +184,7 @@ def cmd_sweep(args) -> int:
 
 
 def cmd_paper(args) -> int:
+    # on use: at the top, the libraries take `twin --help` from 0.45 to 2.2 s
     from scenarios.paper import reproduce
 
     check_output(args.out, "--out", folder=True)
@@ -245,6 +197,7 @@ def cmd_paper(args) -> int:
 
 
 def cmd_bench(args) -> int:
+    # on use: at the top, the libraries take `twin --help` from 0.45 to 2.2 s
     from benchmarks.all import run_all
 
     with contextlib.redirect_stdout(sys.stderr):  # the benchmarks' own chatter stays off the JSON
