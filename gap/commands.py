@@ -63,7 +63,7 @@ def run_diagnose(
 ) -> dict:
     """Check the numbers, the campaign and `out`, then diagnose and write the report into `out`.
     The report's files arrive whole; if `out` fails after the work they are kept beside it (where:
-    diag["_out"])."""
+    diag.out)."""
     from gap.campaign import load_campaign
     from gap.diagnose import MODEL_TOLERANCE_DEG as DEFAULT_TOLERANCE_DEG
     from gap.diagnose import diagnose
@@ -83,32 +83,32 @@ def run_diagnose(
 
     with OutputLock([out]):
         diag, folder = publish_folder(out, diagnose_into, "the diagnosis")
-    diag["_out"] = folder
+    diag.out = folder
     return diag
 
 
 def verdict_line(diag: dict) -> str:
     """The one-line answer. For a gap outside the catalogue it names the nearest family, never a
     candidate (a candidate's name there would read like a diagnosis)."""
-    w = diag["which"]
-    top = w["top"]
-    if w["verdict"] == "outside the catalogue":
-        return f"verdict: outside the catalogue (nearest family: {w['nearest']['family']}; nominal twin {diag['before_rms_deg']:.2f} deg rms)"
+    w = diag.which
+    top = w.top
+    if w.verdict == "outside the catalogue":
+        return f"verdict: outside the catalogue (nearest family: {w.nearest.family}; nominal twin {diag.before_rms_deg:.2f} deg rms)"
     if top is None:
-        return f"verdict: {w['verdict']} (nominal twin {diag['before_rms_deg']:.2f} deg rms, threshold {diag['noise_floor']['significance_threshold_deg']:.2f})"
-    bound = " [fitted on a catalogue bound]" if any(top["at_bound"]) else ""
-    return f"verdict: {w['verdict']} ({top['name']}{bound}, held-out rms {diag['before_rms_deg']:.2f} -> {top['heldout_rms_deg']:.2f} deg)"
+        return f"verdict: {w.verdict} (nominal twin {diag.before_rms_deg:.2f} deg rms, threshold {diag.noise_floor.significance_threshold_deg:.2f})"
+    bound = " [fitted on a catalogue bound]" if any(top.at_bound) else ""
+    return f"verdict: {w.verdict} ({top.name}{bound}, held-out rms {diag.before_rms_deg:.2f} -> {top.heldout_rms_deg:.2f} deg)"
 
 
 def cmd_diagnose(args) -> int:
     diag = run_diagnose(args.campaign, args.out, args.model_tolerance_deg, args.jobs, scheduler=args.scheduler)
     print(verdict_line(diag))
-    inst = diag["instrument"]
+    inst = diag.instrument
     print(
-        f"instrument: latency {inst['latency_s'] * 1e3:.0f} ms ({'estimated' if inst['latency_estimated'] else 'declared'}), zero offset {inst['offset_deg']:.3f} deg, "
-        f"{inst['observed_rate_hz']:.1f} Hz, {inst['dropped_samples']} samples missing"
+        f"instrument: latency {inst.latency_s * 1e3:.0f} ms ({'estimated' if inst.latency_estimated else 'declared'}), zero offset {inst.offset_deg:.3f} deg, "
+        f"{inst.observed_rate_hz:.1f} Hz, {inst.dropped_samples} samples missing"
     )
-    print(f"report: {diag['_out'] / 'report.md'}")
+    print(f"report: {diag.out / 'report.md'}")
     return 0
 
 
