@@ -22,6 +22,9 @@ class Rig(NamedTuple):
     load_spring_nm_per_rad: float = 0.0
 
 
+NOMINAL_RIG = Rig()  # the rig as the twin has it (an immutable tuple: safe as a default)
+
+
 @dataclass(frozen=True)
 class Effect:
     name: str
@@ -35,9 +38,9 @@ class Effect:
     equation: str = ""
 
     def value_of(self, params: JointParams) -> float:
-        return getattr(Rig(), self.field) if self.field in Rig._fields else float(getattr(params, self.field))
+        return getattr(NOMINAL_RIG, self.field) if self.field in Rig._fields else float(getattr(params, self.field))
 
-    def apply(self, params: JointParams, value: float, rig: Rig = Rig()) -> tuple[JointParams, Rig]:
+    def apply(self, params: JointParams, value: float, rig: Rig = NOMINAL_RIG) -> tuple[JointParams, Rig]:
         """(params, rig) with the effect at `value`."""
         if self.field in Rig._fields:
             return params, rig._replace(**{self.field: float(value)})

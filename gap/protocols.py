@@ -16,6 +16,7 @@ twin must not call its own error on any of them an effect.
 
 from __future__ import annotations
 
+import json
 from dataclasses import dataclass
 
 import numpy as np
@@ -126,6 +127,8 @@ def library(supply_mpa: float) -> dict[str, Protocol]:
 def measure_tolerance(pressures_mpa=(0.5, 0.6, 0.7, 0.8)) -> dict[str, dict]:
     """Replay vs plant per protocol: rms and max |difference| of the angle (deg) and rms of the
     chamber pressures (kPa) over the given supplies, nominal wrist, no instrument noise."""
+    # imported here, not at the top: gap.diagnose takes its tolerance from this module (a circle),
+    # and only this measurement needs the plant (MuJoCo)
     from gap import synth
     from gap.campaign import Campaign, Run
     from gap.diagnose import Twin
@@ -164,6 +167,4 @@ def measure_tolerance(pressures_mpa=(0.5, 0.6, 0.7, 0.8)) -> dict[str, dict]:
 
 
 if __name__ == "__main__":
-    import json
-
     print(json.dumps(measure_tolerance(), indent=1))

@@ -13,11 +13,15 @@ import csv
 from dataclasses import dataclass
 from pathlib import Path
 
+import mujoco
 import numpy as np
 
 import assets
 from pneumatics import JointParams, load_joint_params
 from pneumatics.gas import AIR
+from twin.mcap_log import McapRecorder
+from twin.plant import Plant
+from twin.sim import CommandSchedule, run
 
 JOINT = "wrist_pitch"
 PRESSURES_MPA = (0.5, 0.6, 0.7, 0.8)  # paper Fig. 10-16: the supplies of the model validation
@@ -103,11 +107,6 @@ def wrist_params() -> JointParams:
 def _plant_and_schedule(
     reality: JointParams, supply_mpa: float, motion: Motion, start_rad: float, rig_spring_nm_per_rad: float = 0.0
 ):
-    import mujoco
-
-    from twin.plant import Plant
-    from twin.sim import CommandSchedule
-
     plant = Plant(assets.WRIST_RIG_XML, joint_params={JOINT: reality})
     i = plant.joints.index(JOINT)
     # a hidden angle-dependent load: MuJoCo's own joint spring (passive force -k (q - qpos_spring),
@@ -140,8 +139,6 @@ def simulate_run(
     """Run the plant (twin.plant.Plant on the wrist rig) through `motion` (a Motion or a
     gap.protocols.Protocol); 1 ms command rows and the true angle and chamber pressures every
     `log_period_s` (NaN between samples)."""
-    from twin.sim import run
-
     plant, schedule, i = _plant_and_schedule(reality, supply_mpa, motion, start_rad, rig_spring_nm_per_rad)
     supply_pa = plant.supply_pa
     tel = run(plant, schedule, motion.total_s(), supply_pa_at=lambda t: supply_pa, log_period_s=log_period_s)
@@ -169,9 +166,6 @@ def write_mcap_run(
 ) -> Path:
     """Run the plant through `motion` and log it with the twin's own MCAP recorder
     (twin.mcap_log.McapRecorder, a sample every 20 ms): a run file the campaign reader accepts."""
-    from twin.mcap_log import McapRecorder
-    from twin.sim import run
-
     motion = motion or Motion()
     plant, schedule, _ = _plant_and_schedule(reality, supply_mpa, motion, start_rad)
     rec = McapRecorder(path, plant.model, plant.joints, {"scenario_name": "gap synthetic run", "seed": 0})

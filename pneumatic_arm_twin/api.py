@@ -5,6 +5,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -19,6 +20,9 @@ from scenarios.sweep import sweep as _sweep
 from twin.mcap_log import read_mcap
 from twin.pictures import plot_angles_png
 from twin.telemetry import SIGNALS
+
+if TYPE_CHECKING:
+    from gap.result import Diagnosis as GapDiagnosis
 
 PANDAS_MISSING = (
     "to_dataframe() needs pandas, which pneumatic-arm-twin does not install; `pip install pandas`, "
@@ -175,18 +179,20 @@ def sweep(
 class Diagnosis:
     """A gap diagnosis: `verdict` (explained, ambiguous, outside the catalogue, no significant
     gap), the `effect` that explains the gap (the top candidate's name, or None), the held-out
-    rms angle error before and after it, and the whole diagnosis (`details`, as diagnosis.json)."""
+    rms angle error before and after it, and the whole diagnosis (`details`, gap.result.Diagnosis:
+    what diagnosis.json holds)."""
 
     verdict: str
     effect: str | None
     before_rms_deg: float
     after_rms_deg: float | None
-    details: dict
+    details: GapDiagnosis
 
     def ranking(self) -> dict[str, list]:
         """The single-effect candidates, best first, as columns: name, held-out rms, shrink, fitted values."""
-        rank = self.details["which"]["ranking"]
-        return {k: [c[k] for c in rank] for k in ("name", "heldout_rms_deg", "shrink", "fitted_values", "explains")}
+        rank = self.details.which.ranking
+        columns = ("name", "heldout_rms_deg", "shrink", "fitted_values", "explains")
+        return {k: [getattr(c, k) for c in rank] for k in columns}
 
 
 def diagnose(
@@ -211,6 +217,6 @@ def diagnose(
     d = _diagnose(load_campaign(campaign), catalogue=catalogue, model_tolerance_deg=tol, n_jobs=jobs, progress=progress)
     if out is not None:
         write_report(d, out)
-    top = d["which"]["top"]
-    after = top["heldout_rms_deg"] if top else None
-    return Diagnosis(d["which"]["verdict"], top["name"] if top else None, d["before_rms_deg"], after, d)
+    top = d.which.top
+    after = top.heldout_rms_deg if top else None
+    return Diagnosis(d.which.verdict, top.name if top else None, d.before_rms_deg, after, d)

@@ -63,13 +63,13 @@ def cmd_diagnose(args) -> int:
 
     diag = run_diagnose(args.campaign, args.out, args.model_tolerance_deg, args.jobs, scheduler=args.scheduler)
     print(verdict_line(diag))
-    inst = diag["instrument"]
-    how = "estimated" if inst["latency_estimated"] else "declared"
+    inst = diag.instrument
+    how = "estimated" if inst.latency_estimated else "declared"
     print(
-        f"instrument: latency {inst['latency_s'] * 1e3:.0f} ms ({how}), zero offset {inst['offset_deg']:.3f} deg, "
-        f"{inst['observed_rate_hz']:.1f} Hz, {inst['dropped_samples']} samples missing"
+        f"instrument: latency {inst.latency_s * 1e3:.0f} ms ({how}), zero offset {inst.offset_deg:.3f} deg, "
+        f"{inst.observed_rate_hz:.1f} Hz, {inst.dropped_samples} samples missing"
     )
-    print(f"report: {diag['_out'] / 'report.md'}")
+    print(f"report: {diag.out / 'report.md'}")
     return 0
 
 
