@@ -714,6 +714,11 @@ def single_joint_rk4(
 
     The rigid reducer takes one sub-step; a non-rigid one as many as its two-mass mode needs
     (`reducer.substeps_for`).
+
+    Kept whole, as `_rates` and `advance_motor_side` are: split into compiled steps (the sub-step,
+    the crossing corrections, Karnopp's hold; inlined or not) the replay of a 20-cycle stop-and-go
+    run measured 5-12 % slower a step (2.66-2.75 against 2.80-3.10 µs rigid, best of 7,
+    interleaved), for the same bits.
     """
     ratio = p[P.RATIO]
     rigid = is_rigid(p)
