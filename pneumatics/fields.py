@@ -39,8 +39,11 @@ class Problem(NamedTuple):
     allowed: str
 
 
-def _refuse(why: str, allowed: str) -> PydanticCustomError:
-    return PydanticCustomError("not_allowed", "{why}; allowed: {allowed}", {"why": why, "allowed": allowed})
+def refuse(why: str, allowed: str, value: object = MISSING) -> PydanticCustomError:
+    """The error a field's check raises: why the value is refused and what is allowed (`value`: the
+    part of the input to quote, e.g. one pair of a list; by default the whole input)."""
+    ctx = {"why": why, "allowed": allowed} | ({} if value is MISSING else {"value": value})
+    return PydanticCustomError("not_allowed", "{why}; allowed: {allowed}", ctx)
 
 
 def number_check(low: float, high: float, unit: str = "") -> tuple[Callable[[object], float], str]:
@@ -49,9 +52,9 @@ def number_check(low: float, high: float, unit: str = "") -> tuple[Callable[[obj
 
     def check(value: object) -> float:
         if isinstance(value, bool) or not isinstance(value, (int, float)):
-            raise _refuse("is not a number", allowed)
+            raise refuse("is not a number", allowed)
         if not math.isfinite(value) or not low <= value <= high:
-            raise _refuse("is outside the allowed range", allowed)
+            raise refuse("is outside the allowed range", allowed)
         return float(value)
 
     return check, allowed
@@ -69,34 +72,35 @@ def whole(low: int, high: int) -> Any:
 
     def check(value: object) -> int:
         if isinstance(value, bool) or not isinstance(value, int) or not low <= value <= high:
-            raise _refuse("is not allowed", allowed)
+            raise refuse("is not allowed", allowed)
         return value
 
     return Annotated[int, BeforeValidator(check), Allowed(allowed)]
 
 
-def choice(*options: str) -> Any:
-    """One of `options` (strings), quoted in the message as 'a' | 'b'."""
+def choice(*options: str, why: str = "is not allowed") -> Any:
+    """One of `options` (strings), quoted in the message as 'a' | 'b'; `why` says what else is."""
     allowed = " | ".join(repr(o) for o in options)
 
     def check(value: object) -> object:
         if value not in options:
-            raise _refuse("is not allowed", allowed)
+            raise refuse(why, allowed)
         return value
 
     return Annotated[Literal[options], BeforeValidator(check), Allowed(allowed)]
 
 
-def _typed(kind: type, allowed: str) -> Any:
+def _typed(kind: type | tuple[type, ...], allowed: str) -> Any:
     def check(value: object) -> object:
-        if not isinstance(value, kind):
-            raise _refuse("is not allowed", allowed)
+        if not isinstance(value, kind) or (kind is not bool and isinstance(value, bool)):
+            raise refuse("is not allowed", allowed)
         return value
 
-    return Annotated[kind, BeforeValidator(check), Allowed(allowed)]
+    return Annotated[kind if isinstance(kind, type) else float, BeforeValidator(check), Allowed(allowed)]
 
 
 TEXT = _typed(str, "a string")
+REAL = _typed((int, float), "a number")  # any int or float, nan and inf included: checked by its user
 FLAG = _typed(bool, "true or false")  # strict: TOML's true/false, not 1 or "yes"
 
 # what pydantic's own structural errors mean in a TOML file
@@ -116,7 +120,7 @@ def first_problem(error: ValidationError, schema: type) -> Problem:
     e = error.errors(include_url=False)[0]
     loc, kind = tuple(e["loc"]), e["type"]
     if kind == "not_allowed":
-        return Problem(loc, e["input"], e["ctx"]["why"], e["ctx"]["allowed"])
+        return Problem(loc, e["ctx"].get("value", e["input"]), e["ctx"]["why"], e["ctx"]["allowed"])
     if kind in ("missing", "missing_argument"):
         return Problem(loc, MISSING, "is missing", _allowed_of(_fields(_type_at(schema, loc[:-1]))[loc[-1]]))
     if kind in _UNKNOWN:

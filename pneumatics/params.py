@@ -164,6 +164,14 @@ ParameterFile = create_model(
 )
 
 
+# any subset of JointParams fields, each in its range (a scenario's effects on one joint)
+JointParamsSubset = create_model(
+    "JointParamsSubset",
+    __config__=ConfigDict(extra="forbid"),
+    **{name: (number(spec.low, spec.high, spec.unit), None) for name, spec in SPEC.items()},
+)
+
+
 def check_value(source: str, field: str, value: object) -> float:
     """`value` as a float if it is allowed for `field`, else ParameterError naming source and field."""
     check, allowed = _CHECKS[field]
