@@ -39,11 +39,11 @@ from pathlib import Path
 import mujoco
 import numpy as np
 import pydantic
-from pydantic import BaseModel, ConfigDict, ValidationError
+from pydantic import BaseModel, ValidationError
 
 import assets
 from pneumatics import load_joint_params
-from pneumatics.fields import FLAG, MISSING, REAL, TEXT, Problem, choice, first_problem, number, read_toml
+from pneumatics.fields import FLAG, MISSING, REAL, TABLE, TEXT, Problem, choice, first_problem, number, read_toml
 from pneumatics.gas import AIR
 from twin.errors import UserError
 from twin.mcap_log import read_mcap
@@ -65,7 +65,6 @@ SUPPLY_TOLERANCE_MPA = 0.05
 # Measured angles may pass a joint's range by the end stop's give and the instrument's offset.
 ANGLE_MARGIN_DEG = 5.0  # assumed
 MAX_ABS_PRESSURE_PA = 3e6  # above any supply of this class (0.5-0.8 MPa gauge, paper)
-TABLE = ConfigDict(extra="forbid")  # every table refuses keys it does not know
 PAYLOAD_KG = number(0.0, 100.0, "kg")
 RIG_INERTIA_KG_M2 = number(0.0, 100.0, "kg·m^2")
 
@@ -132,14 +131,18 @@ class Campaign:
     instrument: Instrument = field(default_factory=Instrument)
 
 
-class TwinSwitches(BaseModel, extra="forbid"):
+class TwinSwitches(BaseModel):
     """[twin]: the nominal twin's switches."""
+
+    model_config = TABLE
 
     hose_loss: FLAG | None = None  # None: as the joint's parameter file
 
 
-class RunEntry(BaseModel, extra="forbid"):
+class RunEntry(BaseModel):
     """One [[runs]] table."""
+
+    model_config = TABLE
 
     file: TEXT  # a run file inside the campaign's folder (CSV, or the twin's own .mcap)
     supply_mpa: number(0.0, 2.0, "MPa gauge")
@@ -148,8 +151,10 @@ class RunEntry(BaseModel, extra="forbid"):
     rig_inertia_kg_m2: RIG_INERTIA_KG_M2 | None = None  # None: the campaign's
 
 
-class CampaignFile(BaseModel, extra="forbid"):
+class CampaignFile(BaseModel):
     """campaign.toml."""
+
+    model_config = TABLE
 
     joint: choice(*assets.JOINTS, why="is not a joint of the arm")
     payload_kg: PAYLOAD_KG = 0.0

@@ -21,7 +21,7 @@ from typing import NamedTuple
 
 from pydantic import BaseModel, Field, ValidationError
 
-from pneumatics.fields import MISSING, TEXT, choice, first_problem, read_toml
+from pneumatics.fields import MISSING, TABLE, TEXT, choice, first_problem, read_toml
 from pneumatics.params import SPEC, JointParams, ParameterError, check_value, validated
 
 SOURCES = ("datasheet", "literature", "assumed", "calibrated")
@@ -34,8 +34,10 @@ class AsBuiltEffect(NamedTuple):
     basis: str
 
 
-class _Entry(BaseModel, extra="forbid"):
+class _Entry(BaseModel):
     """One [effects.<field>] table; the value is checked against its field's range afterwards."""
+
+    model_config = TABLE
 
     value: object  # checked against its field's range (check_value) once the field is known
     source: choice(*SOURCES)
@@ -48,7 +50,8 @@ _ALLOWED = {
 }
 
 
-class _AsBuiltFile(BaseModel, extra="forbid"):
+class _AsBuiltFile(BaseModel):
+    model_config = TABLE
     effects: dict[choice(*SPEC), _Entry] = {}
 
 

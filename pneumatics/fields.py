@@ -18,10 +18,11 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Annotated, Any, Literal, NamedTuple, Union, get_args, get_origin
 
-from pydantic import BeforeValidator, ValidationError
+from pydantic import BeforeValidator, ConfigDict, ValidationError
 from pydantic_core import PydanticCustomError
 
 MISSING = "<missing>"  # the value of a field the file does not give
+TABLE = ConfigDict(extra="forbid")  # every table refuses keys it does not know
 
 
 class Allowed(NamedTuple):

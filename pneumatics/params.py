@@ -15,10 +15,10 @@ from pathlib import Path
 from typing import NamedTuple
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, create_model
+from pydantic import BaseModel, Field, ValidationError, create_model
 from pydantic_core import PydanticCustomError
 
-from pneumatics.fields import MISSING, TEXT, Problem, first_problem, number, number_check, read_toml
+from pneumatics.fields import MISSING, TABLE, TEXT, Problem, first_problem, number, number_check, read_toml
 from pneumatics.gas import AIR, Gas
 
 
@@ -152,14 +152,14 @@ def _section_table(section: str) -> type[BaseModel]:
         if spec.section == section
     }
     texts = {key: (TEXT | None, None) for key in TEXT_KEYS}
-    return create_model(f"{section}_table", __config__=ConfigDict(extra="forbid"), **numbers, **texts)
+    return create_model(f"{section}_table", __config__=TABLE, **numbers, **texts)
 
 
 _TABLES = {section: _section_table(section) for section in SECTIONS}
 # a parameter file: one table per section; [effects] may be left out (all off)
 ParameterFile = create_model(
     "ParameterFile",
-    __config__=ConfigDict(extra="forbid"),
+    __config__=TABLE,
     **{s: (t, Field(default_factory=t) if s == "effects" else ...) for s, t in _TABLES.items()},
 )
 
@@ -167,7 +167,7 @@ ParameterFile = create_model(
 # any subset of JointParams fields, each in its range (a scenario's effects on one joint)
 JointParamsSubset = create_model(
     "JointParamsSubset",
-    __config__=ConfigDict(extra="forbid"),
+    __config__=TABLE,
     **{name: (number(spec.low, spec.high, spec.unit), None) for name, spec in SPEC.items()},
 )
 

@@ -30,7 +30,7 @@ from pathlib import Path
 from typing import Annotated
 
 import mujoco
-from pydantic import AfterValidator, BeforeValidator, ConfigDict, TypeAdapter, ValidationError
+from pydantic import AfterValidator, BeforeValidator, ValidationError
 from pydantic.dataclasses import dataclass
 
 import assets
@@ -40,6 +40,7 @@ from pneumatics.fields import (
     FLAG,
     MISSING,
     REAL,
+    TABLE,
     TEXT,
     Problem,
     choice,
@@ -93,7 +94,6 @@ CRITERIA = (
 STRATEGIES = ("sensorless", "rereference", "operator", "true_angle")
 ARMS = ("as_built", "nominal")
 ANGLE_DEG = number(-360.0, 360.0, "deg")  # a joint angle; the joint's own range is checked against the MJCF
-TABLE = ConfigDict(extra="forbid")  # every table refuses keys it does not know
 
 
 class ScenarioError(UserError):
@@ -246,7 +246,6 @@ class Scenario:
 
 NOT_IN_FILE = ("path", "text", "overrides")
 FILE_KEYS = tuple(k for k in Scenario.__pydantic_fields__ if k not in NOT_IN_FILE)
-_SCENARIO = TypeAdapter(Scenario)
 
 
 def _dotted(loc: tuple[str | int, ...]) -> str:
@@ -307,8 +306,8 @@ def parse_doc(doc: dict, path: str, text: str, overrides: dict | None = None) ->
         if key in doc:
             raise _fail(path, key, doc[key], ", ".join(FILE_KEYS), "is not a known field")
     try:
-        scenario = _SCENARIO.validate_python(
-            {"name": Path(path).stem, **doc, "path": path, "text": text, "overrides": dict(overrides or {})}
+        scenario = Scenario(
+            **{"name": Path(path).stem, **doc, "path": path, "text": text, "overrides": dict(overrides or {})}
         )
     except ValidationError as e:
         raise _refusal(path, first_problem(e, Scenario)) from None
