@@ -22,9 +22,9 @@ Run CSV columns: time_s, direction (-1/0/+1), brake_released (0/1), valve_set_ga
 proportional valve's set point P_v, gauge Pa, optional) or valve_opening (0..1, optional: the set
 point u / k_u; at most one of the two; neither = the set point equals the supply, i.e. the valve
 wide open delivering the supply), supply_pa (absolute), angle_rad (reference instrument, empty/NaN where not
-sampled), optional p_a_pa, p_b_pa. The file is read by the standard library's csv.DictReader and
-its columns converted by numpy. Anything else is refused with the file, the line and what is
-wrong (GapError).
+sampled), optional p_a_pa, p_b_pa. The file is read by the standard library's csv
+module and its columns converted by numpy; anything else is refused with the file, the line and
+what is wrong (GapError).
 """
 
 from __future__ import annotations
@@ -326,23 +326,26 @@ def read_run_file(path: Path, supply_mpa: float, start_rad: float, where: str = 
     return _read_csv_run(path, supply_mpa, start_rad, joint)
 
 
-def _read_csv_rows(path: Path) -> tuple[list[str], list[dict[str, str]], list[int], str]:
-    """The header, the rows up to the first with a wrong number of fields, their line numbers, and
-    that row's refusal ("" if none). Blank lines are skipped (csv.DictReader), their lines counted."""
+def _read_csv_rows(path: Path) -> tuple[list[str], dict[str, tuple[str, ...]], list[int], str]:
+    """The header, each column's texts up to the first row with a wrong number of fields, the rows'
+    line numbers, and that row's refusal ("" if none). Blank lines are skipped, their lines counted."""
     with open(path, newline="") as f:
-        reader = csv.DictReader(f)
-        if reader.fieldnames is None:
+        reader = csv.reader(f)
+        header = next(reader, None)
+        if header is None:
             raise GapError(f"{path}:1: empty run file; expected a header with {', '.join(REQUIRED_COLUMNS)}")
-        header = reader.fieldnames = [h.strip() for h in reader.fieldnames]
+        header = [h.strip() for h in header]
         _check_header(path, header)
-        rows, lines = [], []
+        rows, lines, cut = [], [], ""
         for row in reader:
-            if None in row or None in row.values():  # more fields than the header (restkey) or fewer
-                n = sum(v is not None for k, v in row.items() if k is not None) + len(row.get(None, []))
-                return header, rows, lines, f"{path}:{reader.line_num}: {n} fields, the header has {len(header)}"
-            rows.append(row)
-            lines.append(reader.line_num)
-    return header, rows, lines, ""
+            if row and len(row) != len(header):
+                cut = f"{path}:{reader.line_num}: {len(row)} fields, the header has {len(header)}"
+                break
+            if row:
+                rows.append(row)
+                lines.append(reader.line_num)
+    columns = dict(zip(header, zip(*rows, strict=True), strict=True)) if rows else dict.fromkeys(header, ())
+    return header, columns, lines, cut
 
 
 def _check_header(path: Path, header: list[str]) -> None:
@@ -362,29 +365,31 @@ def _check_header(path: Path, header: list[str]) -> None:
         raise GapError(f"{path}:1: both valve_opening and valve_set_gauge_pa; allowed: at most one of them")
 
 
-def _column(name: str, texts: list[str]) -> tuple[np.ndarray, list[tuple[int, str]]]:
-    """A CSV column as float64 (NaN where not sampled or unreadable) and its first refusal as
-    (row, message) ([] if none): empty where a number is needed, not a number, not finite."""
-    text = np.char.strip(np.asarray(texts, dtype=str))
-    empty = (text == "") | (np.char.lower(text) == "nan")
-    values = np.full(len(text), np.nan)
+def _column(name: str, texts: tuple[str, ...]) -> tuple[np.ndarray, list[tuple[int, str]]]:
+    """A CSV column as float64 (NaN where empty, `nan` or unreadable) and its first refusal as
+    (row, message) ([] if none): not a number, empty where a number is needed, not finite."""
     try:
-        values[~empty] = text[~empty].astype(np.float64)
-    except ValueError:  # some entry is not a number: find it (only on this path)
-        values[~empty] = [_float_or_none(t) for t in text[~empty]]
-        bad = np.flatnonzero(~empty & np.isnan(values))
-        return values, [(int(bad[0]), f"{name} = {str(text[bad[0]])!r} is not a number")]
-    if name not in NAN_COLUMNS and empty.any():
-        return values, [(int(np.argmax(empty)), f"{name} is empty; allowed: a number")]
-    infinite = np.flatnonzero(np.isinf(values))
-    return values, [(int(infinite[0]), f"{name} = {str(text[infinite[0]])!r} is not finite")] if infinite.size else []
+        values = np.array(texts, dtype=np.float64)  # each text parsed as Python's float() does
+        words = np.zeros(len(texts), dtype=bool)
+    except ValueError:  # an empty field or a word: parse one by one to tell which
+        parsed = [_float_or_none(t) for t in texts]
+        words = np.array([p is None for p in parsed])
+        values = np.array([math.nan if p is None else p for p in parsed], dtype=np.float64)
+    found = _first(words, lambda k: f"{name} = {texts[k].strip()!r} is not a number")
+    if name not in NAN_COLUMNS:
+        found += _first(np.isnan(values) & ~words, lambda k: f"{name} is empty; allowed: a number")
+    found += _first(np.isinf(values), lambda k: f"{name} = {texts[k].strip()!r} is not finite")
+    return values, [min(found)] if found else []
 
 
-def _float_or_none(text: str) -> float:
+def _float_or_none(text: str) -> float | None:
+    """float(text); NaN if empty; None if it is no number."""
+    if not text.strip():
+        return math.nan
     try:
         return float(text)
     except ValueError:
-        return math.nan
+        return None
 
 
 def _first(mask: np.ndarray, message: object) -> list[tuple[int, str]]:
@@ -425,10 +430,10 @@ def _row_checks(a: dict[str, np.ndarray]) -> list[tuple[int, str]]:
 def _read_csv_columns(path: Path) -> dict[str, np.ndarray]:
     """The run file's columns by name; GapError at the first refused row (as a row-by-row reader
     would find it: the earliest row, and in it the first column, then the checks in order)."""
-    header, rows, lines, cut = _read_csv_rows(path)
+    header, columns, lines, cut = _read_csv_rows(path)
     a, refusals = {}, []
     for order, h in enumerate(header):
-        a[h], found = _column(h, [row[h] for row in rows])
+        a[h], found = _column(h, columns[h])
         refusals += [(k, order, m) for k, m in found]
     refusals += [(k, len(header) + order, m) for order, (k, m) in enumerate(_row_checks(a))]
     if refusals:
