@@ -3,9 +3,11 @@
 A joint's parameter file (assets/joints/<joint>.toml) has one table per part: [motor],
 [reducer], [hose], [valves], [brake], [friction] and [effects] (the optional effects of the gap
 catalogue, all off by default). Every field must be present in the file (except [effects]
-fields, which default to "off"), be a number, and lie within the range below; anything else is
-refused with the file, the field, the value and what is allowed. Each number in the files says
-where it comes from.
+fields, which default to JointParams' "off" values), be a number, and lie within its range in
+SPEC; a table may also name its part (`model`, `note`: text). Anything else is refused with the
+file, the field, the value and what is allowed. The file's schema (`ParameterFile`) is built from
+SPEC and JointParams, so each range and each default is written once. Each number in the files
+says where it comes from.
 """
 
 from __future__ import annotations
