@@ -253,18 +253,48 @@ def params_row(params: JointParams, gas: Gas = AIR) -> np.ndarray:
 
 # column of each field in `params_row` (compile-time constants for the kernels)
 _COLUMNS = {name: i for i, name in enumerate(JointParams._fields + tuple("gas_" + f for f in Gas._fields))}
-STATOR, ROTOR, VANE_L, N_VANES, DEAD_V, ROTOR_J = (_COLUMNS[f] for f in JointParams._fields[0:6])
-RATIO, ETA_F, ETA_B = (_COLUMNS[f] for f in JointParams._fields[6:9])
-HOSE_L, HOSE_D, HOSE_LOSS = (_COLUMNS[f] for f in JointParams._fields[9:12])
-A_IN, A_EX, K_U, VALVE_TAU, SOLENOID_DELAY = (_COLUMNS[f] for f in JointParams._fields[12:17])
-BRAKE_HOLD, BRAKE_RELEASE_PA, BRAKE_START_PA, BRAKE_FED_BY_MOTOR, BRAKE_TAU_ON, BRAKE_TAU_OFF = (
-    _COLUMNS[f] for f in JointParams._fields[17:23]
-)
-COULOMB, VISCOUS, STICK_SPEED = (_COLUMNS[f] for f in JointParams._fields[23:26])
-LEAK_A, STRIBECK_EXCESS, STRIBECK_SPEED, DEAD_ZONE, COND_SCALE, POLY_N, RIPPLE, DROOP, HOSE_LEAK_A = (
-    _COLUMNS[f] for f in JointParams._fields[26:35]
-)
+# each column named by its field (no positional slices: a field added anywhere moves nothing)
+STATOR = _COLUMNS["stator_radius_m"]
+ROTOR = _COLUMNS["rotor_radius_m"]
+VANE_L = _COLUMNS["vane_length_m"]
+N_VANES = _COLUMNS["n_vanes"]
+DEAD_V = _COLUMNS["dead_volume_m3"]
+ROTOR_J = _COLUMNS["rotor_inertia_kg_m2"]
+RATIO = _COLUMNS["ratio"]
+ETA_F = _COLUMNS["efficiency_forward"]
+ETA_B = _COLUMNS["efficiency_backward"]
+HOSE_L = _COLUMNS["hose_length_m"]
+HOSE_D = _COLUMNS["hose_diameter_m"]
+HOSE_LOSS = _COLUMNS["hose_loss"]
+A_IN = _COLUMNS["inlet_area_m2"]
+A_EX = _COLUMNS["exhaust_area_m2"]
+K_U = _COLUMNS["k_u_per_pa"]
+VALVE_TAU = _COLUMNS["valve_time_constant_s"]
+SOLENOID_DELAY = _COLUMNS["solenoid_delay_s"]
+BRAKE_HOLD = _COLUMNS["brake_holding_nm"]
+BRAKE_RELEASE_PA = _COLUMNS["brake_release_gauge_pa"]
+BRAKE_START_PA = _COLUMNS["brake_release_start_gauge_pa"]
+BRAKE_FED_BY_MOTOR = _COLUMNS["brake_fed_by_motor"]
+BRAKE_TAU_ON = _COLUMNS["brake_engage_time_constant_s"]
+BRAKE_TAU_OFF = _COLUMNS["brake_release_time_constant_s"]
+COULOMB = _COLUMNS["coulomb_nm"]
+VISCOUS = _COLUMNS["viscous_nm_s"]
+STICK_SPEED = _COLUMNS["stick_speed_rad_s"]
+LEAK_A = _COLUMNS["leak_area_m2"]
+STRIBECK_EXCESS = _COLUMNS["stribeck_excess_nm"]
+STRIBECK_SPEED = _COLUMNS["stribeck_speed_rad_s"]
+DEAD_ZONE = _COLUMNS["valve_dead_zone"]
+COND_SCALE = _COLUMNS["conductance_scale"]
+POLY_N = _COLUMNS["polytropic_n"]
+RIPPLE = _COLUMNS["ripple_fraction"]
+DROOP = _COLUMNS["supply_droop_pa_s_per_kg"]
+HOSE_LEAK_A = _COLUMNS["hose_leak_area_m2"]
 PV_DEAD_TIME = _COLUMNS["valve_set_dead_time_s"]
-BACKLASH, COMPLIANCE = _COLUMNS["reducer_backlash_rad"], _COLUMNS["reducer_compliance_rad_per_nm"]
-GAS_R, GAS_K, GAS_T, GAS_P_ATM, GAS_MU = (_COLUMNS["gas_" + f] for f in Gas._fields)
+BACKLASH = _COLUMNS["reducer_backlash_rad"]
+COMPLIANCE = _COLUMNS["reducer_compliance_rad_per_nm"]
+GAS_R = _COLUMNS["gas_r_j_per_kg_k"]
+GAS_K = _COLUMNS["gas_k"]
+GAS_T = _COLUMNS["gas_t_supply_k"]
+GAS_P_ATM = _COLUMNS["gas_p_atm_pa"]
+GAS_MU = _COLUMNS["gas_mu_pa_s"]
 N_COLUMNS = len(_COLUMNS)
