@@ -18,19 +18,22 @@ def _ratio(twin: float, paper: float) -> str:
     return f"{twin / paper:.2f}" if paper else "-"
 
 
-def write_plots(r: dict, series: dict, out: Path) -> None:
-    def save(fig, name: str) -> None:
-        fig.tight_layout()
-        fig.savefig(out / name, dpi=100)
+def _save(fig: Figure, out: Path, name: str) -> None:
+    fig.tight_layout()
+    fig.savefig(out / name, dpi=100)
 
-    def finish(fig, ax, xlabel: str, ylabel: str, title: str, name: str) -> None:
-        ax.set_xlabel(xlabel)
-        ax.set_ylabel(ylabel)
-        ax.set_title(title, fontsize=10)
-        ax.legend(fontsize=7)
-        save(fig, name)
 
-    mpas = sorted(series)
+def _finish(fig: Figure, ax, labels: tuple[str, str, str], out: Path, name: str) -> None:
+    """Label the axes (x, y, title), add the legend and save."""
+    xlabel, ylabel, title = labels
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel(ylabel)
+    ax.set_title(title, fontsize=10)
+    ax.legend(fontsize=7)
+    _save(fig, out, name)
+
+
+def _plot_timeseries(series: dict, mpas: list, out: Path) -> None:
     fig = Figure(figsize=(3.2 * len(mpas), 3.2))
     axes = fig.subplots(1, len(mpas), sharey=True)
     for ax, m in zip(axes, mpas, strict=True):
@@ -44,8 +47,10 @@ def write_plots(r: dict, series: dict, out: Path) -> None:
     axes[0].set_ylabel("rotation from start, deg")
     axes[0].legend(fontsize=6)
     fig.suptitle("Fig. 10-13 in the twin: wrist rotation, valve fully open 1 s", fontsize=10)
-    save(fig, "validation_timeseries.png")
+    _save(fig, out, "validation_timeseries.png")
 
+
+def _plot_prediction_error(r: dict, mpas: list, out: Path) -> None:
     pe = r["prediction_error"]["errors"]
     fig = Figure(figsize=(9, 3.5))
     axes = fig.subplots(1, 2)
@@ -63,8 +68,10 @@ def write_plots(r: dict, series: dict, out: Path) -> None:
         ax.set_ylabel(f"{stat} |measured - predicted| over 1 s, deg")
         ax.set_title(f"Fig. 14-16: {stat} prediction error", fontsize=10)
     axes[0].legend(fontsize=7)
-    save(fig, "prediction_error.png")
+    _save(fig, out, "prediction_error.png")
 
+
+def _plot_error_vs_angle(series: dict, mpas: list, out: Path) -> None:
     fig = Figure(figsize=(9, 3.5))
     axes = fig.subplots(1, 2, sharey=True)
     for ax, kind in zip(axes, ("with_hose_loss", "without_hose_loss"), strict=True):
@@ -82,8 +89,10 @@ def write_plots(r: dict, series: dict, out: Path) -> None:
         )
     axes[0].set_ylabel("|measured - predicted|, deg")
     axes[0].legend(fontsize=7)
-    save(fig, "error_vs_angle.png")
+    _save(fig, out, "error_vs_angle.png")
 
+
+def _plot_speed(r: dict, out: Path) -> None:
     sp = r["prediction_error"]["speed_against_supply"]
     ps = sorted(sp)
     fig = Figure(figsize=(6, 3.5))
@@ -94,15 +103,11 @@ def write_plots(r: dict, series: dict, out: Path) -> None:
     ax.axhline(
         r["prediction_error"]["max_power_joint_deg_s"], color="r", ls="--", label="motor at max power (6000 rpm / 120)"
     )
-    finish(
-        fig,
-        ax,
-        "supply pressure, MPa (gauge)",
-        "joint speed, deg/s",
-        "Wrist speed against supply, valve fully open",
-        "speed_vs_supply.png",
-    )
+    labels = ("supply pressure, MPa (gauge)", "joint speed, deg/s", "Wrist speed against supply, valve fully open")
+    _finish(fig, ax, labels, out, "speed_vs_supply.png")
 
+
+def _plot_random_supply(r: dict, out: Path) -> None:
     rs = r["random_supply"]
     fig = Figure(figsize=(6, 4.5))
     top, bottom = fig.subplots(2, 1, sharex=True)
@@ -111,8 +116,10 @@ def write_plots(r: dict, series: dict, out: Path) -> None:
     top.set_title("Fig. 18-19: random supply (0.5 s each) and the final error of each move", fontsize=10)
     bottom.plot(rs["move_end_s"], rs["final_errors_deg"], "o", label="twin, |final error| of a move")
     bottom.axhline(rs["paper_max_error_deg"], color="r", ls="--", label="paper, max 4.33 deg")
-    finish(fig, bottom, "time, s", "|final error|, deg", "", "random_supply.png")
+    _finish(fig, bottom, ("time, s", "|final error|, deg", ""), out, "random_supply.png")
 
+
+def _plot_closed_vs_open(r: dict, out: Path) -> None:
     co = r["closed_vs_open_loop"]
     fig = Figure(figsize=(6, 3.5))
     ax = fig.subplots()
@@ -123,34 +130,34 @@ def write_plots(r: dict, series: dict, out: Path) -> None:
         (co["paper_open_loop_range_deg"], "paper, open"),
     ):
         ax.axhspan(lo, hi, alpha=0.15, label=f"{label} ({lo}-{hi} deg)")
-    finish(
-        fig,
-        ax,
-        "commanded rotation, deg",
-        "|final error|, deg",
-        "Fig. 23: closed against open loop at 0.5 MPa",
-        "closed_vs_open_loop.png",
-    )
+    labels = ("commanded rotation, deg", "|final error|, deg", "Fig. 23: closed against open loop at 0.5 MPa")
+    _finish(fig, ax, labels, out, "closed_vs_open_loop.png")
 
+
+def _plot_error_vs_pressure(r: dict, out: Path) -> None:
     ep = r["error_vs_pressure"]
     fig = Figure(figsize=(6, 3.5))
     ax = fig.subplots()
     ax.plot(ep["pressures_mpa"], ep["mean_error_deg"], "o-", label=f"twin, mean over {ep['angles_deg']} deg moves")
     ax.plot(ep["pressures_mpa"], ep["max_error_deg"], "^:", label="twin, max")
     ax.axhline(ep["paper_bound_at_05_deg"], color="r", ls="--", label="paper: within 3 deg at 0.5 MPa")
-    finish(
-        fig,
-        ax,
-        "supply pressure, MPa (gauge)",
-        "closed-loop |final error|, deg",
-        "Fig. 20: control error against supply",
-        "error_vs_pressure.png",
-    )
+    labels = ("supply pressure, MPa (gauge)", "closed-loop |final error|, deg", "Fig. 20: control error against supply")
+    _finish(fig, ax, labels, out, "error_vs_pressure.png")
 
 
-def write_report(r: dict, out: Path) -> Path:
-    pv = r["prediction_error"]
-    pe = pv["errors"]
+def write_plots(r: dict, series: dict, out: Path) -> None:
+    """The paper's figures as the twin draws them, one PNG each, into `out`."""
+    mpas = sorted(series)
+    _plot_timeseries(series, mpas, out)
+    _plot_prediction_error(r, mpas, out)
+    _plot_error_vs_angle(series, mpas, out)
+    _plot_speed(r, out)
+    _plot_random_supply(r, out)
+    _plot_closed_vs_open(r, out)
+    _plot_error_vs_pressure(r, out)
+
+
+def _as_built_lines(r: dict) -> list[str]:
     lines = [
         "# The paper's experiments in the twin",
         "",
@@ -165,10 +172,25 @@ def write_report(r: dict, out: Path) -> Path:
         "| field | nominal | as-built | source | basis |",
         "|---|---|---|---|---|",
     ]
-    lines += [
+    return lines + [
         f"| {e['field']} | {e['nominal']:g} | {e['as_built']:g} | {e['source']} | {e['basis']} |" for e in r["as_built"]
     ]
-    lines += [
+
+
+def _ratios(pe: dict) -> str:
+    """Twin/paper ratios of the mean and max error, with / without the hose loss, per supply."""
+    return "; ".join(
+        f"{m} MPa {_ratio(pe[m]['with_hose_loss']['mean'], pe[m]['with_hose_loss']['paper_mean'])}, "
+        f"{_ratio(pe[m]['with_hose_loss']['max'], pe[m]['with_hose_loss']['paper_max'])} / "
+        f"{_ratio(pe[m]['without_hose_loss']['mean'], pe[m]['without_hose_loss']['paper_mean'])}, "
+        f"{_ratio(pe[m]['without_hose_loss']['max'], pe[m]['without_hose_loss']['paper_max'])}"
+        for m in sorted(pe)
+    )
+
+
+def _validation_lines(pv: dict) -> list[str]:
+    pe = pv["errors"]
+    lines = [
         "",
         "## Model validation, Fig. 10-16: |measured - predicted| over the 1 s the valve is fully open, deg",
         "",
@@ -183,17 +205,9 @@ def write_report(r: dict, out: Path) -> Path:
             f"{wo['mean']:.1f} ({wo['paper_mean']}) | {wo['max']:.1f} ({wo['paper_max']}) | "
             f"{pe[m]['predictor_gap_mean_deg']:.1f} |"
         )
-    lines += [
+    return lines + [
         "",
-        "Twin/paper ratios (mean, max; with / without): "
-        + "; ".join(
-            f"{m} MPa {_ratio(pe[m]['with_hose_loss']['mean'], pe[m]['with_hose_loss']['paper_mean'])}, "
-            f"{_ratio(pe[m]['with_hose_loss']['max'], pe[m]['with_hose_loss']['paper_max'])} / "
-            f"{_ratio(pe[m]['without_hose_loss']['mean'], pe[m]['without_hose_loss']['paper_mean'])}, "
-            f"{_ratio(pe[m]['without_hose_loss']['max'], pe[m]['without_hose_loss']['paper_max'])}"
-            for m in sorted(pe)
-        )
-        + ".",
+        "Twin/paper ratios (mean, max; with / without): " + _ratios(pe) + ".",
         "",
         f"With the loss smaller than without at every supply: {_yes(pv['with_smaller_than_without_everywhere'])}; "
         f"the mean error grows as the supply falls (paper: both): "
@@ -210,6 +224,11 @@ def write_report(r: dict, out: Path) -> Path:
         "",
         "![error against angle](error_vs_angle.png)",
         "",
+    ]
+
+
+def _speed_lines(pv: dict) -> list[str]:
+    lines = [
         "## Joint speed against supply (valve fully open)",
         "",
         "| supply MPa | as-built mean 0.5-1 s | as-built peak | nominal model mean | turn in 1 s |",
@@ -222,7 +241,7 @@ def write_report(r: dict, out: Path) -> Path:
             f"| {m} | {s['as_built_mean_deg_s']:.0f} | {s['as_built_peak_deg_s']:.0f} | "
             f"{s['nominal_mean_deg_s']:.0f} | {s['turn_in_1s_deg']:.0f} |"
         )
-    lines += [
+    return lines + [
         "",
         f"deg/s; the motor's maximum-power point (6000 rpm, paper Sec. III-B) is "
         f"{pv['max_power_joint_deg_s']:.0f} deg/s at the joint "
@@ -231,11 +250,15 @@ def write_report(r: dict, out: Path) -> Path:
         "",
         "![speed against supply](speed_vs_supply.png)",
         "",
+    ]
+
+
+def _random_supply_lines(r: dict) -> list[str]:
+    """Fig. 18-19 (random supply) and Fig. 21 (minimum rotation)."""
+    rs = r["random_supply"]
+    return [
         "## Random supply, Fig. 18-19",
         "",
-    ]
-    rs = r["random_supply"]
-    lines += [
         f"Largest final error of {len(rs['final_errors_deg'])} moves (0, 45, 0, -45, 0 deg) "
         f"over {rs['duration_s']:.0f} s under a "
         f"supply drawn every 0.5 s (mean 0.6 MPa, variance 5e9 Pa^2): twin {rs['max_error_deg']:.2f} deg, paper "
@@ -248,15 +271,19 @@ def write_report(r: dict, out: Path) -> Path:
         f"The loop adjusts from {r['minimum_rotation']['limit_deg']} deg of commanded rotation up (twin), "
         f"about {r['minimum_rotation']['paper_limit_deg']:.0f} deg in the paper.",
         "",
+    ]
+
+
+def _closed_vs_open_lines(co: dict) -> list[str]:
+    lines = [
         "## Closed against open loop at 0.5 MPa, Fig. 23 (|final error|, deg)",
         "",
         "| rotation deg | closed loop | open loop |",
         "|---|---|---|",
     ]
-    co = r["closed_vs_open_loop"]
     for a, c, o in zip(co["angles_deg"], co["closed_loop_error_deg"], co["open_loop_error_deg"], strict=True):
         lines.append(f"| {a} | {c:.2f} | {o:.2f} |")
-    lines += [
+    return lines + [
         "",
         f"Twin: closed {min(co['closed_loop_error_deg']):.2f}-{max(co['closed_loop_error_deg']):.2f} deg (mean "
         f"{co['closed_loop_mean_deg']:.2f}), "
@@ -268,15 +295,19 @@ def write_report(r: dict, out: Path) -> Path:
         "",
         "![closed vs open loop](closed_vs_open_loop.png)",
         "",
+    ]
+
+
+def _error_vs_pressure_lines(ep: dict) -> list[str]:
+    lines = [
         "## Control error against supply, Fig. 20 (closed loop, |final error|, deg)",
         "",
-        "| supply MPa | " + " | ".join(f"{a} deg" for a in r["error_vs_pressure"]["angles_deg"]) + " | mean |",
-        "|---|" + "---|" * (len(r["error_vs_pressure"]["angles_deg"]) + 1),
+        "| supply MPa | " + " | ".join(f"{a} deg" for a in ep["angles_deg"]) + " | mean |",
+        "|---|" + "---|" * (len(ep["angles_deg"]) + 1),
     ]
-    ep = r["error_vs_pressure"]
     for m, mean in zip(ep["pressures_mpa"], ep["mean_error_deg"], strict=True):
         lines.append(f"| {m} | " + " | ".join(f"{e:.2f}" for e in ep["errors_deg"][str(m)]) + f" | {mean:.2f} |")
-    lines += [
+    return lines + [
         "",
         f"Paper: the error grows with the supply, within +-{ep['paper_bound_at_05_deg']:.0f} deg at 0.5 MPa. "
         f"Twin: grows with the supply: {_yes(ep['grows_with_pressure'])}.",
@@ -284,6 +315,19 @@ def write_report(r: dict, out: Path) -> Path:
         "![error against pressure](error_vs_pressure.png)",
         "",
     ]
+
+
+def write_report(r: dict, out: Path) -> Path:
+    """report.md in `out`: each experiment's numbers beside the paper's, section by section."""
+    pv = r["prediction_error"]
+    lines = (
+        _as_built_lines(r)
+        + _validation_lines(pv)
+        + _speed_lines(pv)
+        + _random_supply_lines(r)
+        + _closed_vs_open_lines(r["closed_vs_open_loop"])
+        + _error_vs_pressure_lines(r["error_vs_pressure"])
+    )
     report = out / "report.md"
     report.write_text("\n".join(lines))
     return report

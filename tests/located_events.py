@@ -88,10 +88,7 @@ class _Joint:
         """Net torque on the joint side before its dry friction and viscous drag; a rigid gear's
         efficiency is the one of the direction the joint slides in (forward when stuck)."""
         p = self.p
-        if self.rigid:
-            drive = joint_torque(y[PA_M], y[PB_M], self.ratio * y[THETA], slide, p)
-        else:
-            drive = self.tau_t(y)
+        drive = joint_torque(y[PA_M], y[PB_M], self.ratio * y[THETA], slide, p) if self.rigid else self.tau_t(y)
         return (
             drive
             - self.load
@@ -228,17 +225,17 @@ def _until_event(fun, t0: float, y0: np.ndarray, t1: float, events: list, t_eval
             ys.append(dense(inside))
 
     while True:
-        t_prev, y_prev = solver.t, solver.y.copy()
+        t_prev = solver.t
         message = solver.step()
         assert solver.status != "failed", (message, t0, t1, t_prev, solver.t)
         t_new, y_new = solver.t, solver.y.copy()
         dense = solver.dense_output()
         g_new = [e(t_new, y_new) for e in events]
         roots = []
-        for e, a, b in zip(events, g_old, g_new):
+        for e, a, b in zip(events, g_old, g_new, strict=True):
             if (e.direction > 0 and a <= 0.0 < b) or (e.direction < 0 and a >= 0.0 > b):
 
-                def h(t, e=e, a=a, b=b):
+                def h(t, e=e, a=a, b=b, t_prev=t_prev, t_new=t_new, dense=dense):
                     return a if t == t_prev else (b if t == t_new else e(t, dense(t)))
 
                 roots.append((t_prev if a == 0.0 else brentq(h, t_prev, t_new, xtol=1e-13), e.tag))
@@ -274,7 +271,7 @@ def solve(
     ts, ys, stops = [], [], []
     segments = _breakpoints(commands, p[P.SOLENOID_DELAY], t_end_s)
     atol = np.array([1e-10, 1e-9, 1e-3, 1e-3, 1e-3, 1e-3, 1e-3, 1e-10, 1e-10, 1e-9])
-    for (t0, direction, valve_set, release), (t1, *_rest) in zip(segments, segments[1:]):
+    for (t0, direction, valve_set, release), (t1, *_rest) in zip(segments, segments[1:], strict=False):
         t = t0
         while t1 - t > 1e-12:
             fun = lambda t_, y_, m=mode, d=direction, v=valve_set, r=release: _rates(t_, y_, joint, m, d, v, r)  # noqa: E731

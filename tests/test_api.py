@@ -97,7 +97,8 @@ def test_sweep_table_and_csv(tmp_path):
     table = sw.table()
     assert table["set.supply.pressure_mpa"] == [0.5, 0.7]
     assert table["wrist_pitch.true_final_deg"] == [s["joints"]["wrist_pitch"]["true_final_deg"] for s in sw.summaries]
-    rows = list(csv.DictReader(open(sw.to_csv(tmp_path / "sweep.csv"))))
+    with open(sw.to_csv(tmp_path / "sweep.csv")) as f:
+        rows = list(csv.DictReader(f))
     assert [float(r["wrist_pitch.true_final_deg"]) for r in rows] == table["wrist_pitch.true_final_deg"]
     assert [r["final_error_deg[wrist_pitch].passed"] for r in rows] == [
         str(v) for v in table["final_error_deg[wrist_pitch].passed"]
@@ -112,7 +113,8 @@ def test_sweep_command_writes_the_table_beside_the_json(tmp_path, capsys):
     )
     assert "one row per run in" in capsys.readouterr().out
     summaries = json.loads(out.read_text())
-    rows = list(csv.DictReader(open(tmp_path / "s.csv")))
+    with open(tmp_path / "s.csv") as f:
+        rows = list(csv.DictReader(f))
     assert len(rows) == len(summaries) == 1 and rows[0]["seed"] == str(summaries[0]["seed"])
 
 

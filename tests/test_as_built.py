@@ -141,13 +141,13 @@ def test_vane_passing_vents_the_pockets_air_as_the_analytic_balance_says():
         return m_in, m_out
 
     theta = 0.0
-    for k in range(int(1.0 / dt)):  # 1 s to a steady state
+    for _ in range(int(1.0 / dt)):  # 1 s to a steady state
         advance_pressures(x, theta, omega, 0.6e6, supply, dt, 1, row)
         theta += omega * dt
     m0 = stored(theta)
     mass_in = mass_out = vented = 0.0
     f0 = flows()
-    for k in range(int(0.5 / dt)):  # 40 passings
+    for _ in range(int(0.5 / dt)):  # 40 passings
         pa, pb, before = x[S_PA_MOTOR], x[S_PB_MOTOR], math.floor(p.ratio * theta / pitch + 0.5)
         advance_pressures(x, theta, omega, 0.6e6, supply, dt, 1, row)
         theta += omega * dt
@@ -220,7 +220,7 @@ def test_twin_paper_quick_writes_every_figure_with_the_papers_numbers(tmp_path):
     r = json.loads((tmp_path / "paper.json").read_text())
     pe = r["prediction_error"]["errors"]
     assert set(pe) == {"0.5", "0.6", "0.7", "0.8"}
-    for m, row in pe.items():
+    for row in pe.values():
         for kind in ("with_hose_loss", "without_hose_loss"):
             assert row[kind]["max"] >= row[kind]["mean"] > 0.0 and row[kind]["paper_max"] > 0.0
     assert r["prediction_error"]["with_smaller_than_without_everywhere"]

@@ -54,7 +54,7 @@ def test_paper_case_names_hose_loss_and_shrinks_error_on_withheld_runs(campaigns
     mean = [before[q].mean_deg for q in qs]
     peak = [before[q].max_deg for q in qs]
     assert mean[0] > max(mean[1:]) and mean[0] + mean[1] > mean[2] + mean[3]
-    assert all(a > b for a, b in zip(peak, peak[1:]))
+    assert all(a > b for a, b in zip(peak, peak[1:], strict=False))
 
 
 def test_hidden_leak_is_found_and_its_area_recovered(campaigns):

@@ -142,7 +142,8 @@ def test_every_argument_has_help_and_there_is_a_version(capsys):
         (RIG + "[[criteria]]\nkind = 'final_error_deg'\nmax = 1.0", "criteria[0].kind", "no [[targets]]"),
         (
             RIG
-            + "[[targets]]\nangles_deg = { wrist_pitch = 30.0 }\n[[criteria]]\nkind = 'max_error_deg'\nmin = 5.0\nmax = 1.0",
+            + "[[targets]]\nangles_deg = { wrist_pitch = 30.0 }\n"
+            + "[[criteria]]\nkind = 'max_error_deg'\nmin = 5.0\nmax = 1.0",
             "criteria[0].min",
             "5.0",
         ),
@@ -473,9 +474,11 @@ def test_atomic_writes_leave_no_half_file(tmp_path):
 def test_two_writers_of_one_file_are_refused(tmp_path):
     f = tmp_path / "run.mcap"
     with OutputLock([f]):
-        with pytest.raises(UserError, match="another run is writing this file"):
-            with OutputLock([tmp_path / "other.rrd", f]):
-                pass
+        with (
+            pytest.raises(UserError, match="another run is writing this file"),
+            OutputLock([tmp_path / "other.rrd", f]),
+        ):
+            pass
         assert not (tmp_path / ".other.rrd.lock").exists()  # what it took is given back
     with OutputLock([f]):  # free again once the first is done
         pass

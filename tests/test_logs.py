@@ -402,7 +402,9 @@ def rrd_frames(path: Path) -> list[tuple[float, bytes]]:
         if chunk.entity_path.strip("/") == "camera/global_view" and not chunk.is_static:
             batch = chunk.to_record_batch()
             times = np.asarray(batch.column("time").cast("int64").to_numpy()) * 1e-9
-            out += [(t, bytes(b[0])) for t, b in zip(times, batch.column("EncodedImage:blob").to_pylist()) if b]
+            out += [
+                (t, bytes(b[0])) for t, b in zip(times, batch.column("EncodedImage:blob").to_pylist(), strict=True) if b
+            ]
     return sorted(out)
 
 
@@ -542,9 +544,7 @@ def test_mcap_starts_at_its_declared_epoch_with_units_in_its_schemas(logged):
         meta = {m.name: m.metadata for m in reader.iter_metadata()}["twin"]
         first = next(msg for _, ch, msg in reader.iter_messages(topics=["/joint_states/true"]))
     assert json_.loads(meta["start_time_utc"]) == "2000-01-01T00:00:00Z"
-    assert dt.datetime.fromtimestamp(START_TIME_NS / 1e9, dt.UTC) == dt.datetime(
-        2000, 1, 1, tzinfo=dt.UTC
-    )
+    assert dt.datetime.fromtimestamp(START_TIME_NS / 1e9, dt.UTC) == dt.datetime(2000, 1, 1, tzinfo=dt.UTC)
     assert summary.statistics.message_start_time >= START_TIME_NS
     assert first.log_time == START_TIME_NS + round(telemetry.time_at(0) * 1e9)
     assert summary.statistics.message_end_time == START_TIME_NS + round(telemetry.time_at(-1) * 1e9)

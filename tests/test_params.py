@@ -23,7 +23,7 @@ TEXT = REAL.read_text()
 def test_every_real_file_loads(joint: str) -> None:
     params = load_joint_params(assets.joint_param_path(joint))
     assert isinstance(params, JointParams)
-    for field, value in zip(JointParams._fields, params):
+    for field, value in zip(JointParams._fields, params, strict=True):
         assert SPEC[field].low <= value <= SPEC[field].high, field
 
 

@@ -196,7 +196,7 @@ def test_wrist_turns_tens_of_degrees_in_a_second_faster_at_higher_pressure() -> 
     # (about 60-90 deg at 0.8 MPa); DESIGN expects 50-100 deg.
     values = list(turned.values())
     assert all(30.0 < v < 180.0 for v in values)
-    assert all(b > a for a, b in zip(values, values[1:]))
+    assert all(b > a for a, b in zip(values, values[1:], strict=False))
 
 
 # --- the whole arm --------------------------------------------------------------------------------
@@ -217,7 +217,7 @@ def test_brakes_hold_the_payload_at_full_reach() -> None:
     plant.step(4000)  # 2 s
     no_warnings(plant)
     moved = np.degrees(np.abs(plant.drive_angles() - start))
-    print(f"\nbraked creep over 2 s, deg: {dict(zip(plant.joints, moved.round(5)))}")
+    print(f"\nbraked creep over 2 s, deg: {dict(zip(plant.joints, moved.round(5), strict=True))}")
     assert np.all(moved < 0.05)
 
 
@@ -233,7 +233,7 @@ def test_arm_sags_with_brakes_released_and_no_air() -> None:
     assert np.all(plant.brake_engagement()[~fed_by_motor] < 1e-3)  # brakes on lines of their own lift
     assert np.all(plant.brake_engagement()[fed_by_motor] == 1.0)  # the wrist's needs its motor's air
     fell = np.degrees(plant.drive_angles() - start)
-    print(f"\nsag in 1 s, deg: {dict(zip(plant.joints, fell.round(3)))}")
+    print(f"\nsag in 1 s, deg: {dict(zip(plant.joints, fell.round(3), strict=True))}")
     assert fell[plant.joints.index("shoulder_pitch")] < -1.0
     assert fell[plant.joints.index("elbow_pitch")] < -1.0  # the forearm's absolute pitch falls too
 
@@ -279,7 +279,7 @@ def snapshot(plant: Plant) -> tuple[np.ndarray, ...]:
 
 
 def assert_identical(a, b) -> None:
-    for x, y in zip(a, b):
+    for x, y in zip(a, b, strict=True):
         assert np.array_equal(x, y)
 
 
@@ -402,7 +402,8 @@ def test_compliant_wrist_held_by_its_brake_twists_by_torque_over_stiffness() -> 
     )
     twist = q_m - plant.drive_angles()[0]
     print(
-        f"\nplant: stall torque {tau:.3f} N·m, twist {twist:.6f} rad, tau/k {tau * compliance:.6f}, joint moved {plant.drive_angles()[0]:.2e} rad"
+        f"\nplant: stall torque {tau:.3f} N·m, twist {twist:.6f} rad, tau/k {tau * compliance:.6f}, "
+        f"joint moved {plant.drive_angles()[0]:.2e} rad"
     )
     assert 40.0 < tau < params.brake_holding_nm
     assert (
@@ -447,7 +448,8 @@ def test_plant_and_one_joint_replay_agree_with_a_compliant_or_backlashed_reducer
         diff_deg[name] = float(np.abs(plant_deg[name] - np.degrees(theta[sampled])).max())
     effect = {name: float(np.abs(plant_deg[name] - plant_deg["rigid"]).max()) for name in cases}
     print(
-        f"\nplant vs one-joint replay, max |difference| deg: {diff_deg}; the gear's effect on the plant's move, deg: {effect}"
+        f"\nplant vs one-joint replay, max |difference| deg: {diff_deg}; "
+        f"the gear's effect on the plant's move, deg: {effect}"
     )
     # measured: rigid 0.19, compliant 0.11, backlash 0.27 deg; effects 3.5 and 1.6 deg
     assert np.ptp(plant_deg["rigid"]) > 20.0  # it really moved

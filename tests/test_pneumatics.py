@@ -502,7 +502,8 @@ def test_two_mass_oscillation_has_the_analytic_frequency(compliance: float) -> N
     )
     zeta_measured = decay / math.hypot(decay, measured)
     print(
-        f"\ncompliance {compliance:g}: w measured {measured:.3f}, analytic {analytic:.3f} (damped {analytic * math.sqrt(1 - zeta**2):.3f}) rad/s; "
+        f"\ncompliance {compliance:g}: w measured {measured:.3f}, analytic {analytic:.3f} "
+        f"(damped {analytic * math.sqrt(1 - zeta**2):.3f}) rad/s; "
         f"zeta {zeta_measured:.4f} vs {zeta:.4f}; {measured * t[-1] / (2 * math.pi):.1f} periods"
     )
     assert measured * t[-1] > 2 * math.pi * 10  # at least 10 periods
@@ -554,7 +555,8 @@ def test_reversal_through_backlash_loses_the_gap() -> None:
     assert np.all(back <= -0.5 * gap) and np.all(back >= -0.5 * gap - elastic)
     loss = (rigid[k_rev, R_THETA] - rigid[k_hold, R_THETA]) - (lash[k_rev, R_THETA] - lash[k_hold, R_THETA])
     print(
-        f"\nreversal: rigid travel {rigid[k_rev, R_THETA] - rigid[k_hold, R_THETA]:.4f} rad, with backlash {gap}: loss {loss:.5f} rad ({loss / gap:.3f} b); "
+        f"\nreversal: rigid travel {rigid[k_rev, R_THETA] - rigid[k_hold, R_THETA]:.4f} rad, "
+        f"with backlash {gap}: loss {loss:.5f} rad ({loss / gap:.3f} b); "
         f"twist forward {forward.min():.5f}..{forward.max():.5f}, back {back.min():.5f}..{back.max():.5f}"
     )
     assert loss == pytest.approx(gap, abs=0.1 * gap)

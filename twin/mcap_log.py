@@ -42,6 +42,7 @@ killed, stops there and leaves the file as a killed in-process writer would (DES
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import datetime as dt
 import functools
 import json
@@ -458,6 +459,90 @@ def _scene_update(model):
     return update
 
 
+@dataclasses.dataclass
+class _Records:
+    """What streaming a log's records gathers: each sample's messages by sequence and topic, the
+    camera frames' Message records, the metadata, and how the stream ended."""
+
+    samples: dict[int, dict[str, bytes]] = dataclasses.field(default_factory=dict)
+    images: list = dataclasses.field(default_factory=list)
+    meta: dict = dataclasses.field(default_factory=dict)
+    complete: bool = False
+    stopped_by: str | None = None
+
+
+def _cut_short(e: Exception, f, path: Path) -> str:
+    """Why reading stopped early: where in the file, and the decoding error."""
+    where = f"at byte {f.tell()} of {path.stat().st_size}"
+    return (
+        f"cut short or damaged {where}: {type(e).__name__}: {e}"
+        if str(e)
+        else f"cut short or damaged {where}: {type(e).__name__}"
+    )
+
+
+def _stream_records(path: Path, frames: bool) -> _Records:
+    """Every record up to the end of the file or to where it is cut short or damaged."""
+    topics: dict[int, str] = {}
+    got = _Records()
+    with _open_for_reading(path) as f:
+        try:
+            for rec in StreamReader(f, skip_magic=False).records:
+                if isinstance(rec, Channel):
+                    topics[rec.id] = rec.topic
+                elif isinstance(rec, Message):
+                    topic = topics.get(rec.channel_id)
+                    if topic == CAMERA_TOPIC and frames:
+                        got.images.append(rec)
+                    if topic is None or topic in ("/scene", CAMERA_TOPIC):
+                        continue
+                    got.samples.setdefault(rec.sequence, {})[topic] = rec.data
+                elif isinstance(rec, Metadata) and rec.name == "twin":
+                    got.meta.update({k: json.loads(v) for k, v in rec.metadata.items()})
+                elif isinstance(rec, Attachment) and rec.name == "scenario.toml":
+                    got.meta["scenario_text"] = rec.data.decode("utf-8", errors="replace")
+                elif isinstance(rec, Footer):
+                    got.complete = True
+        except Exception as e:  # a cut or damaged file surfaces as any decoding error (struct, zstd, CRC, mcap)
+            if not topics:
+                raise LogError(f"{path}: not a readable MCAP file ({type(e).__name__}: {e})") from e
+            got.stopped_by = _cut_short(e, f, path)
+    return got
+
+
+def _empty_arrays(joints: tuple, bodies: tuple, m: int) -> dict[str, np.ndarray]:
+    """Telemetry.arrays()'s shapes for m samples ("n": per joint, "b": per body)."""
+    n, nb = len(joints), len(bodies)
+    out = {"time_s": np.empty(m)}
+    for name, shape in SIGNALS.items():
+        dims = tuple(n if s == "n" else nb if s == "b" else s for s in shape)
+        out[name] = np.empty((m,) + dims)
+    return out
+
+
+def _fill_sample(out: dict[str, np.ndarray], i: int, msgs: dict[str, bytes], joints: tuple, bodies: tuple) -> None:
+    """Row i of `out` from one sample's messages (raises KeyError, ValueError or TypeError if malformed)."""
+    for sig, topic in ANGLE_CHANNELS.items():
+        js = JointStates.FromString(msgs[topic])
+        by_name = {x.name: x.position for x in js.joints}
+        out[sig][i] = [by_name[j] for j in joints]
+    tf = FrameTransforms.FromString(msgs["/tf"])
+    by_body = {x.child_frame_id: x for x in tf.transforms}
+    for b, body in enumerate(bodies):
+        x = by_body[body]
+        out["body_pos_m"][i, b] = (x.translation.x, x.translation.y, x.translation.z)
+        out["body_quat_wxyz"][i, b] = (x.rotation.w, x.rotation.x, x.rotation.y, x.rotation.z)
+    for j, joint in enumerate(joints):
+        rec = json.loads(msgs[f"/joint/{joint}"])
+        for fld in JOINT_FIELDS:
+            out[fld][i, j] = math.nan if rec[fld] is None else rec[fld]
+    arm = json.loads(msgs["/arm"])
+    for fld in ARM_SCALARS:
+        out[fld][i] = math.nan if arm[fld] is None else arm[fld]
+    for sig, fmt in ARM_VECTORS.items():  # absent from logs written before they existed: NaN
+        out[sig][i] = [math.nan if arm.get(fmt.format(x)) is None else arm[fmt.format(x)] for x in "xyz"]
+
+
 def read_mcap(path, frames: bool = False) -> tuple[dict[str, np.ndarray], dict]:
     """Read a log written by McapRecorder back into arrays shaped like Telemetry.arrays().
 
@@ -470,80 +555,28 @@ def read_mcap(path, frames: bool = False) -> tuple[dict[str, np.ndarray], dict]:
     Raises LogError when the file is missing, is not MCAP, or is not a log of this project.
     """
     path = Path(path)
-    topics: dict[int, str] = {}
-    samples: dict[int, dict[str, object]] = {}
-    images: list = []  # camera frames' Message records
-    meta: dict = {}
-    complete, stopped_by = False, None
-    with _open_for_reading(path) as f:
-        try:
-            for rec in StreamReader(f, skip_magic=False).records:
-                if isinstance(rec, Channel):
-                    topics[rec.id] = rec.topic
-                elif isinstance(rec, Message):
-                    topic = topics.get(rec.channel_id)
-                    if topic == CAMERA_TOPIC and frames:
-                        images.append(rec)
-                    if topic is None or topic in ("/scene", CAMERA_TOPIC):
-                        continue
-                    samples.setdefault(rec.sequence, {})[topic] = rec.data
-                elif isinstance(rec, Metadata) and rec.name == "twin":
-                    meta.update({k: json.loads(v) for k, v in rec.metadata.items()})
-                elif isinstance(rec, Attachment) and rec.name == "scenario.toml":
-                    meta["scenario_text"] = rec.data.decode("utf-8", errors="replace")
-                elif isinstance(rec, Footer):
-                    complete = True
-        except Exception as e:  # a cut or damaged file surfaces as any decoding error (struct, zstd, CRC, mcap)
-            if not topics:
-                raise LogError(f"{path}: not a readable MCAP file ({type(e).__name__}: {e})") from e
-            where = f"at byte {f.tell()} of {path.stat().st_size}"
-            stopped_by = (
-                f"cut short or damaged {where}: {type(e).__name__}: {e}"
-                if str(e)
-                else f"cut short or damaged {where}: {type(e).__name__}"
-            )
+    got = _stream_records(path, frames)
+    meta = got.meta
     if "joints" not in meta or "bodies" not in meta:
         raise LogError(
             f"{path}: an MCAP file, but not a log of this project (no 'twin' metadata record with joints and bodies)"
         )
     joints, bodies = tuple(meta["joints"]), tuple(meta["bodies"])
     needed = set(ANGLE_CHANNELS.values()) | {"/tf", "/arm"} | {f"/joint/{j}" for j in joints}
-    seqs = sorted(s for s, msgs in samples.items() if needed <= msgs.keys())
-    n, nb, m = len(joints), len(bodies), len(seqs)
-    out = {"time_s": np.empty(m)}
-    for name, shape in SIGNALS.items():
-        dims = tuple(n if s == "n" else nb if s == "b" else s for s in shape)
-        out[name] = np.empty((m,) + dims)
+    seqs = sorted(s for s, msgs in got.samples.items() if needed <= msgs.keys())
+    m = len(seqs)
+    out = _empty_arrays(joints, bodies, m)
     try:
         for i, s in enumerate(seqs):
-            msgs = samples[s]
-            for sig, topic in ANGLE_CHANNELS.items():
-                js = JointStates.FromString(msgs[topic])
-                by_name = {x.name: x.position for x in js.joints}
-                out[sig][i] = [by_name[j] for j in joints]
-            tf = FrameTransforms.FromString(msgs["/tf"])
-            by_body = {x.child_frame_id: x for x in tf.transforms}
-            for b, body in enumerate(bodies):
-                x = by_body[body]
-                out["body_pos_m"][i, b] = (x.translation.x, x.translation.y, x.translation.z)
-                out["body_quat_wxyz"][i, b] = (x.rotation.w, x.rotation.x, x.rotation.y, x.rotation.z)
-            for j, joint in enumerate(joints):
-                rec = json.loads(msgs[f"/joint/{joint}"])
-                for fld in JOINT_FIELDS:
-                    out[fld][i, j] = math.nan if rec[fld] is None else rec[fld]
-            arm = json.loads(msgs["/arm"])
-            for fld in ARM_SCALARS:
-                out[fld][i] = math.nan if arm[fld] is None else arm[fld]
-            for sig, fmt in ARM_VECTORS.items():  # absent from logs written before they existed: NaN
-                out[sig][i] = [math.nan if arm.get(fmt.format(x)) is None else arm[fmt.format(x)] for x in "xyz"]
+            _fill_sample(out, i, got.samples[s], joints, bodies)
     except (KeyError, ValueError, TypeError) as e:
         raise LogError(f"{path}: sample {s} is malformed ({type(e).__name__}: {e})") from e
     duration = float(out["time_s"][-1] - out["time_s"][0]) if m else 0.0
-    meta["recovery"] = {"complete": complete, "samples": m, "duration_s": duration, "stopped_by": stopped_by}
+    meta["recovery"] = {"complete": got.complete, "samples": m, "duration_s": duration, "stopped_by": got.stopped_by}
     if frames:
         start_ns = int(meta.get("start_time_ns", 0))  # logs written before it had a start began at 0
         meta["camera_frames"] = sorted(
-            ((r.log_time - start_ns) * 1e-9, CompressedImage.FromString(r.data).data) for r in images
+            ((r.log_time - start_ns) * 1e-9, CompressedImage.FromString(r.data).data) for r in got.images
         )
     return out, meta
 

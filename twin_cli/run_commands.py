@@ -14,7 +14,8 @@ from twin.outputs import OutputLock, check_output, keep_result, publish_folder, 
 from twin_cli.args import add_workers, number
 
 
-def register(sub: argparse._SubParsersAction) -> None:
+def _add_run(sub: argparse._SubParsersAction) -> None:
+    """`twin run SCENARIO`: one run, its summary, and optionally its recordings."""
     p = sub.add_parser("run", help="run a scenario file; exit 1 if a pass criterion broke")
     p.add_argument("scenario", help="scenario TOML file, or the name of a shipped one (e.g. insulator_cleaning)")
     p.add_argument("--json", action="store_true", help="print the summary as JSON on stdout")
@@ -39,6 +40,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     )
     p.set_defaults(func=cmd_run)
 
+
+def _add_sweep(sub: argparse._SubParsersAction) -> None:
+    """`twin sweep SCENARIO`: a grid of field values and/or Monte Carlo seeds."""
     p = sub.add_parser("sweep", help="run a scenario over a grid of field values and/or Monte Carlo seeds")
     p.add_argument("scenario", help="scenario TOML file, or the name of a shipped one")
     p.add_argument(
@@ -74,15 +78,29 @@ def register(sub: argparse._SubParsersAction) -> None:
     )
     p.set_defaults(func=cmd_sweep)
 
+
+def _add_paper(sub: argparse._SubParsersAction) -> None:
+    """`twin paper --out DIR`: the paper's experiments reproduced."""
     p = sub.add_parser("paper", help="reproduce the paper's experiments into DIR (paper.json, PNG plots, report.md)")
     p.add_argument("--out", type=Path, required=True, metavar="DIR", help="output folder (made if missing)")
     p.add_argument("--quick", action="store_true", help="fewer angles and a shorter random-supply run")
     p.set_defaults(func=cmd_paper)
 
+
+def _add_bench(sub: argparse._SubParsersAction) -> None:
+    """`twin bench`: speed ratios against bare MuJoCo."""
     p = sub.add_parser("bench", help="speed benchmarks as ratios against bare MuJoCo measured in the same run")
     p.add_argument("--json", action="store_true", help="print the figures as JSON on stdout")
     p.add_argument("--quick", action="store_true", help="shorter runs (noisier figures)")
     p.set_defaults(func=cmd_bench)
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    """The scenario-facing subcommands, in the order of `twin --help`."""
+    _add_run(sub)
+    _add_sweep(sub)
+    _add_paper(sub)
+    _add_bench(sub)
 
 
 def cmd_run(args) -> int:
