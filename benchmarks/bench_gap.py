@@ -5,9 +5,9 @@ and the speed of the compiled one-joint replay the effect search is built on, ag
 
 Each campaign is 4 supplies x 4 repeats (angle and both chamber pressures) from the plant (CAMPAIGNS:
 a hidden vane leak + Coulomb friction, a pair, so the pair search runs too, the slow path; no
-effect read by a camera; a slow valve on a staircase). Each diagnosis is timed through the command
-line entry point (reading the files, the fits, the report and the plots), after a warm-up replay
-so that loading numba's cache is not counted.
+effect read by a camera; a slow valve on a staircase). Each diagnosis is timed as `twin gap
+diagnose` runs it (gap.run.run_diagnose: reading the files, the fits, the report and the plots),
+after a warm-up replay so that loading numba's cache is not counted.
 
     PYTHONPATH=. python -m benchmarks.bench_gap [--jobs 2] [--rounds 3]
 """
@@ -29,6 +29,7 @@ from gap import protocols, synth
 from gap.campaign import load_campaign
 from gap.diagnose import Twin
 from gap.replay import DT_S, replay_run
+from gap.run import run_diagnose
 from pneumatics import params_row
 from twin.plant import Plant
 from twin.sim import CommandSchedule, run
@@ -58,7 +59,7 @@ def _time_plant(reality, supply_mpa: float, motion: synth.Motion, rounds: int) -
         i = plant.joints.index(synth.JOINT)
         n = len(plant.joints)
 
-        def commands_at(t: float) -> np.ndarray:
+        def commands_at(t: float, i: int = i, n: int = n) -> np.ndarray:
             d, u, b = motion.commands(np.array([t]), supply_mpa * 1e6, reality.k_u_per_pa)
             c = np.zeros((n, 3))
             c[i] = (d[0], u[0], b[0])
@@ -80,22 +81,39 @@ CAMPAIGNS = (
 
 
 def bench_gap(jobs: int = 2, rounds: int = 3) -> dict:
-    from twin.cli import main
-
     p0 = synth.wrist_params()
     timings = []
     with tempfile.TemporaryDirectory() as tmp:
         for i, (name, hidden, proto, inst) in enumerate(CAMPAIGNS):
             motion = {q: protocols.library(q)[proto] for q in synth.PRESSURES_MPA}
-            folder = synth.make_campaign(Path(tmp) / f"c16_{i}", p0._replace(**hidden), seed=7 + i, pressures_mpa=synth.PRESSURES_MPA, repeats=4, motion=motion, instrument=inst, description=f"(bench_gap: {name})", chamber_pressures=True)
+            folder = synth.make_campaign(
+                Path(tmp) / f"c16_{i}",
+                p0._replace(**hidden),
+                seed=7 + i,
+                pressures_mpa=synth.PRESSURES_MPA,
+                repeats=4,
+                motion=motion,
+                instrument=inst,
+                description=f"(bench_gap: {name})",
+                chamber_pressures=True,
+            )
             campaign = load_campaign(folder)
             if i == 0:
                 replay_s = _time_replay(Twin(campaign), rounds)  # also the warm-up
             t0 = time.perf_counter()
-            code = main(["gap", "diagnose", str(folder), "--out", str(Path(tmp) / f"out{i}"), "--jobs", str(jobs)])
+            run_diagnose(folder, Path(tmp) / f"out{i}", jobs=jobs)
             wall = time.perf_counter() - t0
             d = json.loads((Path(tmp) / f"out{i}" / "diagnosis.json").read_text())
-            timings.append({"campaign": name, "runs": len(campaign.runs), "exit_code": code, "diagnose_wall_s": wall, "verdict": d["which"]["verdict"], "top": d["which"]["top"]["name"] if d["which"]["top"] else None, "pair_stage": bool(d["which"]["pairs"])})
+            timings.append(
+                {
+                    "campaign": name,
+                    "runs": len(campaign.runs),
+                    "diagnose_wall_s": wall,
+                    "verdict": d["which"]["verdict"],
+                    "top": d["which"]["top"]["name"] if d["which"]["top"] else None,
+                    "pair_stage": bool(d["which"]["pairs"]),
+                }
+            )
     reality = p0._replace(**HIDDEN)
     plant_s = _time_plant(reality, synth.PRESSURES_MPA[0], synth.Motion(), rounds)
     walls = [t["diagnose_wall_s"] for t in timings]

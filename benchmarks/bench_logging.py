@@ -22,7 +22,10 @@ from pathlib import Path
 
 import numpy as np
 
-from twin.commands import CAMERA_FPS
+from scenarios.recording import open_recorders
+from scenarios.runner import run_scenario, scenario_files
+from scenarios.schema import load
+from twin.checks import RECORDING_CAMERA_FPS
 from twin.sim import CommandSchedule
 
 SCENARIO = "insulator_cleaning"  # the multi-joint task: all five controllers, contact, moving bodies
@@ -62,14 +65,16 @@ class Timed:
         self.spent[self.key] += time.perf_counter() - t0
 
 
-def timed_run(seconds: float, out_dir: Path | None, spent: dict | None = None, scenario_name: str = SCENARIO, camera_fps: float = 0.0) -> float:
+def timed_run(
+    seconds: float,
+    out_dir: Path | None,
+    spent: dict | None = None,
+    scenario_name: str = SCENARIO,
+    camera_fps: float = 0.0,
+) -> float:
     """Wall time of `twin run SCENARIO [--rrd --mcap --camera-fps N]` cut to `seconds` simulated:
     the recorders opened as the command opens them, the run (plant, five controllers, telemetry),
     the logs closed. `spent` collects the time inside each recorder (open, writes, close)."""
-    from scenarios.runner import run_scenario, scenario_files
-    from scenarios.schema import load
-    from twin.commands import open_recorders
-
     scenario = load(next(p for p in scenario_files() if p.stem == scenario_name))
     spent = {} if spent is None else spent
     t0 = time.perf_counter()
@@ -86,7 +91,7 @@ def timed_run(seconds: float, out_dir: Path | None, spent: dict | None = None, s
     return time.perf_counter() - t0
 
 
-def bench_logging(seconds: float = 60.0, rounds: int = 2, camera_fps: float = CAMERA_FPS) -> dict:
+def bench_logging(seconds: float = 60.0, rounds: int = 2, camera_fps: float = RECORDING_CAMERA_FPS) -> dict:
     """Run time with both logs on as a ratio to the same run with logging off; and the same with
     the global camera's frames in the recording as well (`twin run`'s default)."""
     timed_run(0.2, None)  # warm-up: numba cache, imports
@@ -121,7 +126,11 @@ def bench_logging(seconds: float = 60.0, rounds: int = 2, camera_fps: float = CA
         "mcap_bytes_per_simulated_s": sizes.get(".mcap", 0) / seconds,
     }
     if camera_fps > 0:  # frames rendered offscreen (software GL without a GPU) where a backend works
-        out |= {"camera_fps": camera_fps, "ratio_with_camera": best_cam / best_off, "rrd_bytes_per_simulated_s_with_camera": rrd_with_camera / seconds}
+        out |= {
+            "camera_fps": camera_fps,
+            "ratio_with_camera": best_cam / best_off,
+            "rrd_bytes_per_simulated_s_with_camera": rrd_with_camera / seconds,
+        }
     return out
 
 

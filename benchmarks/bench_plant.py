@@ -28,9 +28,11 @@ import mujoco
 import numpy as np
 
 import assets
+from pneumatics import load_joint_params
 from pneumatics._jit import borrowed, njit
+from pneumatics.as_built import load_as_built
 from twin.kernel import pneumatic_step
-from twin.plant import Plant
+from twin.plant import SUBSTEPS, Plant
 
 SUPPLY_PA = 101_325.0 + 0.5e6  # the paper's 0.5 MPa gauge
 REVERSE_S = 0.25  # moving joints reverse this often
@@ -43,10 +45,10 @@ def _moving(case: str, joints: tuple[str, ...]) -> tuple[str, ...]:
 def _plant_for(case: str, as_built: bool = False) -> Plant:
     params = None
     if as_built:
-        from pneumatics import load_joint_params
-        from pneumatics.as_built import load_as_built
-
-        params = {j: load_as_built(load_joint_params(assets.joint_param_path(j)), assets.as_built_path(j)) for j in assets.JOINTS}
+        params = {
+            j: load_as_built(load_joint_params(assets.joint_param_path(j)), assets.as_built_path(j))
+            for j in assets.JOINTS
+        }
     plant = Plant(assets.SCENE_XML, params)
     plant.set_supply(SUPPLY_PA)
     for j in _moving(case, plant.joints):
@@ -71,7 +73,9 @@ def _time_plant(plant: Plant, start, moving, seconds: float) -> tuple[float, int
     return time.perf_counter() - t0, n_chunks * chunk
 
 
-def _time_bare(m: mujoco.MjModel, d: mujoco.MjData, start: np.ndarray, ctrl: np.ndarray, seconds: float) -> tuple[float, int]:
+def _time_bare(
+    m: mujoco.MjModel, d: mujoco.MjData, start: np.ndarray, ctrl: np.ndarray, seconds: float
+) -> tuple[float, int]:
     mujoco.mj_setState(m, d, start, mujoco.mjtState.mjSTATE_INTEGRATION)
     chunk = int(round(REVERSE_S / m.opt.timestep))
     n_chunks = max(1, int(round(seconds / REVERSE_S)))
@@ -83,21 +87,49 @@ def _time_bare(m: mujoco.MjModel, d: mujoco.MjData, start: np.ndarray, ctrl: np.
 
 
 @njit(cache=False)
-def _kernel_only(n, x, commands, params, drive_map, tendon_ids, actuator_ids, qpos, qvel, ctrl, frictionloss, supply_pa, dt, substeps):
+def _kernel_only(
+    n, x, commands, params, drive_map, tendon_ids, actuator_ids, qpos, qvel, ctrl, frictionloss, supply_pa, dt, substeps
+):
     # as twin/kernel.py's plant_steps runs it: the arrays borrowed, without reference counting
     x, commands, params, drive_map = borrowed(x), borrowed(commands), borrowed(params), borrowed(drive_map)
     tendon_ids, actuator_ids = borrowed(tendon_ids), borrowed(actuator_ids)
     qpos, qvel, ctrl, frictionloss = borrowed(qpos), borrowed(qvel), borrowed(ctrl), borrowed(frictionloss)
     for _ in range(n):
-        pneumatic_step(x, commands, params, drive_map, tendon_ids, actuator_ids, qpos, qvel, ctrl, frictionloss, supply_pa, dt, substeps)
+        pneumatic_step(
+            x,
+            commands,
+            params,
+            drive_map,
+            tendon_ids,
+            actuator_ids,
+            qpos,
+            qvel,
+            ctrl,
+            frictionloss,
+            supply_pa,
+            dt,
+            substeps,
+        )
 
 
 def _time_kernel(plant: Plant, n: int) -> float:
-    import twin.plant as tp
-
     x = plant.air.copy()
     qpos, qvel, ctrl, frictionloss = (a.copy() for a in plant._mujoco_arrays)
-    args = (x, plant.commands, plant.params, plant.drive_map, plant.tendon_ids, plant.actuator_ids, qpos, qvel, ctrl, frictionloss, plant.supply_pa, plant.dt, tp.SUBSTEPS)
+    args = (
+        x,
+        plant.commands,
+        plant.params,
+        plant.drive_map,
+        plant.tendon_ids,
+        plant.actuator_ids,
+        qpos,
+        qvel,
+        ctrl,
+        frictionloss,
+        plant.supply_pa,
+        plant.dt,
+        SUBSTEPS,
+    )
     _kernel_only(10, *args)  # compile
     t0 = time.perf_counter()
     _kernel_only(n, *args)
@@ -152,7 +184,9 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seconds", type=float, default=2.0, help="simulated seconds per measurement")
     parser.add_argument("--rounds", type=int, default=5, help="alternating plant/baseline rounds (best kept)")
-    parser.add_argument("--as-built", action="store_true", help="also the as-built arm's plant (reality of scenarios and twin paper)")
+    parser.add_argument(
+        "--as-built", action="store_true", help="also the as-built arm's plant (reality of scenarios and twin paper)"
+    )
     args = parser.parse_args(argv)
     print(json.dumps(bench_plant(args.seconds, args.rounds, args.as_built), indent=2))
     return 0

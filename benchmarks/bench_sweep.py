@@ -9,9 +9,9 @@ from __future__ import annotations
 import json
 import time
 
+from scenarios.runner import scenario_files
 from scenarios.schema import load
 from scenarios.sweep import sweep
-from scenarios.runner import scenario_files
 
 SCENARIO = next(p for p in scenario_files() if p.stem == "insulator_cleaning")
 

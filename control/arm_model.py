@@ -12,7 +12,6 @@ No MuJoCo here: the tendons are read from the XML with xml.etree.
 
 from __future__ import annotations
 
-import os
 import tempfile
 import xml.etree.ElementTree as ET
 from pathlib import Path
@@ -85,13 +84,27 @@ def _full_model(xml_path: Path, payload_kg: float | None) -> pin.Model:
                 found = True
     if not found:
         raise ValueError(f"{xml_path}: no body 'payload' with an <inertial> to set payload_kg = {payload_kg:g}")
-    fd, tmp = tempfile.mkstemp(suffix=".xml", dir=str(xml_path.parent))
-    try:
-        with os.fdopen(fd, "wb") as f:
-            ET.ElementTree(root).write(f)
-        return pin.buildModelFromMJCF(tmp)
-    finally:
-        os.unlink(tmp)
+    _anchor_asset_paths(root, xml_path.parent)
+    # written to a folder of its own, never beside the MJCF: the installed package may be read-only
+    with tempfile.TemporaryDirectory() as folder:
+        copy = Path(folder) / xml_path.name
+        ET.ElementTree(root).write(copy)
+        return pin.buildModelFromMJCF(str(copy))
+
+
+def _anchor_asset_paths(root: ET.Element, base: Path) -> None:
+    """Make the MJCF's file references absolute (from the folder `base` it was read from), so that a
+    copy written elsewhere finds its meshes and textures: the compiler's asset folders if it names
+    any (mesh files are relative to them), else each element's `file`."""
+    folders = [c for c in root.iter("compiler") if {"meshdir", "texturedir", "assetdir"} & set(c.attrib)]
+    for compiler in folders:
+        for key in ("meshdir", "texturedir", "assetdir"):
+            if key in compiler.attrib:
+                compiler.set(key, str(base / compiler.attrib[key]))
+    if not folders:
+        for element in root.iter():
+            if "file" in element.attrib:
+                element.set("file", str(base / element.attrib["file"]))
 
 
 class ArmModel:
@@ -101,7 +114,12 @@ class ArmModel:
     present in the model). Constant model, mutable data (Pinocchio's own split).
     """
 
-    def __init__(self, xml_path: str | Path = assets.ARM_XML, joints: tuple[str, ...] | None = None, payload_kg: float | None = None):
+    def __init__(
+        self,
+        xml_path: str | Path = assets.ARM_XML,
+        joints: tuple[str, ...] | None = None,
+        payload_kg: float | None = None,
+    ):
         xml_path = Path(xml_path)
         self.xml_path = xml_path
         self.model = _pinocchio_model(xml_path, payload_kg)
@@ -113,7 +131,9 @@ class ArmModel:
         self.joints = tuple(joints)
         n = len(self.joints)
         if m.nq != m.nv or m.nv != n:
-            raise ValueError(f"{xml_path}: {m.nv} degrees of freedom but {n} drives {self.joints}: the drive map must be square")
+            raise ValueError(
+                f"{xml_path}: {m.nv} degrees of freedom but {n} drives {self.joints}: the drive map must be square"
+            )
         coefs = drive_coefficients(xml_path, self.joints)
         C = np.zeros((n, m.nv))
         for i, j in enumerate(self.joints):

@@ -20,13 +20,14 @@ from pathlib import Path
 import numpy as np
 
 import assets
+from control import pid
 from control.arm_model import ArmModel
 from control.open_loop import open_loop_duration
-from control.pid import CLOSED, IDLE, OPEN, PidGains, control_step, gains_row
-from control.predictor import initial_rigid_state, initial_valve_state, predict_step
+from control.pid import CLOSED, DEFAULT_GAINS, IDLE, OPEN, PidGains, control_step, gains_row
+from control.predictor import predict_step
 from pneumatics import AIR, Gas, JointParams, load_joint_params, params_row
 from pneumatics import params as P
-from pneumatics.joint import C_BRAKE_RELEASE, N_COMMAND, R_OMEGA, R_THETA
+from pneumatics.joint import C_BRAKE_RELEASE, N_COMMAND, R_OMEGA, R_THETA, initial_rigid_state, initial_state
 from pneumatics.motor import displacement_per_rad
 
 MODES = ("closed_loop", "open_loop")
@@ -58,7 +59,7 @@ class ArmController:
         xml_path: str | Path = assets.ARM_XML,
         joints: tuple[str, ...] | None = None,
         predictor_params: Mapping[str, JointParams] | None = None,
-        gains: PidGains = PidGains(),
+        gains: PidGains = DEFAULT_GAINS,
         mode: str = "closed_loop",
         min_rotation_rad: float = math.radians(20.0),
         move_timeout_s: float = 20.0,
@@ -86,35 +87,17 @@ class ArmController:
         self.min_rotation_rad = float(min_rotation_rad)
         self.move_timeout_s = float(move_timeout_s)
         self.dt = float(control_period_s)
-        # the proportional valve's largest set point, gauge Pa: fully open, it passes the supply
-        # (updated every tick from the measured supply; 1/k_u, full opening, until then)
-        self.pv_full = 1.0 / self.params[:, P.K_U]
         self.open_loop_set_point_pa = open_loop_set_point_pa
         self.rotor_inertia = self.params[:, P.RATIO] ** 2 * self.params[:, P.ROTOR_J]
-        # joint torque per gauge Pa of valve pressure at stall: mean displacement x ratio x efficiency
-        self.torque_per_pa = np.array([
-            displacement_per_rad(pr.stator_radius_m, pr.rotor_radius_m, pr.vane_length_m, pr.n_vanes) * pr.ratio * pr.efficiency_forward
-            for pr in self.joint_params.values()
-        ])
-        self.breakaway_pa = np.zeros((n, 2))
-
         start = self._as_array(start_angles_rad, "start pose")
-        bad = [f"{j} = {v!r}" for j, v in zip(self.joints, start) if not math.isfinite(v)]
+        bad = [f"{j} = {v!r}" for j, v in zip(self.joints, start, strict=True) if not math.isfinite(v)]
         if bad:
             raise MotionRefused(f"start pose: {', '.join(bad)} is not a number; allowed: a finite drive angle in rad")
         atm = gas.p_atm_pa
         self.y = np.vstack([initial_rigid_state(a, atm) for a in start])
-        self.x = np.vstack([initial_valve_state(atm) for _ in start])
+        self.x = np.vstack([initial_state(atm, True) for _ in start])
         self.commands = np.zeros((n, N_COMMAND))
-        self.mode = np.zeros(n, dtype=np.int64)
-        self.target = start.copy()
-        self.integral = np.zeros(n)
-        self.elapsed = np.zeros(n)
-        self.timeout = np.full(n, self.move_timeout_s)
-        self.open_time = np.zeros(n)
-        self.open_set_point = np.zeros(n)
-        self.retries = np.zeros(n)
-        self.outcome = np.zeros(n, dtype=np.int64)
+        self._make_tables(start)
         self.load_update_rad = float(load_update_rad)
         self._set_load(start)
         self.inertia = self.arm.drive_inertias(start) + self.rotor_inertia
@@ -129,6 +112,34 @@ class ArmController:
         self.events: list[str] = []  # what happened, for the operator (refusals, arrivals, faults)
         self.time_s = 0.0
 
+    def _make_tables(self, start: np.ndarray) -> None:
+        """The per-joint tables control_step works on (control/pid.py), and a named view of each
+        column (the views are what the rest of the controller reads and writes)."""
+        n = len(self.joints)
+        self._modes = np.zeros((n, pid.N_MODES_COLUMNS), dtype=np.int64)
+        self._moves = np.zeros((n, pid.N_MOVE_COLUMNS))
+        self._drives = np.zeros((n, pid.N_DRIVE_COLUMNS))
+        self.mode, self.outcome = self._modes[:, pid.K_MODE], self._modes[:, pid.K_OUTCOME]
+        self.target, self.integral = self._moves[:, pid.M_TARGET], self._moves[:, pid.M_INTEGRAL]
+        self.elapsed, self.timeout = self._moves[:, pid.M_ELAPSED], self._moves[:, pid.M_TIMEOUT]
+        self.open_time, self.retries = self._moves[:, pid.M_OPEN_TIME], self._moves[:, pid.M_RETRIES]
+        self.open_set_point = self._moves[:, pid.M_OPEN_SET_POINT]
+        self.load, self._load_theta = self._drives[:, pid.D_LOAD], self._drives[:, pid.D_LOAD_THETA]
+        self.torque_per_pa, self.pv_full = self._drives[:, pid.D_TORQUE_PER_PA], self._drives[:, pid.D_PV_FULL]
+        self.breakaway_pa = self._drives[:, pid.D_BREAKAWAY_POS : pid.D_BREAKAWAY_NEG + 1]
+        self.target[:] = start
+        self.timeout[:] = self.move_timeout_s
+        # the proportional valve's largest set point, gauge Pa: fully open, it passes the supply
+        # (updated every tick from the measured supply; 1/k_u, full opening, until then)
+        self.pv_full[:] = 1.0 / self.params[:, P.K_U]
+        # joint torque per gauge Pa of valve pressure at stall: mean displacement x ratio x efficiency
+        self.torque_per_pa[:] = [
+            displacement_per_rad(pr.stator_radius_m, pr.rotor_radius_m, pr.vane_length_m, pr.n_vanes)
+            * pr.ratio
+            * pr.efficiency_forward
+            for pr in self.joint_params.values()
+        ]
+
     # -- the operator's requests ------------------------------------------------------------
     def _as_array(self, angles, what: str) -> np.ndarray:
         if isinstance(angles, Mapping):
@@ -141,7 +152,12 @@ class ArmController:
             raise MotionRefused(f"{what}: {a.shape[0] if a.ndim else 0} angles for the joints {self.joints}")
         return a.copy()
 
-    def set_targets(self, targets: Sequence[Mapping[str, float]] | Mapping[str, float], sequence: str = "one_after_another", dwell_s: float | Sequence[float] = 0.0) -> None:
+    def set_targets(
+        self,
+        targets: Sequence[Mapping[str, float]] | Mapping[str, float],
+        sequence: str = "one_after_another",
+        dwell_s: float | Sequence[float] = 0.0,
+    ) -> None:
         """Plan a motion: a sequence of joint-space targets ({joint: drive angle rad}, joints not
         named stay), each reached with its joints moved one after another (base to tool, as linemen
         operate) or together, then held `dwell_s`. Replaces any plan; a move under way is stopped.
@@ -166,13 +182,15 @@ class ArmController:
         here = self.y[:, R_THETA].copy()
         plan = []
         lo, hi = self.arm.joint_lower, self.arm.joint_upper
-        for k, (tgt, dwell) in enumerate(zip(targets, dwells)):
+        for k, (tgt, dwell) in enumerate(zip(targets, dwells, strict=True)):
             raw = self._as_array(tgt, f"target {k + 1}")
             named = [j for j in tgt] if isinstance(tgt, Mapping) else list(self.joints)
             for j in named:
                 v = raw[self.joints.index(j)]
                 if not math.isfinite(v):
-                    raise MotionRefused(f"target {k + 1}: {j} = {v!r} is not a number; allowed: a finite drive angle in rad")
+                    raise MotionRefused(
+                        f"target {k + 1}: {j} = {v!r} is not a number; allowed: a finite drive angle in rad"
+                    )
             full = np.where(np.isnan(raw), here, raw)
             q, ok = self.arm.joints_within_limits(full)
             if not ok.all():
@@ -180,7 +198,8 @@ class ArmController:
                 name = self.arm.model.names[i + 1]
                 raise MotionRefused(
                     f"target {k + 1}: joint {name} would be at {math.degrees(q[i]):.2f} deg; allowed: "
-                    f"{math.degrees(lo[i]):.2f}..{math.degrees(hi[i]):.2f} deg (drive angles {np.round(np.degrees(full), 2).tolist()} deg)"
+                    f"{math.degrees(lo[i]):.2f}..{math.degrees(hi[i]):.2f} deg "
+                    f"(drive angles {np.round(np.degrees(full), 2).tolist()} deg)"
                 )
             delta = full - here
             tol = self.gains.tolerance_rad
@@ -188,8 +207,9 @@ class ArmController:
             if small.any():
                 i = int(np.flatnonzero(small)[0])
                 raise MotionRefused(
-                    f"target {k + 1}: {self.joints[i]} rotation {math.degrees(delta[i]):.2f} deg (to {math.degrees(full[i]):.2f} deg) is below "
-                    f"the minimum rotation; allowed: 0 or |rotation| >= {math.degrees(self.min_rotation_rad):.1f} deg; jog it by hand"
+                    f"target {k + 1}: {self.joints[i]} rotation {math.degrees(delta[i]):.2f} deg "
+                    f"(to {math.degrees(full[i]):.2f} deg) is below the minimum rotation; allowed: 0 or "
+                    f"|rotation| >= {math.degrees(self.min_rotation_rad):.1f} deg; jog it by hand"
                 )
             moving = np.abs(delta) > tol
             if sequence == "together":
@@ -231,12 +251,24 @@ class ArmController:
         if (self._plan or self._stepping) and not self.faulted:
             gauge = supply - self.gas.p_atm_pa
             if gauge < self._brake_release_pa:
-                self._fault(f"supply {gauge / 1e6:.3f} MPa gauge is below the brake release pressure {self._brake_release_pa / 1e6:.3f} MPa")
+                self._fault(
+                    f"supply {gauge / 1e6:.3f} MPa gauge is below the brake release pressure "
+                    f"{self._brake_release_pa / 1e6:.3f} MPa"
+                )
         if not self.faulted:
             self._sequence(supply)
-        moving, timed_out, load_stale = control_step(self.mode, self.target, self.integral, self.elapsed, self.timeout, self.open_time, self.open_set_point,
-                                         self.retries, self.y, self.x, self.pv_full, self.breakaway_pa, self.load, self.torque_per_pa, self.params,
-                                         self._g, self.dt, self.commands, self.outcome, self._load_theta, self.load_update_rad)
+        moving, timed_out, load_stale = control_step(
+            self._modes,
+            self._moves,
+            self._drives,
+            self.y,
+            self.x,
+            self.params,
+            self._g,
+            self.dt,
+            self.load_update_rad,
+            self.commands,
+        )
         if self.faulted:
             self.commands[:] = 0.0
         if moving:
@@ -244,16 +276,19 @@ class ArmController:
                 self._set_load(self.y[:, R_THETA])
             if timed_out >= 0:
                 i = timed_out
-                self._fault(f"{self.joints[i]} did not reach {math.degrees(self.target[i]):.2f} deg within {self.timeout[i]:g} s "
-                            f"(predicted {math.degrees(self.y[i, R_THETA]):.2f} deg)")
+                self._fault(
+                    f"{self.joints[i]} did not reach {math.degrees(self.target[i]):.2f} deg "
+                    f"within {self.timeout[i]:g} s "
+                    f"(predicted {math.degrees(self.y[i, R_THETA]):.2f} deg)"
+                )
                 self.commands[:] = 0.0
         predict_step(self.y, self.x, self.commands, pv, supply, self.load, self.inertia, self.params, self.dt)
         return self.commands
 
     def _set_load(self, theta: np.ndarray) -> None:
         # the load torques from Pinocchio at the predicted configuration, and where they were taken
-        self.load = self.arm.load_torques(theta)
-        self._load_theta = np.array(theta, dtype=float)
+        self.load[:] = self.arm.load_torques(theta)  # in place: control_step's Belief holds these arrays
+        self._load_theta[:] = theta
 
     def _fault(self, why: str) -> None:
         if not self.faulted:
@@ -270,8 +305,11 @@ class ArmController:
                 if mode[i] != IDLE:
                     return
             for i in np.flatnonzero(self._step_joints):
-                self.events.append(f"t = {self.time_s:.3f} s: {self.joints[i]} at {math.degrees(self.y[i, R_THETA]):.2f} deg (predicted), "
-                                   f"target {math.degrees(self.target[i]):.2f} deg")
+                self.events.append(
+                    f"t = {self.time_s:.3f} s: {self.joints[i]} "
+                    f"at {math.degrees(self.y[i, R_THETA]):.2f} deg (predicted), "
+                    f"target {math.degrees(self.target[i]):.2f} deg"
+                )
             self._step_joints[:] = False
             self._step_index = []
             self._stepping = False
@@ -296,7 +334,9 @@ class ArmController:
             self.timeout[i] = self.move_timeout_s
             if self.mode_name == "open_loop":
                 sp = self.pv_full[i] if self.open_loop_set_point_pa is None else self.open_loop_set_point_pa
-                self.open_time[i] = open_loop_duration(self.params[i], theta[i], step[i], sp, supply_pa, self.load[i], self.inertia[i], self.dt)
+                self.open_time[i] = open_loop_duration(
+                    self.params[i], theta[i], step[i], sp, supply_pa, self.load[i], self.inertia[i], self.dt
+                )
                 self.open_set_point[i] = math.copysign(sp, step[i] - theta[i])
                 self.mode[i] = OPEN
             else:

@@ -12,13 +12,22 @@ import numpy as np
 
 from pneumatics import params as P
 from pneumatics._jit import njit
-from pneumatics.joint import N_COMMAND, R_THETA, advance_discrete, initial_state, single_joint_step
-
-from control.predictor import initial_rigid_state
+from pneumatics.joint import N_COMMAND, R_THETA, advance_discrete, initial_rigid_state, initial_state, single_joint_step
 
 
 @njit
-def _duration(y: np.ndarray, x: np.ndarray, target: float, set_point: float, supply_pa: float, load_nm: float, inertia: float, dt_s: float, max_s: float, p: np.ndarray) -> float:
+def _duration(
+    y: np.ndarray,
+    x: np.ndarray,
+    target: float,
+    set_point: float,
+    supply_pa: float,
+    load_nm: float,
+    inertia: float,
+    dt_s: float,
+    max_s: float,
+    p: np.ndarray,
+) -> float:
     start = y[R_THETA]
     sign = 1.0 if target > start else -1.0
     cmd = np.zeros(N_COMMAND)
@@ -35,15 +44,37 @@ def _duration(y: np.ndarray, x: np.ndarray, target: float, set_point: float, sup
     return -1.0
 
 
-def open_loop_duration(params_row: np.ndarray, start_rad: float, target_rad: float, set_point_gauge_pa: float, supply_pa: float, load_nm: float = 0.0, inertia_kg_m2: float = 0.164, dt_s: float = 1e-3, max_s: float = 60.0) -> float:
+def open_loop_duration(
+    params_row: np.ndarray,
+    start_rad: float,
+    target_rad: float,
+    set_point_gauge_pa: float,
+    supply_pa: float,
+    load_nm: float = 0.0,
+    inertia_kg_m2: float = 0.164,
+    dt_s: float = 1e-3,
+    max_s: float = 60.0,
+) -> float:
     """Valve-open time (s) after which the nominal one-joint model, started at rest with its brake
     engaged, reaches `target_rad`. ValueError if it does not within `max_s` (too little air)."""
     y = initial_rigid_state(start_rad, params_row[P.GAS_P_ATM])
     x = initial_state(params_row[P.GAS_P_ATM], brake_engaged=True)
-    t = _duration(y, x, float(target_rad), float(set_point_gauge_pa), float(supply_pa), float(load_nm), float(inertia_kg_m2), float(dt_s), float(max_s), params_row)
+    t = _duration(
+        y,
+        x,
+        float(target_rad),
+        float(set_point_gauge_pa),
+        float(supply_pa),
+        float(load_nm),
+        float(inertia_kg_m2),
+        float(dt_s),
+        float(max_s),
+        params_row,
+    )
     if t < 0.0:
         raise ValueError(
-            f"open loop: the nominal model does not reach {np.degrees(target_rad):.1f} deg from {np.degrees(start_rad):.1f} deg "
+            f"open loop: the nominal model does not reach {np.degrees(target_rad):.1f} deg "
+            f"from {np.degrees(start_rad):.1f} deg "
             f"within {max_s:g} s at supply {(supply_pa - params_row[P.GAS_P_ATM]) / 1e6:.3f} MPa gauge"
         )
     return t

@@ -23,8 +23,8 @@ from typing import NamedTuple
 import numpy as np
 
 from pneumatics import params as P
-from pneumatics.joint import C_BRAKE_RELEASE, C_DIRECTION, C_PV_SET_GAUGE_PA, R_OMEGA, R_THETA, S_BRAKE, S_DIR
 from pneumatics._jit import borrowed, njit
+from pneumatics.joint import C_BRAKE_RELEASE, C_DIRECTION, C_PV_SET_GAUGE_PA, R_OMEGA, R_THETA, S_BRAKE, S_DIR
 
 IDLE, CLOSED, SETTLE, OPEN = 0, 1, 2, 3
 # per-tick outcome of a joint's move
@@ -49,6 +49,9 @@ class PidGains(NamedTuple):
     breakaway_margin: float = 1.2
 
 
+DEFAULT_GAINS = PidGains()  # immutable: safe as a default argument
+
+
 def gains_row(g: PidGains) -> np.ndarray:
     return np.array(tuple(g), dtype=np.float64)
 
@@ -57,7 +60,9 @@ G_KP, G_KI, G_KD, G_ILIM, G_TOL, G_VARR, G_RETRY, G_MAXRETRY, G_MARGIN = range(9
 
 
 @njit
-def pid_output(error: float, omega: float, integral: float, dt_s: float, g: np.ndarray, pv_full: float) -> tuple[float, float]:
+def pid_output(
+    error: float, omega: float, integral: float, dt_s: float, g: np.ndarray, pv_full: float
+) -> tuple[float, float]:
     """Signed set point (gauge Pa) and the updated integral (rad·s), with conditional integration."""
     ki = g[G_KI]
     u_pd = g[G_KP] * error - g[G_KD] * omega
@@ -72,103 +77,124 @@ def pid_output(error: float, omega: float, integral: float, dt_s: float, g: np.n
     return u, new_integral
 
 
+# columns of the per-joint tables control_step works on (the controller keeps named views of them)
+K_MODE, K_OUTCOME = range(2)  # int64 (n, 2): move mode (IDLE, ...); outcome this tick (BUSY, ...)
+N_MODES_COLUMNS = 2
+# float (n, 7), each joint's move under way: target drive angle (rad), PID integral (rad·s), time in
+# the move (s), its time-out (s), the open loop's valve time (s) and signed set point (gauge Pa),
+# re-moves so far
+M_TARGET, M_INTEGRAL, M_ELAPSED, M_TIMEOUT, M_OPEN_TIME, M_OPEN_SET_POINT, M_RETRIES = range(7)
+N_MOVE_COLUMNS = 7
+# float (n, 6), what the controller derives for each drive: predicted load torque (N·m) and the
+# drive angle it was taken at (rad), stall torque per gauge Pa of valve pressure (N·m/Pa), the set
+# point of full opening (gauge Pa, the supply), the breakaway valve pressures turning + and -
+# (gauge Pa, written by control_step)
+D_LOAD, D_LOAD_THETA, D_TORQUE_PER_PA, D_PV_FULL, D_BREAKAWAY_POS, D_BREAKAWAY_NEG = range(6)
+N_DRIVE_COLUMNS = 6
+
+
 @njit
 def control_step(
-    mode: np.ndarray,  # (n,) int64 move mode, in place
-    target: np.ndarray,  # (n,) target drive angle, rad
-    integral: np.ndarray,  # (n,) PID integral, rad·s, in place
-    elapsed: np.ndarray,  # (n,) time in the current move, s, in place
-    timeout: np.ndarray,  # (n,) time-out of the current move, s
-    open_time: np.ndarray,  # (n,) open-loop valve time, s (OPEN mode)
-    open_set_point: np.ndarray,  # (n,) signed open-loop set point, gauge Pa (OPEN mode)
-    retries: np.ndarray,  # (n,) re-moves so far, in place
+    modes: np.ndarray,  # (n, N_MODES_COLUMNS) int64, in place
+    moves: np.ndarray,  # (n, N_MOVE_COLUMNS), in place
+    drives: np.ndarray,  # (n, N_DRIVE_COLUMNS), breakaway pressures written
     y: np.ndarray,  # (n, N_RIGID) predicted one-joint states
     x: np.ndarray,  # (n, N_STATE) the predictor's valve/brake states
-    pv_full: np.ndarray,  # (n,) set point of full opening, gauge Pa (the supply)
-    breakaway_pa: np.ndarray,  # (n, 2) written: valve pressure at which the joint breaks free turning +, -; gauge Pa
-    load_nm: np.ndarray,  # (n,) predicted load torque on each drive, N·m
-    torque_per_pa: np.ndarray,  # (n,) joint torque per gauge Pa of valve pressure at stall, N·m/Pa
     params: np.ndarray,  # (n, N_COLUMNS) the predictor's parameter rows (Coulomb friction)
     g: np.ndarray,  # gains_row
     dt_s: float,
-    commands: np.ndarray,  # (n, 3) written
-    outcome: np.ndarray,  # (n,) int64 written: BUSY, ARRIVED, TIMED_OUT
-    load_theta: np.ndarray,  # (n,) predicted drive angles at which `load_nm` was computed, rad
     load_update_rad: float,  # how far a predicted angle may move before the load is stale, rad
+    commands: np.ndarray,  # (n, 3) written
 ) -> tuple[bool, int, bool]:
     """One control period of every joint's move: the commands to issue now.
 
     The breakaway pressure of a joint is the valve pressure whose stall torque just overcomes its
     Coulomb friction and the predicted load, turning + and -. Returns (whether any joint was
     moving, the first joint that timed out or -1, whether a predicted angle has moved more than
-    `load_update_rad` from `load_theta`).
+    `load_update_rad` from the one its load was taken at).
     """
     # the caller holds every array for the whole call: no reference counting (see `borrowed`)
-    mode, target, integral, elapsed, timeout = borrowed(mode), borrowed(target), borrowed(integral), borrowed(elapsed), borrowed(timeout)
-    open_time, open_set_point, retries, y, x = borrowed(open_time), borrowed(open_set_point), borrowed(retries), borrowed(y), borrowed(x)
-    pv_full, breakaway_pa, load_nm, torque_per_pa = borrowed(pv_full), borrowed(breakaway_pa), borrowed(load_nm), borrowed(torque_per_pa)
-    params, g, commands, outcome, load_theta = borrowed(params), borrowed(g), borrowed(commands), borrowed(outcome), borrowed(load_theta)
+    modes, moves, drives, y, x = borrowed(modes), borrowed(moves), borrowed(drives), borrowed(y), borrowed(x)
+    params, g, commands = borrowed(params), borrowed(g), borrowed(commands)
     any_moving = False
     load_stale = False
     timed_out = -1
-    for j in range(mode.shape[0]):
+    for j in range(modes.shape[0]):
         coulomb = params[j, P.COULOMB]
-        breakaway_pa[j, 0] = max(coulomb + load_nm[j], 0.0) / torque_per_pa[j]
-        breakaway_pa[j, 1] = max(coulomb - load_nm[j], 0.0) / torque_per_pa[j]
-        outcome[j] = BUSY
-        m = mode[j]
-        if m != IDLE:
+        load = drives[j, D_LOAD]
+        drives[j, D_BREAKAWAY_POS] = max(coulomb + load, 0.0) / drives[j, D_TORQUE_PER_PA]
+        drives[j, D_BREAKAWAY_NEG] = max(coulomb - load, 0.0) / drives[j, D_TORQUE_PER_PA]
+        modes[j, K_OUTCOME] = BUSY
+        if modes[j, K_MODE] != IDLE:
             any_moving = True
-        direction = 0.0
-        set_point = 0.0
-        release = 0.0
-        if m != IDLE:
-            elapsed[j] += dt_s
-            if elapsed[j] > timeout[j]:
-                mode[j] = IDLE
-                outcome[j] = TIMED_OUT
-                m = IDLE
+            moves[j, M_ELAPSED] += dt_s
+            if moves[j, M_ELAPSED] > moves[j, M_TIMEOUT]:
+                modes[j, K_MODE] = IDLE
+                modes[j, K_OUTCOME] = TIMED_OUT
                 if timed_out < 0:
                     timed_out = j
-        theta = y[j, R_THETA]
-        omega = y[j, R_OMEGA]
-        if not abs(theta - load_theta[j]) <= load_update_rad:  # (a NaN counts as moved)
+        if not abs(y[j, R_THETA] - drives[j, D_LOAD_THETA]) <= load_update_rad:  # (a NaN counts as moved)
             load_stale = True
-        error = target[j] - theta
-        if m == CLOSED:
-            if abs(error) < g[G_TOL]:  # in the band: brake now (a joint still coasting is caught by it)
-                mode[j] = SETTLE
-                m = SETTLE
-            else:
-                u, integral[j] = pid_output(error, omega, integral[j], dt_s, g, pv_full[j])
-                if u != 0.0:
-                    direction = 1.0 if u > 0.0 else -1.0
-                    set_point = min(abs(u), pv_full[j])
-                    breakaway = breakaway_pa[j, 0] if direction > 0.0 else breakaway_pa[j, 1]
-                    # a brake fed by the motor's port drags below its full-release pressure
-                    floor = max(g[G_MARGIN] * breakaway, params[j, P.BRAKE_FED_BY_MOTOR] * params[j, P.BRAKE_RELEASE_PA])
-                    set_point = max(set_point, min(floor, pv_full[j]))
-                release = 1.0
-        elif m == OPEN:
-            if elapsed[j] < open_time[j]:
-                direction = 1.0 if open_set_point[j] > 0.0 else -1.0
-                set_point = abs(open_set_point[j])
-                release = 1.0
-            else:
-                mode[j] = SETTLE
-                m = SETTLE
-                retries[j] = g[G_MAXRETRY]  # the operator's open loop does not correct
-        if m == SETTLE:
-            # valves shut, brake on; wait for the predicted joint to stand and the brake to hold
-            if omega == 0.0 and x[j, S_DIR] == 0.0 and x[j, S_BRAKE] > 0.95:
-                if abs(error) > g[G_RETRY] and retries[j] < g[G_MAXRETRY]:
-                    retries[j] += 1.0
-                    mode[j] = CLOSED
-                    integral[j] = 0.0
-                else:
-                    mode[j] = IDLE
-                    outcome[j] = ARRIVED
-        commands[j, C_DIRECTION] = direction
-        commands[j, C_PV_SET_GAUGE_PA] = set_point
-        commands[j, C_BRAKE_RELEASE] = release
+        commands[j, C_DIRECTION], commands[j, C_PV_SET_GAUGE_PA], commands[j, C_BRAKE_RELEASE] = _joint_command(
+            modes[j], moves[j], drives[j], y[j], x[j], params[j], g, dt_s
+        )
     return any_moving, timed_out, load_stale
+
+
+@njit
+def _joint_command(
+    mode: np.ndarray, move: np.ndarray, drive: np.ndarray, y: np.ndarray, x: np.ndarray, p: np.ndarray, g, dt_s
+) -> tuple[float, float, float]:
+    # (direction, set point, brake release) of one joint this tick, its mode moved on in place
+    direction = 0.0
+    set_point = 0.0
+    release = 0.0
+    theta = y[R_THETA]
+    omega = y[R_OMEGA]
+    error = move[M_TARGET] - theta
+    m = mode[K_MODE]
+    if m == CLOSED:
+        if abs(error) < g[G_TOL]:  # in the band: brake now (a joint still coasting is caught by it)
+            mode[K_MODE] = SETTLE
+            m = SETTLE
+        else:
+            direction, set_point = _closed_loop_command(error, omega, move, drive, p, g, dt_s)
+            release = 1.0
+    elif m == OPEN:
+        if move[M_ELAPSED] < move[M_OPEN_TIME]:
+            direction = 1.0 if move[M_OPEN_SET_POINT] > 0.0 else -1.0
+            set_point = abs(move[M_OPEN_SET_POINT])
+            release = 1.0
+        else:
+            mode[K_MODE] = SETTLE
+            m = SETTLE
+            move[M_RETRIES] = g[G_MAXRETRY]  # the operator's open loop does not correct
+    # SETTLE: valves shut, brake on; wait for the predicted joint to stand and the brake to hold
+    if m == SETTLE and omega == 0.0 and x[S_DIR] == 0.0 and x[S_BRAKE] > 0.95:
+        if abs(error) > g[G_RETRY] and move[M_RETRIES] < g[G_MAXRETRY]:
+            move[M_RETRIES] += 1.0
+            mode[K_MODE] = CLOSED
+            move[M_INTEGRAL] = 0.0
+        else:
+            mode[K_MODE] = IDLE
+            mode[K_OUTCOME] = ARRIVED
+    return direction, set_point, release
+
+
+@njit
+def _closed_loop_command(
+    error: float, omega: float, move: np.ndarray, drive: np.ndarray, p: np.ndarray, g: np.ndarray, dt_s: float
+) -> tuple[float, float]:
+    # (direction, set point) of the PID, floored at the breakaway pressure; the integral in place
+    direction = 0.0
+    set_point = 0.0
+    pv_full = drive[D_PV_FULL]
+    u, move[M_INTEGRAL] = pid_output(error, omega, move[M_INTEGRAL], dt_s, g, pv_full)
+    if u != 0.0:
+        direction = 1.0 if u > 0.0 else -1.0
+        set_point = min(abs(u), pv_full)
+        breakaway = drive[D_BREAKAWAY_POS] if direction > 0.0 else drive[D_BREAKAWAY_NEG]
+        # a brake fed by the motor's port drags below its full-release pressure
+        floor = max(g[G_MARGIN] * breakaway, p[P.BRAKE_FED_BY_MOTOR] * p[P.BRAKE_RELEASE_PA])
+        set_point = max(set_point, min(floor, pv_full))
+    return direction, set_point

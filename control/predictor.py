@@ -23,7 +23,6 @@ import numpy as np
 from pneumatics import params as P
 from pneumatics._jit import borrowed, njit
 from pneumatics.joint import (
-    N_RIGID,
     R_OMEGA,
     R_OMEGA_M,
     R_PA_MOTOR,
@@ -35,19 +34,9 @@ from pneumatics.joint import (
     S_BRAKE,
     S_DIR,
     advance_discrete,
-    initial_state,
     single_joint_step,
 )
 from pneumatics.reducer import is_rigid
-
-
-def initial_rigid_state(theta_rad: float, p_atm_pa: float) -> np.ndarray:
-    """One-joint state (R_* columns) at rest at `theta_rad`, air at atmosphere, reducer untwisted."""
-    y = np.zeros(N_RIGID)
-    y[R_THETA] = theta_rad
-    y[R_QM] = theta_rad
-    y[R_PA_VALVE] = y[R_PA_MOTOR] = y[R_PB_VALVE] = y[R_PB_MOTOR] = p_atm_pa
-    return y
 
 
 @njit
@@ -58,7 +47,9 @@ def predictor_at_rest(y: np.ndarray, x: np.ndarray, command: np.ndarray, p: np.n
     atm = p[P.GAS_P_ATM]
     return (
         y[R_OMEGA] == 0.0
-        and (is_rigid(p) or (y[R_OMEGA_M] == 0.0 and abs(y[R_QM] - y[R_THETA]) <= 0.5 * p[P.BACKLASH]))  # a gear's motor may swing or unwind
+        and (
+            is_rigid(p) or (y[R_OMEGA_M] == 0.0 and abs(y[R_QM] - y[R_THETA]) <= 0.5 * p[P.BACKLASH])
+        )  # a gear's motor may swing or unwind
         and x[S_DIR] == 0.0
         and command[0] == 0.0
         and command[2] == 0.0
@@ -92,8 +83,3 @@ def predict_step(
             continue
         advance_discrete(x[j], commands[j], supply_pa, dt_s, p)
         single_joint_step(y[j], x[j], commands[j], valve_gauge_pa[j], supply_pa, load_nm[j], inertia_kg_m2[j], dt_s, p)
-
-
-def initial_valve_state(p_atm_pa: float) -> np.ndarray:
-    """Valve/brake state row of a joint at rest with its brake engaged."""
-    return initial_state(p_atm_pa, brake_engaged=True)

@@ -19,11 +19,13 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
+from tqdm import tqdm
 
 from gap import protocols, synth
 from gap.campaign import load_campaign
 from gap.diagnose import diagnose
 from gap.effects import BY_NAME, CATALOGUE
+from gap.result import Diagnosis
 
 
 @dataclass
@@ -43,35 +45,113 @@ INSTRUMENTS = (synth.ENCODER, synth.CAMERA)
 
 
 def cases() -> list[Case]:
+    """The bench's cases: single effects of the catalogue, forms it lacks (scored by family),
+    pairs, a ripple outside it, and campaigns that hide no effect."""
+    return [
+        *single_cases(),
+        *form_and_pair_cases(),
+        # later singles stay after the others: a case's index sets its protocol, instrument and seeds
+        Case("angle_load", "single", {}, ("angle_load",), truth={"angle_load": 20.0}, rig_spring_nm_per_rad=20.0),
+        Case(
+            "brake_release",
+            "single",
+            {"brake_release_gauge_pa": 6.0e5},
+            ("brake_incomplete_release",),
+            truth={"brake_incomplete_release": 6.0e5},
+        ),
+        Case("brake_holding", "single", {"brake_holding_nm": 40.0}, ("brake_holding",), truth={"brake_holding": 40.0}),
+        Case("ripple", "outside", {"ripple_fraction": 0.5}),
+        *(Case(f"none_{k}", "none", {}) for k in range(8)),
+    ]
+
+
+def form_and_pair_cases() -> list[Case]:
+    """Forms the catalogue lacks (its entry withheld: scored by family), and two effects at once."""
+    return [
+        Case(
+            "stribeck_as_coulomb",
+            "form",
+            {"stribeck_excess_nm": 40.0, "stribeck_speed_rad_s": 0.2},
+            ("coulomb_friction", "viscous_friction"),
+            exclude=("stribeck_friction",),
+        ),
+        Case(
+            "stribeck_as_coulomb_20",
+            "form",
+            {"stribeck_excess_nm": 20.0, "stribeck_speed_rad_s": 0.2},
+            ("coulomb_friction", "viscous_friction"),
+            exclude=("stribeck_friction",),
+        ),
+        Case(
+            "lag_as_dead_time",
+            "form",
+            {"valve_time_constant_s": 0.3},
+            ("valve_dead_time", "valve_set_dead_time"),
+            exclude=("valve_lag",),
+        ),
+        Case(
+            "lag_as_dead_time_02",
+            "form",
+            {"valve_time_constant_s": 0.2},
+            ("valve_dead_time", "valve_set_dead_time"),
+            exclude=("valve_lag",),
+        ),
+        Case("leak+coulomb", "pair", {"leak_area_m2": 3e-7, "coulomb_nm": 30.0}, ("vane_leakage", "coulomb_friction")),
+        Case(
+            "leak+coulomb_b", "pair", {"leak_area_m2": 2e-7, "coulomb_nm": 25.0}, ("vane_leakage", "coulomb_friction")
+        ),
+    ]
+
+
+def single_cases() -> list[Case]:
+    """One catalogue effect hidden in the plant each, with its true value where it has one."""
     p0 = synth.wrist_params()
-    all_cases = [
+    return [
         Case("hose_loss", "single", {}, ("hose_loss",), twin_hose_loss=False),
         Case("vane_leakage", "single", {"leak_area_m2": 4e-7}, ("vane_leakage",), truth={"vane_leakage": 4e-7}),
         Case("coulomb", "single", {"coulomb_nm": 30.0}, ("coulomb_friction",), truth={"coulomb_friction": 30.0}),
         Case("viscous", "single", {"viscous_nm_s": 8.0}, ("viscous_friction",), truth={"viscous_friction": 8.0}),
         Case("dead_time", "single", {"solenoid_delay_s": 0.1}, ("valve_dead_time",), truth={"valve_dead_time": 0.1}),
-        Case("set_dead_time", "single", {"valve_set_dead_time_s": 0.1}, ("valve_set_dead_time",), truth={"valve_set_dead_time": 0.1}),
+        Case(
+            "set_dead_time",
+            "single",
+            {"valve_set_dead_time_s": 0.1},
+            ("valve_set_dead_time",),
+            truth={"valve_set_dead_time": 0.1},
+        ),
         Case("valve_lag", "single", {"valve_time_constant_s": 0.3}, ("valve_lag",), truth={"valve_lag": 0.3}),
         Case("dead_zone", "single", {"valve_dead_zone": 0.3}, ("valve_dead_zone",), truth={"valve_dead_zone": 0.3}),
-        Case("conductance", "single", {"conductance_scale": 0.6}, ("conductance_error",), truth={"conductance_error": 0.6}),
+        Case(
+            "conductance",
+            "single",
+            {"conductance_scale": 0.6},
+            ("conductance_error",),
+            truth={"conductance_error": 0.6},
+        ),
         Case("heat", "single", {"polytropic_n": 1.05}, ("heat_exchange",), truth={"heat_exchange": 1.05}),
         Case("droop", "single", {"supply_droop_pa_s_per_kg": 2e7}, ("supply_droop",), truth={"supply_droop": 2e7}),
-        Case("inertia", "single", {"rotor_inertia_kg_m2": 2e-5}, ("inertia_error",), truth={"inertia_error": (0.02 + 120**2 * 2e-5) / (0.02 + 120**2 * p0.rotor_inertia_kg_m2)}),
-        Case("backlash", "single", {"reducer_backlash_rad": 0.02}, ("reducer_backlash",), truth={"reducer_backlash": 0.02}),
-        Case("compliance", "single", {"reducer_compliance_rad_per_nm": 1e-3}, ("reducer_compliance",), truth={"reducer_compliance": 1e-3}),
-        Case("stribeck_as_coulomb", "form", {"stribeck_excess_nm": 40.0, "stribeck_speed_rad_s": 0.2}, ("coulomb_friction", "viscous_friction"), exclude=("stribeck_friction",)),
-        Case("stribeck_as_coulomb_20", "form", {"stribeck_excess_nm": 20.0, "stribeck_speed_rad_s": 0.2}, ("coulomb_friction", "viscous_friction"), exclude=("stribeck_friction",)),
-        Case("lag_as_dead_time", "form", {"valve_time_constant_s": 0.3}, ("valve_dead_time", "valve_set_dead_time"), exclude=("valve_lag",)),
-        Case("lag_as_dead_time_02", "form", {"valve_time_constant_s": 0.2}, ("valve_dead_time", "valve_set_dead_time"), exclude=("valve_lag",)),
-        Case("leak+coulomb", "pair", {"leak_area_m2": 3e-7, "coulomb_nm": 30.0}, ("vane_leakage", "coulomb_friction")),
-        Case("leak+coulomb_b", "pair", {"leak_area_m2": 2e-7, "coulomb_nm": 25.0}, ("vane_leakage", "coulomb_friction")),
-        Case("angle_load", "single", {}, ("angle_load",), truth={"angle_load": 20.0}, rig_spring_nm_per_rad=20.0),
-        Case("brake_release", "single", {"brake_release_gauge_pa": 6.0e5}, ("brake_incomplete_release",), truth={"brake_incomplete_release": 6.0e5}),
-        Case("brake_holding", "single", {"brake_holding_nm": 40.0}, ("brake_holding",), truth={"brake_holding": 40.0}),
-        Case("ripple", "outside", {"ripple_fraction": 0.5}),
-        *(Case(f"none_{k}", "none", {}) for k in range(8)),
+        Case(
+            "inertia",
+            "single",
+            {"rotor_inertia_kg_m2": 2e-5},
+            ("inertia_error",),
+            truth={"inertia_error": (0.02 + 120**2 * 2e-5) / (0.02 + 120**2 * p0.rotor_inertia_kg_m2)},
+        ),
+        Case(
+            "backlash",
+            "single",
+            {"reducer_backlash_rad": 0.02},
+            ("reducer_backlash",),
+            truth={"reducer_backlash": 0.02},
+        ),
+        Case(
+            "compliance",
+            "single",
+            {"reducer_compliance_rad_per_nm": 1e-3},
+            ("reducer_compliance",),
+            truth={"reducer_compliance": 1e-3},
+        ),
     ]
-    return all_cases
 
 
 QUICK = ("vane_leakage", "none_1")  # the slice a test runs: a single effect and none, both read by the camera
@@ -83,60 +163,111 @@ def setting(i: int, case: Case, rng: np.random.Generator) -> tuple[str, synth.Si
     proto = PROTOCOLS[i % len(PROTOCOLS)]
     inst = INSTRUMENTS[(i // len(PROTOCOLS) + i) % 2]
     if inst.latency_s > 0:  # a camera's latency, drawn per campaign (assumed range 10-40 ms)
-        inst = replace(inst, latency_s=round(float(rng.uniform(0.010, 0.040)), 3), phase_s=round(float(rng.uniform(0.0, 1.0 / inst.rate_hz)), 3))
+        inst = replace(
+            inst,
+            latency_s=round(float(rng.uniform(0.010, 0.040)), 3),
+            phase_s=round(float(rng.uniform(0.0, 1.0 / inst.rate_hz)), 3),
+        )
     return proto, inst, (i // 2) % 2 == 0
 
 
-def run_bench(out: str | Path, quick: bool = False, jobs: int = 2, chamber_pressures: bool | None = None, only: str | None = None) -> dict:
+def run_bench(
+    out: str | Path, quick: bool = False, jobs: int = 2, chamber_pressures: bool | None = None, only: str | None = None
+) -> dict:
     """Every case diagnosed blind; `chamber_pressures` None: as the case's setting cycles, else
     forced; `only`: the cases named in its comma-separated list (`none*`: every name that starts so)."""
-    from tqdm import tqdm
-
     t0 = time.perf_counter()
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    p0 = synth.wrist_params()
     pressures = (0.5, 0.8) if quick else synth.PRESSURES_MPA
     results = []
     for i, case in enumerate(tqdm(cases(), desc="gap bench", file=sys.stderr)):
-        if (only and not any(case.name == o or (o.endswith("*") and case.name.startswith(o[:-1])) for o in only.split(","))) or (quick and case.name not in QUICK):
+        if not selected(case, quick, only):
             continue  # the case keeps its index: its protocol, instrument and seeds do not depend on the selection
-        rng = np.random.default_rng(1000 + i)
-        proto, inst, with_p = setting(i, case, rng)
+        proto, inst, with_p = setting(i, case, np.random.default_rng(1000 + i))
         with_p = with_p if chamber_pressures is None else chamber_pressures
-        motion = {q: protocols.library(q)[proto] for q in pressures}
-        folder = synth.make_campaign(out / "campaigns" / case.name, p0._replace(**case.reality), seed=100 + i, pressures_mpa=pressures, twin_hose_loss=case.twin_hose_loss, motion=motion, instrument=inst, description=f"(hidden: {case.name}; {proto}; {inst.name})", chamber_pressures=with_p, rig_spring_nm_per_rad=case.rig_spring_nm_per_rad)
+        folder = synth.make_campaign(
+            out / "campaigns" / case.name,
+            synth.wrist_params()._replace(**case.reality),
+            seed=100 + i,
+            pressures_mpa=pressures,
+            twin_hose_loss=case.twin_hose_loss,
+            motion={q: protocols.library(q)[proto] for q in pressures},
+            instrument=inst,
+            description=f"(hidden: {case.name}; {proto}; {inst.name})",
+            chamber_pressures=with_p,
+            rig_spring_nm_per_rad=case.rig_spring_nm_per_rad,
+        )
         catalogue = tuple(e for e in CATALOGUE if e.name not in case.exclude)
         t_diag = time.perf_counter()
         diag = diagnose(load_campaign(folder), catalogue=catalogue, n_jobs=jobs, progress=False)
         t_diag = time.perf_counter() - t_diag
-        w = diag["which"]
-        top = w["top"]
-        named = tuple(top["effects"]) if top else ()
-        r = {"case": case.name, "kind": case.kind, "protocol": proto, "instrument": inst.name, "latency_s": inst.latency_s, "latency_found_s": diag["instrument"]["latency_s"], "chamber_pressures": with_p, "diagnose_s": t_diag, "verdict": w["verdict"], "top": top["name"] if top else None, "family": (w["nearest"] or {}).get("family"), "rivals": w["rivals"], "before_rms_deg": diag["before_rms_deg"], "after_rms_deg": top["heldout_rms_deg"] if top else None}
-        if case.kind in ("single", "form", "pair"):
-            if case.kind == "pair":
-                r["top1"] = set(named) == set(case.expect)
-            elif case.kind == "form":
-                # scored at FAMILY level: the hidden form is withheld from the catalogue, so the right
-                # answer is its family's other forms (Stribeck -> Coulomb/viscous friction; valve
-                # lag -> the valves' dead times). The call: the top candidate's effects when the
-                # verdict is explained/ambiguous (all must be of those), else the diagnosis's
-                # family-level answer, the leading effect of its best candidate.
-                family = {BY_NAME[e].family for e in case.expect}
-                r["call"] = [w["nearest"]["family"]] if w["nearest"] else sorted({BY_NAME[e].family for e in named})
-                r["top1"] = bool(r["call"]) and set(r["call"]) <= family
-            else:
-                r["top1"] = len(named) >= 1 and named[0] in case.expect and w["verdict"] in ("explained", "ambiguous")
-            r["shrink"] = top["heldout_rms_deg"] / diag["before_rms_deg"] if top else None
-        for eff, true in case.truth.items():
-            nominal = [e for e in CATALOGUE if e.name == eff][0].value_of(synth.wrist_params())
-            fitted = [c for c in w["ranking"] if c["name"] == eff][0]["fitted_values"][0]
-            r["param"] = {"effect": eff, "true": true, "fitted": fitted, "nominal": nominal, "error_rel_to_effect": abs(fitted - true) / abs(true - nominal)}
+        r = {
+            "case": case.name,
+            "kind": case.kind,
+            "protocol": proto,
+            "instrument": inst.name,
+            "latency_s": inst.latency_s,
+            "latency_found_s": diag.instrument.latency_s,
+            "chamber_pressures": with_p,
+            "diagnose_s": t_diag,
+            **scores(case, diag),
+        }
         results.append(r)
         summary = summarise(results, quick, chamber_pressures, time.perf_counter() - t0)
-        (out / "bench.json").write_text(json.dumps(summary, indent=1, default=lambda x: None if isinstance(x, float) and math.isnan(x) else str(x)))  # after every case: a long run killed keeps what it did
+        (out / "bench.json").write_text(
+            json.dumps(summary, indent=1, default=lambda x: None if isinstance(x, float) and math.isnan(x) else str(x))
+        )  # after every case: a long run killed keeps what it did
     return summarise(results, quick, chamber_pressures, time.perf_counter() - t0)
+
+
+def selected(case: Case, quick: bool, only: str | None) -> bool:
+    """Is `case` in the quick slice (with `quick`) and named by `only` (when given)?"""
+    named = not only or any(
+        case.name == o or (o.endswith("*") and case.name.startswith(o[:-1])) for o in only.split(",")
+    )
+    return named and not (quick and case.name not in QUICK)
+
+
+def scores(case: Case, diag: Diagnosis) -> dict:
+    """What the diagnosis called, and, for cases with an answer, whether it is the right one, how
+    far it shrank the gap and how well it recovered the hidden parameter."""
+    w, top = diag.which, diag.which.top
+    named = tuple(top.effects) if top else ()
+    r = {
+        "verdict": w.verdict,
+        "top": top.name if top else None,
+        "family": w.nearest.family if w.nearest else None,
+        "rivals": w.rivals,
+        "before_rms_deg": diag.before_rms_deg,
+        "after_rms_deg": top.heldout_rms_deg if top else None,
+    }
+    if case.kind in ("single", "form", "pair"):
+        if case.kind == "pair":
+            r["top1"] = set(named) == set(case.expect)
+        elif case.kind == "form":
+            # scored at FAMILY level: the hidden form is withheld from the catalogue, so the right
+            # answer is its family's other forms (Stribeck -> Coulomb/viscous friction; valve
+            # lag -> the valves' dead times). The call: the top candidate's effects when the
+            # verdict is explained/ambiguous (all must be of those), else the diagnosis's
+            # family-level answer, the leading effect of its best candidate.
+            family = {BY_NAME[e].family for e in case.expect}
+            r["call"] = [w.nearest.family] if w.nearest else sorted({BY_NAME[e].family for e in named})
+            r["top1"] = bool(r["call"]) and set(r["call"]) <= family
+        else:
+            r["top1"] = len(named) >= 1 and named[0] in case.expect and w.verdict in ("explained", "ambiguous")
+        r["shrink"] = top.heldout_rms_deg / diag.before_rms_deg if top else None
+    for eff, true in case.truth.items():
+        nominal = BY_NAME[eff].value_of(synth.wrist_params())
+        fitted = [c for c in w.ranking if c.name == eff][0].fitted_values[0]
+        r["param"] = {
+            "effect": eff,
+            "true": true,
+            "fitted": fitted,
+            "nominal": nominal,
+            "error_rel_to_effect": abs(fitted - true) / abs(true - nominal),
+        }
+    return r
 
 
 def summarise(results: list[dict], quick: bool, chamber_pressures: bool | None, wall_s: float) -> dict:
@@ -157,15 +288,31 @@ def summarise(results: list[dict], quick: bool, chamber_pressures: bool | None, 
         "wall_time_s": wall_s,
         "top1_rate_exact_form": rate(exact),
         "top1_rate_form_differs": rate(form),
-        "form_differs_scoring": "family level: the call (the families of the top candidate's effects if explained/ambiguous, else the diagnosis's nearest family) is the withheld form's family (Stribeck -> friction, valve lag -> valve timing)",
-        "false_alarm_by_instrument": {i.name: _rate_of([r["verdict"] != "no significant gap" for r in none if r["instrument"] == i.name]) for i in INSTRUMENTS},
+        "form_differs_scoring": (
+            "family level: the call (the families of the top candidate's effects if explained/ambiguous, else the "
+            "diagnosis's nearest family) is the withheld form's family "
+            "(Stribeck -> friction, valve lag -> valve timing)"
+        ),
+        "false_alarm_by_instrument": {
+            i.name: _rate_of([r["verdict"] != "no significant gap" for r in none if r["instrument"] == i.name])
+            for i in INSTRUMENTS
+        },
         "diagnose_s_median": float(np.median([r["diagnose_s"] for r in results])) if results else None,
         "diagnose_s_max": float(np.max([r["diagnose_s"] for r in results])) if results else None,
         "median_shrink": float(np.median([r["shrink"] for r in att if r["shrink"] is not None])) if att else None,
         "false_alarm_rate": sum(r["verdict"] != "no significant gap" for r in none) / len(none) if none else None,
-        "confident_wrong_rate_outside": sum(r["verdict"] == "explained" for r in outside) / len(outside) if outside else None,
+        "confident_wrong_rate_outside": sum(r["verdict"] == "explained" for r in outside) / len(outside)
+        if outside
+        else None,
         "median_param_error": float(np.median(perr)) if perr else None,
-        "goals": {"top1_exact": 0.9, "top1_form": 0.8, "median_shrink": 0.3, "false_alarm": 0.05, "confident_wrong": 0.1, "median_param_error": 0.1},
+        "goals": {
+            "top1_exact": 0.9,
+            "top1_form": 0.8,
+            "median_shrink": 0.3,
+            "false_alarm": 0.05,
+            "confident_wrong": 0.1,
+            "median_param_error": 0.1,
+        },
         "cases": results,
     }
     return summary

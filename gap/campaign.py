@@ -1,6 +1,6 @@
 """A calibration campaign on disk: campaign.toml plus one run file per run, read and checked.
 
-campaign.toml:
+campaign.toml (its schema: `CampaignFile`, `RunEntry`, `TwinSwitches`, `Instrument` below):
     joint = "wrist_pitch"            # the joint under test (assets.JOINTS)
     payload_kg = 0.0                 # payload on the rig (the wrist rig turns about a vertical axis: no load torque)
     hose_length_m = 8.0              # valve -> motor hose, each port
@@ -22,8 +22,9 @@ Run CSV columns: time_s, direction (-1/0/+1), brake_released (0/1), valve_set_ga
 proportional valve's set point P_v, gauge Pa, optional) or valve_opening (0..1, optional: the set
 point u / k_u; at most one of the two; neither = the set point equals the supply, i.e. the valve
 wide open delivering the supply), supply_pa (absolute), angle_rad (reference instrument, empty/NaN where not
-sampled), optional p_a_pa, p_b_pa. Anything else is refused with the file, the line and what is
-wrong (GapError).
+sampled), optional p_a_pa, p_b_pa. The file is read by the standard library's csv
+module and its columns converted by numpy; anything else is refused with the file, the line and
+what is wrong (GapError).
 """
 
 from __future__ import annotations
@@ -31,23 +32,26 @@ from __future__ import annotations
 import csv
 import functools
 import math
-import tomllib
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
+import mujoco
 import numpy as np
+import pydantic
+from pydantic import BaseModel, ValidationError
 
 import assets
 from pneumatics import load_joint_params
+from pneumatics.fields import FLAG, MISSING, REAL, TABLE, TEXT, Problem, choice, first_problem, number, read_toml
 from pneumatics.gas import AIR
 from twin.errors import UserError
+from twin.mcap_log import read_mcap
 
 REQUIRED_COLUMNS = ("time_s", "direction", "brake_released", "supply_pa", "angle_rad")
 OPTIONAL_COLUMNS = ("valve_set_gauge_pa", "valve_opening", "p_a_pa", "p_b_pa")
+NAN_COLUMNS = ("angle_rad", "p_a_pa", "p_b_pa")  # empty or nan: not sampled
 WRIST_RIG_INERTIA_KG_M2 = 0.02  # assets/wrist_rig.xml, body rig_load
-CAMPAIGN_KEYS = ("joint", "payload_kg", "hose_length_m", "rig_inertia_kg_m2", "twin", "instrument", "runs")
-RUN_KEYS = ("file", "supply_mpa", "start_deg", "payload_kg", "rig_inertia_kg_m2")
-TWIN_KEYS = ("hose_loss",)
 MIN_RUNS = 2  # the diagnosis fits on some runs and judges on others
 # Run files: a calibration log samples at 1 kHz..50 Hz (the twin's own MCAP at 50 Hz); a step
 # longer than this is a hole in the record, not a sample period (assumed).
@@ -61,8 +65,8 @@ SUPPLY_TOLERANCE_MPA = 0.05
 # Measured angles may pass a joint's range by the end stop's give and the instrument's offset.
 ANGLE_MARGIN_DEG = 5.0  # assumed
 MAX_ABS_PRESSURE_PA = 3e6  # above any supply of this class (0.5-0.8 MPa gauge, paper)
-# [instrument] fields and their allowed ranges (a reading 1 s late or a 10 deg noise is no reference)
-INSTRUMENT_FIELDS = (("latency_s", 0.0, 1.0, "s"), ("noise_deg", 0.0, 10.0, "deg rms"), ("rate_hz", 0.1, 1e5, "Hz"))
+PAYLOAD_KG = number(0.0, 100.0, "kg")
+RIG_INERTIA_KG_M2 = number(0.0, 100.0, "kg·m^2")
 
 
 class GapError(UserError):
@@ -94,16 +98,25 @@ class Run:
 
     def signature(self) -> tuple:
         """Runs with the same commands and supply are repeats of one another."""
-        return (round(self.supply_mpa, 4), round(self.start_rad, 6), self.payload_kg, self.rig_inertia_kg_m2, self.direction.tobytes(), np.round(self.valve_gauge_pa, -2).tobytes(), self.brake_released.tobytes())
+        return (
+            round(self.supply_mpa, 4),
+            round(self.start_rad, 6),
+            self.payload_kg,
+            self.rig_inertia_kg_m2,
+            self.direction.tobytes(),
+            np.round(self.valve_gauge_pa, -2).tobytes(),
+            self.brake_released.tobytes(),
+        )
 
 
-@dataclass(frozen=True)
+@pydantic.dataclasses.dataclass(frozen=True, config=TABLE)
 class Instrument:
-    """What the campaign declares of its reference angle instrument; None = not declared."""
+    """What the campaign declares of its reference angle instrument ([instrument]); None = not
+    declared. A reading 1 s late or a 10 deg noise is no reference: the ranges stop there."""
 
-    latency_s: float | None = None
-    noise_deg: float | None = None
-    rate_hz: float | None = None
+    latency_s: number(0.0, 1.0, "s") | None = None
+    noise_deg: number(0.0, 10.0, "deg rms") | None = None
+    rate_hz: number(0.1, 1e5, "Hz") | None = None
 
 
 @dataclass
@@ -118,28 +131,43 @@ class Campaign:
     instrument: Instrument = field(default_factory=Instrument)
 
 
-def _number(where: str, table: dict, key: str, low: float, high: float, unit: str, default: float | None = None) -> float:
-    if key not in table:
-        if default is not None:
-            return default
-        raise GapError(f"{where}: {key} is missing; allowed: a number in {low:g}..{high:g} {unit}")
-    v = table[key]
-    if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or not low <= v <= high:
-        raise GapError(f"{where}: {key} = {v!r}; allowed: a number in {low:g}..{high:g} {unit}")
-    return float(v)
+class TwinSwitches(BaseModel):
+    """[twin]: the nominal twin's switches."""
+
+    model_config = TABLE
+
+    hose_loss: FLAG | None = None  # None: as the joint's parameter file
 
 
-def _unknown_keys(where: str, table: dict, allowed: tuple[str, ...], what: str) -> None:
-    unknown = sorted(set(table) - set(allowed))
-    if unknown:
-        raise GapError(f"{where}: {what}{unknown[0]} is not a known field; allowed: {', '.join(allowed)}")
+class RunEntry(BaseModel):
+    """One [[runs]] table."""
+
+    model_config = TABLE
+
+    file: TEXT  # a run file inside the campaign's folder (CSV, or the twin's own .mcap)
+    supply_mpa: number(0.0, 2.0, "MPa gauge")
+    start_deg: dict[str, REAL]  # joint -> deg, at least the joint under test (checked by _check_start)
+    payload_kg: PAYLOAD_KG | None = None  # None: the campaign's
+    rig_inertia_kg_m2: RIG_INERTIA_KG_M2 | None = None  # None: the campaign's
+
+
+class CampaignFile(BaseModel):
+    """campaign.toml."""
+
+    model_config = TABLE
+
+    joint: choice(*assets.JOINTS, why="is not a joint of the arm")
+    payload_kg: PAYLOAD_KG = 0.0
+    hose_length_m: number(0.01, 100.0, "m")
+    rig_inertia_kg_m2: RIG_INERTIA_KG_M2 = WRIST_RIG_INERTIA_KG_M2
+    twin: TwinSwitches = TwinSwitches()
+    instrument: Instrument = Instrument()
+    runs: list[RunEntry] = []  # at least MIN_RUNS (checked so that the message says why)
 
 
 @functools.lru_cache(maxsize=1)
 def joint_ranges_rad() -> dict[str, tuple[float, float]]:
     """Each joint's range from the arm's MJCF (the one file MuJoCo and Pinocchio read)."""
-    import mujoco
-
     model = mujoco.MjModel.from_xml_path(str(assets.ARM_XML))
     return {j: (float(model.joint(j).range[0]), float(model.joint(j).range[1])) for j in assets.JOINTS}
 
@@ -151,7 +179,10 @@ def _inside(folder: Path, name: str, where: str) -> Path:
         raise GapError(f"{where}: file = {name!r} leaves the campaign folder; allowed: a file name inside {folder}")
     path = folder / name
     if not path.resolve().is_relative_to(folder.resolve()):
-        raise GapError(f"{where}: file = {name!r} leads out of the campaign folder (to {path.resolve()}); allowed: a file inside {folder}")
+        raise GapError(
+            f"{where}: file = {name!r} leads out of the campaign folder (to {path.resolve()}); "
+            f"allowed: a file inside {folder}"
+        )
     return path
 
 
@@ -161,7 +192,8 @@ def _check_run(run: Run, where: str, joint: str) -> None:
     gauge_mpa = (float(np.mean(run.supply_pa)) - AIR.p_atm_pa) / 1e6
     if abs(gauge_mpa - run.supply_mpa) > SUPPLY_TOLERANCE_MPA:
         raise GapError(
-            f"{where}: supply_mpa = {run.supply_mpa:g}, but {run.path.name}'s supply_pa averages {gauge_mpa:.3f} MPa gauge; "
+            f"{where}: supply_mpa = {run.supply_mpa:g}, but {run.path.name}'s supply_pa averages "
+            f"{gauge_mpa:.3f} MPa gauge; "
             f"allowed: within {SUPPLY_TOLERANCE_MPA:g} MPa of the logged supply"
         )
     lo, hi = (math.degrees(v) for v in joint_ranges_rad()[joint])
@@ -171,7 +203,8 @@ def _check_run(run: Run, where: str, joint: str) -> None:
         k = int(np.flatnonzero(run.sampled)[bad[0]])
         raise GapError(
             f"{run.path}: angle_rad = {run.angle_rad[k]:g} at time_s = {run.time_s[k]:g} is outside {joint}'s range; "
-            f"allowed: {lo - ANGLE_MARGIN_DEG:.1f}..{hi + ANGLE_MARGIN_DEG:.1f} deg (assets/arm.xml range +- {ANGLE_MARGIN_DEG:g} deg)"
+            f"allowed: {lo - ANGLE_MARGIN_DEG:.1f}..{hi + ANGLE_MARGIN_DEG:.1f} deg "
+            f"(assets/arm.xml range +- {ANGLE_MARGIN_DEG:g} deg)"
         )
     steps = np.diff(run.time_s)
     if steps.size and steps.max() > MAX_TIME_STEP_S:
@@ -195,69 +228,94 @@ def _toml_line(text: str, needle: str, occurrence: int = 0) -> int:
     return 0
 
 
-def load_campaign(folder: str | Path) -> Campaign:
+def _key_line(text: str, key: str) -> int:
+    """1-based line where the top-level `key` is set (for error messages), 0 if none."""
+    m = re.search(rf"^\s*{re.escape(key)}\s*=", text, re.M)
+    return text.count("\n", 0, m.start()) + 1 if m else 0
+
+
+def _at(path: Path, line: int) -> str:
+    return f"{path}:{line}" if line else str(path)
+
+
+def _refusal(path: Path, text: str, p: Problem) -> GapError:
+    """The one-line refusal of campaign.toml: `<file>:<line> (<table>): key = value; allowed: ...`."""
+    head, rest = p.loc[0], p.loc[1:]
+    if head == "runs" and rest:
+        where, key = f"{_at(path, _toml_line(text, '[[runs]]', rest[0]))} ([[runs]] #{rest[0] + 1})", rest[1:]
+    elif head in ("twin", "instrument") and rest:
+        line = _at(path, _toml_line(text, f"[{head}]"))
+        if p.why == "is not a known field":
+            return GapError(f"{line}: [{head}] {rest[0]} is not a known field; allowed: {p.allowed}")
+        where, key = f"{line} ([{head}])", rest
+    else:
+        where, key = _at(path, _key_line(text, str(head))), p.loc
+    name = ".".join(str(k) for k in key if k != "[key]")
+    allowed = f"the name of a run file in {path.parent}" if key == ("file",) else p.allowed
+    if p.value is MISSING or p.why == "is not a known field":
+        return GapError(f"{where}: {name} {p.why}; allowed: {allowed}")
+    why = "" if p.why in ("is not allowed", "is outside the allowed range") else f" {p.why}"
+    return GapError(f"{where}: {name} = {p.value!r}{why}; allowed: {allowed}")
+
+
+def _campaign_file(folder: str | Path) -> tuple[Path, str, CampaignFile]:
+    """campaign.toml (in `folder`, or `folder` itself), its text and its checked contents."""
     folder = Path(folder)
     path = folder / "campaign.toml" if folder.is_dir() else folder
-    folder = path.parent
     if not path.is_file():
-        raise GapError(f"{path}: no such campaign file (a campaign is a folder with campaign.toml and one file per run)")
-    text = path.read_text()
+        raise GapError(
+            f"{path}: no such campaign file (a campaign is a folder with campaign.toml and one file per run)"
+        )
+    doc, text = read_toml(path, GapError, "campaign file")
     try:
-        doc = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as e:
-        raise GapError(f"{path}: not valid TOML: {e}") from None
-    _unknown_keys(f"{path}", doc, CAMPAIGN_KEYS, "")
-    joint = doc.get("joint")
-    if joint not in assets.JOINTS:
-        raise GapError(f"{path}:{_toml_line(text, 'joint')}: joint = {joint!r} is not a joint of the arm; allowed: {', '.join(assets.JOINTS)}")
-    payload = _number(f"{path}", doc, "payload_kg", 0.0, 100.0, "kg", default=0.0)
-    hose = _number(f"{path}", doc, "hose_length_m", 0.01, 100.0, "m")
-    rig_j = _number(f"{path}", doc, "rig_inertia_kg_m2", 0.0, 100.0, "kg·m^2", default=WRIST_RIG_INERTIA_KG_M2)
-    twin = doc.get("twin", {})
-    if not isinstance(twin, dict):
-        raise GapError(f"{path}: twin = {twin!r}; allowed: a table [twin] with {', '.join(TWIN_KEYS)}")
-    _unknown_keys(f"{path}:{_toml_line(text, '[twin]')}", twin, TWIN_KEYS, "[twin] ")
-    hl = twin.get("hose_loss")
-    if hl is not None and not isinstance(hl, bool):
-        raise GapError(f"{path}:{_toml_line(text, 'hose_loss')}: [twin] hose_loss = {hl!r}; allowed: true or false")
-    inst = doc.get("instrument", {})
-    if not isinstance(inst, dict):
-        raise GapError(f"{path}:{_toml_line(text, 'instrument')}: instrument must be a table [instrument] with latency_s, noise_deg, rate_hz")
-    _unknown_keys(f"{path}:{_toml_line(text, '[instrument]')}", inst, tuple(f[0] for f in INSTRUMENT_FIELDS), "[instrument] ")
-    where_inst = f"{path}:{_toml_line(text, '[instrument]')} ([instrument])"
-    instrument = Instrument(*(_number(where_inst, inst, k, lo, hi, unit) if k in inst else None for k, lo, hi, unit in INSTRUMENT_FIELDS))
-    runs_doc = doc.get("runs")
-    if not isinstance(runs_doc, list) or not all(isinstance(r, dict) for r in runs_doc) or len(runs_doc) < MIN_RUNS:
-        n = len(runs_doc) if isinstance(runs_doc, list) else 0
-        raise GapError(f"{path}: {n} [[runs]]; allowed: at least {MIN_RUNS} [[runs]] tables (the diagnosis fits on some runs and judges on others), each with file, supply_mpa, start_deg")
+        c = CampaignFile.model_validate(doc)
+    except ValidationError as e:
+        raise _refusal(path, text, first_problem(e, CampaignFile)) from None
+    if len(c.runs) < MIN_RUNS:
+        raise GapError(
+            f"{path}: {len(c.runs)} [[runs]]; allowed: at least {MIN_RUNS} [[runs]] tables (the diagnosis fits on "
+            "some runs and judges on others), each with file, supply_mpa, start_deg"
+        )
+    return path, text, c
+
+
+def _check_start(where: str, start: dict[str, float], joint: str) -> None:
+    """A run's start_deg: the joint under test among them, every joint the arm's, inside its range."""
+    if joint not in start:
+        raise GapError(
+            f"{where}: start_deg must give the start angle of every joint, at least {joint!r}; "
+            f"e.g. start_deg = {{ {joint} = 0.0 }}"
+        )
+    for j, v in start.items():
+        if j not in assets.JOINTS:
+            raise GapError(f"{where}: start_deg names unknown joint {j!r}; allowed: {', '.join(assets.JOINTS)}")
+        if not math.isfinite(v):
+            raise GapError(f"{where}: start_deg.{j} = {v!r} is not a number (degrees)")
+        lo, hi = (math.degrees(x) for x in joint_ranges_rad()[j])
+        if not lo <= v <= hi:
+            raise GapError(
+                f"{where}: start_deg.{j} = {v!r} is outside the joint's range; "
+                f"allowed: {lo:.1f}..{hi:.1f} deg (assets/arm.xml)"
+            )
+
+
+def load_campaign(folder: str | Path) -> Campaign:
+    """A campaign folder (or its campaign.toml) read and checked, with every run file."""
+    path, text, c = _campaign_file(folder)
     runs = []
-    ranges = joint_ranges_rad()
-    for i, r in enumerate(runs_doc):
-        line = _toml_line(text, "[[runs]]", i)
-        where = f"{path}:{line} ([[runs]] #{i + 1})"
-        _unknown_keys(where, r, RUN_KEYS, "")
-        f = r.get("file")
-        if not isinstance(f, str):
-            got = "file is missing" if f is None else f"file = {f!r}"
-            raise GapError(f"{where}: {got}; allowed: the name of a run file in {folder}")
-        supply = _number(where, r, "supply_mpa", 0.0, 2.0, "MPa gauge")
-        start = r.get("start_deg")
-        if not isinstance(start, dict) or joint not in start:
-            raise GapError(f"{where}: start_deg must give the start angle of every joint, at least {joint!r}; e.g. start_deg = {{ {joint} = 0.0 }}")
-        for j, v in start.items():
-            if j not in assets.JOINTS:
-                raise GapError(f"{where}: start_deg names unknown joint {j!r}; allowed: {', '.join(assets.JOINTS)}")
-            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
-                raise GapError(f"{where}: start_deg.{j} = {v!r} is not a number (degrees)")
-            lo, hi = (math.degrees(x) for x in ranges[j])
-            if not lo <= v <= hi:
-                raise GapError(f"{where}: start_deg.{j} = {v!r} is outside the joint's range; allowed: {lo:.1f}..{hi:.1f} deg (assets/arm.xml)")
-        run = read_run_file(_inside(folder, f, where), supply, math.radians(start[joint]), where, joint)
-        _check_run(run, where, joint)
-        run.payload_kg = _number(where, r, "payload_kg", 0.0, 100.0, "kg", default=payload)
-        run.rig_inertia_kg_m2 = _number(where, r, "rig_inertia_kg_m2", 0.0, 100.0, "kg·m^2", default=rig_j)
+    for i, entry in enumerate(c.runs):
+        where = f"{_at(path, _toml_line(text, '[[runs]]', i))} ([[runs]] #{i + 1})"
+        _check_start(where, entry.start_deg, c.joint)
+        start_rad = math.radians(entry.start_deg[c.joint])
+        run = read_run_file(_inside(path.parent, entry.file, where), entry.supply_mpa, start_rad, where, c.joint)
+        _check_run(run, where, c.joint)
+        run.payload_kg = c.payload_kg if entry.payload_kg is None else entry.payload_kg
+        run.rig_inertia_kg_m2 = c.rig_inertia_kg_m2 if entry.rig_inertia_kg_m2 is None else entry.rig_inertia_kg_m2
         runs.append(run)
-    return Campaign(folder, joint, payload, hose, rig_j, None if hl is None else (1.0 if hl else 0.0), runs, instrument)
+    hose_loss = None if c.twin.hose_loss is None else float(c.twin.hose_loss)
+    return Campaign(
+        path.parent, c.joint, c.payload_kg, c.hose_length_m, c.rig_inertia_kg_m2, hose_loss, runs, c.instrument
+    )
 
 
 def read_run_file(path: Path, supply_mpa: float, start_rad: float, where: str = "", joint: str = "wrist_pitch") -> Run:
@@ -268,62 +326,129 @@ def read_run_file(path: Path, supply_mpa: float, start_rad: float, where: str = 
     return _read_csv_run(path, supply_mpa, start_rad, joint)
 
 
-def _read_csv_run(path: Path, supply_mpa: float, start_rad: float, joint: str) -> Run:
+def _read_csv_rows(path: Path) -> tuple[list[str], dict[str, tuple[str, ...]], list[int], str]:
+    """The header, each column's texts up to the first row with a wrong number of fields, the rows'
+    line numbers, and that row's refusal ("" if none). Blank lines are skipped, their lines counted."""
     with open(path, newline="") as f:
         reader = csv.reader(f)
-        try:
-            header = [h.strip() for h in next(reader)]
-        except StopIteration:
-            raise GapError(f"{path}:1: empty run file; expected a header with {', '.join(REQUIRED_COLUMNS)}") from None
-        missing = [c for c in REQUIRED_COLUMNS if c not in header]
-        if missing:
-            raise GapError(f"{path}:1: missing column(s) {', '.join(missing)}; required: {', '.join(REQUIRED_COLUMNS)}; optional: {', '.join(OPTIONAL_COLUMNS)}")
-        unknown = [c for c in header if c not in REQUIRED_COLUMNS + OPTIONAL_COLUMNS]
-        if unknown:
-            raise GapError(f"{path}:1: unknown column(s) {', '.join(unknown)}; allowed: {', '.join(REQUIRED_COLUMNS + OPTIONAL_COLUMNS)}")
-        if "valve_opening" in header and "valve_set_gauge_pa" in header:
-            raise GapError(f"{path}:1: both valve_opening and valve_set_gauge_pa; allowed: at most one of them")
-        cols = {h: [] for h in header}
-        for line_no, row in enumerate(reader, 2):
-            if not row:
-                continue
-            if len(row) != len(header):
-                raise GapError(f"{path}:{line_no}: {len(row)} fields, the header has {len(header)}")
-            for h, v in zip(header, row):
-                v = v.strip()
-                if v == "" or v.lower() == "nan":
-                    if h in ("angle_rad", "p_a_pa", "p_b_pa"):
-                        cols[h].append(math.nan)
-                        continue
-                    raise GapError(f"{path}:{line_no}: {h} is empty; allowed: a number")
-                try:
-                    x = float(v)
-                except ValueError:
-                    raise GapError(f"{path}:{line_no}: {h} = {v!r} is not a number") from None
-                if not math.isfinite(x):
-                    raise GapError(f"{path}:{line_no}: {h} = {v!r} is not finite")
-                cols[h].append(x)
-            t = cols["time_s"]
-            if len(t) > 1 and not t[-1] > t[-2]:
-                raise GapError(f"{path}:{line_no}: time_s = {t[-1]:g} does not increase (previous {t[-2]:g}); allowed: time strictly increasing from row to row")
-            d = cols["direction"][-1]
-            if d not in (-1.0, 0.0, 1.0):
-                raise GapError(f"{path}:{line_no}: direction = {d:g}; allowed: -1, 0, +1")
-            b = cols["brake_released"][-1]
-            if b not in (0.0, 1.0):
-                raise GapError(f"{path}:{line_no}: brake_released = {b:g}; allowed: 0 or 1")
-            if "valve_set_gauge_pa" in cols and not 0.0 <= cols["valve_set_gauge_pa"][-1] <= 3e6:
-                raise GapError(f"{path}:{line_no}: valve_set_gauge_pa = {cols['valve_set_gauge_pa'][-1]:g}; allowed: gauge Pa in 0..3e6")
-            if "valve_opening" in cols and not 0.0 <= cols["valve_opening"][-1] <= 1.0:
-                raise GapError(f"{path}:{line_no}: valve_opening = {cols['valve_opening'][-1]:g}; allowed: 0..1")
-            for h in ("supply_pa", "p_a_pa", "p_b_pa"):
-                v = cols[h][-1] if h in cols else math.nan
-                if not math.isnan(v) and not 0.0 < v < MAX_ABS_PRESSURE_PA:
-                    raise GapError(f"{path}:{line_no}: {h} = {v:g}; allowed: absolute Pa above 0 and below {MAX_ABS_PRESSURE_PA:g}")
-    a = {h: np.asarray(v, dtype=np.float64) for h, v in cols.items()}
-    n = len(a["time_s"])
-    if n < 2 or np.isfinite(a["angle_rad"]).sum() < 2:
-        raise GapError(f"{path}: needs at least 2 rows and 2 angle samples, has {n} rows and {int(np.isfinite(a['angle_rad']).sum())} samples")
+        header = next(reader, None)
+        if header is None:
+            raise GapError(f"{path}:1: empty run file; expected a header with {', '.join(REQUIRED_COLUMNS)}")
+        header = [h.strip() for h in header]
+        _check_header(path, header)
+        rows, lines, cut = [], [], ""
+        for row in reader:
+            if row and len(row) != len(header):
+                cut = f"{path}:{reader.line_num}: {len(row)} fields, the header has {len(header)}"
+                break
+            if row:
+                rows.append(row)
+                lines.append(reader.line_num)
+    columns = dict(zip(header, zip(*rows, strict=True), strict=True)) if rows else dict.fromkeys(header, ())
+    return header, columns, lines, cut
+
+
+def _check_header(path: Path, header: list[str]) -> None:
+    missing = [c for c in REQUIRED_COLUMNS if c not in header]
+    if missing:
+        raise GapError(
+            f"{path}:1: missing column(s) {', '.join(missing)}; required: {', '.join(REQUIRED_COLUMNS)}; "
+            f"optional: {', '.join(OPTIONAL_COLUMNS)}"
+        )
+    unknown = [c for c in header if c not in REQUIRED_COLUMNS + OPTIONAL_COLUMNS]
+    if unknown:
+        raise GapError(
+            f"{path}:1: unknown column(s) {', '.join(unknown)}; "
+            f"allowed: {', '.join(REQUIRED_COLUMNS + OPTIONAL_COLUMNS)}"
+        )
+    if "valve_opening" in header and "valve_set_gauge_pa" in header:
+        raise GapError(f"{path}:1: both valve_opening and valve_set_gauge_pa; allowed: at most one of them")
+
+
+def _column(name: str, texts: tuple[str, ...]) -> tuple[np.ndarray, list[tuple[int, str]]]:
+    """A CSV column as float64 (NaN where empty, `nan` or unreadable) and its first refusal as
+    (row, message) ([] if none): not a number, empty where a number is needed, not finite."""
+    try:
+        values = np.array(texts, dtype=np.float64)  # each text parsed as Python's float() does
+        words = np.zeros(len(texts), dtype=bool)
+    except ValueError:  # an empty field or a word: parse one by one to tell which
+        parsed = [_float_or_none(t) for t in texts]
+        words = np.array([p is None for p in parsed])
+        values = np.array([math.nan if p is None else p for p in parsed], dtype=np.float64)
+    found = _first(words, lambda k: f"{name} = {texts[k].strip()!r} is not a number")
+    if name not in NAN_COLUMNS:
+        found += _first(np.isnan(values) & ~words, lambda k: f"{name} is empty; allowed: a number")
+    found += _first(np.isinf(values), lambda k: f"{name} = {texts[k].strip()!r} is not finite")
+    return values, [min(found)] if found else []
+
+
+def _float_or_none(text: str) -> float | None:
+    """float(text); NaN if empty; None if it is no number."""
+    if not text.strip():
+        return math.nan
+    try:
+        return float(text)
+    except ValueError:
+        return None
+
+
+def _first(mask: np.ndarray, message: object) -> list[tuple[int, str]]:
+    """[(first row where `mask` holds, its message)], or [] if none; `message(k)` writes it."""
+    rows = np.flatnonzero(mask)
+    return [(int(rows[0]), message(int(rows[0])))] if rows.size else []
+
+
+def _row_checks(a: dict[str, np.ndarray]) -> list[tuple[int, str]]:
+    """Each value check's first refused row, as (row, message): time increasing, the commands'
+    values, the valve and pressure ranges (NaN, i.e. unreadable or not sampled, passes here)."""
+    t, d, b = a["time_s"], a["direction"], a["brake_released"]
+    found = _first(
+        np.r_[False, ~(t[1:] > t[:-1])],
+        lambda k: (
+            f"time_s = {t[k]:g} does not increase (previous {t[k - 1]:g}); "
+            "allowed: time strictly increasing from row to row"
+        ),
+    )
+    found += _first(~np.isin(d, (-1.0, 0.0, 1.0)), lambda k: f"direction = {d[k]:g}; allowed: -1, 0, +1")
+    found += _first(~np.isin(b, (0.0, 1.0)), lambda k: f"brake_released = {b[k]:g}; allowed: 0 or 1")
+    if "valve_set_gauge_pa" in a:
+        v = a["valve_set_gauge_pa"]
+        found += _first((v < 0.0) | (v > 3e6), lambda k: f"valve_set_gauge_pa = {v[k]:g}; allowed: gauge Pa in 0..3e6")
+    if "valve_opening" in a:
+        u = a["valve_opening"]
+        found += _first((u < 0.0) | (u > 1.0), lambda k: f"valve_opening = {u[k]:g}; allowed: 0..1")
+    for h in ("supply_pa", "p_a_pa", "p_b_pa"):
+        if h in a:
+            p = a[h]
+            found += _first(
+                (p <= 0.0) | (p >= MAX_ABS_PRESSURE_PA),
+                lambda k, h=h, p=p: f"{h} = {p[k]:g}; allowed: absolute Pa above 0 and below {MAX_ABS_PRESSURE_PA:g}",
+            )
+    return found
+
+
+def _read_csv_columns(path: Path) -> dict[str, np.ndarray]:
+    """The run file's columns by name; GapError at the first refused row (as a row-by-row reader
+    would find it: the earliest row, and in it the first column, then the checks in order)."""
+    header, columns, lines, cut = _read_csv_rows(path)
+    a, refusals = {}, []
+    for order, h in enumerate(header):
+        a[h], found = _column(h, columns[h])
+        refusals += [(k, order, m) for k, m in found]
+    refusals += [(k, len(header) + order, m) for order, (k, m) in enumerate(_row_checks(a))]
+    if refusals:
+        k, _, message = min(refusals)
+        raise GapError(f"{path}:{lines[k]}: {message}")
+    if cut:
+        raise GapError(cut)
+    return a
+
+
+def _read_csv_run(path: Path, supply_mpa: float, start_rad: float, joint: str) -> Run:
+    a = _read_csv_columns(path)
+    n, samples = len(a["time_s"]), int(np.isfinite(a["angle_rad"]).sum())
+    if n < 2 or samples < 2:
+        raise GapError(f"{path}: needs at least 2 rows and 2 angle samples, has {n} rows and {samples} samples")
     if "valve_set_gauge_pa" in a:
         valve = a["valve_set_gauge_pa"]
     elif "valve_opening" in a:
@@ -331,7 +456,19 @@ def _read_csv_run(path: Path, supply_mpa: float, start_rad: float, joint: str) -
     else:
         valve = a["supply_pa"] - AIR.p_atm_pa
     extra = {k: a[k] for k in ("p_a_pa", "p_b_pa") if k in a}
-    return Run(path.stem, path, supply_mpa, start_rad, a["time_s"] - a["time_s"][0], a["direction"], a["brake_released"], valve, a["supply_pa"], a["angle_rad"], extra)
+    return Run(
+        path.stem,
+        path,
+        supply_mpa,
+        start_rad,
+        a["time_s"] - a["time_s"][0],
+        a["direction"],
+        a["brake_released"],
+        valve,
+        a["supply_pa"],
+        a["angle_rad"],
+        extra,
+    )
 
 
 def _read_mcap_run(path: Path, supply_mpa: float, start_rad: float, joint: str = "wrist_pitch") -> Run:
@@ -344,14 +481,13 @@ def _read_mcap_run(path: Path, supply_mpa: float, start_rad: float, joint: str =
     solenoid delay and the brake act on them in the replay, as in the plant). Commands are held
     between log samples, so command changes between samples are seen up to one log period late.
     """
-    from twin.mcap_log import read_mcap  # noqa: PLC0415  (twin.mcap_log needs the mcap packages)
-
     arrays, meta = read_mcap(path)
     recovery = meta["recovery"]
     if not recovery["complete"]:
         raise GapError(
             f"{path}: the log is cut short ({recovery['stopped_by'] or 'no footer'}; {recovery['samples']} samples, "
-            f"{recovery['duration_s']:.2f} s readable); allowed: a complete log (`twin replay` shows what a cut one holds)"
+            f"{recovery['duration_s']:.2f} s readable); "
+            "allowed: a complete log (`twin replay` shows what a cut one holds)"
         )
     joints = list(meta["joints"])
     if joint not in joints:
@@ -361,7 +497,11 @@ def _read_mcap_run(path: Path, supply_mpa: float, start_rad: float, joint: str =
     if len(t) < 2:
         raise GapError(f"{path}: {len(t)} log sample(s); a run needs at least 2")
     return Run(
-        path.stem, path, supply_mpa, start_rad, t - t[0],
+        path.stem,
+        path,
+        supply_mpa,
+        start_rad,
+        t - t[0],
         np.asarray(arrays["direction"])[:, j].astype(float),
         np.asarray(arrays["brake_release"])[:, j].astype(float),
         np.asarray(arrays["valve_gauge_pa"])[:, j].astype(float),

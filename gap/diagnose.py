@@ -31,7 +31,9 @@ import time
 from dataclasses import dataclass, field
 
 import numpy as np
+from joblib import Parallel, delayed, parallel_config
 from scipy.optimize import minimize, minimize_scalar
+from tqdm import tqdm
 
 import assets
 from gap import instrument, verdict, where
@@ -41,6 +43,18 @@ from gap.instrument import Nuisance
 from gap.noise import RepeatNoise, repeat_noise
 from gap.protocols import worst_tolerance_deg, worst_tolerance_kpa
 from gap.replay import DT_S, replay_run
+from gap.result import (
+    CandidateSummary,
+    Diagnosis,
+    NoiseFloor,
+    PressureError,
+    PressureFloor,
+    Residuals,
+    Timing,
+    TwinFacts,
+    Which,
+)
+from gap.stats import bootstrap_ci, normalised_rms, rms_ci_deg, rms_deg, rms_kpa
 from pneumatics import JointParams, load_joint_params, params_row
 
 # The angle's model tolerance (below it a residual is no gap): twice the worst replay-vs-plant rms
@@ -49,7 +63,6 @@ MODEL_TOLERANCE_DEG = worst_tolerance_deg()
 # The same for the motor-chamber pressures, where a campaign measured them.
 MODEL_TOLERANCE_KPA = worst_tolerance_kpa()
 SIGNIFICANCE = 2.0  # a gap is significant above SIGNIFICANCE x floor, floor = sqrt(noise^2 + drift^2/2 + tol^2)
-N_BOOT = 1000
 N_PAIRS_CV = 3  # pairs given the full cross-validated fit after the in-sample screen
 # pairs are formed from the best PAIR_POOL singles (28 pairs, not the 136 of all 17): a pair's
 # members each explain part of its gap, so each is expected to rank high alone; a pair of two
@@ -90,7 +103,16 @@ def prepare(run: Run, p: JointParams, offset_rad: float = 0.0) -> Prepared:
     pres = np.stack([run.extra.get("p_a_pa", nan), run.extra.get("p_b_pa", nan)])
     rows = np.isfinite(pres).any(axis=0)
     pmask = np.isfinite(pres[:, rows])
-    return Prepared(run, args, run.time_s[m], run.angle_rad[m] - offset_rad, nominal_inertia(run.rig_inertia_kg_m2, p), run.time_s[rows], pmask, pres[:, rows][pmask])
+    return Prepared(
+        run,
+        args,
+        run.time_s[m],
+        run.angle_rad[m] - offset_rad,
+        nominal_inertia(run.rig_inertia_kg_m2, p),
+        run.time_s[rows],
+        pmask,
+        pres[:, rows][pmask],
+    )
 
 
 class Twin:
@@ -126,7 +148,16 @@ class Twin:
         """(t, theta, omega, p_a, p_b) of the twin through group g's commands."""
         rep = self.runs[self.groups[g][0]]
         self.n_replays += 1  # for the report's cost line (threads may miss a count: it is a statistic)
-        return replay_run(params_row(params), *rep.args, rep.run.start_rad, rep.inertia * rig.inertia_scale, 0.0, self.t_end[g] + DT_S, DT_S, rig.load_spring_nm_per_rad)
+        return replay_run(
+            params_row(params),
+            *rep.args,
+            rep.run.start_rad,
+            rep.inertia * rig.inertia_scale,
+            0.0,
+            self.t_end[g] + DT_S,
+            DT_S,
+            rig.load_spring_nm_per_rad,
+        )
 
     def _each_run(self, effects, ks):
         """(k, twin trajectory of run k's group) for k in ks; one replay per group of repeats."""
@@ -137,7 +168,9 @@ class Twin:
     def _pressure_residual(self, pr: Prepared, t, pa, pb) -> np.ndarray:
         return pr.pmeas - np.stack([np.interp(pr.tp, t, pa), np.interp(pr.tp, t, pb)])[pr.pmask]
 
-    def residuals_with(self, effects: list[tuple[Effect, float]], ks, latency_s: float) -> dict[int, tuple[np.ndarray, np.ndarray]]:
+    def residuals_with(
+        self, effects: list[tuple[Effect, float]], ks, latency_s: float
+    ) -> dict[int, tuple[np.ndarray, np.ndarray]]:
         """Per run k in `ks`: (measured - twin angle at its angle samples, the twin read
         `latency_s` late; measured - twin chamber pressures where measured)."""
         out = {}
@@ -153,7 +186,9 @@ class Twin:
         for i, (k, (t, th, _, pa, pb)) in enumerate(self._each_run(effects, ks)):
             pr = self.runs[k]
             shifted = np.interp(pr.ts[None, :] - self.latencies[:, None], t, th)
-            out[i] = np.sum((pr.meas[None, :] - shifted) ** 2, axis=1) + self.pressure_weight * np.sum(self._pressure_residual(pr, t, pa, pb) ** 2)
+            out[i] = np.sum((pr.meas[None, :] - shifted) ** 2, axis=1) + self.pressure_weight * np.sum(
+                self._pressure_residual(pr, t, pa, pb) ** 2
+            )
         return out
 
     def latency_of(self, effects, idx) -> float:
@@ -173,10 +208,16 @@ def apply_effects(params: JointParams, effects) -> tuple[JointParams, Rig]:
 
 def folds_of(campaign: Campaign) -> list[tuple[list[int], list[int]]]:
     """Leave one supply pressure out; with a single pressure, an alternating split (both ways)."""
-    pressures = sorted({round(r.supply_mpa, 4) for r in campaign.runs})
+    pressures = supplies(campaign)
     n = len(campaign.runs)
     if len(pressures) >= 2:
-        return [([k for k in range(n) if round(campaign.runs[k].supply_mpa, 4) != q], [k for k in range(n) if round(campaign.runs[k].supply_mpa, 4) == q]) for q in pressures]
+        return [
+            (
+                [k for k in range(n) if round(campaign.runs[k].supply_mpa, 4) != q],
+                [k for k in range(n) if round(campaign.runs[k].supply_mpa, 4) == q],
+            )
+            for q in pressures
+        ]
     even = list(range(0, n, 2))
     odd = list(range(1, n, 2))
     return [(even, odd), (odd, even)] if odd else [(even, even)]
@@ -192,7 +233,15 @@ def _grid(e: Effect, n: int = 8) -> np.ndarray:
     return np.linspace(e.low, e.high, n + 1)
 
 
-def _fit_1d(twin: Twin, e: Effect, fixed: list[tuple[Effect, float]], idx: list[int], grid: np.ndarray, grid_sse: np.ndarray | None, maxiter: int = 10) -> float:
+def _fit_1d(
+    twin: Twin,
+    e: Effect,
+    fixed: list[tuple[Effect, float]],
+    idx: list[int],
+    grid: np.ndarray,
+    grid_sse: np.ndarray | None,
+    maxiter: int = 10,
+) -> float:
     """Bounded 1-D fit of effect `e` (others `fixed`) on runs `idx`: best grid point, then Brent's
     bounded search between its neighbours."""
     if e.discrete_value is not None:
@@ -204,7 +253,12 @@ def _fit_1d(twin: Twin, e: Effect, fixed: list[tuple[Effect, float]], idx: list[
     hi = grid[min(j + 1, len(grid) - 1)]
     if hi <= lo:
         return float(grid[j])
-    res = minimize_scalar(lambda v: twin.sse(fixed + [(e, v)], idx), bounds=(lo, hi), method="bounded", options={"xatol": (hi - lo) * 2e-3, "maxiter": maxiter})
+    res = minimize_scalar(
+        lambda v: twin.sse(fixed + [(e, v)], idx),
+        bounds=(lo, hi),
+        method="bounded",
+        options={"xatol": (hi - lo) * 2e-3, "maxiter": maxiter},
+    )
     return float(res.x) if res.fun < grid_sse[j] else float(grid[j])
 
 
@@ -215,7 +269,9 @@ class Candidate:
     fold_values: list[list[float]]  # per fold, fitted value of each effect
     full_values: list[float]  # fitted on all runs
     heldout: list[np.ndarray] = field(default_factory=list)  # per run: withheld angle residual (rad)
-    heldout_p: list[np.ndarray] = field(default_factory=list)  # per run: withheld pressure residual (Pa; empty where not measured)
+    heldout_p: list[np.ndarray] = field(
+        default_factory=list
+    )  # per run: withheld pressure residual (Pa; empty where not measured)
     fold_latencies: list[float] = field(default_factory=list)  # per fold, the instrument latency fitted with it (s)
     latency_s: float = 0.0  # fitted with the full values on all runs
 
@@ -236,10 +292,29 @@ def fit_single(twin: Twin, e: Effect, folds) -> Candidate:
         for k, r in twin.residuals_with([(e, v)], test, lat).items():
             heldout[k], heldout_p[k] = r
     full = _fit_1d(twin, e, [], list(range(n)), grid, per_run.sum(axis=1).min(axis=1))
-    return Candidate(e.name, [e.name], fold_values, [full], heldout, heldout_p, fold_lat, twin.latency_of([(e, full)], list(range(n))))
+    return Candidate(
+        e.name,
+        [e.name],
+        fold_values,
+        [full],
+        heldout,
+        heldout_p,
+        fold_lat,
+        twin.latency_of([(e, full)], list(range(n))),
+    )
 
 
-def _coord_fit(twin: Twin, ea: Effect, eb: Effect, idx: list[int], va: float, vb: float, rounds: int = 2, n_grid: int = 5, maxiter: int = 8) -> tuple[float, float]:
+def _coord_fit(
+    twin: Twin,
+    ea: Effect,
+    eb: Effect,
+    idx: list[int],
+    va: float,
+    vb: float,
+    rounds: int = 2,
+    n_grid: int = 5,
+    maxiter: int = 8,
+) -> tuple[float, float]:
     """Coordinate descent of a pair's two parameters on runs `idx` (each a bounded 1-D fit)."""
     for _ in range(rounds):
         va = _fit_1d(twin, ea, [(eb, vb)], idx, _grid(ea, n_grid), None, maxiter)
@@ -247,7 +322,9 @@ def _coord_fit(twin: Twin, ea: Effect, eb: Effect, idx: list[int], va: float, vb
     return va, vb
 
 
-def _nm_fit(twin: Twin, ea: Effect, eb: Effect, idx: list[int], va: float, vb: float, sse0: float, maxfev: int = 40) -> tuple[float, float]:
+def _nm_fit(
+    twin: Twin, ea: Effect, eb: Effect, idx: list[int], va: float, vb: float, sse0: float, maxfev: int = 40
+) -> tuple[float, float]:
     """Bounded Nelder-Mead on the pair's two parameters (scaled to their catalogue ranges), from
     a grid point: follows the correlated valleys (leak vs friction) that coordinate descent crawls."""
     if ea.discrete_value is not None or eb.discrete_value is not None:  # a switch: only the other to fit
@@ -262,7 +339,18 @@ def _nm_fit(twin: Twin, ea: Effect, eb: Effect, idx: list[int], va: float, vb: f
         return twin.sse([(ea, float(v[0])), (eb, float(v[1]))], idx)
 
     z0 = (np.array([va, vb]) - low) / span
-    res = minimize(f, z0, method="Nelder-Mead", bounds=[(0.0, 1.0), (0.0, 1.0)], options={"maxfev": maxfev, "xatol": 2e-3, "fatol": 1e-9, "initial_simplex": [z0, z0 + [0.08 if z0[0] < 0.9 else -0.08, 0], z0 + [0, 0.08 if z0[1] < 0.9 else -0.08]]})
+    res = minimize(
+        f,
+        z0,
+        method="Nelder-Mead",
+        bounds=[(0.0, 1.0), (0.0, 1.0)],
+        options={
+            "maxfev": maxfev,
+            "xatol": 2e-3,
+            "fatol": 1e-9,
+            "initial_simplex": [z0, z0 + [0.08 if z0[0] < 0.9 else -0.08, 0], z0 + [0, 0.08 if z0[1] < 0.9 else -0.08]],
+        },
+    )
     if res.fun >= sse0:
         return va, vb
     v = low + np.clip(res.x, 0.0, 1.0) * span
@@ -282,7 +370,9 @@ def screen_pair(twin: Twin, a: Candidate, b: Candidate, runs: list[int], n_grid:
     return min(float(total[i, j]), twin.sse([(ea, va), (eb, vb)], runs))
 
 
-def pair_grid(twin: Twin, a: Candidate, b: Candidate, runs: list[int] | None = None, n_grid: int = 5) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def pair_grid(
+    twin: Twin, a: Candidate, b: Candidate, runs: list[int] | None = None, n_grid: int = 5
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """SSE of every run on a coarse 2-D grid of the pair's parameters: (grid_a, grid_b,
     sse[i, j, run, latency]).
     A grid rather than coordinate descent from the singles' values: a single effect's value,
@@ -294,7 +384,9 @@ def pair_grid(twin: Twin, a: Candidate, b: Candidate, runs: list[int] | None = N
     return ga, gb, sse
 
 
-def fit_pair(twin: Twin, a: Candidate, b: Candidate, folds, grid: tuple[np.ndarray, np.ndarray, np.ndarray]) -> Candidate:
+def fit_pair(
+    twin: Twin, a: Candidate, b: Candidate, folds, grid: tuple[np.ndarray, np.ndarray, np.ndarray]
+) -> Candidate:
     """Both effects fitted together on each fold's training runs (best point of the 2-D grid on
     those runs, then coordinate descent), scored on its withheld runs; the reported values are
     fitted on all runs the same way."""
@@ -322,49 +414,6 @@ def fit_pair(twin: Twin, a: Candidate, b: Candidate, folds, grid: tuple[np.ndarr
     return Candidate(f"{a.name}+{b.name}", [a.name, b.name], fold_values, list(full), heldout, heldout_p, fold_lat, lat)
 
 
-# --- statistics ----------------------------------------------------------------------------
-def rms_deg(residuals: list[np.ndarray]) -> float:
-    return float(np.rad2deg(math.sqrt(np.mean(np.concatenate(residuals) ** 2))))
-
-
-def rms_kpa(residuals: list[np.ndarray]) -> float | None:
-    """Pressure residual rms in kPa over the runs that measured it (None if none did)."""
-    r = np.concatenate(residuals) if residuals else np.empty(0)
-    return float(math.sqrt(np.mean(r**2)) / 1e3) if r.size else None
-
-
-def _in_floors(angle: np.ndarray, pressure: np.ndarray, floor_deg: float, floor_kpa: float) -> np.ndarray:
-    return np.concatenate([np.rad2deg(angle) / floor_deg, pressure / (floor_kpa * 1e3)])
-
-
-def run_ms(angle: list[np.ndarray], pressure: list[np.ndarray], floor_deg: float, floor_kpa: float) -> np.ndarray:
-    """Per run: mean square misfit in units of the floors (angle samples and pressure samples)."""
-    return np.array([np.mean(_in_floors(a, p, floor_deg, floor_kpa) ** 2) for a, p in zip(angle, pressure)])
-
-
-def normalised_rms(angle: list[np.ndarray], pressure: list[np.ndarray], floor_deg: float, floor_kpa: float) -> float:
-    """rms misfit of all samples, angle and pressure, each in units of its own floor."""
-    return float(math.sqrt(np.mean(np.concatenate([_in_floors(a, p, floor_deg, floor_kpa) for a, p in zip(angle, pressure)]) ** 2)))
-
-
-def bootstrap_ci(values_per_run: list[np.ndarray], rng: np.random.Generator, n_boot: int = N_BOOT, root: bool = False) -> tuple[float, float]:
-    """95% interval of the mean of the concatenated samples (its square root with `root`: an rms
-    from squared values), resampling whole runs with replacement."""
-    n = len(values_per_run)
-    if n == 0:
-        return (math.nan, math.nan)
-    sums = np.array([float(np.sum(v)) for v in values_per_run])
-    counts = np.array([len(v) for v in values_per_run])
-    pick = rng.integers(0, n, (n_boot, n))
-    out = sums[pick].sum(axis=1) / np.maximum(counts[pick].sum(axis=1), 1)
-    out = np.sqrt(out) if root else out
-    return float(np.quantile(out, 0.025)), float(np.quantile(out, 0.975))
-
-
-def rms_ci_deg(residuals: list[np.ndarray], rng: np.random.Generator) -> tuple[float, float]:
-    return bootstrap_ci([np.rad2deg(r) ** 2 for r in residuals], rng, 300, root=True)
-
-
 def repeat_groups(twin: Twin) -> list[list[int]]:
     groups: dict[tuple, list[int]] = {}
     for k, pr in enumerate(twin.runs):
@@ -379,7 +428,10 @@ def angle_noise(twin: Twin) -> RepeatNoise:
 
 def pressure_noise(twin: Twin) -> RepeatNoise:
     """Chamber-pressure noise and drift (Pa) of the transducers (port A), from repeated runs."""
-    return repeat_noise(repeat_groups(twin), lambda k: (twin.runs[k].tp[twin.runs[k].pmask[0]], twin.runs[k].pmeas[: int(twin.runs[k].pmask[0].sum())]))
+    return repeat_noise(
+        repeat_groups(twin),
+        lambda k: (twin.runs[k].tp[twin.runs[k].pmask[0]], twin.runs[k].pmeas[: int(twin.runs[k].pmask[0].sum())]),
+    )
 
 
 def where_labels(twin: Twin) -> dict[str, np.ndarray]:
@@ -407,6 +459,11 @@ class Floors:
     noise_p: RepeatNoise  # from repeats (Pa)
     floor_kpa: float
 
+    def score(self, c: Candidate) -> float:
+        """Held-out misfit in units of the floors, angle and (where measured) chamber pressure
+        together: the ranking's key. Without pressures it is the angle rms over its floor."""
+        return normalised_rms(c.heldout, c.heldout_p, self.floor_deg, self.floor_kpa)
+
 
 def floors_of(twin: Twin, model_tolerance_deg: float) -> Floors:
     nz = angle_noise(twin)
@@ -416,17 +473,19 @@ def floors_of(twin: Twin, model_tolerance_deg: float) -> Floors:
     # a run departs from its repeats' mean by drift/sqrt(2): no effect fitted to all can explain that
     floor = math.sqrt(noise_deg**2 + drift_deg**2 / 2.0 + model_tolerance_deg**2)
     nzp = pressure_noise(twin)
-    sp = (0.0 if math.isnan(nzp.sigma) else nzp.sigma / 1e3) ** 2 + (0.0 if math.isnan(nzp.drift) else nzp.drift / 1e3) ** 2 / 2.0
-    return Floors(noise_deg, nz, model_tolerance_deg, floor, SIGNIFICANCE * floor, nzp, math.sqrt(sp + MODEL_TOLERANCE_KPA**2))
+    sp = (0.0 if math.isnan(nzp.sigma) else nzp.sigma / 1e3) ** 2 + (
+        0.0 if math.isnan(nzp.drift) else nzp.drift / 1e3
+    ) ** 2 / 2.0
+    return Floors(
+        noise_deg, nz, model_tolerance_deg, floor, SIGNIFICANCE * floor, nzp, math.sqrt(sp + MODEL_TOLERANCE_KPA**2)
+    )
 
 
 def _parallel(n_jobs: int, scheduler: str | None):
     """joblib's Parallel on local threads (the compiled replay releases the GIL), or on a Dask
     cluster at `scheduler` (as `twin sweep --scheduler`)."""
-    from joblib import Parallel, parallel_config
-
     if scheduler:
-        try:
+        try:  # an optional dependency (the [cluster] extra): imported only when asked for
             from dask.distributed import Client
         except ImportError:
             raise GapError("--scheduler needs Dask: pip install 'pneumatic-arm-twin[cluster]'") from None
@@ -443,141 +502,201 @@ def _parallel(n_jobs: int, scheduler: str | None):
     return lambda jobs: Parallel(n_jobs=n_jobs, backend="threading")(jobs)
 
 
-def diagnose(campaign: Campaign, catalogue: tuple[Effect, ...] = CATALOGUE, model_tolerance_deg: float | None = None, n_jobs: int = 2, progress: bool = True, seed: int = 0, scheduler: str | None = None) -> dict:
-    """The diagnosis of `campaign` as a plain dict (see the module docstring for its steps)."""
-    from joblib import delayed
+@dataclass
+class Fits:
+    """The candidates, each sorted by held-out score, and the wall time of their stages."""
 
+    singles: list[Candidate]
+    pairs: list[Candidate]
+    skipped: list[str]  # catalogue effects already in the nominal twin
+    timing: Timing
+
+
+def fit_candidates(twin: Twin, catalogue, fl: Floors, significant: bool, run_jobs, progress: bool) -> Fits:
+    """Step 3's fits: every single effect, then, when no single brings a significant gap under the
+    threshold, the pair stage (`_pair_stage`)."""
+    # effects already in the nominal twin at their catalogue value are not candidates
+    effects = [
+        e for e in catalogue if not (e.discrete_value is not None and e.value_of(twin.params) == e.discrete_value)
+    ]
+    folds = folds_of(twin.campaign)
+    start = time.perf_counter()
+    with _progress(len(effects), "gap: effects", progress):
+        singles: list[Candidate] = run_jobs(delayed(fit_single)(twin, e, folds) for e in effects)
+    singles.sort(key=fl.score)
+    t_singles = time.perf_counter()
+    pairs: list[Candidate] = []
+    if significant and singles and rms_deg(singles[0].heldout) > fl.threshold_deg:
+        pairs = _pair_stage(twin, singles, folds, run_jobs, progress)
+        pairs.sort(key=fl.score)
+    t_pairs = time.perf_counter()
+    timing = Timing(t_singles - start, t_pairs - t_singles, t_pairs - start)
+    return Fits(singles, pairs, [e.name for e in catalogue if e not in effects], timing)
+
+
+def nominal_residuals(twin: Twin, latency_s: float) -> tuple[list[np.ndarray], list[np.ndarray]]:
+    """Per run, the nominal twin's angle and pressure residuals, the instrument `latency_s` late."""
+    res = twin.residuals_with([], range(len(twin.runs)), latency_s).values()
+    return [a for a, _ in res], [p for _, p in res]
+
+
+def diagnose(
+    campaign: Campaign,
+    catalogue: tuple[Effect, ...] = CATALOGUE,
+    model_tolerance_deg: float | None = None,
+    n_jobs: int = 2,
+    progress: bool = True,
+    seed: int = 0,
+    scheduler: str | None = None,
+) -> Diagnosis:
+    """The diagnosis of `campaign` (see the module docstring for its steps)."""
     tolerance = MODEL_TOLERANCE_DEG if model_tolerance_deg is None else model_tolerance_deg
     twin = Twin(campaign)
-    folds = folds_of(campaign)
     rng = np.random.default_rng(seed)
-    n = len(twin.runs)
     fl = floors_of(twin, tolerance)
     if twin.has_pressure:  # each channel counts in units of its own floor
         twin.pressure_weight = (math.radians(fl.floor_deg) / (fl.floor_kpa * 1e3)) ** 2
-    nominal_latency = twin.latency_of([], range(n))
-    before, before_p = (list(r) for r in zip(*twin.residuals_with([], range(n), nominal_latency).values()))
+    nominal_latency = twin.latency_of([], range(len(twin.runs)))
+    before, _ = nominal_residuals(twin, nominal_latency)
     before_rms = rms_deg(before)
     significant = before_rms > fl.threshold_deg
+    fits = fit_candidates(twin, catalogue, fl, significant, _parallel(n_jobs, scheduler), progress)
 
-    def score(c: Candidate) -> float:
-        """Held-out misfit in units of the floors, angle and (where measured) chamber pressure
-        together: the ranking's key. Without pressures it is the angle rms over its floor."""
-        return normalised_rms(c.heldout, c.heldout_p, fl.floor_deg, fl.floor_kpa)
-
-    # effects already in the nominal twin at their catalogue value are not candidates
-    effects = [e for e in catalogue if not (e.discrete_value is not None and e.value_of(twin.params) == e.discrete_value)]
-    skipped = [e.name for e in catalogue if e not in effects]
-    run_jobs = _parallel(n_jobs, scheduler)
-    clock = {"start": time.perf_counter()}
-    with _progress(len(effects), "gap: effects", progress):
-        singles: list[Candidate] = run_jobs(delayed(fit_single)(twin, e, folds) for e in effects)
-    singles.sort(key=score)
-    clock["singles"] = time.perf_counter()
-    best = singles[0] if singles else None
-    pairs: list[Candidate] = []
-    if significant and best is not None and rms_deg(best.heldout) > fl.threshold_deg:
-        pairs = _pair_stage(twin, singles, folds, run_jobs, progress)
-        pairs.sort(key=score)
-    clock["pairs"] = time.perf_counter()
-
-    judge = verdict.Judge(twin, fl, before_rms, score, rng)
-    call = judge.call(significant, singles, pairs)
+    judge = verdict.Judge(twin, fl, before_rms, fl.score, rng)
+    call = judge.call(significant, fits.singles, fits.pairs)
     labels = where_labels(twin)
-    family = judge.family_call(singles, labels, before, nominal_latency)
+    family = judge.family_call(fits.singles, labels, before, nominal_latency)
     # the instrument as best understood: the latency fitted with the answer (with the nominal twin
     # alone a latency soaks up part of any gap that makes the twin run ahead); the nominal twin's
     # residual, its breakdown and how far are reported at it
     latency = call.top.latency_s if call.top is not None else nominal_latency
-    before, before_p = (list(r) for r in zip(*twin.residuals_with([], range(n), latency).values()))
+    return result_of(judge, fits, call, family, labels, latency, rng)
+
+
+def result_of(
+    judge: verdict.Judge,
+    fits: Fits,
+    call: verdict.Call,
+    family: verdict.FamilyCall,
+    labels: dict[str, np.ndarray],
+    latency_s: float,
+    rng: np.random.Generator,
+) -> Diagnosis:
+    """The typed result, with the nominal twin's residual at `latency_s` (the bootstrap intervals
+    draw from `rng` in the order: how far, before, top, ranking, pairs)."""
+    twin, fl = judge.twin, judge.floors
+    campaign = twin.campaign
+    before, before_p = nominal_residuals(twin, latency_s)
     before_rms = rms_deg(before)
-
-    def summary(c: Candidate) -> dict:
-        lo, hi = rms_ci_deg(c.heldout, rng)
-        return {
-            "name": c.name,
-            "effects": c.effects,
-            "labels": [BY_NAME[x].label for x in c.effects],
-            "families": [BY_NAME[x].family for x in c.effects],
-            "fields": [BY_NAME[x].field for x in c.effects],
-            "nominal_values": [BY_NAME[x].value_of(twin.params) for x in c.effects],
-            "fitted_values": c.full_values,
-            "fold_values": c.fold_values,
-            "at_bound": verdict.at_bounds(c),
-            "off_nominal": verdict.off_nominal(c, twin.params),
-            "latency_s": c.latency_s,
-            "heldout_rms_deg": rms_deg(c.heldout),
-            "heldout_pressure_rms_kpa": rms_kpa(c.heldout_p),
-            "score_in_floors": score(c),
-            "heldout_rms_ci95_deg": [lo, hi],
-            "shrink": rms_deg(c.heldout) / before_rms if before_rms > 0 else math.nan,
-            "explains": judge.explains(c),
-        }
-
-    pressures = sorted({round(r.supply_mpa, 4) for r in campaign.runs})
-
-    def per_pressure(res: list[np.ndarray]) -> dict:
-        out = {}
-        for q in pressures:
-            ks = [k for k in range(n) if round(campaign.runs[k].supply_mpa, 4) == q]
-            vals = [np.rad2deg(np.abs(res[k])) for k in ks]
-            allv = np.concatenate(vals)
-            lo, hi = bootstrap_ci(vals, rng, 300)
-            out[f"{q:.2f}"] = {"mean_deg": float(allv.mean()), "max_deg": float(allv.max()), "mean_ci95_deg": [lo, hi], "runs": len(ks)}
-        return out
-
-    how_far = {"before": per_pressure(before)}
-    for c in singles + pairs:
-        how_far[c.name] = per_pressure(c.heldout)
+    how_far = {"before": error_by_pressure(campaign, before, rng)}
+    for c in fits.singles + fits.pairs:
+        how_far[c.name] = error_by_pressure(campaign, c.heldout, rng)
+    before_ci = rms_ci_deg(before, rng)
     top = call.top
-    return {
-        "campaign": str(campaign.folder),
-        "joint": campaign.joint,
-        "runs": [r.name for r in campaign.runs],
-        "twin": {"hose_loss": twin.params.hose_loss, "inertia_kg_m2": twin.inertia},
-        "folds": "leave one supply pressure out" if len(pressures) > 1 else "alternating split",
-        "instrument": instrument.describe(campaign.instrument, twin.nuisance, latency, campaign.runs),
-        "noise_floor": {
-            "measurement_deg": fl.noise_deg,
-            "measurement_from": "declared" if campaign.instrument.noise_deg is not None else "repeats",
-            "repeat_noise_deg": math.degrees(fl.noise.sigma),
-            "repeat_drift_deg": math.degrees(fl.noise.drift),
-            "repeat_pairs": fl.noise.pairs,
-            "repeat_samples": fl.noise.samples,
-            "model_tolerance_deg": fl.tolerance_deg,
-            "floor_deg": fl.floor_deg,
-            "significance_threshold_deg": fl.threshold_deg,
-        },
-        "pressure": ({"measured": True, "noise_kpa": fl.noise_p.sigma / 1e3, "drift_kpa": fl.noise_p.drift / 1e3, "model_tolerance_kpa": MODEL_TOLERANCE_KPA, "floor_kpa": fl.floor_kpa, "before_rms_kpa": rms_kpa(before_p)} if twin.has_pressure else {"measured": False}),
-        "before_rms_deg": before_rms,
-        "before_rms_ci95_deg": list(rms_ci_deg(before, rng)),
-        "where": where.breakdown(labels, np.concatenate(before)),
-        "which": {
-            "verdict": call.verdict,
-            "top": summary(top) if top is not None else None,
-            "rivals": call.rivals,
-            "pairs_refused": call.pairs_refused,
-            # the family-level answer: the families ranked by how well their best member matches
-            # the gap's where-pattern and fits the withheld runs (gap.verdict.Judge.family_call)
-            "nearest": family if call.verdict == "outside the catalogue" else None,
-            "families": family["evidence"],
-            "ranking": [summary(c) for c in singles],
-            "pairs": [summary(c) for c in pairs],
-            "skipped_already_in_twin": skipped,
-        },
-        "how_far": how_far,
-        "replays": twin.n_replays,
-        "timing_s": {"singles": clock["singles"] - clock["start"], "pairs": clock["pairs"] - clock["singles"], "total_fits": clock["pairs"] - clock["start"]},
-        "_residuals": {"before": before, "top": top.heldout if top is not None else None, "times": [pr.ts for pr in twin.runs]},
-    }
+    which = Which(
+        verdict=call.verdict,
+        top=summarise(top, judge, before_rms, rng) if top is not None else None,
+        rivals=call.rivals,
+        pairs_refused=call.pairs_refused,
+        # the family-level answer: the families ranked by how well their best member matches the
+        # gap's where-pattern and fits the withheld runs (gap.verdict.Judge.family_call)
+        nearest=family if call.verdict == "outside the catalogue" else None,
+        families=family.evidence,
+        ranking=[summarise(c, judge, before_rms, rng) for c in fits.singles],
+        pairs=[summarise(c, judge, before_rms, rng) for c in fits.pairs],
+        skipped_already_in_twin=fits.skipped,
+    )
+    return Diagnosis(
+        campaign=str(campaign.folder),
+        joint=campaign.joint,
+        runs=[r.name for r in campaign.runs],
+        twin=TwinFacts(twin.params.hose_loss, twin.inertia),
+        folds="leave one supply pressure out" if len(supplies(campaign)) > 1 else "alternating split",
+        instrument=instrument.describe(campaign.instrument, twin.nuisance, latency_s, campaign.runs),
+        noise_floor=noise_floor_of(fl, campaign),
+        pressure=pressure_floor_of(fl, before_p) if twin.has_pressure else PressureFloor(False),
+        before_rms_deg=before_rms,
+        before_rms_ci95_deg=before_ci,
+        where=where.breakdown(labels, np.concatenate(before)),
+        which=which,
+        how_far=how_far,
+        replays=twin.n_replays,
+        timing_s=fits.timing,
+        residuals=Residuals(before, top.heldout if top is not None else None, [pr.ts for pr in twin.runs]),
+    )
+
+
+def summarise(c: Candidate, judge: verdict.Judge, before_rms: float, rng: np.random.Generator) -> CandidateSummary:
+    """Candidate c as reported; its shrink against the nominal twin's rms `before_rms`."""
+    lo, hi = rms_ci_deg(c.heldout, rng)
+    effects = [BY_NAME[x] for x in c.effects]
+    heldout_rms = rms_deg(c.heldout)
+    return CandidateSummary(
+        name=c.name,
+        effects=c.effects,
+        labels=[e.label for e in effects],
+        families=[e.family for e in effects],
+        fields=[e.field for e in effects],
+        nominal_values=[e.value_of(judge.twin.params) for e in effects],
+        fitted_values=c.full_values,
+        fold_values=c.fold_values,
+        at_bound=verdict.at_bounds(c),
+        off_nominal=verdict.off_nominal(c, judge.twin.params),
+        latency_s=c.latency_s,
+        heldout_rms_deg=heldout_rms,
+        heldout_pressure_rms_kpa=rms_kpa(c.heldout_p),
+        score_in_floors=judge.score(c),
+        heldout_rms_ci95_deg=(lo, hi),
+        shrink=heldout_rms / before_rms if before_rms > 0 else math.nan,
+        explains=judge.explains(c),
+    )
+
+
+def supplies(campaign: Campaign) -> list[float]:
+    """The campaign's supply pressures (MPa, rounded to 4 decimals), ascending."""
+    return sorted({round(r.supply_mpa, 4) for r in campaign.runs})
+
+
+def error_by_pressure(campaign: Campaign, res: list[np.ndarray], rng: np.random.Generator) -> dict[str, PressureError]:
+    """Per supply: mean and max |residual| (deg) over its runs, the mean's bootstrap interval."""
+    out = {}
+    for q in supplies(campaign):
+        ks = [k for k, r in enumerate(campaign.runs) if round(r.supply_mpa, 4) == q]
+        vals = [np.rad2deg(np.abs(res[k])) for k in ks]
+        allv = np.concatenate(vals)
+        out[f"{q:.2f}"] = PressureError(float(allv.mean()), float(allv.max()), bootstrap_ci(vals, rng, 300), len(ks))
+    return out
+
+
+def noise_floor_of(fl: Floors, campaign: Campaign) -> NoiseFloor:
+    return NoiseFloor(
+        measurement_deg=fl.noise_deg,
+        measurement_from="declared" if campaign.instrument.noise_deg is not None else "repeats",
+        repeat_noise_deg=math.degrees(fl.noise.sigma),
+        repeat_drift_deg=math.degrees(fl.noise.drift),
+        repeat_pairs=fl.noise.pairs,
+        repeat_samples=fl.noise.samples,
+        model_tolerance_deg=fl.tolerance_deg,
+        floor_deg=fl.floor_deg,
+        significance_threshold_deg=fl.threshold_deg,
+    )
+
+
+def pressure_floor_of(fl: Floors, before_p: list[np.ndarray]) -> PressureFloor:
+    return PressureFloor(
+        measured=True,
+        noise_kpa=fl.noise_p.sigma / 1e3,
+        drift_kpa=fl.noise_p.drift / 1e3,
+        model_tolerance_kpa=MODEL_TOLERANCE_KPA,
+        floor_kpa=fl.floor_kpa,
+        before_rms_kpa=rms_kpa(before_p),
+    )
 
 
 class _progress:
     """A tqdm bar on stderr around a stage (joblib jobs cannot tick it from a Dask worker)."""
 
     def __init__(self, total: int, desc: str, enabled: bool):
-        from tqdm import tqdm
-
         self.bar = tqdm(total=total, desc=desc, file=sys.stderr, disable=not enabled)
 
     def __enter__(self):
@@ -589,11 +708,9 @@ class _progress:
 
 
 def _pair_stage(twin: Twin, singles: list[Candidate], folds, run_jobs, progress: bool) -> list[Candidate]:
-    """Every pair of the PAIR_POOL best singles screened in-sample (`screen_pair`) over one run per distinct command and supply
-    (repeats differ only by measurement noise); the best N_PAIRS_CV get the full grid on all runs
-    and the cross-validated fit."""
-    from joblib import delayed
-
+    """Every pair of the PAIR_POOL best singles screened in-sample (`screen_pair`) over one run per
+    distinct command and supply (repeats differ only by measurement noise); the best N_PAIRS_CV get
+    the full grid on all runs and the cross-validated fit."""
     pool = singles[:PAIR_POOL]  # singles come sorted by held-out score
     combos = [(a, b) for i, a in enumerate(pool) for b in pool[i + 1 :]]
     distinct = sorted({pr.run.signature(): k for k, pr in reversed(list(enumerate(twin.runs)))}.values())

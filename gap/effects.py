@@ -22,6 +22,9 @@ class Rig(NamedTuple):
     load_spring_nm_per_rad: float = 0.0
 
 
+NOMINAL_RIG = Rig()  # the rig as the twin has it (an immutable tuple: safe as a default)
+
+
 @dataclass(frozen=True)
 class Effect:
     name: str
@@ -35,9 +38,9 @@ class Effect:
     equation: str = ""
 
     def value_of(self, params: JointParams) -> float:
-        return getattr(Rig(), self.field) if self.field in Rig._fields else float(getattr(params, self.field))
+        return getattr(NOMINAL_RIG, self.field) if self.field in Rig._fields else float(getattr(params, self.field))
 
-    def apply(self, params: JointParams, value: float, rig: Rig = Rig()) -> tuple[JointParams, Rig]:
+    def apply(self, params: JointParams, value: float, rig: Rig = NOMINAL_RIG) -> tuple[JointParams, Rig]:
         """(params, rig) with the effect at `value`."""
         if self.field in Rig._fields:
             return params, rig._replace(**{self.field: float(value)})
@@ -48,33 +51,178 @@ class Effect:
 # are the nominal: coulomb 15 N·m, viscous 3 N·m·s/rad, solenoid 15 ms, valve tau 0.1 s). The leak
 # area's grid is logarithmic: a worn vane's gap area spans orders of magnitude.
 CATALOGUE: tuple[Effect, ...] = (
-    Effect("hose_loss", "hose pressure loss", "hose_loss", 0.0, 1.0, discrete_value=1.0, family="hose", equation="Darcy-Weisbach hose resistance on both ports (paper eq. 1-5)"),
-    Effect("vane_leakage", "vane leakage", "leak_area_m2", 0.0, 2.0e-6, log=True, family="leakage", equation="orifice A->B past the vanes, area fitted (m^2)"),
-    Effect("coulomb_friction", "Coulomb friction", "coulomb_nm", 0.0, 60.0, family="friction", equation="Coulomb level C_s (N·m), Karnopp stick rule"),
-    Effect("stribeck_friction", "Stribeck friction", "stribeck_excess_nm", 0.0, 60.0, family="friction", equation="static-minus-Coulomb excess (N·m), exp(-(w/ws)^2)"),
-    Effect("viscous_friction", "viscous friction", "viscous_nm_s", 0.0, 20.0, family="friction", equation="C_f (N·m·s/rad)"),
-    Effect("valve_dead_time", "direction valve dead time (solenoid delay)", "solenoid_delay_s", 0.0, 0.3, family="valve timing", equation="direction valve switches after a delay (s)"),
-    Effect("valve_set_dead_time", "proportional valve dead time", "valve_set_dead_time_s", 0.0, 0.3, family="valve timing", equation="the proportional valve's set point takes effect after a delay (s)"),
-    Effect("valve_lag", "valve lag (valve time constant)", "valve_time_constant_s", 0.005, 0.6, log=True, family="valve timing", equation="proportional valve first-order lag tau (s)"),
-    Effect("valve_dead_zone", "valve dead zone", "valve_dead_zone", 0.0, 0.6, family="valve", equation="u' = (u - dz)/(1 - dz)"),
-    Effect("conductance_error", "valve conductance error", "conductance_scale", 0.3, 2.5, log=True, family="valve", equation="valve areas x scale"),
-    Effect("heat_exchange", "heat exchange (polytropic exponent)", "polytropic_n", 1.0, 1.4, family="thermal", equation="chamber law with n in 1..1.4"),
-    Effect("supply_droop", "supply droop under flow", "supply_droop_pa_s_per_kg", 0.0, 5.0e7, family="supply", equation="p_s' = p_s - k * choked inlet flow (Pa·s/kg)"),
-    Effect("inertia_error", "payload/inertia error", INERTIA, 0.3, 3.0, log=True, family="load", equation="joint-side inertia x scale"),
+    Effect(
+        "hose_loss",
+        "hose pressure loss",
+        "hose_loss",
+        0.0,
+        1.0,
+        discrete_value=1.0,
+        family="hose",
+        equation="Darcy-Weisbach hose resistance on both ports (paper eq. 1-5)",
+    ),
+    Effect(
+        "vane_leakage",
+        "vane leakage",
+        "leak_area_m2",
+        0.0,
+        2.0e-6,
+        log=True,
+        family="leakage",
+        equation="orifice A->B past the vanes, area fitted (m^2)",
+    ),
+    Effect(
+        "coulomb_friction",
+        "Coulomb friction",
+        "coulomb_nm",
+        0.0,
+        60.0,
+        family="friction",
+        equation="Coulomb level C_s (N·m), Karnopp stick rule",
+    ),
+    Effect(
+        "stribeck_friction",
+        "Stribeck friction",
+        "stribeck_excess_nm",
+        0.0,
+        60.0,
+        family="friction",
+        equation="static-minus-Coulomb excess (N·m), exp(-(w/ws)^2)",
+    ),
+    Effect(
+        "viscous_friction", "viscous friction", "viscous_nm_s", 0.0, 20.0, family="friction", equation="C_f (N·m·s/rad)"
+    ),
+    Effect(
+        "valve_dead_time",
+        "direction valve dead time (solenoid delay)",
+        "solenoid_delay_s",
+        0.0,
+        0.3,
+        family="valve timing",
+        equation="direction valve switches after a delay (s)",
+    ),
+    Effect(
+        "valve_set_dead_time",
+        "proportional valve dead time",
+        "valve_set_dead_time_s",
+        0.0,
+        0.3,
+        family="valve timing",
+        equation="the proportional valve's set point takes effect after a delay (s)",
+    ),
+    Effect(
+        "valve_lag",
+        "valve lag (valve time constant)",
+        "valve_time_constant_s",
+        0.005,
+        0.6,
+        log=True,
+        family="valve timing",
+        equation="proportional valve first-order lag tau (s)",
+    ),
+    Effect(
+        "valve_dead_zone",
+        "valve dead zone",
+        "valve_dead_zone",
+        0.0,
+        0.6,
+        family="valve",
+        equation="u' = (u - dz)/(1 - dz)",
+    ),
+    Effect(
+        "conductance_error",
+        "valve conductance error",
+        "conductance_scale",
+        0.3,
+        2.5,
+        log=True,
+        family="valve",
+        equation="valve areas x scale",
+    ),
+    Effect(
+        "heat_exchange",
+        "heat exchange (polytropic exponent)",
+        "polytropic_n",
+        1.0,
+        1.4,
+        family="thermal",
+        equation="chamber law with n in 1..1.4",
+    ),
+    Effect(
+        "supply_droop",
+        "supply droop under flow",
+        "supply_droop_pa_s_per_kg",
+        0.0,
+        5.0e7,
+        family="supply",
+        equation="p_s' = p_s - k * choked inlet flow (Pa·s/kg)",
+    ),
+    Effect(
+        "inertia_error",
+        "payload/inertia error",
+        INERTIA,
+        0.3,
+        3.0,
+        log=True,
+        family="load",
+        equation="joint-side inertia x scale",
+    ),
     # a static load that depends on the angle (a cable or hose bundle, a counterbalance spring set
     # wrong): up to 60 N·m/rad, 63 N·m at 60 deg, near the wrist's stall torque at 0.8 MPa (69 N·m)
-    Effect("angle_load", "angle-dependent static load", LOAD_SPRING, 0.0, 60.0, family="load", equation="load torque -k theta (N·m/rad), theta from the joint's zero"),
+    Effect(
+        "angle_load",
+        "angle-dependent static load",
+        LOAD_SPRING,
+        0.0,
+        60.0,
+        family="load",
+        equation="load torque -k theta (N·m/rad), theta from the joint's zero",
+    ),
     # the brake (pneumatics/brake.py): its full-release pressure above nominal (4.75 bar; a weak
     # piston seal or stiffer springs) leaves the lining dragging wherever the motor port's air is
     # under it (low supply, partial openings); up to 9 bar, above every supply: never fully clear
-    Effect("brake_incomplete_release", "brake incomplete release (full-release pressure)", "brake_release_gauge_pa", 3.25e5, 9.0e5, family="brake", equation="engagement (p_full - p_feed)/(p_full - p_start) while released (Pa)"),
+    Effect(
+        "brake_incomplete_release",
+        "brake incomplete release (full-release pressure)",
+        "brake_release_gauge_pa",
+        3.25e5,
+        9.0e5,
+        family="brake",
+        equation="engagement (p_full - p_feed)/(p_full - p_start) while released (Pa)",
+    ),
     # a worn lining holds and stops with less torque (nominal 100 N·m): a longer slide at every stop
-    Effect("brake_holding", "brake holding torque", "brake_holding_nm", 20.0, 300.0, family="brake", equation="holding and slipping torque of the engaged brake (N·m)"),
+    Effect(
+        "brake_holding",
+        "brake holding torque",
+        "brake_holding_nm",
+        20.0,
+        300.0,
+        family="brake",
+        equation="holding and slipping torque of the engaged brake (N·m)",
+    ),
     # the reducer (pneumatics/reducer.py): lost motion up to 0.05 rad (3 deg, a badly worn gear;
     # a strain-wave gear has ~3e-4 rad) and compliance up to 2e-3 rad/N·m (7x softer than the
     # size-17 gear's 1/K1 ~ 3e-4); both grids logarithmic, they span orders of magnitude
-    Effect("reducer_backlash", "reducer backlash", "reducer_backlash_rad", 0.0, 0.05, log=True, family="reducer", equation="dead zone of width b between motor and joint side (rad)"),
-    Effect("reducer_compliance", "reducer compliance", "reducer_compliance_rad_per_nm", 0.0, 2.0e-3, log=True, family="reducer", equation="torsional spring 1/k between motor and joint side (rad/N·m)"),
+    Effect(
+        "reducer_backlash",
+        "reducer backlash",
+        "reducer_backlash_rad",
+        0.0,
+        0.05,
+        log=True,
+        family="reducer",
+        equation="dead zone of width b between motor and joint side (rad)",
+    ),
+    Effect(
+        "reducer_compliance",
+        "reducer compliance",
+        "reducer_compliance_rad_per_nm",
+        0.0,
+        2.0e-3,
+        log=True,
+        family="reducer",
+        equation="torsional spring 1/k between motor and joint side (rad/N·m)",
+    ),
 )
 NOT_IN_CATALOGUE = (
     "torque ripple with motor angle (ripple_fraction exists in pneumatics/ and the bench hides it, "

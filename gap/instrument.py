@@ -51,21 +51,45 @@ def estimate(campaign: Campaign) -> Nuisance:
     return Nuisance(float(np.mean(rest)) if rest.size else 0.0, int(rest.size), grid)
 
 
-def describe(instrument: Instrument, nuisance: Nuisance, latency_s: float, runs: list[Run]) -> dict:
+@dataclass(frozen=True)
+class Declared:
+    """What campaign.toml's [instrument] declared (None: not declared)."""
+
+    latency_s: float | None
+    noise_deg: float | None
+    rate_hz: float | None
+
+
+@dataclass(frozen=True)
+class InstrumentFacts:
+    """What the diagnosis knows of the instrument: declared, estimated, observed in the files."""
+
+    declared: Declared
+    latency_s: float  # the one fitted with the diagnosis's answer (or the declared one)
+    latency_estimated: bool
+    offset_deg: float
+    offset_rest_samples: int
+    observed_rate_hz: float
+    rate_mismatch: bool  # the observed rate departs from the declared one by more than 5 %
+    dropped_samples: int
+    samples: int
+
+
+def describe(instrument: Instrument, nuisance: Nuisance, latency_s: float, runs: list[Run]) -> InstrumentFacts:
     """What the diagnosis knows of the instrument: declared, estimated, observed in the files."""
     periods = [sample_period(r.time_s[r.sampled]) for r in runs]
     period = float(np.median(periods))
     expected = sum(int(round((r.time_s[r.sampled][-1] - r.time_s[r.sampled][0]) / period)) + 1 for r in runs)
     got = sum(int(r.sampled.sum()) for r in runs)
     rate = 1.0 / period if period > 0 else math.nan
-    return {
-        "declared": {"latency_s": instrument.latency_s, "noise_deg": instrument.noise_deg, "rate_hz": instrument.rate_hz},
-        "latency_s": latency_s,
-        "latency_estimated": instrument.latency_s is None,
-        "offset_deg": math.degrees(nuisance.offset_rad),
-        "offset_rest_samples": nuisance.offset_samples,
-        "observed_rate_hz": rate,
-        "rate_mismatch": instrument.rate_hz is not None and abs(rate - instrument.rate_hz) > 0.05 * instrument.rate_hz,
-        "dropped_samples": max(0, expected - got),
-        "samples": got,
-    }
+    return InstrumentFacts(
+        declared=Declared(instrument.latency_s, instrument.noise_deg, instrument.rate_hz),
+        latency_s=latency_s,
+        latency_estimated=instrument.latency_s is None,
+        offset_deg=math.degrees(nuisance.offset_rad),
+        offset_rest_samples=nuisance.offset_samples,
+        observed_rate_hz=rate,
+        rate_mismatch=instrument.rate_hz is not None and abs(rate - instrument.rate_hz) > 0.05 * instrument.rate_hz,
+        dropped_samples=max(0, expected - got),
+        samples=got,
+    )

@@ -58,7 +58,7 @@ def repeat_noise(groups: list[list[int]], series) -> RepeatNoise:
     repeats); `series(k) -> (times, values)` gives run k's samples."""
     d2, step2, pairs, n = [], [], 0, 0
     for ks in groups:
-        for a, b in zip(ks, ks[1:]):
+        for a, b in zip(ks, ks[1:], strict=False):
             (ta, va), (tb, vb) = series(a), series(b)
             if len(ta) < 3 or len(tb) < 3:
                 continue

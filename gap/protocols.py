@@ -16,6 +16,7 @@ twin must not call its own error on any of them an effect.
 
 from __future__ import annotations
 
+import json
 from dataclasses import dataclass
 
 import numpy as np
@@ -23,7 +24,13 @@ import numpy as np
 # rms difference replay - plant per protocol over 0.5-0.8 MPa, nominal wrist, in angle (deg) and
 # chamber pressures (kPa); measured by `python -m gap.protocols` (the README's gap section says at
 # which commit)
-TOLERANCE_DEG = {"paper_60": 0.057, "staircase": 0.023, "back_and_forth": 0.135, "stop_and_go": 0.179, "reversal": 0.050}
+TOLERANCE_DEG = {
+    "paper_60": 0.057,
+    "staircase": 0.023,
+    "back_and_forth": 0.135,
+    "stop_and_go": 0.179,
+    "reversal": 0.050,
+}
 TOLERANCE_KPA = {"paper_60": 0.54, "staircase": 0.17, "back_and_forth": 1.18, "stop_and_go": 0.89, "reversal": 0.61}
 TOLERANCE_FACTOR = 2.0  # the tolerance is twice the measured rms (room for what the campaigns vary)
 
@@ -40,7 +47,9 @@ def worst_tolerance_kpa() -> float:
 class Segment:
     duration_s: float
     direction: int  # -1 / 0 / +1
-    opening: float | None = None  # proportional valve opening u (set point u / k_u); None: wide open, delivering the supply
+    opening: float | None = (
+        None  # proportional valve opening u (set point u / k_u); None: wide open, delivering the supply
+    )
     brake_released: bool = True
 
 
@@ -56,7 +65,9 @@ class Protocol:
     def total_s(self) -> float:
         return self.lead_s + sum(s.duration_s for s in self.segments) + self.tail_s
 
-    def commands(self, t_s: np.ndarray, supply_gauge_pa: float, k_u_per_pa: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def commands(
+        self, t_s: np.ndarray, supply_gauge_pa: float, k_u_per_pa: float
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(direction, valve set point gauge Pa, brake_release) at the given times."""
         d = np.zeros_like(t_s)
         u = np.zeros_like(t_s)
@@ -92,7 +103,9 @@ def paper_60(supply_mpa: float) -> Protocol:
 # Partial openings 0.9, 0.95, 1.0 up (set points 4.6, 4.85, 5.1 bar gauge: the first just under
 # the brake's full release at 4.75 bar, so the motor-fed brake drags there, as on the real wrist),
 # braked pauses between, then back down wide open.
-STAIRCASE = Protocol("staircase", (*(s for u in (0.9, 0.95, 1.0) for s in (Segment(0.25, +1, u), _stop(0.25))), Segment(0.5, -1)))
+STAIRCASE = Protocol(
+    "staircase", (*(s for u in (0.9, 0.95, 1.0) for s in (Segment(0.25, +1, u), _stop(0.25))), Segment(0.5, -1))
+)
 BACK_AND_FORTH = Protocol("back_and_forth", (Segment(0.4, +1), Segment(0.4, -1), Segment(0.4, +1), Segment(0.4, -1)))
 # two braked stops on the way out, two on the way back
 STOP_AND_GO = Protocol("stop_and_go", tuple(s for d in (+1, +1, -1, -1) for s in (Segment(0.35, d), _stop(0.3))))
@@ -102,12 +115,20 @@ REVERSAL = Protocol("reversal", (Segment(0.5, +1), Segment(0.6, -1, 0.95)))
 
 def library(supply_mpa: float) -> dict[str, Protocol]:
     """Every protocol of the library at `supply_mpa` (only the paper's move depends on it)."""
-    return {"paper_60": paper_60(supply_mpa), "staircase": STAIRCASE, "back_and_forth": BACK_AND_FORTH, "stop_and_go": STOP_AND_GO, "reversal": REVERSAL}
+    return {
+        "paper_60": paper_60(supply_mpa),
+        "staircase": STAIRCASE,
+        "back_and_forth": BACK_AND_FORTH,
+        "stop_and_go": STOP_AND_GO,
+        "reversal": REVERSAL,
+    }
 
 
 def measure_tolerance(pressures_mpa=(0.5, 0.6, 0.7, 0.8)) -> dict[str, dict]:
     """Replay vs plant per protocol: rms and max |difference| of the angle (deg) and rms of the
     chamber pressures (kPa) over the given supplies, nominal wrist, no instrument noise."""
+    # imported here, not at the top: gap.diagnose takes its tolerance from this module (a circle),
+    # and only this measurement needs the plant (MuJoCo)
     from gap import synth
     from gap.campaign import Campaign, Run
     from gap.diagnose import Twin
@@ -119,17 +140,31 @@ def measure_tolerance(pressures_mpa=(0.5, 0.6, 0.7, 0.8)) -> dict[str, dict]:
         for mpa in pressures_mpa:
             proto = library(mpa)[name]
             run = synth.simulate_run(p0, mpa, proto)
-            measured = Run(name, None, mpa, 0.0, run["time_s"], run["direction"], run["brake_released"], run["valve_set_gauge_pa"], run["supply_pa"], run["angle_rad"], {k: run[k] for k in ("p_a_pa", "p_b_pa")})
+            measured = Run(
+                name,
+                None,
+                mpa,
+                0.0,
+                run["time_s"],
+                run["direction"],
+                run["brake_released"],
+                run["valve_set_gauge_pa"],
+                run["supply_pa"],
+                run["angle_rad"],
+                {k: run[k] for k in ("p_a_pa", "p_b_pa")},
+            )
             twin = Twin(Campaign(None, synth.JOINT, 0.0, p0.hose_length_m, synth.RIG_INERTIA_KG_M2, None, [measured]))
-            (a, p), = twin.residuals_with([], [0], 0.0).values()
+            ((a, p),) = twin.residuals_with([], [0], 0.0).values()
             ang.append(a)
             pres.append(p)
         a = np.rad2deg(np.concatenate(ang))
-        out[name] = {"rms_deg": float(np.sqrt(np.mean(a**2))), "max_deg": float(np.max(np.abs(a))), "pressure_rms_kpa": float(np.sqrt(np.mean(np.concatenate(pres) ** 2)) / 1e3)}
+        out[name] = {
+            "rms_deg": float(np.sqrt(np.mean(a**2))),
+            "max_deg": float(np.max(np.abs(a))),
+            "pressure_rms_kpa": float(np.sqrt(np.mean(np.concatenate(pres) ** 2)) / 1e3),
+        }
     return out
 
 
 if __name__ == "__main__":
-    import json
-
     print(json.dumps(measure_tolerance(), indent=1))

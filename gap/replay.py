@@ -3,7 +3,8 @@
 The twin used for fitting is `pneumatics.joint.single_joint_step` (the predictor's model) driven
 by the run's own command rows: per 1 ms step the valves advance with `advance_discrete`
 (solenoid delay, proportional valve lag), then the rigid body (with the motor side of a
-non-rigid reducer) and the four node pressures take one RK4 step and the brake follows its air. The whole run is one @njit call, so a run of a few seconds replays in a few ms
+non-rigid reducer) and the four node pressures take one RK4 step and the brake follows its air.
+The whole run is one @njit call, so a run of a few seconds replays in a few ms
 and the effect search can afford thousands of replays.
 """
 
@@ -18,22 +19,14 @@ from pneumatics.joint import (
     C_DIRECTION,
     C_PV_SET_GAUGE_PA,
     N_COMMAND,
-    N_RIGID,
-    N_STATE,
     R_OMEGA,
     R_PA_MOTOR,
-    R_PA_VALVE,
     R_PB_MOTOR,
-    R_PB_VALVE,
-    R_QM,
     R_THETA,
-    S_BRAKE,
-    S_PA_MOTOR,
-    S_PA_VALVE,
-    S_PB_MOTOR,
-    S_PB_VALVE,
     S_PV,
     advance_discrete,
+    initial_rigid_state,
+    initial_state,
     single_joint_step,
 )
 
@@ -50,6 +43,42 @@ def _interpolated(times: np.ndarray, values: np.ndarray, t: float, row: int) -> 
         w = (t - times[row]) / (times[row + 1] - times[row])
         return (1.0 - w) * values[row] + w * values[row + 1]
     return values[row]
+
+
+@njit(inline="always")
+def _trajectory(n: int, theta0_rad: float, atm: float):
+    """(t, theta, omega, p_a, p_b) of n samples, the first at rest at theta0 and atmospheric pressure."""
+    t, th, om, pa, pb = np.empty(n), np.empty(n), np.empty(n), np.empty(n), np.empty(n)
+    t[0], th[0], om[0], pa[0], pb[0] = 0.0, theta0_rad, 0.0, atm, atm
+    return t, th, om, pa, pb
+
+
+@njit(inline="always")
+def _hold_command(
+    cmd: np.ndarray,
+    row: int,
+    t: float,
+    cmd_time_s: np.ndarray,
+    direction: np.ndarray,
+    valve_gauge_pa: np.ndarray,
+    brake_release: np.ndarray,
+) -> int:
+    """The row in force at t (zero-order hold, searched from `row` on), its commands written into cmd."""
+    n_rows = cmd_time_s.shape[0]
+    while row + 1 < n_rows and cmd_time_s[row + 1] <= t + 1e-9:
+        row += 1
+    cmd[C_DIRECTION] = direction[row]
+    cmd[C_PV_SET_GAUGE_PA] = valve_gauge_pa[row]
+    cmd[C_BRAKE_RELEASE] = brake_release[row]
+    return row
+
+
+@njit(inline="always")
+def _logged_valve(x: np.ndarray, cmd_time_s: np.ndarray, valve_gauge_pa: np.ndarray, t: float, dt_s: float, row: int):
+    """The valve output over the step from t as logged: the state ends at the logged value and the
+    step holds its mean (trapezoid), as the plant does."""
+    x[S_PV] = _interpolated(cmd_time_s, valve_gauge_pa, t + dt_s, row)
+    return 0.5 * (_interpolated(cmd_time_s, valve_gauge_pa, t, row) + x[S_PV])
 
 
 @njit(nogil=True)
@@ -86,54 +115,24 @@ def replay_run(
     ~3 mrad, a 0.3 % change of the load at 1 rad).
     """
     n_steps = int(t_end_s / dt_s + 1e-9)
-    t_out = np.empty(n_steps + 1)
-    th_out = np.empty(n_steps + 1)
-    om_out = np.empty(n_steps + 1)
-    pa_out = np.empty(n_steps + 1)
-    pb_out = np.empty(n_steps + 1)
-    x = np.zeros(N_STATE)
     atm = p[P.GAS_P_ATM]
-    x[S_PA_VALVE] = atm
-    x[S_PA_MOTOR] = atm
-    x[S_PB_VALVE] = atm
-    x[S_PB_MOTOR] = atm
-    x[S_BRAKE] = 1.0
-    y = np.zeros(N_RIGID)
-    y[R_THETA] = theta0_rad
-    y[R_PA_VALVE] = atm
-    y[R_PA_MOTOR] = atm
-    y[R_PB_VALVE] = atm
-    y[R_PB_MOTOR] = atm
-    y[R_QM] = theta0_rad  # an untwisted reducer, at rest
+    t_out, th_out, om_out, pa_out, pb_out = _trajectory(n_steps + 1, theta0_rad, atm)
+    x = initial_state(atm, True, 0.0)
+    y = initial_rigid_state(theta0_rad, atm)
     cmd = np.zeros(N_COMMAND)
     row = 0
-    n_rows = cmd_time_s.shape[0]
-    t_out[0] = 0.0
-    th_out[0] = theta0_rad
-    om_out[0] = 0.0
-    pa_out[0] = atm
-    pb_out[0] = atm
-    load_const_nm = load_torque_nm
     for k in range(n_steps):
         t = k * dt_s
-        load_torque_nm = load_const_nm + load_spring_nm_per_rad * y[R_THETA]  # opposes the drive: k theta pulls back to 0
-        while row + 1 < n_rows and cmd_time_s[row + 1] <= t + 1e-9:
-            row += 1
-        cmd[C_DIRECTION] = direction[row]
-        cmd[C_PV_SET_GAUGE_PA] = valve_gauge_pa[row]
-        cmd[C_BRAKE_RELEASE] = brake_release[row]
+        load_nm = load_torque_nm + load_spring_nm_per_rad * y[R_THETA]  # opposes the drive: k theta pulls back to 0
+        row = _hold_command(cmd, row, t, cmd_time_s, direction, valve_gauge_pa, brake_release)
         s = supply_pa[row]
         valve = advance_discrete(x, cmd, s, dt_s, p)
         if valve_is_output:
-            # the logged output pressure is the valve's state: the step holds its mean (trapezoid)
-            # and ends at its value, as the plant does
-            x[S_PV] = _interpolated(cmd_time_s, valve_gauge_pa, t + dt_s, row)
-            valve = 0.5 * (_interpolated(cmd_time_s, valve_gauge_pa, t, row) + x[S_PV])
-        single_joint_step(y, x, cmd, valve, s, load_torque_nm, inertia_kg_m2, dt_s, p)
+            valve = _logged_valve(x, cmd_time_s, valve_gauge_pa, t, dt_s, row)
+        single_joint_step(y, x, cmd, valve, s, load_nm, inertia_kg_m2, dt_s, p)
         t_out[k + 1] = (k + 1) * dt_s
         th_out[k + 1] = y[R_THETA]
         om_out[k + 1] = y[R_OMEGA]
         pa_out[k + 1] = y[R_PA_MOTOR]
         pb_out[k + 1] = y[R_PB_MOTOR]
     return t_out, th_out, om_out, pa_out, pb_out
-

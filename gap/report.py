@@ -1,4 +1,5 @@
-"""Write a diagnosis to a folder: diagnosis.json, report.md and PNG plots (matplotlib Agg)."""
+"""Write a diagnosis to a folder: diagnosis.json, report.md and PNG plots (matplotlib's Agg canvas,
+through Figure: no pyplot, no global backend)."""
 
 from __future__ import annotations
 
@@ -7,150 +8,265 @@ import math
 from pathlib import Path
 
 import numpy as np
+from matplotlib.figure import Figure
 
 from gap.effects import NOT_IN_CATALOGUE
+from gap.instrument import InstrumentFacts
+from gap.result import CandidateSummary, Diagnosis, PressureFloor, to_json
+
+WHERE_PLOTTED = ("phase", "angle_deg", "supply_mpa")  # the factors where.png shows
 
 
-def _clean(x):
-    if isinstance(x, dict):
-        return {k: _clean(v) for k, v in x.items() if not k.startswith("_")}
-    if isinstance(x, (list, tuple)):
-        return [_clean(v) for v in x]
-    if isinstance(x, (np.floating, float)):
-        return None if not math.isfinite(float(x)) else float(x)
-    if isinstance(x, np.integer):
-        return int(x)
-    return x
-
-
-def _f(x) -> str:
-    return "—" if x is None or (isinstance(x, float) and not math.isfinite(x)) else f"{x:.3f}"
-
-
-def _instrument_line(inst: dict) -> str:
-    """What the diagnosis found of the reference instrument (declared, estimated, observed)."""
-    dec = inst["declared"]
-    lat = f"latency {inst['latency_s'] * 1e3:.0f} ms " + ("(estimated with every fit, nuisance: not an effect of the arm)" if inst["latency_estimated"] else "(declared)")
-    rate = f"{inst['observed_rate_hz']:.1f} Hz observed" + (f" (declared {dec['rate_hz']:g} Hz: **does not match**)" if inst["rate_mismatch"] else (f" (declared {dec['rate_hz']:g} Hz)" if dec["rate_hz"] else ""))
-    off = f"zero offset {inst['offset_deg']:.3f} deg from {inst['offset_rest_samples']} rest samples before the first command (taken off)" if inst["offset_rest_samples"] else "no rest samples before the first command: zero offset not estimated"
-    return f"Reference instrument: {lat}; {rate}, {inst['dropped_samples']} of {inst['samples'] + inst['dropped_samples']} samples missing; {off}."
-
-
-def write(diag: dict, out: str | Path) -> dict[str, Path]:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
+def write(diag: Diagnosis, out: str | Path) -> dict[str, Path]:
+    """diagnosis.json, the four plots and report.md into folder `out`; their paths by kind."""
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     paths = {"json": out / "diagnosis.json", "report": out / "report.md"}
-    paths["json"].write_text(json.dumps(_clean(diag), indent=1))
+    paths["json"].write_text(json.dumps(to_json(diag), indent=1))
+    for kind, plot in (
+        ("residual_png", _plot_residual),
+        ("where_png", _plot_where),
+        ("ranking_png", _plot_ranking),
+        ("how_far_png", _plot_how_far),
+    ):
+        paths[kind] = out / f"{kind.removesuffix('_png')}.png"
+        fig = plot(diag)
+        fig.tight_layout()
+        fig.savefig(paths[kind], dpi=90)
+    lines = [
+        *_header(diag),
+        *_verdict(diag),
+        *_families(diag),
+        *_where(diag),
+        *_which(diag),
+        *_how_far(diag),
+    ]
+    paths["report"].write_text("\n".join(lines) + "\n")
+    return paths
 
-    res = diag["_residuals"]
-    fig, ax = plt.subplots(figsize=(8, 4))
-    for k, (t, r) in enumerate(zip(res["times"], res["before"])):
+
+# --- plots -----------------------------------------------------------------------------------
+def _plot_residual(diag: Diagnosis) -> Figure:
+    res = diag.residuals
+    fig = Figure(figsize=(8, 4))
+    ax = fig.subplots()
+    for k, (t, r) in enumerate(zip(res.times, res.before, strict=True)):
         ax.plot(t, np.rad2deg(r), color="tab:red", alpha=0.5, lw=1, label="nominal twin" if k == 0 else None)
-    if res["top"] is not None:
-        for k, (t, r) in enumerate(zip(res["times"], res["top"])):
-            ax.plot(t, np.rad2deg(r), color="tab:blue", alpha=0.6, lw=1, label=f"+ {diag['which']['top']['name']} (withheld)" if k == 0 else None)
-    ax.axhspan(-diag["noise_floor"]["significance_threshold_deg"], diag["noise_floor"]["significance_threshold_deg"], color="0.85", label="significance band")
+    if res.top is not None:
+        label = f"+ {diag.which.top.name} (withheld)"
+        for k, (t, r) in enumerate(zip(res.times, res.top, strict=True)):
+            ax.plot(t, np.rad2deg(r), color="tab:blue", alpha=0.6, lw=1, label=label if k == 0 else None)
+    threshold = diag.noise_floor.significance_threshold_deg
+    ax.axhspan(-threshold, threshold, color="0.85", label="significance band")
     ax.set_xlabel("time since run start, s")
     ax.set_ylabel("measured - twin, deg")
     ax.legend()
     ax.set_title("residual per run")
-    fig.tight_layout()
-    paths["residual_png"] = out / "residual.png"
-    fig.savefig(paths["residual_png"], dpi=90)
-    plt.close(fig)
+    return fig
 
-    fig, axes = plt.subplots(1, 3, figsize=(11, 3.5))
-    for ax, factor in zip(axes, ("phase", "angle_deg", "supply_mpa")):
-        b = diag["where"][factor]
-        ax.bar(list(b), [v["rms_deg"] for v in b.values()], color="tab:red")
-        ax.axhline(diag["noise_floor"]["floor_deg"], color="k", ls="--", lw=1, label="floor")
+
+def _plot_where(diag: Diagnosis) -> Figure:
+    fig = Figure(figsize=(11, 3.5))
+    axes = fig.subplots(1, 3)
+    for ax, factor in zip(axes, WHERE_PLOTTED, strict=True):
+        bins = getattr(diag.where, factor)
+        ax.bar(list(bins), [b.rms_deg for b in bins.values()], color="tab:red")
+        ax.axhline(diag.noise_floor.floor_deg, color="k", ls="--", lw=1, label="floor")
         ax.set_title(f"residual rms by {factor}")
         ax.set_ylabel("deg")
         ax.tick_params(axis="x", rotation=30)
     axes[0].legend()
-    fig.tight_layout()
-    paths["where_png"] = out / "where.png"
-    fig.savefig(paths["where_png"], dpi=90)
-    plt.close(fig)
+    return fig
 
-    fig, ax = plt.subplots(figsize=(8, 4))
-    ranking = diag["which"]["ranking"] + diag["which"]["pairs"]
-    ax.barh([c["name"] for c in ranking][::-1], [c["heldout_rms_deg"] for c in ranking][::-1], color="tab:blue")
-    ax.axvline(diag["before_rms_deg"], color="tab:red", label="nominal twin")
-    ax.axvline(diag["noise_floor"]["significance_threshold_deg"], color="k", ls="--", label="significance")
+
+def _plot_ranking(diag: Diagnosis) -> Figure:
+    fig = Figure(figsize=(8, 4))
+    ax = fig.subplots()
+    ranking = diag.which.ranking + diag.which.pairs
+    ax.barh([c.name for c in ranking][::-1], [c.heldout_rms_deg for c in ranking][::-1], color="tab:blue")
+    ax.axvline(diag.before_rms_deg, color="tab:red", label="nominal twin")
+    ax.axvline(diag.noise_floor.significance_threshold_deg, color="k", ls="--", label="significance")
     ax.set_xscale("log")
     ax.set_xlabel("held-out residual rms, deg")
     ax.legend()
-    fig.tight_layout()
-    paths["ranking_png"] = out / "ranking.png"
-    fig.savefig(paths["ranking_png"], dpi=90)
-    plt.close(fig)
+    return fig
 
-    top = diag["which"]["top"]
-    hf = diag["how_far"]
-    fig, ax = plt.subplots(figsize=(6, 3.5))
+
+def _plot_how_far(diag: Diagnosis) -> Figure:
+    top, hf = diag.which.top, diag.how_far
+    fig = Figure(figsize=(6, 3.5))
+    ax = fig.subplots()
     qs = list(hf["before"])
     x = np.arange(len(qs))
-    ax.bar(x - 0.2, [hf["before"][q]["mean_deg"] for q in qs], 0.4, label="before", color="tab:red")
+    ax.bar(x - 0.2, [hf["before"][q].mean_deg for q in qs], 0.4, label="before", color="tab:red")
     if top is not None:
-        ax.bar(x + 0.2, [hf[top["name"]][q]["mean_deg"] for q in qs], 0.4, label=f"+ {top['name']}", color="tab:blue")
+        ax.bar(x + 0.2, [hf[top.name][q].mean_deg for q in qs], 0.4, label=f"+ {top.name}", color="tab:blue")
     ax.set_xticks(x, [f"{q} MPa" for q in qs])
     ax.set_ylabel("mean |error| on withheld runs, deg")
     ax.legend()
-    fig.tight_layout()
-    paths["how_far_png"] = out / "how_far.png"
-    fig.savefig(paths["how_far_png"], dpi=90)
-    plt.close(fig)
+    return fig
 
-    nf = diag["noise_floor"]
-    w = diag["which"]
-    lines = [
-        f"# Sim-to-real gap diagnosis: {diag['campaign']}",
+
+# --- report.md -------------------------------------------------------------------------------
+def _f(x) -> str:
+    return "—" if x is None or (isinstance(x, float) and not math.isfinite(x)) else f"{x:.3f}"
+
+
+def _instrument_line(inst: InstrumentFacts) -> str:
+    """What the diagnosis found of the reference instrument (declared, estimated, observed)."""
+    dec = inst.declared
+    how = "(estimated with every fit, nuisance: not an effect of the arm)" if inst.latency_estimated else "(declared)"
+    lat = f"latency {inst.latency_s * 1e3:.0f} ms {how}"
+    rate = f"{inst.observed_rate_hz:.1f} Hz observed" + (
+        f" (declared {dec.rate_hz:g} Hz: **does not match**)"
+        if inst.rate_mismatch
+        else (f" (declared {dec.rate_hz:g} Hz)" if dec.rate_hz else "")
+    )
+    off = (
+        f"zero offset {inst.offset_deg:.3f} deg from {inst.offset_rest_samples} rest samples before the first "
+        "command (taken off)"
+        if inst.offset_rest_samples
+        else "no rest samples before the first command: zero offset not estimated"
+    )
+    total = inst.samples + inst.dropped_samples
+    return f"Reference instrument: {lat}; {rate}, {inst.dropped_samples} of {total} samples missing; {off}."
+
+
+def _pressure_line(p: PressureFloor) -> str:
+    return (
+        f"Chamber pressures measured: the fit weighs them in units of their floor {p.floor_kpa:.1f} kPa "
+        f"(transducer noise {p.noise_kpa:.2f} kPa, model tolerance {p.model_tolerance_kpa} kPa); "
+        f"nominal twin pressure residual {p.before_rms_kpa:.1f} kPa rms. "
+        "Candidates are ranked by held-out misfit in units of the floors, angle and pressure together."
+    )
+
+
+def _header(diag: Diagnosis) -> list[str]:
+    nf, p = diag.noise_floor, diag.pressure
+    lo, hi = diag.before_rms_ci95_deg
+    return [
+        f"# Sim-to-real gap diagnosis: {diag.campaign}",
         "",
-        f"Joint `{diag['joint']}`, {len(diag['runs'])} runs, validation: {diag['folds']}.",
-        _instrument_line(diag["instrument"]),
-        f"Nominal twin residual {diag['before_rms_deg']:.2f} deg rms (95% CI {diag['before_rms_ci95_deg'][0]:.2f}..{diag['before_rms_ci95_deg'][1]:.2f}); "
-        f"noise floor {nf['floor_deg']:.2f} deg (measurement noise {nf['measurement_deg']:.3f} deg, {nf['measurement_from']}; from {nf['repeat_pairs']} repeat pairs on {nf['repeat_samples']} shared samples: noise {_f(nf['repeat_noise_deg'])} deg, drift between repeats {_f(nf['repeat_drift_deg'])} deg rms; "
-        f"model tolerance {nf['model_tolerance_deg']:.2f} deg, measured per protocol, gap.protocols); "
-        f"significant above {nf['significance_threshold_deg']:.2f} deg.",
-        *([f"Chamber pressures measured: the fit weighs them in units of their floor {diag['pressure']['floor_kpa']:.1f} kPa (transducer noise {diag['pressure']['noise_kpa']:.2f} kPa, model tolerance {diag['pressure']['model_tolerance_kpa']} kPa); nominal twin pressure residual {diag['pressure']['before_rms_kpa']:.1f} kPa rms. Candidates are ranked by held-out misfit in units of the floors, angle and pressure together."] if diag.get("pressure", {}).get("measured") else []),
+        f"Joint `{diag.joint}`, {len(diag.runs)} runs, validation: {diag.folds}.",
+        _instrument_line(diag.instrument),
+        f"Nominal twin residual {diag.before_rms_deg:.2f} deg rms (95% CI {lo:.2f}..{hi:.2f}); "
+        f"noise floor {nf.floor_deg:.2f} deg (measurement noise {nf.measurement_deg:.3f} deg, "
+        f"{nf.measurement_from}; from {nf.repeat_pairs} repeat pairs on {nf.repeat_samples} shared samples: "
+        f"noise {_f(nf.repeat_noise_deg)} deg, drift between repeats {_f(nf.repeat_drift_deg)} deg rms; "
+        f"model tolerance {nf.model_tolerance_deg:.2f} deg, measured per protocol, gap.protocols); "
+        f"significant above {nf.significance_threshold_deg:.2f} deg.",
+        *([_pressure_line(p)] if p.measured else []),
         "",
-        f"## Verdict: **{w['verdict']}**",
+        f"## Verdict: **{diag.which.verdict}**",
         "",
     ]
-    if w.get("nearest"):
-        nb = w["nearest"]
-        how = f"its best member's correction matches the gap's where-pattern ({nb['where_match']:.2f}) and fits the withheld runs best of the families that do" if nb["by_where"] else f"no family's correction matches the gap's where-pattern well; this one comes closest ({nb['where_match']:.2f})"
-        lines += [f"No catalogue entry or pair explains the gap. Nearest family: **{nb['family']}** ({how}). The unmodelled effect may be another form of it, or something not catalogued.", ""]
+
+
+def _verdict(diag: Diagnosis) -> list[str]:
+    w, top, lines = diag.which, diag.which.top, []
+    if w.nearest:
+        nb = w.nearest
+        how = (
+            f"its best member's correction matches the gap's where-pattern ({nb.where_match:.2f}) "
+            "and fits the withheld runs best of the families that do"
+            if nb.by_where
+            else f"no family's correction matches the gap's where-pattern well; this one comes closest "
+            f"({nb.where_match:.2f})"
+        )
+        lines += [
+            f"No catalogue entry or pair explains the gap. Nearest family: **{nb.family}** ({how}). "
+            "The unmodelled effect may be another form of it, or something not catalogued.",
+            "",
+        ]
     elif top is not None:
-        vals = ", ".join(f"{f} = {v:.4g} (nominal {n:.4g})" + (f" **on its catalogue bound ({b})**" if b else "") for f, v, n, b in zip(top["fields"], top["fitted_values"], top["nominal_values"], top["at_bound"]))
-        lines += [f"Best: **{top['name']}** ({' + '.join(top['labels'])}): {vals}; held-out rms {top['heldout_rms_deg']:.2f} deg, shrink {top['shrink']:.2f}.", ""]
-        if any(top["at_bound"]):
-            lines += ["A fitted value on a catalogue bound: the true value may lie beyond it, or the effect stands in for another.", ""]
-    if w.get("pairs_refused"):
-        lines += ["Pairs that do not count: " + "; ".join(f"{r['pair']} ({r['why']})" for r in w["pairs_refused"]) + ".", ""]
-    if w["rivals"]:
-        lines += [f"Rivals that fit the withheld runs as well: {', '.join(w['rivals'])}.", ""]
-    lines += ["## Families (where-pattern match of each family's best member, and its held-out misfit)", "", "| family | best member | where match | misfit in floors | shrink |", "|---|---|---|---|---|"]
-    lines += [f"| {x['family']} | {x['best']} | {x['where_match']:.2f} | {x['score_in_floors']:.2f} | {x['shrink']:.3f} |" for x in w["families"]]
-    lines += ["", "## Where", "", "![where](where.png) ![residual](residual.png)", ""]
-    for factor, bins in diag["where"].items():
-        lines += [f"**{factor}**: " + "; ".join(f"{k}: {v['rms_deg']:.2f} deg rms (n={v['n']})" for k, v in bins.items()), ""]
-    lines += ["## Which (held-out misfit per candidate, best first)", "", "| candidate | held-out rms deg (95% CI) | held-out pressure rms kPa | misfit in floors | shrink | fitted (on a bound: !) | instrument latency s |", "|---|---|---|---|---|---|---|"]
-    for c in w["ranking"] + w["pairs"]:
-        kpa = "—" if c["heldout_pressure_rms_kpa"] is None else f"{c['heldout_pressure_rms_kpa']:.1f}"
-        lines.append(f"| {c['name']} | {c['heldout_rms_deg']:.3f} ({c['heldout_rms_ci95_deg'][0]:.3f}..{c['heldout_rms_ci95_deg'][1]:.3f}) | {kpa} | {c['score_in_floors']:.2f} | {c['shrink']:.3f} | " + ", ".join(f"{f}={v:.4g}" + (" !" if b else "") for f, v, b in zip(c["fields"], c["fitted_values"], c["at_bound"])) + f" | {c['latency_s']:.3f} |")
-    if w["skipped_already_in_twin"]:
-        lines += ["", f"Already in the nominal twin (not candidates): {', '.join(w['skipped_already_in_twin'])}."]
-    lines += ["", "Not yet in the catalogue: " + "; ".join(NOT_IN_CATALOGUE) + ".", "", "## How far (withheld runs, mean / max |error| deg per supply)", "", "![how far](how_far.png) ![ranking](ranking.png)", ""]
+        vals = ", ".join(
+            f"{f} = {v:.4g} (nominal {n:.4g})" + (f" **on its catalogue bound ({b})**" if b else "")
+            for f, v, n, b in zip(top.fields, top.fitted_values, top.nominal_values, top.at_bound, strict=True)
+        )
+        lines += [
+            f"Best: **{top.name}** ({' + '.join(top.labels)}): {vals}; "
+            f"held-out rms {top.heldout_rms_deg:.2f} deg, shrink {top.shrink:.2f}.",
+            "",
+        ]
+        if any(top.at_bound):
+            lines += [
+                "A fitted value on a catalogue bound: the true value may lie beyond it, "
+                "or the effect stands in for another.",
+                "",
+            ]
+    if w.pairs_refused:
+        lines += ["Pairs that do not count: " + "; ".join(f"{r.pair} ({r.why})" for r in w.pairs_refused) + ".", ""]
+    if w.rivals:
+        lines += [f"Rivals that fit the withheld runs as well: {', '.join(w.rivals)}.", ""]
+    return lines
+
+
+def _families(diag: Diagnosis) -> list[str]:
+    return [
+        "## Families (where-pattern match of each family's best member, and its held-out misfit)",
+        "",
+        "| family | best member | where match | misfit in floors | shrink |",
+        "|---|---|---|---|---|",
+        *(
+            f"| {x.family} | {x.best} | {x.where_match:.2f} | {x.score_in_floors:.2f} | {x.shrink:.3f} |"
+            for x in diag.which.families
+        ),
+    ]
+
+
+def _where(diag: Diagnosis) -> list[str]:
+    lines = ["", "## Where", "", "![where](where.png) ![residual](residual.png)", ""]
+    for factor, bins in diag.where.by_factor().items():
+        cells = "; ".join(f"{k}: {b.rms_deg:.2f} deg rms (n={b.n})" for k, b in bins.items())
+        lines += [f"**{factor}**: {cells}", ""]
+    return lines
+
+
+def _candidate_row(c: CandidateSummary) -> str:
+    kpa = "—" if c.heldout_pressure_rms_kpa is None else f"{c.heldout_pressure_rms_kpa:.1f}"
+    lo, hi = c.heldout_rms_ci95_deg
+    fitted = ", ".join(
+        f"{f}={v:.4g}" + (" !" if b else "") for f, v, b in zip(c.fields, c.fitted_values, c.at_bound, strict=True)
+    )
+    return (
+        f"| {c.name} | {c.heldout_rms_deg:.3f} ({lo:.3f}..{hi:.3f}) | {kpa} | {c.score_in_floors:.2f} | "
+        f"{c.shrink:.3f} | {fitted} | {c.latency_s:.3f} |"
+    )
+
+
+def _which(diag: Diagnosis) -> list[str]:
+    w = diag.which
+    lines = [
+        "## Which (held-out misfit per candidate, best first)",
+        "",
+        "| candidate | held-out rms deg (95% CI) | held-out pressure rms kPa | misfit in floors | shrink "
+        "| fitted (on a bound: !) | instrument latency s |",
+        "|---|---|---|---|---|---|---|",
+        *(_candidate_row(c) for c in w.ranking + w.pairs),
+    ]
+    if w.skipped_already_in_twin:
+        lines += ["", f"Already in the nominal twin (not candidates): {', '.join(w.skipped_already_in_twin)}."]
+    return lines
+
+
+def _how_far(diag: Diagnosis) -> list[str]:
+    hf = diag.how_far
     qs = list(hf["before"])
-    lines += ["| model | " + " | ".join(f"{q} MPa" for q in qs) + " |", "|---|" + "---|" * len(qs)]
+    lines = [
+        "",
+        "Not yet in the catalogue: " + "; ".join(NOT_IN_CATALOGUE) + ".",
+        "",
+        "## How far (withheld runs, mean / max |error| deg per supply)",
+        "",
+        "![how far](how_far.png) ![ranking](ranking.png)",
+        "",
+        "| model | " + " | ".join(f"{q} MPa" for q in qs) + " |",
+        "|---|" + "---|" * len(qs),
+    ]
     for name, table in hf.items():
-        lines.append(f"| {name} | " + " | ".join(f"{table[q]['mean_deg']:.2f} / {table[q]['max_deg']:.2f} (CI {table[q]['mean_ci95_deg'][0]:.2f}..{table[q]['mean_ci95_deg'][1]:.2f})" for q in qs) + " |")
-    paths["report"].write_text("\n".join(lines) + "\n")
-    return paths
+        cells = " | ".join(
+            f"{e.mean_deg:.2f} / {e.max_deg:.2f} (CI {e.mean_ci95_deg[0]:.2f}..{e.mean_ci95_deg[1]:.2f})"
+            for e in (table[q] for q in qs)
+        )
+        lines.append(f"| {name} | {cells} |")
+    return lines

@@ -13,11 +13,15 @@ import csv
 from dataclasses import dataclass
 from pathlib import Path
 
+import mujoco
 import numpy as np
 
 import assets
 from pneumatics import JointParams, load_joint_params
 from pneumatics.gas import AIR
+from twin.mcap_log import McapRecorder
+from twin.plant import Plant
+from twin.sim import CommandSchedule, run
 
 JOINT = "wrist_pitch"
 PRESSURES_MPA = (0.5, 0.6, 0.7, 0.8)  # paper Fig. 10-16: the supplies of the model validation
@@ -76,7 +80,9 @@ class Motion:
     def total_s(self) -> float:
         return self.duration_s or self.t_release_s + self.t_move_s + self.t_reverse_s + self.t_hold_s
 
-    def commands(self, t_s: np.ndarray, supply_gauge_pa: float, k_u_per_pa: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def commands(
+        self, t_s: np.ndarray, supply_gauge_pa: float, k_u_per_pa: float
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(direction, valve set point gauge Pa, brake_release) at the given times."""
         t1 = self.t_release_s
         t2 = t1 + self.t_move_s
@@ -98,12 +104,9 @@ def wrist_params() -> JointParams:
     return load_joint_params(assets.joint_param_path(JOINT))
 
 
-def _plant_and_schedule(reality: JointParams, supply_mpa: float, motion: Motion, start_rad: float, rig_spring_nm_per_rad: float = 0.0):
-    import mujoco
-
-    from twin.plant import Plant
-    from twin.sim import CommandSchedule
-
+def _plant_and_schedule(
+    reality: JointParams, supply_mpa: float, motion: Motion, start_rad: float, rig_spring_nm_per_rad: float = 0.0
+):
     plant = Plant(assets.WRIST_RIG_XML, joint_params={JOINT: reality})
     i = plant.joints.index(JOINT)
     # a hidden angle-dependent load: MuJoCo's own joint spring (passive force -k (q - qpos_spring),
@@ -125,12 +128,17 @@ def _plant_and_schedule(reality: JointParams, supply_mpa: float, motion: Motion,
     return plant, CommandSchedule(commands_at, n), i
 
 
-def simulate_run(reality: JointParams, supply_mpa: float, motion: Motion, start_rad: float = 0.0, log_period_s: float = SAMPLE_PERIOD_S, rig_spring_nm_per_rad: float = 0.0) -> dict[str, np.ndarray]:
+def simulate_run(
+    reality: JointParams,
+    supply_mpa: float,
+    motion: Motion,
+    start_rad: float = 0.0,
+    log_period_s: float = SAMPLE_PERIOD_S,
+    rig_spring_nm_per_rad: float = 0.0,
+) -> dict[str, np.ndarray]:
     """Run the plant (twin.plant.Plant on the wrist rig) through `motion` (a Motion or a
     gap.protocols.Protocol); 1 ms command rows and the true angle and chamber pressures every
     `log_period_s` (NaN between samples)."""
-    from twin.sim import run
-
     plant, schedule, i = _plant_and_schedule(reality, supply_mpa, motion, start_rad, rig_spring_nm_per_rad)
     supply_pa = plant.supply_pa
     tel = run(plant, schedule, motion.total_s(), supply_pa_at=lambda t: supply_pa, log_period_s=log_period_s)
@@ -143,15 +151,21 @@ def simulate_run(reality: JointParams, supply_mpa: float, motion: Motion, start_
     for out, column in (("angle_rad", "true_angle_rad"), ("p_a_pa", "pressure_a_pa"), ("p_b_pa", "pressure_b_pa")):
         sampled[out] = np.full(t_cmd.shape, np.nan)
         sampled[out][idx[ok]] = np.asarray(arr[column])[ok, i]
-    return {"time_s": t_cmd, "direction": d, "brake_released": b, "valve_set_gauge_pa": u, "supply_pa": np.full(t_cmd.shape, supply_pa), **sampled}
+    return {
+        "time_s": t_cmd,
+        "direction": d,
+        "brake_released": b,
+        "valve_set_gauge_pa": u,
+        "supply_pa": np.full(t_cmd.shape, supply_pa),
+        **sampled,
+    }
 
 
-def write_mcap_run(path: Path, reality: JointParams, supply_mpa: float, motion: Motion | None = None, start_rad: float = 0.0) -> Path:
+def write_mcap_run(
+    path: Path, reality: JointParams, supply_mpa: float, motion: Motion | None = None, start_rad: float = 0.0
+) -> Path:
     """Run the plant through `motion` and log it with the twin's own MCAP recorder
     (twin.mcap_log.McapRecorder, a sample every 20 ms): a run file the campaign reader accepts."""
-    from twin.mcap_log import McapRecorder
-    from twin.sim import run
-
     motion = motion or Motion()
     plant, schedule, _ = _plant_and_schedule(reality, supply_mpa, motion, start_rad)
     rec = McapRecorder(path, plant.model, plant.joints, {"scenario_name": "gap synthetic run", "seed": 0})
@@ -162,7 +176,13 @@ def write_mcap_run(path: Path, reality: JointParams, supply_mpa: float, motion: 
     return Path(path)
 
 
-def measure(run: dict[str, np.ndarray], instrument: SimInstrument, rng: np.random.Generator | None, chamber_pressures: bool = False, noise_pa: float = NOISE_PA) -> dict[str, np.ndarray]:
+def measure(
+    run: dict[str, np.ndarray],
+    instrument: SimInstrument,
+    rng: np.random.Generator | None,
+    chamber_pressures: bool = False,
+    noise_pa: float = NOISE_PA,
+) -> dict[str, np.ndarray]:
     """What the rig's instruments record of a plant run logged every 1 ms: the angle at the
     instrument's sample times, read `latency_s` late, with its noise; with `chamber_pressures`
     both motor ports' transducers (no latency) every SAMPLE_PERIOD_S with `noise_pa`. NaN where
@@ -194,7 +214,13 @@ def write_run_csv(path: Path, run: dict[str, np.ndarray], measured: dict[str, np
         w = csv.writer(f)
         w.writerow(["time_s", "direction", "brake_released", "valve_set_gauge_pa", "supply_pa", *measured])
         for k in range(len(run["time_s"])):
-            fixed = [f"{run['time_s'][k]:.4f}", int(run["direction"][k]), int(run["brake_released"][k]), f"{run['valve_set_gauge_pa'][k]:.1f}", f"{run['supply_pa'][k]:.1f}"]
+            fixed = [
+                f"{run['time_s'][k]:.4f}",
+                int(run["direction"][k]),
+                int(run["brake_released"][k]),
+                f"{run['valve_set_gauge_pa'][k]:.1f}",
+                f"{run['supply_pa'][k]:.1f}",
+            ]
             w.writerow(fixed + ["" if not np.isfinite(v[k]) else fmt[c].format(v[k]) for c, v in measured.items()])
 
 
@@ -215,7 +241,19 @@ def paper_motions(reality: JointParams, pressures_mpa=PRESSURES_MPA, turn_deg: f
     return out
 
 
-def make_campaign(folder: str | Path, reality: JointParams, seed: int = 0, pressures_mpa=PRESSURES_MPA, repeats: int = 2, twin_hose_loss: bool | None = None, motion=None, instrument: SimInstrument = ENCODER, description: str = "", chamber_pressures: bool = False, rig_spring_nm_per_rad: float = 0.0) -> Path:
+def make_campaign(
+    folder: str | Path,
+    reality: JointParams,
+    seed: int = 0,
+    pressures_mpa=PRESSURES_MPA,
+    repeats: int = 2,
+    twin_hose_loss: bool | None = None,
+    motion=None,
+    instrument: SimInstrument = ENCODER,
+    description: str = "",
+    chamber_pressures: bool = False,
+    rig_spring_nm_per_rad: float = 0.0,
+) -> Path:
     """Write campaign.toml and one CSV per run (pressure x repeat) from the plant with `reality`
     (and a hidden rig spring), every run through `motion` (a Motion or gap.protocols.Protocol, or
     a dict of them by supply MPa), read by `instrument`; with `chamber_pressures` the runs also
@@ -241,8 +279,20 @@ def make_campaign(folder: str | Path, reality: JointParams, seed: int = 0, press
         for r in range(repeats):
             name = f"run_{int(round(mpa * 100)):03d}_{r + 1}.csv"
             if mpa not in cache:  # the plant is deterministic: repeats differ by what the instruments add
-                cache[mpa] = simulate_run(reality, mpa, motion[mpa] if isinstance(motion, dict) else motion, log_period_s=1e-3, rig_spring_nm_per_rad=rig_spring_nm_per_rad)
+                cache[mpa] = simulate_run(
+                    reality,
+                    mpa,
+                    motion[mpa] if isinstance(motion, dict) else motion,
+                    log_period_s=1e-3,
+                    rig_spring_nm_per_rad=rig_spring_nm_per_rad,
+                )
             write_run_csv(folder / name, cache[mpa], measure(cache[mpa], instrument, rng, chamber_pressures))
-            lines += ["", "[[runs]]", f'file = "{name}"', f"supply_mpa = {mpa}", f"start_deg = {{ {', '.join(f'{j} = 0.0' for j in assets.JOINTS)} }}"]
+            lines += [
+                "",
+                "[[runs]]",
+                f'file = "{name}"',
+                f"supply_mpa = {mpa}",
+                f"start_deg = {{ {', '.join(f'{j} = 0.0' for j in assets.JOINTS)} }}",
+            ]
     (folder / "campaign.toml").write_text("\n".join(lines) + "\n")
     return folder

@@ -28,6 +28,7 @@ import numpy as np
 
 from gap import where
 from gap.effects import BY_NAME
+from gap.stats import mean_lower_bound, rms_deg, run_ms
 from pneumatics import JointParams
 
 EXPLAIN_SHRINK = 0.1
@@ -41,14 +42,18 @@ def _unit(e, v: float) -> float:
     """Where `v` lies in effect e's range, 0..1 (logarithmic for log effects, 0 mapped to 0)."""
     if e.log:
         lo = e.low if e.low > 0 else e.high / 100.0
-        return 0.0 if v <= lo * 0.5 and e.low == 0 else float(np.clip(math.log(max(v, lo) / lo) / math.log(e.high / lo), 0.0, 1.0))
+        return (
+            0.0
+            if v <= lo * 0.5 and e.low == 0
+            else float(np.clip(math.log(max(v, lo) / lo) / math.log(e.high / lo), 0.0, 1.0))
+        )
     return (v - e.low) / (e.high - e.low)
 
 
 def off_nominal(c, params: JointParams) -> list[bool]:
     """Per effect of candidate c: did its fitted value move off the nominal twin's value?"""
     out = []
-    for name, v in zip(c.effects, c.full_values):
+    for name, v in zip(c.effects, c.full_values, strict=True):
         e = BY_NAME[name]
         out.append(e.discrete_value is not None or abs(_unit(e, v) - _unit(e, e.value_of(params))) > OFF_NOMINAL)
     return out
@@ -57,14 +62,45 @@ def off_nominal(c, params: JointParams) -> list[bool]:
 def at_bounds(c) -> list[str | None]:
     """Per effect of candidate c: "low"/"high" if its fitted value sits on that catalogue bound."""
     out = []
-    for name, v in zip(c.effects, c.full_values):
+    for name, v in zip(c.effects, c.full_values, strict=True):
         e = BY_NAME[name]
         if e.discrete_value is not None:
             out.append(None)
             continue
         span = e.high - e.low
-        out.append("high" if v >= e.high - AT_BOUND * span else "low" if (v <= e.low + AT_BOUND * span and e.low > 0) else None)
+        out.append(
+            "high" if v >= e.high - AT_BOUND * span else "low" if (v <= e.low + AT_BOUND * span and e.low > 0) else None
+        )
     return out
+
+
+@dataclass(frozen=True)
+class Refusal:
+    """A pair that does not count, and why."""
+
+    pair: str
+    why: str
+
+
+@dataclass(frozen=True)
+class FamilyEvidence:
+    """A family's best member: its where-pattern match and its held-out misfit."""
+
+    family: str
+    best: str  # the member (a single effect)
+    score_in_floors: float
+    shrink: float  # held-out rms / the nominal twin's
+    where_match: float  # gap.where.profile_match of its correction with the gap
+
+
+@dataclass(frozen=True)
+class FamilyCall:
+    """The family-level answer (None when there is no candidate) and the evidence behind it."""
+
+    family: str | None
+    where_match: float | None
+    by_where: bool  # some family matched the where-pattern at least PROFILE_MIN
+    evidence: list[FamilyEvidence]  # families by held-out misfit, best first
 
 
 @dataclass
@@ -72,7 +108,7 @@ class Call:
     verdict: str
     top: object | None
     rivals: list[str]
-    pairs_refused: list[dict]
+    pairs_refused: list[Refusal]
 
 
 class Judge:
@@ -80,34 +116,32 @@ class Judge:
         self.twin, self.floors, self.before_rms, self.score, self.rng = twin, floors, before_rms, score, rng
 
     def explains(self, c) -> bool:
-        from gap.diagnose import rms_deg
-
         return rms_deg(c.heldout) <= max(self.floors.threshold_deg, EXPLAIN_SHRINK * self.before_rms)
 
     def pair_counts(self, pair, best) -> str:
         """'' if the pair counts, else why not."""
         off = off_nominal(pair, self.twin.params)
         if not all(off):
-            return f"{', '.join(e for e, o in zip(pair.effects, off) if not o)} stayed at its nominal value"
+            stayed = ", ".join(e for e, o in zip(pair.effects, off, strict=True) if not o)
+            return f"{stayed} stayed at its nominal value"
         if best is not None and self.score(pair) > PAIR_MARGIN * self.score(best):
-            return f"misfit {self.score(pair):.2f} floors is not clearly below the best single's {self.score(best):.2f} (needs <= {PAIR_MARGIN} x)"
+            return (
+                f"misfit {self.score(pair):.2f} floors is not clearly below the best single's "
+                f"{self.score(best):.2f} (needs <= {PAIR_MARGIN} x)"
+            )
         if not self.explains(pair):
             return "does not explain the gap"
         return ""
 
     def rivals_of(self, c, pool) -> list[str]:
-        from gap.diagnose import run_ms
-
         fl = self.floors
         out = []
         ms_c = run_ms(c.heldout, c.heldout_p, fl.floor_deg, fl.floor_kpa)
-        n = len(ms_c)
         for o in pool:
             if o is c or not self.explains(o):
                 continue
             diff = run_ms(o.heldout, o.heldout_p, fl.floor_deg, fl.floor_kpa) - ms_c
-            boots = diff[self.rng.integers(0, n, (400, n))].mean(axis=1)
-            if np.quantile(boots, 0.05) <= 0.0 or self.score(o) <= 1.1 * self.score(c):
+            if mean_lower_bound(diff, self.rng) <= 0.0 or self.score(o) <= 1.1 * self.score(c):
                 out.append(o.name)
         return out
 
@@ -117,7 +151,7 @@ class Judge:
         counting = []
         for p in pairs:
             why = self.pair_counts(p, best)
-            (refused.append({"pair": p.name, "why": why}) if why else counting.append(p))
+            (refused.append(Refusal(p.name, why)) if why else counting.append(p))
         if not significant:
             return Call("no significant gap", None, [], refused)
         if counting:
@@ -128,21 +162,33 @@ class Judge:
             return Call("ambiguous" if rivals else "explained", best, rivals, refused)
         return Call("outside the catalogue", best, [], refused)
 
-    def family_call(self, singles: list, labels: dict[str, np.ndarray], before: list[np.ndarray], latency_s: float) -> dict:
+    def family_call(
+        self, singles: list, labels: dict[str, np.ndarray], before: list[np.ndarray], latency_s: float
+    ) -> FamilyCall:
         """The families ranked by where-evidence and held-out fit (module docstring)."""
-        from gap.diagnose import rms_deg
-
-        n = len(self.twin.runs)
         gap = np.concatenate(before)
-        best_of: dict[str, dict] = {}
+        best_of: dict[str, FamilyEvidence] = {}
         for c in singles:
-            e = BY_NAME[c.name]
-            res = self.twin.residuals_with([(e, c.full_values[0])], range(n), latency_s)
-            correction = gap - np.concatenate([res[k][0] for k in range(n)])
-            entry = {"family": e.family, "best": c.name, "score_in_floors": self.score(c), "shrink": rms_deg(c.heldout) / self.before_rms if self.before_rms > 0 else math.nan, "where_match": where.profile_match(labels, gap, correction)}
-            if e.family not in best_of or entry["score_in_floors"] < best_of[e.family]["score_in_floors"]:
-                best_of[e.family] = entry
-        evidence = sorted(best_of.values(), key=lambda x: x["score_in_floors"])
-        eligible = [x for x in evidence if x["where_match"] >= PROFILE_MIN]
-        chosen = eligible[0] if eligible else (max(evidence, key=lambda x: x["where_match"]) if evidence else None)
-        return {"family": chosen["family"] if chosen else None, "where_match": chosen["where_match"] if chosen else None, "by_where": bool(eligible), "evidence": evidence}
+            entry = self._evidence(c, labels, gap, latency_s)
+            if entry.family not in best_of or entry.score_in_floors < best_of[entry.family].score_in_floors:
+                best_of[entry.family] = entry
+        evidence = sorted(best_of.values(), key=lambda x: x.score_in_floors)
+        eligible = [x for x in evidence if x.where_match >= PROFILE_MIN]
+        chosen = eligible[0] if eligible else (max(evidence, key=lambda x: x.where_match) if evidence else None)
+        return FamilyCall(
+            chosen.family if chosen else None, chosen.where_match if chosen else None, bool(eligible), evidence
+        )
+
+    def _evidence(self, c, labels: dict[str, np.ndarray], gap: np.ndarray, latency_s: float) -> FamilyEvidence:
+        """Single c's family, held-out fit and how its correction matches the gap's where-pattern."""
+        n = len(self.twin.runs)
+        e = BY_NAME[c.name]
+        res = self.twin.residuals_with([(e, c.full_values[0])], range(n), latency_s)
+        correction = gap - np.concatenate([res[k][0] for k in range(n)])
+        return FamilyEvidence(
+            e.family,
+            c.name,
+            self.score(c),
+            rms_deg(c.heldout) / self.before_rms if self.before_rms > 0 else math.nan,
+            where.profile_match(labels, gap, correction),
+        )

@@ -6,6 +6,7 @@ well an effect's correction matches the residual's pattern over them (the family
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass, fields
 
 import numpy as np
 
@@ -13,7 +14,35 @@ from gap.campaign import Run
 
 PHASE_WINDOW_S = 0.3  # start / reversal / braking: this long after the command change
 ANGLE_BIN_DEG = 30.0  # the angle (position) factor's bin width
-FACTORS = ("phase", "supply_mpa", "direction", "load_kg", "angle_deg", "speed_rad_s", "time_since_start_s")
+
+
+@dataclass(frozen=True)
+class Bin:
+    """The residual in one bin of a factor (deg), and how many angle samples fell in it."""
+
+    rms_deg: float
+    mean_deg: float
+    max_abs_deg: float
+    n: int
+
+
+@dataclass(frozen=True)
+class Breakdown:
+    """The residual per factor, bin label -> Bin (labels sorted as strings)."""
+
+    phase: dict[str, Bin]
+    supply_mpa: dict[str, Bin]
+    direction: dict[str, Bin]
+    load_kg: dict[str, Bin]
+    angle_deg: dict[str, Bin]
+    speed_rad_s: dict[str, Bin]
+    time_since_start_s: dict[str, Bin]
+
+    def by_factor(self) -> dict[str, dict[str, Bin]]:
+        return {f: getattr(self, f) for f in FACTORS}
+
+
+FACTORS = tuple(f.name for f in fields(Breakdown))
 # the factors that tell the families apart (how the gap scales); phase and direction repeat them
 PROFILE_FACTORS = ("supply_mpa", "load_kg", "angle_deg", "speed_rad_s", "time_since_start_s", "phase")
 
@@ -62,8 +91,12 @@ def labels_of(run: Run, ts: np.ndarray, angle_rad: np.ndarray, speed_rad_s: np.n
         "direction": np.array([{-1.0: "-1", 0.0: "0", 1.0: "+1"}[float(x)] for x in run.direction[idx]], dtype=object),
         "load_kg": np.array([f"{run.payload_kg:g}"] * len(ts), dtype=object),
         "angle_deg": np.array([f"{a:+.0f}..{a + ANGLE_BIN_DEG:+.0f}" for a in ang], dtype=object),
-        "speed_rad_s": np.array(["<0.1", "0.1-0.5", "0.5-1", ">1"], dtype=object)[np.digitize(np.abs(speed_rad_s), [0.1, 0.5, 1.0])],
-        "time_since_start_s": np.array([f"{max(0.0, math.floor((x - t0) / 0.5) * 0.5):.1f}+" if x >= t0 else "before" for x in ts], dtype=object),
+        "speed_rad_s": np.array(["<0.1", "0.1-0.5", "0.5-1", ">1"], dtype=object)[
+            np.digitize(np.abs(speed_rad_s), [0.1, 0.5, 1.0])
+        ],
+        "time_since_start_s": np.array(
+            [f"{max(0.0, math.floor((x - t0) / 0.5) * 0.5):.1f}+" if x >= t0 else "before" for x in ts], dtype=object
+        ),
     }
 
 
@@ -71,7 +104,7 @@ def concat_labels(per_run: list[dict[str, np.ndarray]]) -> dict[str, np.ndarray]
     return {f: np.concatenate([lab[f] for lab in per_run]) for f in FACTORS}
 
 
-def breakdown(labels: dict[str, np.ndarray], residual_rad: np.ndarray) -> dict:
+def breakdown(labels: dict[str, np.ndarray], residual_rad: np.ndarray) -> Breakdown:
     """Residual rms, mean and max |.| (deg) and count per bin of each factor."""
     res = np.rad2deg(residual_rad)
     out = {}
@@ -80,8 +113,13 @@ def breakdown(labels: dict[str, np.ndarray], residual_rad: np.ndarray) -> dict:
         out[factor] = {}
         for b in sorted(set(lab), key=str):
             m = lab == b
-            out[factor][str(b)] = {"rms_deg": float(np.sqrt(np.mean(res[m] ** 2))), "mean_deg": float(np.mean(res[m])), "max_abs_deg": float(np.max(np.abs(res[m]))), "n": int(m.sum())}
-    return out
+            out[factor][str(b)] = Bin(
+                float(np.sqrt(np.mean(res[m] ** 2))),
+                float(np.mean(res[m])),
+                float(np.max(np.abs(res[m]))),
+                int(m.sum()),
+            )
+    return Breakdown(**out)
 
 
 def _profile(labels: dict[str, np.ndarray], x: np.ndarray) -> np.ndarray:

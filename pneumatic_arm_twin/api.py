@@ -5,10 +5,24 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
+from gap import CATALOGUE, GapError, load_campaign, write_report
+from gap.diagnose import MODEL_TOLERANCE_DEG
+from gap.diagnose import diagnose as _diagnose  # not gap.diagnose: the submodule's name hides gap's function
+from scenarios.recording import open_recorders
+from scenarios.runner import run_scenario, scenario_files
 from scenarios.schema import Scenario, ScenarioError, load, with_overrides
+from scenarios.sweep import summary_table, write_csv
+from scenarios.sweep import sweep as _sweep
+from twin.mcap_log import read_mcap
+from twin.pictures import plot_angles_png
+from twin.telemetry import SIGNALS
+
+if TYPE_CHECKING:
+    from gap.result import Diagnosis as GapDiagnosis
 
 PANDAS_MISSING = (
     "to_dataframe() needs pandas, which pneumatic-arm-twin does not install; `pip install pandas`, "
@@ -18,8 +32,6 @@ PANDAS_MISSING = (
 
 def shipped_scenario_path(name: str) -> Path:
     """The file of a scenario shipped with the package, by name (`insulator_cleaning`)."""
-    from scenarios.runner import scenario_files
-
     shipped = {p.stem: p for p in scenario_files()}
     if name not in shipped:
         names = ", ".join(sorted(shipped))
@@ -39,8 +51,6 @@ def scenario(name_or_path: str | Path | Scenario, **overrides) -> Scenario:
 
 def flat_columns(arrays: dict[str, np.ndarray], joints: tuple[str, ...], bodies: tuple[str, ...]) -> dict:
     """Telemetry arrays as 1-D columns named `signal`, `signal.joint`, `signal.x`, `signal.body.x`."""
-    from twin.telemetry import SIGNALS
-
     out = {"time_s": arrays["time_s"]}
     for name, shape in SIGNALS.items():
         a = arrays[name]
@@ -58,7 +68,7 @@ def flat_columns(arrays: dict[str, np.ndarray], joints: tuple[str, ...], bodies:
 
 def _dataframe(columns: dict):
     try:
-        import pandas as pd
+        import pandas as pd  # optional, not a dependency: imported where asked for
     except ImportError:
         raise ImportError(PANDAS_MISSING) from None
     return pd.DataFrame(columns)
@@ -88,8 +98,6 @@ class Log:
 
     def plot_angles(self, path, only_moving: bool = True) -> Path:
         """The README's angles figure of this run (PNG)."""
-        from twin.pictures import plot_angles_png
-
         return plot_angles_png(self._arrays, path, joints=self.joints, only_moving=only_moving)
 
 
@@ -114,9 +122,6 @@ def run(
 ) -> Run:
     """Run a scenario (shortened to `duration_s`, with another `seed`, dotted `overrides`), logging
     to `rrd` / `mcap` if given, as `twin run` does (`start_time`: its --start-time)."""
-    from scenarios.runner import run_scenario
-    from twin.commands import open_recorders
-
     sc = scenario(name_or_path, **overrides)
     if seed is not None:
         sc = with_overrides(sc, {"seed": seed})
@@ -134,8 +139,6 @@ def run(
 def read_log(path) -> Log:
     """A run logged with `twin run --mcap` (a file cut short gives what it holds; `meta["recovery"]`
     says how much)."""
-    from twin.mcap_log import read_mcap
-
     arrays, meta = read_mcap(path)
     return Log(arrays, tuple(meta["joints"]), tuple(meta["bodies"]), meta)
 
@@ -148,8 +151,6 @@ class Sweep:
 
     def table(self) -> dict[str, list]:
         """One row per run as columns (see scenarios.sweep.summary_row): {column: [value per run]}."""
-        from scenarios.sweep import summary_table
-
         columns, rows = summary_table(self.summaries)
         return {c: [row.get(c) for row in rows] for c in columns}
 
@@ -157,8 +158,6 @@ class Sweep:
         return _dataframe(self.table())
 
     def to_csv(self, path) -> Path:
-        from scenarios.sweep import write_csv
-
         return write_csv(self.summaries, path)
 
 
@@ -172,8 +171,6 @@ def sweep(
     progress: bool = False,
 ) -> Sweep:
     """Run a scenario over a grid of dotted fields and/or `monte_carlo` child seeds (`twin sweep`)."""
-    from scenarios.sweep import sweep as _sweep
-
     summaries = _sweep(scenario(name_or_path), grid or {}, monte_carlo, workers, None, duration_s, progress=progress)
     return Sweep(summaries)
 
@@ -182,18 +179,20 @@ def sweep(
 class Diagnosis:
     """A gap diagnosis: `verdict` (explained, ambiguous, outside the catalogue, no significant
     gap), the `effect` that explains the gap (the top candidate's name, or None), the held-out
-    rms angle error before and after it, and the whole diagnosis (`details`, as diagnosis.json)."""
+    rms angle error before and after it, and the whole diagnosis (`details`, gap.result.Diagnosis:
+    what diagnosis.json holds)."""
 
     verdict: str
     effect: str | None
     before_rms_deg: float
     after_rms_deg: float | None
-    details: dict
+    details: GapDiagnosis
 
     def ranking(self) -> dict[str, list]:
         """The single-effect candidates, best first, as columns: name, held-out rms, shrink, fitted values."""
-        rank = self.details["which"]["ranking"]
-        return {k: [c[k] for c in rank] for k in ("name", "heldout_rms_deg", "shrink", "fitted_values", "explains")}
+        rank = self.details.which.ranking
+        columns = ("name", "heldout_rms_deg", "shrink", "fitted_values", "explains")
+        return {k: [getattr(c, k) for c in rank] for k in columns}
 
 
 def diagnose(
@@ -207,10 +206,6 @@ def diagnose(
 ) -> Diagnosis:
     """Diagnose a calibration campaign folder (`twin gap diagnose`); `effects` limits the
     catalogue to those names; `out` also writes diagnosis.json, report.md and the plots there."""
-    from gap import CATALOGUE, GapError, load_campaign, write_report
-    from gap.diagnose import MODEL_TOLERANCE_DEG
-    from gap.diagnose import diagnose as _diagnose  # not gap.diagnose: the submodule's name hides gap's function
-
     catalogue = CATALOGUE
     if effects is not None:
         known = {e.name for e in CATALOGUE}
@@ -222,6 +217,6 @@ def diagnose(
     d = _diagnose(load_campaign(campaign), catalogue=catalogue, model_tolerance_deg=tol, n_jobs=jobs, progress=progress)
     if out is not None:
         write_report(d, out)
-    top = d["which"]["top"]
-    after = top["heldout_rms_deg"] if top else None
-    return Diagnosis(d["which"]["verdict"], top["name"] if top else None, d["before_rms_deg"], after, d)
+    top = d.which.top
+    after = top.heldout_rms_deg if top else None
+    return Diagnosis(d.which.verdict, top.name if top else None, d.before_rms_deg, after, d)

@@ -16,14 +16,15 @@ nominal model). A bad file is refused with its path, the field, the value and wh
 
 from __future__ import annotations
 
-import tomllib
 from pathlib import Path
 from typing import NamedTuple
 
+from pydantic import BaseModel, Field, ValidationError
+
+from pneumatics.fields import MISSING, TABLE, TEXT, choice, first_problem, read_toml
 from pneumatics.params import SPEC, JointParams, ParameterError, check_value, validated
 
 SOURCES = ("datasheet", "literature", "assumed", "calibrated")
-KEYS = {"value", "source", "basis"}
 
 
 class AsBuiltEffect(NamedTuple):
@@ -33,33 +34,56 @@ class AsBuiltEffect(NamedTuple):
     basis: str
 
 
+class _Entry(BaseModel):
+    """One [effects.<field>] table; the value is checked against its field's range afterwards."""
+
+    model_config = TABLE
+
+    value: object  # checked against its field's range (check_value) once the field is known
+    source: choice(*SOURCES)
+    basis: TEXT = Field(min_length=1)
+
+
+_ALLOWED = {
+    "value": "a number in the range of the JointParams field the table names",
+    "basis": "a non-empty string: where the number comes from",
+}
+
+
+class _AsBuiltFile(BaseModel):
+    model_config = TABLE
+    effects: dict[choice(*SPEC), _Entry] = {}
+
+
+def _message(path: Path, e: ValidationError) -> str:
+    """The one-line refusal of an as-built file: `<file>: [effects.<field>] key = value ...; allowed: ...`."""
+    p = first_problem(e, _AsBuiltFile)
+    if p.loc[0] != "effects":
+        return f"{path}: unknown table [{p.loc[0]}]; allowed: [effects.<JointParams field>]"
+    if len(p.loc) == 1:
+        return f"{path}: effects = {p.value!r}; allowed: tables [effects.<JointParams field>]"
+    if p.loc[-1] == "[key]":
+        return f"{path}: [effects.{p.loc[1]}] is not a JointParams field; allowed: {', '.join(SPEC)}"
+    if len(p.loc) == 2:
+        return f"{path}: [effects.{p.loc[1]}] = {p.value!r}; allowed: a table with value, source, basis"
+    where = f"{path}: [effects.{p.loc[1]}] {p.loc[2]}"
+    allowed = _ALLOWED.get(p.loc[2], p.allowed) if p.why != "is not a known field" else p.allowed
+    if p.value is MISSING or p.why == "is not a known field":
+        return f"{where} {p.why}; allowed: {allowed}"
+    return f"{where} = {p.value!r} {p.why}; allowed: {allowed}"
+
+
 def load_as_built_effects(path: str | Path) -> tuple[AsBuiltEffect, ...]:
     """The effects of one as-built file, checked field by field (ParameterError on bad input)."""
     path = Path(path)
+    doc, _ = read_toml(path, ParameterError, "as-built file")
     try:
-        doc = tomllib.loads(path.read_text(encoding="utf-8"))
-    except FileNotFoundError:
-        raise ParameterError(f"{path}: no such as-built file") from None
-    except tomllib.TOMLDecodeError as e:
-        raise ParameterError(f"{path}: not valid TOML: {e}") from None
-    unknown = sorted(set(doc) - {"effects"})
-    if unknown:
-        raise ParameterError(f"{path}: unknown table [{unknown[0]}]; allowed: [effects.<JointParams field>]")
-    out = []
-    for field, table in doc.get("effects", {}).items():
-        where = f"{path}: [effects.{field}]"
-        if field not in SPEC:
-            raise ParameterError(f"{where} is not a JointParams field; allowed: {', '.join(SPEC)}")
-        if not isinstance(table, dict) or set(table) - KEYS or "value" not in table:
-            raise ParameterError(f"{where} = {table!r}; allowed: a table with value, source, basis")
-        source = table.get("source")
-        if source not in SOURCES:
-            raise ParameterError(f"{where} source = {source!r}; allowed: {' | '.join(SOURCES)}")
-        basis = table.get("basis", "")
-        if not isinstance(basis, str) or not basis:
-            raise ParameterError(f"{where} basis = {basis!r}; allowed: a non-empty string: where the number comes from")
-        out.append(AsBuiltEffect(field, check_value(str(path), field, table["value"]), source, basis))
-    return tuple(out)
+        entries = _AsBuiltFile.model_validate(doc).effects
+    except ValidationError as e:
+        raise ParameterError(_message(path, e)) from None
+    return tuple(
+        AsBuiltEffect(field, check_value(str(path), field, e.value), e.source, e.basis) for field, e in entries.items()
+    )
 
 
 def as_built(nominal: JointParams, effects: tuple[AsBuiltEffect, ...], source: str = "<as-built>") -> JointParams:

@@ -27,7 +27,9 @@ from pneumatics.valves import lag_mean, lag_toward
 
 
 @njit
-def brake_feed_gauge_pa(fed_by_motor: float, supply_pa: float, pa_motor_pa: float, pb_motor_pa: float, p_atm_pa: float) -> float:
+def brake_feed_gauge_pa(
+    fed_by_motor: float, supply_pa: float, pa_motor_pa: float, pb_motor_pa: float, p_atm_pa: float
+) -> float:
     """Gauge pressure reaching the brake: the supply, or the higher motor port (a shuttle valve)."""
     if fed_by_motor > 0.5:
         return max(pa_motor_pa, pb_motor_pa) - p_atm_pa

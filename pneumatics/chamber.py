@@ -13,6 +13,14 @@ from pneumatics._jit import njit
 
 
 @njit
-def chamber_pressure_rate(p_pa: float, volume_m3: float, volume_rate_m3_s: float, net_mass_flow_kg_s: float, t_supply_k: float, r: float, n: float) -> float:
+def chamber_pressure_rate(
+    p_pa: float,
+    volume_m3: float,
+    volume_rate_m3_s: float,
+    net_mass_flow_kg_s: float,
+    t_supply_k: float,
+    r: float,
+    n: float,
+) -> float:
     """dp/dt in Pa/s of a chamber of volume V (m^3) changing at dV/dt with net inflow m (kg/s)."""
     return n / volume_m3 * (r * t_supply_k * net_mass_flow_kg_s - p_pa * volume_rate_m3_s)

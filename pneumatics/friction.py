@@ -15,7 +15,9 @@ from pneumatics._jit import njit
 
 
 @njit
-def coulomb_viscous_torque(speed_rad_s: float, drive_torque_nm: float, coulomb_nm: float, viscous_nm_s: float, stick_speed_rad_s: float) -> float:
+def coulomb_viscous_torque(
+    speed_rad_s: float, drive_torque_nm: float, coulomb_nm: float, viscous_nm_s: float, stick_speed_rad_s: float
+) -> float:
     """Friction torque in N·m (Karnopp): opposes the motion, or the drive while stuck.
 
     While |speed| < stick_speed the joint sticks unless the net drive exceeds the Coulomb level;
@@ -29,7 +31,9 @@ def coulomb_viscous_torque(speed_rad_s: float, drive_torque_nm: float, coulomb_n
 
 
 @njit
-def stribeck_excess_torque(speed_rad_s: float, breakaway_excess_nm: float, stribeck_speed_rad_s: float, smoothing_speed_rad_s: float) -> float:
+def stribeck_excess_torque(
+    speed_rad_s: float, breakaway_excess_nm: float, stribeck_speed_rad_s: float, smoothing_speed_rad_s: float
+) -> float:
     """Torque in N·m by which static friction exceeds Coulomb friction near zero speed.
 
     -(F_s - F_c) exp(-(w/w_s)^2) tanh(w/w_eps): the Stribeck curve's excess (Armstrong-Helouvry,
@@ -42,7 +46,13 @@ def stribeck_excess_torque(speed_rad_s: float, breakaway_excess_nm: float, strib
 
 
 @njit
-def reducer_output_torque(motor_torque_nm: float, joint_speed_rad_s: float, ratio: float, efficiency_forward: float, efficiency_backward: float) -> float:
+def reducer_output_torque(
+    motor_torque_nm: float,
+    joint_speed_rad_s: float,
+    ratio: float,
+    efficiency_forward: float,
+    efficiency_backward: float,
+) -> float:
     """Joint-side torque in N·m of a reducer, paper eq. 6 (M_o = i M_i) with efficiencies.
 
     The paper's eq. 6 is ideal; a strain-wave gear loses power: when the motor drives the load

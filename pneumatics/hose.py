@@ -31,11 +31,19 @@ def friction_factor(reynolds: float) -> float:
     """Darcy friction factor: Blasius 0.316 Re^-0.25 (paper eq. 3), laminar 64/Re below ~1187."""
     if reynolds <= 0.0:
         return math.inf
-    return max(64.0 / reynolds, 0.316 * reynolds ** -0.25)
+    return max(64.0 / reynolds, 0.316 * reynolds**-0.25)
 
 
 @njit
-def hose_pressure_drop(mass_flow_kg_s: float, p_mean_pa: float, t_mean_k: float, length_m: float, diameter_m: float, r: float, mu_pa_s: float) -> float:
+def hose_pressure_drop(
+    mass_flow_kg_s: float,
+    p_mean_pa: float,
+    t_mean_k: float,
+    length_m: float,
+    diameter_m: float,
+    r: float,
+    mu_pa_s: float,
+) -> float:
     """Pressure drop in Pa along a hose carrying `mass_flow_kg_s` (signed like the flow), eq. 1-4.
 
     The gas density is taken at the mean pressure and mean temperature of the hose, as in the
@@ -50,7 +58,9 @@ def hose_pressure_drop(mass_flow_kg_s: float, p_mean_pa: float, t_mean_k: float,
 
 
 @njit
-def hose_mass_flow(p_in_pa: float, p_out_pa: float, t_mean_k: float, length_m: float, diameter_m: float, r: float, mu_pa_s: float) -> float:
+def hose_mass_flow(
+    p_in_pa: float, p_out_pa: float, t_mean_k: float, length_m: float, diameter_m: float, r: float, mu_pa_s: float
+) -> float:
     """Signed mass flow in kg/s through a hose from the pressure at its two ends: eq. 1-4 inverted.
 
     Exact inverse of `hose_pressure_drop` with the density at (p_in + p_out)/2: on the laminar
@@ -66,7 +76,13 @@ def hose_mass_flow(p_in_pa: float, p_out_pa: float, t_mean_k: float, length_m: f
     m = math.pi * rho * diameter_m**4 * adp / (128.0 * mu_pa_s * length_m)
     if reynolds_number(m, diameter_m, mu_pa_s) > BLASIUS_LAMINAR_RE:
         # Blasius: dp = 8 * 0.316 (4 m/(pi d mu))^-0.25 L m^2 / (pi^2 rho d^5)
-        coef = 8.0 * 0.316 * (4.0 / (math.pi * diameter_m * mu_pa_s)) ** -0.25 * length_m / (math.pi**2 * rho * diameter_m**5)
+        coef = (
+            8.0
+            * 0.316
+            * (4.0 / (math.pi * diameter_m * mu_pa_s)) ** -0.25
+            * length_m
+            / (math.pi**2 * rho * diameter_m**5)
+        )
         m = (adp / coef) ** (1.0 / 1.75)
     return m if dp > 0.0 else -m
 

@@ -30,7 +30,14 @@ def wrap_motor_angle(phi_rad: float, n_vanes: float) -> float:
 
 
 @njit
-def chamber_geometry(phi_rad: float, stator_radius_m: float, rotor_radius_m: float, vane_length_m: float, n_vanes: float, dead_volume_m3: float) -> tuple[float, float, float]:
+def chamber_geometry(
+    phi_rad: float,
+    stator_radius_m: float,
+    rotor_radius_m: float,
+    vane_length_m: float,
+    n_vanes: float,
+    dead_volume_m3: float,
+) -> tuple[float, float, float]:
     """(V_A, V_B, dV_A/dphi) at motor angle phi, in m^3 and m^3/rad.
 
     dV_A/dphi = (L/2)(rho^2 - r^2); V_A is its integral from the start of the vane pitch
@@ -48,19 +55,30 @@ def chamber_geometry(phi_rad: float, stator_radius_m: float, rotor_radius_m: flo
     slope = half_l * (b * b + 2.0 * e * b * c1 + e * e * (2.0 * c1 * c1 - 1.0) - r * r)
     mid = half_l * ((b * b - r * r) * w + 2.0 * e * b * s1 + e * e * s1 * c1)
     half_pitch = math.pi / n_vanes
-    hi = half_l * ((b * b - r * r) * half_pitch + 2.0 * e * b * math.sin(half_pitch) + 0.5 * e * e * math.sin(2.0 * half_pitch))
+    hi = half_l * (
+        (b * b - r * r) * half_pitch + 2.0 * e * b * math.sin(half_pitch) + 0.5 * e * e * math.sin(2.0 * half_pitch)
+    )
     # the antiderivative is odd, so its value at -pi/n is -hi
     return dead_volume_m3 + (mid + hi), dead_volume_m3 + (hi - mid), slope
 
 
 @njit
-def swept_area(phi_rad: float, stator_radius_m: float, rotor_radius_m: float, vane_length_m: float, n_vanes: float) -> float:
+def swept_area(
+    phi_rad: float, stator_radius_m: float, rotor_radius_m: float, vane_length_m: float, n_vanes: float
+) -> float:
     """dV_A/dphi in m^3/rad = (L/2)(rho^2 - r^2) at the wrapped motor angle."""
     return chamber_geometry(phi_rad, stator_radius_m, rotor_radius_m, vane_length_m, n_vanes, 0.0)[2]
 
 
 @njit
-def chamber_volumes(phi_rad: float, stator_radius_m: float, rotor_radius_m: float, vane_length_m: float, n_vanes: float, dead_volume_m3: float) -> tuple[float, float]:
+def chamber_volumes(
+    phi_rad: float,
+    stator_radius_m: float,
+    rotor_radius_m: float,
+    vane_length_m: float,
+    n_vanes: float,
+    dead_volume_m3: float,
+) -> tuple[float, float]:
     """Volumes (V_A, V_B) in m^3 of the two motor chambers at motor angle phi.
 
     V_A grows from `dead_volume_m3` at the start of a vane pitch while V_B shrinks; V_A + V_B is
@@ -71,7 +89,15 @@ def chamber_volumes(phi_rad: float, stator_radius_m: float, rotor_radius_m: floa
 
 
 @njit
-def vane_torque(p_a_pa: float, p_b_pa: float, phi_rad: float, stator_radius_m: float, rotor_radius_m: float, vane_length_m: float, n_vanes: float) -> float:
+def vane_torque(
+    p_a_pa: float,
+    p_b_pa: float,
+    phi_rad: float,
+    stator_radius_m: float,
+    rotor_radius_m: float,
+    vane_length_m: float,
+    n_vanes: float,
+) -> float:
     """Motor shaft torque in N·m from the chamber pressures: (p_A - p_B) dV_A/dphi."""
     if p_a_pa == p_b_pa:
         return 0.0  # an idle motor, every step: exactly the product below (dV_A/dphi > 0), without the geometry

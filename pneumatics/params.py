@@ -3,21 +3,24 @@
 A joint's parameter file (assets/joints/<joint>.toml) has one table per part: [motor],
 [reducer], [hose], [valves], [brake], [friction] and [effects] (the optional effects of the gap
 catalogue, all off by default). Every field must be present in the file (except [effects]
-fields, which default to "off"), be a number, and lie within the range below; anything else is
-refused with the file, the field, the value and what is allowed. Each number in the files says
-where it comes from.
+fields, which default to JointParams' "off" values), be a number, and lie within its range in
+SPEC; a table may also name its part (`model`, `note`: text). Anything else is refused with the
+file, the field, the value and what is allowed. The file's schema (`ParameterFile`) is built from
+SPEC and JointParams, so each range and each default is written once. Each number in the files
+says where it comes from.
 """
 
 from __future__ import annotations
 
-import math
-import tomllib
 from dataclasses import dataclass
 from pathlib import Path
 from typing import NamedTuple
 
 import numpy as np
+from pydantic import BaseModel, Field, ValidationError, create_model
+from pydantic_core import PydanticCustomError
 
+from pneumatics.fields import MISSING, TABLE, TEXT, Problem, first_problem, number, number_check, read_toml
 from pneumatics.gas import AIR, Gas
 
 
@@ -53,7 +56,9 @@ class JointParams(NamedTuple):
     brake_holding_nm: float
     brake_release_gauge_pa: float  # full release: the lining is clear from this feed pressure on
     brake_release_start_gauge_pa: float  # the lining begins to lift (the springs' preload)
-    brake_fed_by_motor: float  # 1: air from the motor's pressurised port at the arm; 0: the supply (pneumatics/brake.py)
+    brake_fed_by_motor: (
+        float  # 1: air from the motor's pressurised port at the arm; 0: the supply (pneumatics/brake.py)
+    )
     brake_engage_time_constant_s: float
     brake_release_time_constant_s: float
     # [friction] joint side
@@ -136,26 +141,72 @@ assert list(SPEC) == list(JointParams._fields), "SPEC and JointParams must list 
 
 SECTIONS = ("motor", "reducer", "hose", "valves", "brake", "friction", "effects")
 # metadata keys a section may carry besides numbers (names of the parts, e.g. model = "1UP-NRV-3A")
-TEXT_KEYS = {"model", "note"}
+TEXT_KEYS = ("model", "note")
+_CHECKS = {name: number_check(spec.low, spec.high, spec.unit) for name, spec in SPEC.items()}
+
+
+def _section_table(section: str) -> type[BaseModel]:
+    """The schema of one [section]: its JointParams fields (required unless JointParams gives a
+    default, i.e. the [effects]) and the text keys."""
+    numbers = {
+        name: (number(spec.low, spec.high, spec.unit), JointParams._field_defaults.get(name, ...))
+        for name, spec in SPEC.items()
+        if spec.section == section
+    }
+    texts = {key: (TEXT | None, None) for key in TEXT_KEYS}
+    return create_model(f"{section}_table", __config__=TABLE, **numbers, **texts)
+
+
+_TABLES = {section: _section_table(section) for section in SECTIONS}
+# a parameter file: one table per section; [effects] may be left out (all off)
+ParameterFile = create_model(
+    "ParameterFile",
+    __config__=TABLE,
+    **{s: (t, Field(default_factory=t) if s == "effects" else ...) for s, t in _TABLES.items()},
+)
+
+
+# any subset of JointParams fields, each in its range (a scenario's effects on one joint)
+JointParamsSubset = create_model(
+    "JointParamsSubset",
+    __config__=TABLE,
+    **{name: (number(spec.low, spec.high, spec.unit), None) for name, spec in SPEC.items()},
+)
 
 
 def check_value(source: str, field: str, value: object) -> float:
     """`value` as a float if it is allowed for `field`, else ParameterError naming source and field."""
-    spec = SPEC[field]
-    where = f"{source}: [{spec.section}] {field}"
-    allowed = f"a number in {spec.low:g}..{spec.high:g} {spec.unit}"
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise ParameterError(f"{where} = {value!r} is not a number; allowed: {allowed}")
-    value = float(value)
-    if not math.isfinite(value) or not spec.low <= value <= spec.high:
-        raise ParameterError(f"{where} = {value:g} is outside the allowed range; allowed: {allowed}")
-    return value
+    check, allowed = _CHECKS[field]
+    try:
+        return check(value)
+    except PydanticCustomError as e:
+        why = e.context["why"] if e.context else "is not allowed"
+        raise ParameterError(_message(source, Problem((SPEC[field].section, field), value, why, allowed))) from None
+
+
+def _message(source: str, p: Problem) -> str:
+    """The one-line refusal of a parameter file: `<file>: [section] field = value <why>; allowed: ...`."""
+    if len(p.loc) == 1:
+        if p.why == "is not a known field":
+            return f"{source}: unknown table [{p.loc[0]}]; allowed: {', '.join(SECTIONS)}"
+        return f"{source}: [{p.loc[0]}] = {p.value!r} {p.why}; allowed: {p.allowed}"
+    where = f"{source}: [{p.loc[0]}] {p.loc[1]}"
+    if p.value is MISSING or p.why == "is not a known field":
+        return f"{where} {p.why}; allowed: {p.allowed}"
+    shown = f"{p.value:g}" if p.why == "is outside the allowed range" else repr(p.value)
+    return f"{where} = {shown} {p.why}; allowed: {p.allowed}"
 
 
 def validated(params: JointParams, source: str = "<parameters>") -> JointParams:
     """Check every field of `params` and the relations between them."""
-    for field, value in zip(JointParams._fields, params):
+    for field, value in zip(JointParams._fields, params, strict=True):
         check_value(source, field, value)
+    return _related(params, source)
+
+
+def _related(params: JointParams, source: str) -> JointParams:
+    """Check what the fields must hold together: a rotor inside its stator, a brake that lifts
+    before it is clear, a body for the motor side of a non-rigid reducer, switches that are 0 or 1."""
     if params.rotor_radius_m >= params.stator_radius_m:
         raise ParameterError(
             f"{source}: [motor] rotor_radius_m = {params.rotor_radius_m:g} must be smaller than "
@@ -163,13 +214,18 @@ def validated(params: JointParams, source: str = "<parameters>") -> JointParams:
         )
     if params.brake_release_start_gauge_pa > params.brake_release_gauge_pa:
         raise ParameterError(
-            f"{source}: [brake] brake_release_start_gauge_pa = {params.brake_release_start_gauge_pa:g} must not exceed "
-            f"brake_release_gauge_pa = {params.brake_release_gauge_pa:g} (the lining lifts before it is clear)"
+            f"{source}: [brake] brake_release_start_gauge_pa = {params.brake_release_start_gauge_pa:g} "
+            f"must not exceed brake_release_gauge_pa = {params.brake_release_gauge_pa:g} "
+            "(the lining lifts before it is clear)"
         )
-    if (params.reducer_backlash_rad > 0.0 or params.reducer_compliance_rad_per_nm > 0.0) and params.rotor_inertia_kg_m2 == 0.0:
+    if (
+        params.reducer_backlash_rad > 0.0 or params.reducer_compliance_rad_per_nm > 0.0
+    ) and params.rotor_inertia_kg_m2 == 0.0:
         raise ParameterError(
-            f"{source}: [motor] rotor_inertia_kg_m2 = 0 with a non-rigid reducer (reducer_backlash_rad = {params.reducer_backlash_rad:g}, "
-            f"reducer_compliance_rad_per_nm = {params.reducer_compliance_rad_per_nm:g}); allowed: a rotor inertia > 0 (the motor side is a body of its own)"
+            f"{source}: [motor] rotor_inertia_kg_m2 = 0 with a non-rigid reducer "
+            f"(reducer_backlash_rad = {params.reducer_backlash_rad:g}, "
+            f"reducer_compliance_rad_per_nm = {params.reducer_compliance_rad_per_nm:g}); "
+            "allowed: a rotor inertia > 0 (the motor side is a body of its own)"
         )
     for section, field in (("hose", "hose_loss"), ("brake", "brake_fed_by_motor")):
         value = getattr(params, field)
@@ -181,29 +237,13 @@ def validated(params: JointParams, source: str = "<parameters>") -> JointParams:
 def load_joint_params(path: str | Path) -> JointParams:
     """Read and check one joint's parameter file."""
     path = Path(path)
+    doc, _ = read_toml(path, ParameterError, "parameter file")
     try:
-        with path.open("rb") as f:
-            doc = tomllib.load(f)
-    except FileNotFoundError:
-        raise ParameterError(f"{path}: no such parameter file") from None
-    except tomllib.TOMLDecodeError as e:
-        raise ParameterError(f"{path}: not valid TOML: {e}") from None
-    values: dict[str, float] = {}
-    for section, table in doc.items():
-        if section not in SECTIONS or not isinstance(table, dict):
-            raise ParameterError(f"{path}: unknown table [{section}]; allowed: {', '.join(SECTIONS)}")
-        for field, value in table.items():
-            if field in TEXT_KEYS:
-                continue
-            if field not in SPEC or SPEC[field].section != section:
-                known = [f for f, s in SPEC.items() if s.section == section]
-                raise ParameterError(f"{path}: [{section}] {field} is not a known field; allowed: {', '.join(known)}")
-            values[field] = check_value(str(path), field, value)
-    defaults = JointParams._field_defaults
-    for field, spec in SPEC.items():
-        if field not in values and field not in defaults:
-            raise ParameterError(f"{path}: [{spec.section}] {field} is missing; allowed: a number in {spec.low:g}..{spec.high:g} {spec.unit}")
-    return validated(JointParams(**values), str(path))
+        tables = ParameterFile.model_validate(doc)
+    except ValidationError as e:
+        raise ParameterError(_message(str(path), first_problem(e, ParameterFile))) from None
+    params = JointParams(**{name: getattr(getattr(tables, spec.section), name) for name, spec in SPEC.items()})
+    return _related(params, str(path))
 
 
 def params_row(params: JointParams, gas: Gas = AIR) -> np.ndarray:
@@ -213,14 +253,48 @@ def params_row(params: JointParams, gas: Gas = AIR) -> np.ndarray:
 
 # column of each field in `params_row` (compile-time constants for the kernels)
 _COLUMNS = {name: i for i, name in enumerate(JointParams._fields + tuple("gas_" + f for f in Gas._fields))}
-STATOR, ROTOR, VANE_L, N_VANES, DEAD_V, ROTOR_J = (_COLUMNS[f] for f in JointParams._fields[0:6])
-RATIO, ETA_F, ETA_B = (_COLUMNS[f] for f in JointParams._fields[6:9])
-HOSE_L, HOSE_D, HOSE_LOSS = (_COLUMNS[f] for f in JointParams._fields[9:12])
-A_IN, A_EX, K_U, VALVE_TAU, SOLENOID_DELAY = (_COLUMNS[f] for f in JointParams._fields[12:17])
-BRAKE_HOLD, BRAKE_RELEASE_PA, BRAKE_START_PA, BRAKE_FED_BY_MOTOR, BRAKE_TAU_ON, BRAKE_TAU_OFF = (_COLUMNS[f] for f in JointParams._fields[17:23])
-COULOMB, VISCOUS, STICK_SPEED = (_COLUMNS[f] for f in JointParams._fields[23:26])
-LEAK_A, STRIBECK_EXCESS, STRIBECK_SPEED, DEAD_ZONE, COND_SCALE, POLY_N, RIPPLE, DROOP, HOSE_LEAK_A = (_COLUMNS[f] for f in JointParams._fields[26:35])
+# each column named by its field (no positional slices: a field added anywhere moves nothing)
+STATOR = _COLUMNS["stator_radius_m"]
+ROTOR = _COLUMNS["rotor_radius_m"]
+VANE_L = _COLUMNS["vane_length_m"]
+N_VANES = _COLUMNS["n_vanes"]
+DEAD_V = _COLUMNS["dead_volume_m3"]
+ROTOR_J = _COLUMNS["rotor_inertia_kg_m2"]
+RATIO = _COLUMNS["ratio"]
+ETA_F = _COLUMNS["efficiency_forward"]
+ETA_B = _COLUMNS["efficiency_backward"]
+HOSE_L = _COLUMNS["hose_length_m"]
+HOSE_D = _COLUMNS["hose_diameter_m"]
+HOSE_LOSS = _COLUMNS["hose_loss"]
+A_IN = _COLUMNS["inlet_area_m2"]
+A_EX = _COLUMNS["exhaust_area_m2"]
+K_U = _COLUMNS["k_u_per_pa"]
+VALVE_TAU = _COLUMNS["valve_time_constant_s"]
+SOLENOID_DELAY = _COLUMNS["solenoid_delay_s"]
+BRAKE_HOLD = _COLUMNS["brake_holding_nm"]
+BRAKE_RELEASE_PA = _COLUMNS["brake_release_gauge_pa"]
+BRAKE_START_PA = _COLUMNS["brake_release_start_gauge_pa"]
+BRAKE_FED_BY_MOTOR = _COLUMNS["brake_fed_by_motor"]
+BRAKE_TAU_ON = _COLUMNS["brake_engage_time_constant_s"]
+BRAKE_TAU_OFF = _COLUMNS["brake_release_time_constant_s"]
+COULOMB = _COLUMNS["coulomb_nm"]
+VISCOUS = _COLUMNS["viscous_nm_s"]
+STICK_SPEED = _COLUMNS["stick_speed_rad_s"]
+LEAK_A = _COLUMNS["leak_area_m2"]
+STRIBECK_EXCESS = _COLUMNS["stribeck_excess_nm"]
+STRIBECK_SPEED = _COLUMNS["stribeck_speed_rad_s"]
+DEAD_ZONE = _COLUMNS["valve_dead_zone"]
+COND_SCALE = _COLUMNS["conductance_scale"]
+POLY_N = _COLUMNS["polytropic_n"]
+RIPPLE = _COLUMNS["ripple_fraction"]
+DROOP = _COLUMNS["supply_droop_pa_s_per_kg"]
+HOSE_LEAK_A = _COLUMNS["hose_leak_area_m2"]
 PV_DEAD_TIME = _COLUMNS["valve_set_dead_time_s"]
-BACKLASH, COMPLIANCE = _COLUMNS["reducer_backlash_rad"], _COLUMNS["reducer_compliance_rad_per_nm"]
-GAS_R, GAS_K, GAS_T, GAS_P_ATM, GAS_MU = (_COLUMNS["gas_" + f] for f in Gas._fields)
+BACKLASH = _COLUMNS["reducer_backlash_rad"]
+COMPLIANCE = _COLUMNS["reducer_compliance_rad_per_nm"]
+GAS_R = _COLUMNS["gas_r_j_per_kg_k"]
+GAS_K = _COLUMNS["gas_k"]
+GAS_T = _COLUMNS["gas_t_supply_k"]
+GAS_P_ATM = _COLUMNS["gas_p_atm_pa"]
+GAS_MU = _COLUMNS["gas_mu_pa_s"]
 N_COLUMNS = len(_COLUMNS)

@@ -80,7 +80,9 @@ def dead_zone(x: float, half_width: float) -> float:
 
 
 @njit
-def transmitted_torque(twist_rad: float, twist_rate_rad_s: float, half_gap_rad: float, stiffness_nm_per_rad: float, damping_nm_s: float) -> float:
+def transmitted_torque(
+    twist_rad: float, twist_rate_rad_s: float, half_gap_rad: float, stiffness_nm_per_rad: float, damping_nm_s: float
+) -> float:
     """Torque in N·m the gear passes from motor to joint at twist q_m - theta and its rate."""
     if half_gap_rad == 0.0:
         return stiffness_nm_per_rad * twist_rad + damping_nm_s * twist_rate_rad_s

@@ -72,7 +72,9 @@ def valve_opening(p_v_gauge_pa: float, k_u_per_pa: float, dead_zone: float) -> f
 
 
 @njit
-def _delayed_change(effective: float, pending: float, remaining_s: float, command: float, delay_s: float, dt_s: float, restart: bool) -> tuple[float, float, float]:
+def _delayed_change(
+    effective: float, pending: float, remaining_s: float, command: float, delay_s: float, dt_s: float, restart: bool
+) -> tuple[float, float, float]:
     # a commanded change takes effect delay_s later; `restart`: a newer command restarts the delay
     # the state describes the step's start: a change due by then is in effect for the whole step,
     # one still pending counts down through it (a delay on the step grid is met exactly)
@@ -90,7 +92,9 @@ def _delayed_change(effective: float, pending: float, remaining_s: float, comman
 
 
 @njit
-def dead_time_step(effective: float, pending: float, remaining_s: float, command: float, delay_s: float, dt_s: float) -> tuple[float, float, float]:
+def dead_time_step(
+    effective: float, pending: float, remaining_s: float, command: float, delay_s: float, dt_s: float
+) -> tuple[float, float, float]:
     """Advance a dead time on a command that changes in steps by dt: each change takes effect
     exactly `delay_s` after it (a transport delay) when changes are further apart than the delay.
 
@@ -102,7 +106,9 @@ def dead_time_step(effective: float, pending: float, remaining_s: float, command
 
 
 @njit
-def solenoid_step(effective: float, pending: float, remaining_s: float, command: float, delay_s: float, dt_s: float) -> tuple[float, float, float]:
+def solenoid_step(
+    effective: float, pending: float, remaining_s: float, command: float, delay_s: float, dt_s: float
+) -> tuple[float, float, float]:
     """Advance a solenoid valve with a switching delay by dt.
 
     State: the position in effect, a commanded position still pending, and the time left until it

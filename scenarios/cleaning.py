@@ -61,7 +61,7 @@ def _longest_run_s(mask: np.ndarray, t: np.ndarray) -> float:
     period = float(np.median(np.diff(t))) if len(t) > 1 else 0.0
     edges = np.diff(np.concatenate(([0], mask.astype(np.int8), [0])))
     starts, ends = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1) - 1
-    return float(max(t[e] - t[s] for s, e in zip(starts, ends)) + period)
+    return float(max(t[e] - t[s] for s, e in zip(starts, ends, strict=True)) + period)
 
 
 def _covered_arc_m(azimuth: np.ndarray, half_width_rad: float, radius_m: float) -> float:

@@ -26,7 +26,7 @@ def build(scenario: Scenario, plant: Plant, predictor_params: dict[str, JointPar
     refused plan leaves the arm braked and the refusal's message for the summary."""
     if scenario.control.mode == "none":
         return idle(len(plant.joints)), ""
-    start = dict(zip(plant.joints, plant.drive_angles()))
+    start = dict(zip(plant.joints, plant.drive_angles(), strict=True))
     controller = ArmController(
         start,
         xml_path=assets.WRIST_RIG_XML if scenario.model == "wrist_rig" else assets.ARM_XML,
@@ -39,7 +39,9 @@ def build(scenario: Scenario, plant: Plant, predictor_params: dict[str, JointPar
         payload_kg=scenario.payload_kg if scenario.model == "arm" else None,
     )
     try:
-        controller.set_targets(targets, sequence=scenario.control.sequence, dwell_s=[t.dwell_s for t in scenario.targets])
+        controller.set_targets(
+            targets, sequence=scenario.control.sequence, dwell_s=[t.dwell_s for t in scenario.targets]
+        )
     except MotionRefused as e:
         return controller, str(e)
     return controller, ""

@@ -47,8 +47,15 @@ def _deg(x):
     return np.degrees(x)
 
 
-def judge(scenario: Scenario, arrays: dict[str, np.ndarray], joints: tuple[str, ...], bodies: tuple[str, ...], model: mujoco.MjModel,
-          requested: list[dict[str, float]] | None = None, reached: list[bool] | None = None) -> list[Verdict]:
+def judge(
+    scenario: Scenario,
+    arrays: dict[str, np.ndarray],
+    joints: tuple[str, ...],
+    bodies: tuple[str, ...],
+    model: mujoco.MjModel,
+    requested: list[dict[str, float]] | None = None,
+    reached: list[bool] | None = None,
+) -> list[Verdict]:
     """One verdict per criterion of the scenario (per joint or disc where it names none; at least one
     each: a criterion with nothing to judge fails). `requested`: the scenario's targets in rad;
     final_error_deg is measured against the last one asked of each joint, so a plan the controller
@@ -63,7 +70,11 @@ def judge(scenario: Scenario, arrays: dict[str, np.ndarray], joints: tuple[str, 
             verdicts = _judge_one(c, scenario, arrays, joints, bodies, model, requested)
             if reached is not None and c.kind == "final_error_deg" and not (reached and reached[-1]):
                 verdicts = [replace(v, passed=False, judged=False) for v in verdicts]
-            if reached is not None and c.kind == "contact_force_n" and not any(disc_reached(scenario, k, reached) for k in range(1, 9)):
+            if (
+                reached is not None
+                and c.kind == "contact_force_n"
+                and not any(disc_reached(scenario, k, reached) for k in range(1, 9))
+            ):
                 verdicts = [replace(v, passed=False, judged=False) for v in verdicts]  # no press finished yet
             out.extend(verdicts or [Verdict(c.kind, c.joint or "-", math.nan, _limit(c), False)])
     return out
@@ -77,7 +88,9 @@ def disc_reached(scenario: Scenario, disc: int, reached: list[bool] | None) -> b
     return bool(presses) and all(reached[i] for i in presses)
 
 
-def _judge_discs(c: Criterion, scenario: Scenario, contacts: list[DiscContact], reached: list[bool] | None) -> list[Verdict]:
+def _judge_discs(
+    c: Criterion, scenario: Scenario, contacts: list[DiscContact], reached: list[bool] | None
+) -> list[Verdict]:
     out = []
     for dc in contacts:
         if c.disc and dc.disc != c.disc:
@@ -115,7 +128,11 @@ def _judge_one(c: Criterion, scenario: Scenario, a: dict, joints, bodies, model,
     if c.kind in ("final_error_deg", "max_error_deg"):
         targets = a["target_angle_rad"]
         last_asked = {j: v for target in (requested or []) for j, v in target.items()}
-        chosen = [c.joint] if c.joint else [j for i, j in enumerate(joints) if np.isfinite(targets[:, i]).any() or j in last_asked]
+        chosen = (
+            [c.joint]
+            if c.joint
+            else [j for i, j in enumerate(joints) if np.isfinite(targets[:, i]).any() or j in last_asked]
+        )
         verdicts = []
         for joint in chosen:
             i = joints.index(joint)
@@ -124,7 +141,9 @@ def _judge_one(c: Criterion, scenario: Scenario, a: dict, joints, bodies, model,
                 value = float(_deg(abs(a["true_angle_rad"][-1, i] - last_asked[joint])))
             elif c.kind == "final_error_deg":  # a joint no target named: held where the controller held it
                 finite = np.flatnonzero(np.isfinite(targets[:, i]))
-                value = float(_deg(abs(a["true_angle_rad"][-1, i] - targets[finite[-1], i]))) if finite.size else math.nan
+                value = (
+                    float(_deg(abs(a["true_angle_rad"][-1, i] - targets[finite[-1], i]))) if finite.size else math.nan
+                )
             else:
                 value = float(np.nanmax(err)) if np.isfinite(err).any() else math.nan
             verdicts.append(Verdict(c.kind, joint, value, _limit(c), bool(np.isfinite(value) and _within(value, c))))

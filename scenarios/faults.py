@@ -1,15 +1,15 @@
 """Faults that strike a run at a given time, applied to the plant (never to the controller).
 
-    supply_lost       the supply falls to atmosphere (the brakes' springs engage)
-    hose_leak         port A's hose leaks to atmosphere through `value` m^2
-    valve_stuck_open  the joint's direction valve sticks in its +1 position, fully open
-    brake_fails       the joint's brake no longer engages (holding torque 0)
-    sensor_bias       the joint's proportional-valve pressure sensor reads `value` Pa high
+supply_lost       the supply falls to atmosphere (the brakes' springs engage)
+hose_leak         port A's hose leaks to atmosphere through `value` m^2
+valve_stuck_open  the joint's direction valve sticks in its +1 position, fully open
+brake_fails       the joint's brake no longer engages (holding torque 0)
+sensor_bias       the joint's proportional-valve pressure sensor reads `value` Pa high
 """
 
 from __future__ import annotations
 
-from typing import Callable
+from collections.abc import Callable
 
 from pneumatics import AIR
 from scenarios.schema import Fault

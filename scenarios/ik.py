@@ -48,7 +48,13 @@ def tool_drive_angles(model: mujoco.MjModel, tip_target: np.ndarray, tool_pitch_
     elbow_x = l1 * math.cos(q_shoulder)
     elbow_z = l1 * math.sin(q_shoulder)
     q_forearm = math.atan2(wz - elbow_z, wx - elbow_x)  # absolute pitch of the forearm
-    return {"base_yaw": 0.0, "shoulder_pitch": q_shoulder, "elbow_pitch": q_forearm, "wrist_pitch": tool_pitch_rad - q_forearm, "tool_roll": 0.0}
+    return {
+        "base_yaw": 0.0,
+        "shoulder_pitch": q_shoulder,
+        "elbow_pitch": q_forearm,
+        "wrist_pitch": tool_pitch_rad - q_forearm,
+        "tool_roll": 0.0,
+    }
 
 
 def disc_drive_angles(model: mujoco.MjModel, disc: int, standoff_m: float = -0.006) -> dict[str, float]:

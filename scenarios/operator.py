@@ -146,7 +146,9 @@ class Operator:
     def read_pose(frame: Frame) -> dict[str, float]:
         """Drive angles of the pitch joints as the picture shows them (rad): each link's pitch is
         its line's slope in the picture (v grows downwards)."""
-        pitch = [math.atan2(-(b[1] - a[1]), b[0] - a[0]) for a, b in zip(frame.arm_px[:-1], frame.arm_px[1:])]
+        pitch = [
+            math.atan2(-(b[1] - a[1]), b[0] - a[0]) for a, b in zip(frame.arm_px[:-1], frame.arm_px[1:], strict=True)
+        ]
         upper, fore, tool = pitch
         return {"shoulder_pitch": upper, "elbow_pitch": fore, "wrist_pitch": tool - fore}
 
@@ -171,7 +173,7 @@ class Operator:
             return None
         self._latency_s = self._draw_latency()
         seen_pose = self.read_pose(frame)
-        believed = dict(zip(platform.joints, platform.predicted_angles()))
+        believed = dict(zip(platform.joints, platform.predicted_angles(), strict=True))
         noise = self.reading_noise_rad(frame)
         worst = max(seen_pose, key=lambda j: abs(seen_pose[j] - believed[j]) / noise[j])
         if self.looks < MAX_LOOKS and abs(seen_pose[worst] - believed[worst]) > noise[worst]:

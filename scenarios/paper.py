@@ -15,6 +15,7 @@ These are predictions: nothing in them was fitted to the paper.
 
 from __future__ import annotations
 
+import itertools
 import json
 from pathlib import Path
 
@@ -29,6 +30,7 @@ from control.experiments import (
     random_supply_moves,
 )
 from pneumatics.as_built import load_as_built_effects
+from scenarios.paper_report import write_plots, write_report
 from scenarios.paper_validation import KINDS, OPEN_S, PAPER, PRESSURES_MPA, rig_inertia, validation_run, wrist_models
 from twin.plant import Plant
 
@@ -76,13 +78,16 @@ def prediction_validation() -> tuple[dict, dict]:
         real = _speeds(r.time_s, r.measured_deg)
         nom = _speeds(r.time_s, r.predicted_deg["with_hose_loss"])
         speed[m] = {
-            "as_built_mean_deg_s": real[0], "as_built_peak_deg_s": real[1],
-            "nominal_mean_deg_s": nom[0], "nominal_peak_deg_s": nom[1],
+            "as_built_mean_deg_s": real[0],
+            "as_built_peak_deg_s": real[1],
+            "nominal_mean_deg_s": nom[0],
+            "nominal_peak_deg_s": nom[1],
             "turn_in_1s_deg": float(np.interp(OPEN_S, r.time_s, r.measured_deg)),
         }
+
     def grows_as_pressure_falls(kind: str) -> bool:
         by_falling = [errors[m][kind]["mean"] for m in sorted(PRESSURES_MPA, reverse=True)]
-        return all(b > a for a, b in zip(by_falling, by_falling[1:]))
+        return all(b > a for a, b in itertools.pairwise(by_falling))
 
     results = {
         "errors": errors,
@@ -112,13 +117,20 @@ def random_supply_run(quick: bool) -> dict:
     nominal, reality = wrist_models()
     targets = (45.0, 0.0, -45.0, 0.0) * (1 if quick else 2)
     ends: list[float] = []
-    errors, t = random_supply_moves(_rig_factory(reality), nominal, targets_deg=targets, seed=RANDOM_SUPPLY_SEED, end_times_s=ends)
+    errors, t = random_supply_moves(
+        _rig_factory(reality), nominal, targets_deg=targets, seed=RANDOM_SUPPLY_SEED, end_times_s=ends
+    )
     supply = random_supply(RANDOM_SUPPLY_SEED)  # the same draws the run saw
     times = np.arange(0.0, t, 0.5)
     return {
-        "move_end_s": ends, "supply_time_s": times.tolist(), "supply_gauge_mpa": [(supply(x) - P_ATM_PA) / 1e6 for x in times],
-        "max_error_deg": max(errors), "final_errors_deg": errors, "duration_s": t,
-        "paper_max_error_deg": PAPER_RANDOM_SUPPLY_MAX_DEG, "paper_manual_mean_deg": PAPER_MANUAL_DEG,
+        "move_end_s": ends,
+        "supply_time_s": times.tolist(),
+        "supply_gauge_mpa": [(supply(x) - P_ATM_PA) / 1e6 for x in times],
+        "max_error_deg": max(errors),
+        "final_errors_deg": errors,
+        "duration_s": t,
+        "paper_max_error_deg": PAPER_RANDOM_SUPPLY_MAX_DEG,
+        "paper_manual_mean_deg": PAPER_MANUAL_DEG,
     }
 
 
@@ -153,7 +165,7 @@ def error_vs_pressure(quick: bool) -> dict:
         "errors_deg": {str(m): res[m] for m in pressures},
         "mean_error_deg": means,
         "max_error_deg": [float(np.max(res[m])) for m in pressures],
-        "grows_with_pressure": all(b > a for a, b in zip(means, means[1:])),
+        "grows_with_pressure": all(b > a for a, b in itertools.pairwise(means)),
         "paper_bound_at_05_deg": PAPER_FIG20_AT_05_DEG,
     }
 
@@ -170,8 +182,13 @@ def as_built_table() -> list[dict]:
     """The as-built wrist's effects (field, nominal, as-built, source, basis) for the report."""
     nominal, _ = wrist_models()
     return [
-        {"field": e.field, "nominal": getattr(nominal, e.field), "as_built": e.value, "source": e.source,
-         "basis": e.basis}
+        {
+            "field": e.field,
+            "nominal": getattr(nominal, e.field),
+            "as_built": e.value,
+            "source": e.source,
+            "basis": e.basis,
+        }
         for e in load_as_built_effects(assets.as_built_path("wrist_pitch"))
     ]
 
@@ -179,8 +196,6 @@ def as_built_table() -> list[dict]:
 def reproduce(out_dir: str | Path, quick: bool = False) -> Path:
     """Run every experiment, write paper.json, report.md and the plots; returns the report's path.
     `quick` shortens the control experiments (fewer angles and supplies), not the validation."""
-    from scenarios.paper_report import write_plots, write_report
-
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     validation, series = prediction_validation()

@@ -22,6 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 
 import assets
+from control.arm_model import ArmModel
 from gap.replay import DT_S, replay_run
 from gap.synth import SAMPLE_PERIOD_S, Motion, simulate_run
 from pneumatics import JointParams, load_joint_params, params_row
@@ -56,8 +57,6 @@ def wrist_models() -> tuple[JointParams, JointParams]:
 def rig_inertia(params: JointParams) -> float:
     """Joint-side inertia of the wrist rig as the predictor takes it: Pinocchio's rig load plus the
     reflected rotor (control/controller.py does the same sum)."""
-    from control.arm_model import ArmModel
-
     arm = ArmModel(assets.WRIST_RIG_XML, (JOINT,), None)
     return float(arm.drive_inertias(np.zeros(1))[0]) + params.ratio**2 * params.rotor_inertia_kg_m2
 
@@ -91,8 +90,18 @@ def _commands(mpa: float, k_u: float) -> dict[str, np.ndarray]:
 
 def _replay(params: JointParams, cmd: dict[str, np.ndarray], inertia: float) -> tuple[np.ndarray, np.ndarray]:
     t, th, *_ = replay_run(
-        params_row(params), cmd["time_s"], cmd["direction"], cmd["valve_set_gauge_pa"], cmd["brake_released"],
-        cmd["supply_pa"], False, math.radians(START_DEG), inertia, 0.0, MOTION.total_s(), DT_S,
+        params_row(params),
+        cmd["time_s"],
+        cmd["direction"],
+        cmd["valve_set_gauge_pa"],
+        cmd["brake_released"],
+        cmd["supply_pa"],
+        False,
+        math.radians(START_DEG),
+        inertia,
+        0.0,
+        MOTION.total_s(),
+        DT_S,
     )
     return t, np.degrees(th) - START_DEG
 
@@ -113,7 +122,7 @@ def validation_run(
         step = int(round(SAMPLE_PERIOD_S / DT_S))
         t, measured = tt[::step], a[::step]
     preds = {}
-    for kind, loss in zip(KINDS, (1.0, 0.0)):
+    for kind, loss in zip(KINDS, (1.0, 0.0), strict=True):
         tt, a = _replay(nominal._replace(hose_loss=loss), cmd, inertia)
         preds[kind] = np.interp(t, tt, a)
     return ValidationRun(mpa, t, measured, preds)
@@ -161,7 +170,7 @@ def fit_as_built(grid: dict[str, tuple[float, ...]] = FIT_GRID) -> tuple[Point, 
     inertia = rig_inertia(nominal)
     scored = []
     for values in itertools.product(*grid.values()):
-        point = dict(zip(grid, values))
+        point = dict(zip(grid, values, strict=True))
         r = reality._replace(**point)
         runs = [validation_run(r, nominal, m, inertia, plant=False) for m in PRESSURES_MPA]
         scored.append((point, misfit(runs) + prior(point, nominal)))

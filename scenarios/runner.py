@@ -24,7 +24,8 @@ from scenarios.ik import disc_drive_angles
 from scenarios.schema import Scenario, joint_params_for, load
 from scenarios.supply import supply_profile
 from scenarios.task import TaskController
-from twin.args import DURATION_S, SEED, check_number
+from twin.checks import DURATION_S, SEED, check_number
+from twin.model import SimulationError
 from twin.plant import Plant
 from twin.sim import Recorder, run
 from twin.telemetry import Telemetry
@@ -39,7 +40,9 @@ class Result:
     error: str = ""
     refusal: str = ""  # the controller refused the plan (e.g. below the minimum rotation): arm left braked
     events: list[str] = field(default_factory=list)  # what the controller reported (arrivals, faults)
-    active_target_rad: dict[str, float] | None = None  # per joint, the target in force at the end (None: the plan's last)
+    active_target_rad: dict[str, float] | None = (
+        None  # per joint, the target in force at the end (None: the plan's last)
+    )
     reached: list[bool] | None = None  # per scenario target, finished in time (None: the run was not cut short)
     discs: list[DiscContact] = field(default_factory=list)  # what the brush did to each disc (arm runs)
     finished_s: float = math.nan  # when the plan's last target was finished (NaN: it was not)
@@ -89,8 +92,11 @@ class Result:
         """The targets the run did not finish (when it was cut short), as 'target N (disc k)'."""
         if self.reached is None:
             return []
-        return [f"target {i + 1}" + (f" (disc_{t.brush_at_disc})" if t.brush_at_disc else "")
-                for i, (t, done) in enumerate(zip(self.scenario.targets, self.reached)) if not done]
+        return [
+            f"target {i + 1}" + (f" (disc_{t.brush_at_disc})" if t.brush_at_disc else "")
+            for i, (t, done) in enumerate(zip(self.scenario.targets, self.reached, strict=False))
+            if not done
+        ]
 
 
 def _disc_row(d: DiscContact, verdicts: list[Verdict]) -> dict:
@@ -127,8 +133,12 @@ def reality_params(scenario: Scenario) -> dict:
 def build_plant(scenario: Scenario) -> Plant:
     """Reality: the model, the start pose, the payload, and the effects the plant has."""
     base = reality_params(scenario)
-    plant = Plant(model_path(scenario), joint_params=joint_params_for(base, scenario.reality), joints=scenario.joints,
-                  keyframe="home" if scenario.start_pose == "home" else None)
+    plant = Plant(
+        model_path(scenario),
+        joint_params=joint_params_for(base, scenario.reality),
+        joints=scenario.joints,
+        keyframe="home" if scenario.start_pose == "home" else None,
+    )
     m, d = plant.model, plant.data
     if scenario.model == "arm":
         m.body("payload").mass[0] = max(scenario.payload_kg, 1e-6)
@@ -169,31 +179,45 @@ def run_scenario(
     task = None
     if scenario.model == "arm" and scenario.control.mode != "none" and not refusal:
         controller.set_targets([])  # the plan was checked whole; the task feeds it one target at a time
-        controller = task = TaskController(controller, scenario, plant, targets, np.random.default_rng([scenario.seed, 1]))  # a stream of its own: the supply's draws stay as they were
+        controller = task = TaskController(
+            controller, scenario, plant, targets, np.random.default_rng([scenario.seed, 1])
+        )  # a stream of its own: the supply's draws stay as they were
     duration = scenario.duration_s if duration_s is None else min(duration_s, scenario.duration_s)
     supply = supply_profile(scenario.supply, duration, rng)
     events, _ = fault_events(scenario.faults)
     error = ""
-    telemetry = Telemetry(plant.joints, tuple(mujoco.mj_id2name(plant.model, mujoco.mjtObj.mjOBJ_BODY, i) for i in range(1, plant.model.nbody)))
+    telemetry = Telemetry(
+        plant.joints,
+        tuple(mujoco.mj_id2name(plant.model, mujoco.mjtObj.mjOBJ_BODY, i) for i in range(1, plant.model.nbody)),
+    )
     try:
         run(plant, controller, duration, supply_pa_at=supply, events=events, recorders=recorders, telemetry=telemetry)
-    except Exception as e:  # a divergence: keep what was logged, report it as a failed run
-        from twin.model import SimulationError
-
-        if not isinstance(e, SimulationError):
-            raise
+    except SimulationError as e:  # a divergence: keep what was logged, report it as a failed run
         error = str(e)
     cut_short = duration < scenario.duration_s
     reached = list(task.reached) if task and cut_short else None
     arrays = telemetry.arrays()
-    verdicts = judge(scenario, arrays, plant.joints, telemetry.bodies, plant.model, targets, reached) if len(telemetry) else []
+    verdicts = (
+        judge(scenario, arrays, plant.joints, telemetry.bodies, plant.model, targets, reached) if len(telemetry) else []
+    )
     if refusal:  # the arm stayed braked: no error against a target the controller never took counts as met
         verdicts = [replace(v, passed=False) if v.kind == "max_error_deg" else v for v in verdicts]
     events = list(getattr(controller, "events", []))
     discs = disc_contacts(plant.model, arrays) if scenario.model == "arm" and len(telemetry) else []
     finished = task.finished_s[-1] if task and task.reached and task.reached[-1] else math.nan
-    return Result(scenario, telemetry, verdicts, targets, error, refusal, events,
-                  task.active_target() if task else None, reached, discs, finished)
+    return Result(
+        scenario,
+        telemetry,
+        verdicts,
+        targets,
+        error,
+        refusal,
+        events,
+        task.active_target() if task else None,
+        reached,
+        discs,
+        finished,
+    )
 
 
 def run_file(path: str | Path, **kwargs) -> Result:

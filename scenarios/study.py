@@ -16,6 +16,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+from matplotlib.figure import Figure
 
 from scenarios.schema import STRATEGIES, load
 from scenarios.sweep import sweep
@@ -104,12 +105,8 @@ def table(study_rows: list[Row]) -> str:
 
 
 def plot(study_rows: list[Row], path: Path) -> None:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(10, 4))
+    fig = Figure(figsize=(10, 4))
+    ax1, ax2 = fig.subplots(1, 2)
     for strategy in dict.fromkeys(r.strategy for r in study_rows):
         mine = sorted((r for r in study_rows if r.strategy == strategy), key=lambda r: r.supply_mpa)
         x = [r.supply_mpa for r in mine]
@@ -125,7 +122,6 @@ def plot(study_rows: list[Row], path: Path) -> None:
     ax1.legend()
     fig.tight_layout()
     fig.savefig(path, dpi=110)
-    plt.close(fig)
 
 
 def write(results: list[dict], out: Path) -> list[Row]:

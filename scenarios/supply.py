@@ -2,10 +2,11 @@
 
 from __future__ import annotations
 
-from typing import Callable
+from collections.abc import Callable
 
 import numpy as np
 
+from control.experiments import random_supply
 from pneumatics import AIR
 from scenarios.schema import Supply
 
@@ -16,8 +17,8 @@ def supply_profile(supply: Supply, duration_s: float, rng: np.random.Generator) 
     """Absolute supply pressure (Pa) as a function of time.
 
     Random: a new value every `hold_s`, normal with mean `mean_mpa` (gauge) and variance
-    `variance_pa2` (the paper: 0.6 MPa, 5e9 Pa^2, held 0.5 s so that the 0.1 s valve settles),
-    clipped at the paper's working range 0.4..0.9 MPa gauge so the brakes keep releasing.
+    `variance_pa2`, drawn from `rng` and clipped as the paper's experiments do
+    (control.experiments.random_supply, where the clipping's source is).
     """
     atm = AIR.p_atm_pa
     if supply.kind == "constant":
@@ -33,7 +34,4 @@ def supply_profile(supply: Supply, duration_s: float, rng: np.random.Generator) 
             return float(values[i]) if i >= 0 else first
 
         return stepped
-    n = int(np.ceil(duration_s / supply.hold_s)) + 1
-    draws = rng.normal(supply.mean_mpa * MPA, np.sqrt(supply.variance_pa2), size=n)
-    values = atm + np.clip(draws, 0.4 * MPA, 0.9 * MPA)
-    return lambda t: float(values[min(int(t / supply.hold_s), n - 1)])
+    return random_supply(rng, supply.mean_mpa * MPA, supply.variance_pa2, supply.hold_s, atm)

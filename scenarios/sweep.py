@@ -15,8 +15,9 @@ from __future__ import annotations
 import csv
 import io
 import itertools
+import tomllib
+from collections.abc import Iterable
 from pathlib import Path
-from typing import Iterable
 
 import joblib
 import numpy as np
@@ -24,7 +25,7 @@ from tqdm import tqdm
 
 from scenarios.runner import run_scenario
 from scenarios.schema import Scenario, ScenarioError, with_overrides
-from twin.args import DURATION_S, MONTE_CARLO, WORKERS, check_number
+from twin.checks import DURATION_S, MONTE_CARLO, WORKERS, check_number
 from twin.outputs import write_atomic
 
 SCHEDULER_TIMEOUT_S = 10.0  # a scheduler that has not answered by then is taken as unreachable
@@ -33,7 +34,7 @@ SCHEDULER_TIMEOUT_S = 10.0  # a scheduler that has not answered by then is taken
 def grid_points(grid: dict[str, list]) -> list[dict]:
     """Every combination of the grid's values, as override dicts, in a fixed order."""
     keys = list(grid)
-    return [dict(zip(keys, values)) for values in itertools.product(*(grid[k] for k in keys))]
+    return [dict(zip(keys, values, strict=True)) for values in itertools.product(*(grid[k] for k in keys))]
 
 
 def child_seeds(seed: int, n: int) -> list[int]:
@@ -80,13 +81,16 @@ def sweep(
     n_jobs = workers or joblib.cpu_count()
     if scheduler:
         try:
-            from dask.distributed import Client
+            from dask.distributed import Client  # optional (the [cluster] extra): imported where asked for
         except ImportError:
             raise ScenarioError("--scheduler needs Dask: pip install 'pneumatic-arm-twin[cluster]'") from None
         try:
             client = Client(scheduler, timeout=SCHEDULER_TIMEOUT_S)
         except (OSError, TimeoutError, ValueError, TypeError) as e:
-            raise ScenarioError(f"--scheduler {scheduler}: no Dask scheduler answers there ({type(e).__name__}: {e}); allowed: the address of a running scheduler, e.g. tcp://host:8786") from None
+            raise ScenarioError(
+                f"--scheduler {scheduler}: no Dask scheduler answers there ({type(e).__name__}: {e}); "
+                "allowed: the address of a running scheduler, e.g. tcp://host:8786"
+            ) from None
         try:
             with joblib.parallel_config(backend="dask"):
                 results = joblib.Parallel(return_as="generator")(jobs)
@@ -99,8 +103,6 @@ def sweep(
 
 def parse_grid(items: list[str], where: str = "--set") -> dict[str, list]:
     """`field=v1,v2,...` strings into a grid; values are read as TOML scalars (numbers, true, "text")."""
-    import tomllib
-
     grid = {}
     for item in items:
         if "=" not in item:

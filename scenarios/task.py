@@ -18,6 +18,7 @@ reads the plant.
 
 from __future__ import annotations
 
+import contextlib
 import math
 from dataclasses import dataclass
 
@@ -83,7 +84,9 @@ class TaskController:
         if self._plant is not None:
             # the angle only: the speed stays the predictor's, whose stick is an exact 0 the arrival
             # logic waits for (MuJoCo's braked joint creeps at ~1e-6 rad/s)
-            for j, q, w in zip(self.controller.joints, self._plant.drive_angles(), self.controller.predicted_speeds()):
+            for j, q, w in zip(
+                self.controller.joints, self._plant.drive_angles(), self.controller.predicted_speeds(), strict=True
+            ):
                 self.controller.reference(j, q, w)
         if self.camera is not None:
             self.camera.capture(t)
@@ -113,11 +116,11 @@ class TaskController:
 
     # -- sequencing ----------------------------------------------------------------------------
     def _between_targets(self, t: float) -> None:
-        if 0 <= self.k and not self.reached[self.k]:
+        if self.k >= 0 and not self.reached[self.k]:
             self.reached[self.k] = True
             self.finished_s[self.k] = t
             self._review_from_s = t
-        if 0 <= self.k and self.operator is not None and self._is_approach(self.k):
+        if self.k >= 0 and self.operator is not None and self._is_approach(self.k):
             target = self.scenario.targets[self.k]
             verdict = self.operator.review(
                 t, self._review_from_s, target.brush_at_disc, target.standoff_m, self.controller
@@ -130,7 +133,7 @@ class TaskController:
                 self.reached[self.k] = False
                 return
         if (
-            0 <= self.k
+            self.k >= 0
             and self.strategy == "rereference"
             and self._is_back_off(self.k)
             and self.k not in self._stopped_after
@@ -145,10 +148,9 @@ class TaskController:
     def _issue(self, k: int, dwell_s: float) -> None:
         target = self._aimed(k)
         self.issued[k] = target
-        try:
+        # refused: the controller noted it; the arm stays braked and the task goes on with the next target
+        with contextlib.suppress(MotionRefused):
             self.controller.set_targets([target], sequence=self.scenario.control.sequence, dwell_s=[dwell_s])
-        except MotionRefused:
-            pass  # the controller noted it; the arm stays braked and the task goes on with the next target
 
     def _aimed(self, k: int) -> dict[str, float]:
         t = self.scenario.targets[k]

@@ -88,11 +88,12 @@ class _Joint:
         """Net torque on the joint side before its dry friction and viscous drag; a rigid gear's
         efficiency is the one of the direction the joint slides in (forward when stuck)."""
         p = self.p
-        if self.rigid:
-            drive = joint_torque(y[PA_M], y[PB_M], self.ratio * y[THETA], slide, p)
-        else:
-            drive = self.tau_t(y)
-        return drive - self.load + stribeck_excess_torque(omega, p[P.STRIBECK_EXCESS], p[P.STRIBECK_SPEED], 0.5 * p[P.STRIBECK_SPEED])
+        drive = joint_torque(y[PA_M], y[PB_M], self.ratio * y[THETA], slide, p) if self.rigid else self.tau_t(y)
+        return (
+            drive
+            - self.load
+            + stribeck_excess_torque(omega, p[P.STRIBECK_EXCESS], p[P.STRIBECK_SPEED], 0.5 * p[P.STRIBECK_SPEED])
+        )
 
     def motor_drive(self, y: np.ndarray, direction: float) -> float:
         return joint_torque(y[PA_M], y[PB_M], self.ratio * y[QM], direction, self.p)
@@ -120,14 +121,18 @@ class _Modes:
         return joint_mode, motor_mode
 
 
-def _rates(t, y, j: _Joint, modes: tuple[float, float], direction: float, valve_set: float, release: float) -> np.ndarray:
+def _rates(
+    t, y, j: _Joint, modes: tuple[float, float], direction: float, valve_set: float, release: float
+) -> np.ndarray:
     p = j.p
     s, s_m = modes
     out = np.zeros(10)
     limit = j.dry_limit(y)
     if s != 0.0:
         out[THETA] = y[OMEGA]
-        out[OMEGA] = (j.joint_drive(y, y[OMEGA], s) - s * limit - p[P.VISCOUS] * y[OMEGA]) / (j.inertia if j.rigid else j.j_j)
+        out[OMEGA] = (j.joint_drive(y, y[OMEGA], s) - s * limit - p[P.VISCOUS] * y[OMEGA]) / (
+            j.inertia if j.rigid else j.j_j
+        )
     if j.rigid:
         out[QM], out[WM] = out[THETA], out[OMEGA]
         phi, w_motor = j.ratio * y[THETA], j.ratio * y[OMEGA]
@@ -136,7 +141,9 @@ def _rates(t, y, j: _Joint, modes: tuple[float, float], direction: float, valve_
             out[QM] = y[WM]
             out[WM] = (j.motor_drive(y, s_m) - j.tau_t(y)) / j.j_m
         phi, w_motor = j.ratio * y[QM], j.ratio * y[WM]
-    out[PA_V:PB_M + 1] = pressure_rates(y[PA_V], y[PA_M], y[PB_V], y[PB_M], phi, w_motor, direction, y[PV], j.supply, p)
+    out[PA_V : PB_M + 1] = pressure_rates(
+        y[PA_V], y[PA_M], y[PB_V], y[PB_M], phi, w_motor, direction, y[PV], j.supply, p
+    )
     target = proportional_valve_target(valve_set, j.supply - p[P.GAS_P_ATM])
     out[PV] = (target - y[PV]) / p[P.VALVE_TAU] if p[P.VALVE_TAU] > 0.0 else 0.0
     feed = brake_feed_gauge_pa(p[P.BRAKE_FED_BY_MOTOR], j.supply, y[PA_M], y[PB_M], p[P.GAS_P_ATM])
@@ -218,17 +225,19 @@ def _until_event(fun, t0: float, y0: np.ndarray, t1: float, events: list, t_eval
             ys.append(dense(inside))
 
     while True:
-        t_prev, y_prev = solver.t, solver.y.copy()
+        t_prev = solver.t
         message = solver.step()
         assert solver.status != "failed", (message, t0, t1, t_prev, solver.t)
         t_new, y_new = solver.t, solver.y.copy()
         dense = solver.dense_output()
         g_new = [e(t_new, y_new) for e in events]
         roots = []
-        for e, a, b in zip(events, g_old, g_new):
+        for e, a, b in zip(events, g_old, g_new, strict=True):
             if (e.direction > 0 and a <= 0.0 < b) or (e.direction < 0 and a >= 0.0 > b):
-                def h(t, e=e, a=a, b=b):
+
+                def h(t, e=e, a=a, b=b, t_prev=t_prev, t_new=t_new, dense=dense):
                     return a if t == t_prev else (b if t == t_new else e(t, dense(t)))
+
                 roots.append((t_prev if a == 0.0 else brentq(h, t_prev, t_new, xtol=1e-13), e.tag))
         if roots:
             t_event = min(r for r, _ in roots)
@@ -241,7 +250,17 @@ def _until_event(fun, t0: float, y0: np.ndarray, t1: float, events: list, t_eval
         g_old = g_new
 
 
-def solve(p: np.ndarray, commands: list[Command], t_end_s: float, *, theta0_rad: float = 0.0, inertia_kg_m2: float, load_nm: float = 0.0, supply_pa: float, t_eval: np.ndarray) -> Solution:
+def solve(
+    p: np.ndarray,
+    commands: list[Command],
+    t_end_s: float,
+    *,
+    theta0_rad: float = 0.0,
+    inertia_kg_m2: float,
+    load_nm: float = 0.0,
+    supply_pa: float,
+    t_eval: np.ndarray,
+) -> Solution:
     """The joint from rest (brake engaged, air at atmosphere) through `commands`, sampled at `t_eval`."""
     t_end_s = max(t_end_s, float(t_eval[-1]))  # a grid made by rounding may end a hair past t_end
     joint = _Joint(np.asarray(p, dtype=float), inertia_kg_m2, load_nm, supply_pa)
@@ -252,7 +271,7 @@ def solve(p: np.ndarray, commands: list[Command], t_end_s: float, *, theta0_rad:
     ts, ys, stops = [], [], []
     segments = _breakpoints(commands, p[P.SOLENOID_DELAY], t_end_s)
     atol = np.array([1e-10, 1e-9, 1e-3, 1e-3, 1e-3, 1e-3, 1e-3, 1e-10, 1e-10, 1e-9])
-    for (t0, direction, valve_set, release), (t1, *_rest) in zip(segments, segments[1:]):
+    for (t0, direction, valve_set, release), (t1, *_rest) in zip(segments, segments[1:], strict=False):
         t = t0
         while t1 - t > 1e-12:
             fun = lambda t_, y_, m=mode, d=direction, v=valve_set, r=release: _rates(t_, y_, joint, m, d, v, r)  # noqa: E731

@@ -13,7 +13,7 @@ import pytest
 import pneumatic_arm_twin as pat
 from gap import GapError
 from scenarios.schema import ScenarioError
-from twin.cli import main as twin_main
+from twin_cli.cli import main as twin_main
 
 SCENARIO = "wrist_closed_loop_60deg"  # the paper's Fig. 23 rig: one joint, 60 deg at 0.5 MPa
 
@@ -31,7 +31,9 @@ def test_run_gives_the_telemetry_it_logged(wrist):
     # the wrist really turned toward its 60 deg target (not a run of constants)
     turned = np.degrees(a["true_angle_rad"][-1, 0] - a["true_angle_rad"][0, 0])
     assert 10.0 < turned < 70.0
-    assert run.summary["joints"]["wrist_pitch"]["true_final_deg"] == pytest.approx(np.degrees(a["true_angle_rad"][-1, 0]), abs=1e-3)
+    assert run.summary["joints"]["wrist_pitch"]["true_final_deg"] == pytest.approx(
+        np.degrees(a["true_angle_rad"][-1, 0]), abs=1e-3
+    )
     log = pat.read_log(tmp / "wrist.mcap")
     assert log.meta["recovery"]["complete"]
     for name, value in a.items():
@@ -95,18 +97,24 @@ def test_sweep_table_and_csv(tmp_path):
     table = sw.table()
     assert table["set.supply.pressure_mpa"] == [0.5, 0.7]
     assert table["wrist_pitch.true_final_deg"] == [s["joints"]["wrist_pitch"]["true_final_deg"] for s in sw.summaries]
-    rows = list(csv.DictReader(open(sw.to_csv(tmp_path / "sweep.csv"))))
+    with open(sw.to_csv(tmp_path / "sweep.csv")) as f:
+        rows = list(csv.DictReader(f))
     assert [float(r["wrist_pitch.true_final_deg"]) for r in rows] == table["wrist_pitch.true_final_deg"]
-    assert [r["final_error_deg[wrist_pitch].passed"] for r in rows] == [str(v) for v in table["final_error_deg[wrist_pitch].passed"]]
+    assert [r["final_error_deg[wrist_pitch].passed"] for r in rows] == [
+        str(v) for v in table["final_error_deg[wrist_pitch].passed"]
+    ]
 
 
 def test_sweep_command_writes_the_table_beside_the_json(tmp_path, capsys):
     out = tmp_path / "s.json"
     path = str(pat.api.shipped_scenario_path(SCENARIO))
-    twin_main(["sweep", path, "--set", "supply.pressure_mpa=0.6", "--duration", "0.3", "--workers", "1", "--out", str(out)])
+    twin_main(
+        ["sweep", path, "--set", "supply.pressure_mpa=0.6", "--duration", "0.3", "--workers", "1", "--out", str(out)]
+    )
     assert "one row per run in" in capsys.readouterr().out
     summaries = json.loads(out.read_text())
-    rows = list(csv.DictReader(open(tmp_path / "s.csv")))
+    with open(tmp_path / "s.csv") as f:
+        rows = list(csv.DictReader(f))
     assert len(rows) == len(summaries) == 1 and rows[0]["seed"] == str(summaries[0]["seed"])
 
 
@@ -114,7 +122,9 @@ def test_diagnose_names_a_hidden_leak(tmp_path):
     """A campaign from the plant with a vane leak the twin lacks: the API's diagnosis names it."""
     from gap import synth
 
-    folder = synth.make_campaign(tmp_path / "leak", synth.wrist_params()._replace(leak_area_m2=4e-7), seed=2, pressures_mpa=(0.5, 0.8))
+    folder = synth.make_campaign(
+        tmp_path / "leak", synth.wrist_params()._replace(leak_area_m2=4e-7), seed=2, pressures_mpa=(0.5, 0.8)
+    )
     d = pat.diagnose(folder, effects=["vane_leakage", "coulomb_friction"], out=tmp_path / "report")
     assert d.verdict == "explained" and d.effect == "vane_leakage"
     assert d.after_rms_deg < 0.3 * d.before_rms_deg

@@ -13,7 +13,16 @@ import pytest
 import assets
 from pneumatics import AIR, ParameterError, chamber_volumes, load_joint_params, orifice_mass_flow, params_row
 from pneumatics.as_built import SOURCES, load_as_built, load_as_built_effects
-from pneumatics.joint import S_DIR, S_PA_MOTOR, S_PA_VALVE, S_PB_MOTOR, S_PB_VALVE, S_PV, advance_pressures, initial_state
+from pneumatics.joint import (
+    S_DIR,
+    S_PA_MOTOR,
+    S_PA_VALVE,
+    S_PB_MOTOR,
+    S_PB_VALVE,
+    S_PV,
+    advance_pressures,
+    initial_state,
+)
 from scenarios import controllers
 from scenarios.runner import build_plant, reality_params
 from scenarios.schema import ScenarioError, joint_params_for, parse
@@ -40,8 +49,14 @@ def test_every_joint_has_an_as_built_file_whose_every_effect_says_its_source(joi
     "text, words",
     [
         ("[effects.magic]\nvalue = 1.0\nsource = 'assumed'\nbasis = 'x'", ("[effects.magic]", "allowed")),
-        ("[effects.leak_area_m2]\nvalue = -1.0\nsource = 'assumed'\nbasis = 'a guess'", ("leak_area_m2", "-1", "allowed")),
-        ("[effects.leak_area_m2]\nvalue = 1e-8\nsource = 'folklore'\nbasis = 'a guess'", ("leak_area_m2", "'folklore'", "datasheet")),
+        (
+            "[effects.leak_area_m2]\nvalue = -1.0\nsource = 'assumed'\nbasis = 'a guess'",
+            ("leak_area_m2", "-1", "allowed"),
+        ),
+        (
+            "[effects.leak_area_m2]\nvalue = 1e-8\nsource = 'folklore'\nbasis = 'a guess'",
+            ("leak_area_m2", "'folklore'", "datasheet"),
+        ),
         ("[effects.leak_area_m2]\nvalue = 1e-8\nsource = 'assumed'", ("leak_area_m2", "basis", "allowed")),
         ("[motor]\nn_vanes = 4", ("[motor]", "allowed")),
     ],
@@ -62,7 +77,9 @@ def test_reality_is_the_as_built_arm_by_default_and_the_predictor_stays_nominal(
     plant = build_plant(s)
     assert s.reality.arm == "as_built"
     np.testing.assert_array_equal(plant.params[0], params_row(real))
-    controller, refusal = controllers.build(s, plant, joint_params_for({"wrist_pitch": nominal}, s.predictor), [{"wrist_pitch": 0.5}])
+    controller, refusal = controllers.build(
+        s, plant, joint_params_for({"wrist_pitch": nominal}, s.predictor), [{"wrist_pitch": 0.5}]
+    )
     assert not refusal
     np.testing.assert_array_equal(controller.params[0], params_row(nominal))
     assert not np.array_equal(plant.params[0], controller.params[0])
@@ -73,7 +90,9 @@ def test_reality_can_be_the_nominal_twin_for_a_self_check():
     assert reality_params(s) == {"wrist_pitch": load_joint_params(assets.joint_param_path("wrist_pitch"))}
 
 
-@pytest.mark.parametrize("extra, field", [('[reality]\narm = "ideal"', "reality.arm"), ('[predictor]\narm = "as_built"', "predictor.arm")])
+@pytest.mark.parametrize(
+    "extra, field", [('[reality]\narm = "ideal"', "reality.arm"), ('[predictor]\narm = "as_built"', "predictor.arm")]
+)
 def test_a_bad_arm_choice_is_refused(extra, field):
     with pytest.raises(ScenarioError) as e:
         parse(RIG + extra, "bad.toml")
@@ -98,14 +117,23 @@ def test_vane_passing_vents_the_pockets_air_as_the_analytic_balance_says():
     w_m = 80.0 * pitch  # 80 passings a second (60 deg/s at the joint)
     omega = w_m / p.ratio
     dt = 1e-5
-    va_lo, vb_lo = chamber_volumes(-pitch / 2 + 1e-12, p.stator_radius_m, p.rotor_radius_m, p.vane_length_m, p.n_vanes, 0.0)
+    va_lo, vb_lo = chamber_volumes(
+        -pitch / 2 + 1e-12, p.stator_radius_m, p.rotor_radius_m, p.vane_length_m, p.n_vanes, 0.0
+    )
     d_v = vb_lo - va_lo  # one pitch's swept volume
     half_hose = 0.5 * math.pi / 4 * p.hose_diameter_m**2 * p.hose_length_m
     inlet = p.inlet_area_m2 * min(1.0, p.k_u_per_pa * 0.6e6)
 
     def stored(theta):
-        va, vb = chamber_volumes(p.ratio * theta, p.stator_radius_m, p.rotor_radius_m, p.vane_length_m, p.n_vanes, p.dead_volume_m3)
-        return (x[S_PA_VALVE] * half_hose + x[S_PA_MOTOR] * (va + half_hose) + x[S_PB_VALVE] * half_hose + x[S_PB_MOTOR] * (vb + half_hose)) / (r * t_s)
+        va, vb = chamber_volumes(
+            p.ratio * theta, p.stator_radius_m, p.rotor_radius_m, p.vane_length_m, p.n_vanes, p.dead_volume_m3
+        )
+        return (
+            x[S_PA_VALVE] * half_hose
+            + x[S_PA_MOTOR] * (va + half_hose)
+            + x[S_PB_VALVE] * half_hose
+            + x[S_PB_MOTOR] * (vb + half_hose)
+        ) / (r * t_s)
 
     def flows():
         m_in = orifice_mass_flow(supply, x[S_PA_VALVE], inlet, t_s, r, AIR.k)
@@ -113,13 +141,13 @@ def test_vane_passing_vents_the_pockets_air_as_the_analytic_balance_says():
         return m_in, m_out
 
     theta = 0.0
-    for k in range(int(1.0 / dt)):  # 1 s to a steady state
+    for _ in range(int(1.0 / dt)):  # 1 s to a steady state
         advance_pressures(x, theta, omega, 0.6e6, supply, dt, 1, row)
         theta += omega * dt
     m0 = stored(theta)
     mass_in = mass_out = vented = 0.0
     f0 = flows()
-    for k in range(int(0.5 / dt)):  # 40 passings
+    for _ in range(int(0.5 / dt)):  # 40 passings
         pa, pb, before = x[S_PA_MOTOR], x[S_PB_MOTOR], math.floor(p.ratio * theta / pitch + 0.5)
         advance_pressures(x, theta, omega, 0.6e6, supply, dt, 1, row)
         theta += omega * dt
@@ -176,7 +204,9 @@ def test_paper_validation_on_the_as_built_plant_within_a_factor_2_where_the_nomi
     e05 = validation[0.5].errors()["without_hose_loss"]
     assert 0.5 < e05["mean"] / PAPER["without_hose_loss"]["mean"][0.5] < 2.0, e05
     # the measured and the predicted runs really turn, and start together
-    assert all(r.measured_deg[r.time_s <= 1.0][-1] > 30.0 and abs(r.measured_deg[0]) < 1e-9 for r in validation.values())
+    assert all(
+        r.measured_deg[r.time_s <= 1.0][-1] > 30.0 and abs(r.measured_deg[0]) < 1e-9 for r in validation.values()
+    )
 
 
 def test_twin_paper_quick_writes_every_figure_with_the_papers_numbers(tmp_path):
@@ -184,13 +214,13 @@ def test_twin_paper_quick_writes_every_figure_with_the_papers_numbers(tmp_path):
     and max beside the paper's, the report shows them, every plot exists, and the control
     experiments, predictions against the as-built wrist, land within a factor 2 of the paper's
     where the README says they do."""
-    from twin.cli import main as twin_main
+    from twin_cli.cli import main as twin_main
 
     assert twin_main(["paper", "--out", str(tmp_path), "--quick"]) == 0
     r = json.loads((tmp_path / "paper.json").read_text())
     pe = r["prediction_error"]["errors"]
     assert set(pe) == {"0.5", "0.6", "0.7", "0.8"}
-    for m, row in pe.items():
+    for row in pe.values():
         for kind in ("with_hose_loss", "without_hose_loss"):
             assert row[kind]["max"] >= row[kind]["mean"] > 0.0 and row[kind]["paper_max"] > 0.0
     assert r["prediction_error"]["with_smaller_than_without_everywhere"]
@@ -201,6 +231,13 @@ def test_twin_paper_quick_writes_every_figure_with_the_papers_numbers(tmp_path):
     assert len(r["error_vs_pressure"]["pressures_mpa"]) == 2
     report = (tmp_path / "report.md").read_text()
     assert f"({pe['0.5']['without_hose_loss']['paper_max']})" in report and "calibrated" in report
-    for name in ("validation_timeseries", "prediction_error", "error_vs_angle", "speed_vs_supply", "random_supply",
-                 "closed_vs_open_loop", "error_vs_pressure"):
+    for name in (
+        "validation_timeseries",
+        "prediction_error",
+        "error_vs_angle",
+        "speed_vs_supply",
+        "random_supply",
+        "closed_vs_open_loop",
+        "error_vs_pressure",
+    ):
         assert (tmp_path / f"{name}.png").stat().st_size > 10_000, name

@@ -20,7 +20,7 @@ from scenarios.ik import disc_drive_angles, drive_to_qpos
 from scenarios.operator import CAMERA, GlobalCamera, Operator, brush_face_m
 from scenarios.pinhole import camera_of
 from scenarios.schema import Operator as OperatorParams
-from twin.cli import main as twin_main
+from twin_cli.cli import main as twin_main
 
 ROOT = Path(__file__).resolve().parents[1]
 

@@ -17,7 +17,15 @@ import numpy as np
 import pytest
 
 import assets
-from control import ArmController, ArmModel, MotionRefused, closed_vs_open_loop, minimum_rotation_limit, random_supply_moves, run_until_done
+from control import (
+    ArmController,
+    ArmModel,
+    MotionRefused,
+    closed_vs_open_loop,
+    minimum_rotation_limit,
+    random_supply_moves,
+    run_until_done,
+)
 from pneumatics import load_joint_params
 from twin.plant import Plant, Sensors
 
@@ -33,7 +41,7 @@ def rig_plant(params=REALITY) -> Plant:
 
 
 def home_drive_angles(plant: Plant) -> dict[str, float]:
-    return dict(zip(plant.joints, plant.drive_angles()))
+    return dict(zip(plant.joints, plant.drive_angles(), strict=True))
 
 
 # -- the arm model: Pinocchio's load torque per drive equals MuJoCo's -------------------------
@@ -58,7 +66,7 @@ def test_drive_load_torque_equals_mujoco_bias_through_tendon_jacobian():
         drive = d.ten_length[tids]
         np.testing.assert_allclose(arm.load_torques(drive), f_mujoco, atol=1e-9)
         g = {j: d.qfrc_bias[m.joint(j).dofadr[0]] for j in assets.JOINTS}
-        f = dict(zip(arm.joints, arm.load_torques(drive)))
+        f = dict(zip(arm.joints, arm.load_torques(drive), strict=True))
         assert f["elbow_pitch"] == pytest.approx(g["elbow_pitch"], abs=1e-9)  # parallelogram
         assert f["shoulder_pitch"] == pytest.approx(g["shoulder_pitch"] - g["elbow_pitch"], abs=1e-9)
 
@@ -99,7 +107,10 @@ def test_wrist_rig_has_no_gravity_load():
 
 # -- sensorless by construction -------------------------------------------------------------
 def test_control_imports_neither_mujoco_nor_twin():
-    code = "import sys, control; bad = [m for m in sys.modules if m == 'mujoco' or m.startswith('mujoco.') or m == 'twin' or m.startswith('twin.')]; print(bad)"
+    code = (
+        "import sys, control; bad = [m for m in sys.modules if m == 'mujoco' or m.startswith('mujoco.') "
+        "or m == 'twin' or m.startswith('twin.')]; print(bad)"
+    )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "[]"
 
@@ -199,7 +210,7 @@ def run_arm(sequence: str) -> tuple[np.ndarray, np.ndarray, ArmController]:
     target = {"base_yaw": math.radians(25.0), "wrist_pitch": start[3] - math.radians(25.0)}
     c.set_targets([target], sequence=sequence)
     run_until_done(c, plant, ATM + 0.6e6, max_s=8.0)
-    return plant.drive_angles(), np.array([target.get(j, a) for j, a in zip(plant.joints, start)]), c
+    return plant.drive_angles(), np.array([target.get(j, a) for j, a in zip(plant.joints, start, strict=True)]), c
 
 
 def test_arm_moves_joints_one_after_another_and_is_deterministic():

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import json
 import shutil
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -15,7 +16,12 @@ from gap.campaign import GapError, load_campaign
 from gap.diagnose import diagnose
 from gap.effects import BY_NAME, CATALOGUE
 
-FAST = tuple(e for e in CATALOGUE if e.name in ("hose_loss", "vane_leakage", "coulomb_friction", "viscous_friction", "conductance_error", "supply_droop"))
+FAST = tuple(
+    e
+    for e in CATALOGUE
+    if e.name
+    in ("hose_loss", "vane_leakage", "coulomb_friction", "viscous_friction", "conductance_error", "supply_droop")
+)
 
 
 @pytest.fixture(scope="module")
@@ -33,38 +39,38 @@ def campaigns(tmp_path_factory):
 def test_paper_case_names_hose_loss_and_shrinks_error_on_withheld_runs(campaigns):
     # paper Sec. III: without the pipeline loss the model error is 3.2-22.2 deg, with it 1.2-5.4 deg
     d = diagnose(load_campaign(campaigns["paper"]), catalogue=FAST, progress=False)
-    w = d["which"]
-    assert w["verdict"] == "explained" and w["top"]["name"] == "hose_loss"
-    before, after = d["how_far"]["before"], d["how_far"]["hose_loss"]
+    w = d.which
+    assert w.verdict == "explained" and w.top.name == "hose_loss"
+    before, after = d.how_far["before"], d.how_far["hose_loss"]
     assert set(before) == {"0.50", "0.60", "0.70", "0.80"}
     for q in before:
-        assert before[q]["mean_deg"] > 3.0  # the paper's smallest error without the loss is 3.2 deg
-        assert after[q]["mean_deg"] < 0.3 * before[q]["mean_deg"]
-        assert after[q]["mean_deg"] < 1.2  # the paper's best with the loss (0.8 MPa)
+        assert before[q].mean_deg > 3.0  # the paper's smallest error without the loss is 3.2 deg
+        assert after[q].mean_deg < 0.3 * before[q].mean_deg
+        assert after[q].mean_deg < 1.2  # the paper's best with the loss (0.8 MPa)
     # the paper's shape before: larger at low pressure. Measured mean 22.5/15.0/14.9/15.6 deg and
     # max 37.1/30.7/27.5/26.0 deg at 0.5/0.6/0.7/0.8 MPa (paper mean 22.2/14.3/13.4/3.2): the mean
     # is largest at 0.5 MPa and the low half is larger; the max falls with every step of pressure
     qs = ["0.50", "0.60", "0.70", "0.80"]
-    mean = [before[q]["mean_deg"] for q in qs]
-    peak = [before[q]["max_deg"] for q in qs]
+    mean = [before[q].mean_deg for q in qs]
+    peak = [before[q].max_deg for q in qs]
     assert mean[0] > max(mean[1:]) and mean[0] + mean[1] > mean[2] + mean[3]
-    assert all(a > b for a, b in zip(peak, peak[1:]))
+    assert all(a > b for a, b in zip(peak, peak[1:], strict=False))
 
 
 def test_hidden_leak_is_found_and_its_area_recovered(campaigns):
     d = diagnose(load_campaign(campaigns["leak"]), catalogue=FAST, progress=False)
-    w = d["which"]
-    assert w["verdict"] == "explained" and w["top"]["name"] == "vane_leakage"
-    assert w["top"]["fitted_values"][0] == pytest.approx(4e-7, rel=0.15)
-    assert w["top"]["shrink"] < 0.3
+    w = d.which
+    assert w.verdict == "explained" and w.top.name == "vane_leakage"
+    assert w.top.fitted_values[0] == pytest.approx(4e-7, rel=0.15)
+    assert w.top.shrink < 0.3
 
 
 def test_no_hidden_effect_is_no_significant_gap(campaigns):
     d = diagnose(load_campaign(campaigns["none"]), catalogue=FAST, progress=False)
-    assert d["which"]["verdict"] == "no significant gap"
-    nf = d["noise_floor"]
-    assert nf["repeat_pairs"] == 2
-    assert nf["measurement_deg"] == pytest.approx(np.rad2deg(synth.NOISE_RAD), rel=0.3)  # the seeded noise
+    assert d.which.verdict == "no significant gap"
+    nf = d.noise_floor
+    assert nf.repeat_pairs == 2
+    assert nf.measurement_deg == pytest.approx(np.rad2deg(synth.NOISE_RAD), rel=0.3)  # the seeded noise
 
 
 def _by_name(*names):
@@ -75,23 +81,37 @@ def _by_name(*names):
     "hidden, catalogue, family",
     [
         # a slow proportional valve (tau 0.2 s against 0.1 s), the catalogue without valve lag
-        ({"valve_time_constant_s": 0.2}, ("valve_dead_time", "valve_set_dead_time", "supply_droop", "coulomb_friction", "conductance_error"), "valve timing"),
+        (
+            {"valve_time_constant_s": 0.2},
+            ("valve_dead_time", "valve_set_dead_time", "supply_droop", "coulomb_friction", "conductance_error"),
+            "valve timing",
+        ),
         # Stribeck friction (40 N·m breakaway excess), the catalogue with Coulomb and viscous only
-        ({"stribeck_excess_nm": 40.0, "stribeck_speed_rad_s": 0.2}, ("coulomb_friction", "viscous_friction", "heat_exchange", "valve_dead_time", "supply_droop"), "friction"),
+        (
+            {"stribeck_excess_nm": 40.0, "stribeck_speed_rad_s": 0.2},
+            ("coulomb_friction", "viscous_friction", "heat_exchange", "valve_dead_time", "supply_droop"),
+            "friction",
+        ),
     ],
     ids=["valve_lag_as_dead_time", "stribeck_as_coulomb"],
 )
 def test_a_form_outside_the_catalogue_is_called_so_and_given_its_family(hidden, catalogue, family, tmp_path):
     """Chamber pressures measured on both ports: the fit weighs them, and a form the catalogue lacks
     is called outside the catalogue with the family of the best candidate's leading effect."""
-    folder = synth.make_campaign(tmp_path / "c", synth.wrist_params()._replace(**hidden), seed=7, pressures_mpa=(0.5, 0.6, 0.8), chamber_pressures=True)
+    folder = synth.make_campaign(
+        tmp_path / "c",
+        synth.wrist_params()._replace(**hidden),
+        seed=7,
+        pressures_mpa=(0.5, 0.6, 0.8),
+        chamber_pressures=True,
+    )
     d = diagnose(load_campaign(folder), catalogue=_by_name(*catalogue), progress=False)
-    assert d["pressure"]["measured"]
-    assert d["pressure"]["noise_kpa"] == pytest.approx(synth.NOISE_PA / 1e3, rel=0.3)  # the seeded transducer noise
-    w = d["which"]
-    assert w["verdict"] == "outside the catalogue"
-    assert w["nearest"]["family"] == family
-    assert all(c["heldout_pressure_rms_kpa"] is not None for c in w["ranking"])
+    assert d.pressure.measured
+    assert d.pressure.noise_kpa == pytest.approx(synth.NOISE_PA / 1e3, rel=0.3)  # the seeded transducer noise
+    w = d.which
+    assert w.verdict == "outside the catalogue"
+    assert w.nearest.family == family
+    assert all(c.heldout_pressure_rms_kpa is not None for c in w.ranking)
 
 
 def test_a_run_may_carry_its_own_load(campaigns, tmp_path):
@@ -100,13 +120,17 @@ def test_a_run_may_carry_its_own_load(campaigns, tmp_path):
     kg·m^2 is the one that departs."""
     c = _copy(campaigns["none"], tmp_path / "load")
     toml = c / "campaign.toml"
-    toml.write_text(toml.read_text().replace('file = "run_050_1.csv"', 'file = "run_050_1.csv"\npayload_kg = 10.0\nrig_inertia_kg_m2 = 2.0', 1))
+    toml.write_text(
+        toml.read_text().replace(
+            'file = "run_050_1.csv"', 'file = "run_050_1.csv"\npayload_kg = 10.0\nrig_inertia_kg_m2 = 2.0', 1
+        )
+    )
     campaign = load_campaign(c)
     assert [r.payload_kg for r in campaign.runs] == [10.0, 0.0, 0.0, 0.0]
     d = diagnose(campaign, catalogue=_by_name("inertia_error"), progress=False)
-    load = d["where"]["load_kg"]
+    load = d.where.load_kg
     assert set(load) == {"0", "10"}
-    assert load["10"]["rms_deg"] > 5.0 * load["0"]["rms_deg"]
+    assert load["10"].rms_deg > 5.0 * load["0"].rms_deg
     # the declared value is checked like every other number
     toml.write_text(toml.read_text().replace("rig_inertia_kg_m2 = 2.0", "rig_inertia_kg_m2 = -1"))
     with pytest.raises(GapError, match=r"campaign\.toml:\d+ \(\[\[runs\]\] #1\): rig_inertia_kg_m2 = -1; allowed"):
@@ -116,14 +140,19 @@ def test_a_run_may_carry_its_own_load(campaigns, tmp_path):
 def test_hidden_reducer_compliance_is_found_and_recovered(tmp_path):
     # a compliant gear (1e-3 rad/N·m, 5x softer than the size-17 gear's 1/K1) hidden in the plant;
     # the catalogue's reducer entries are configuration of the same one-joint model
-    folder = synth.make_campaign(tmp_path / "compliant", synth.wrist_params()._replace(reducer_compliance_rad_per_nm=1e-3), seed=4, pressures_mpa=(0.5, 0.8))
+    folder = synth.make_campaign(
+        tmp_path / "compliant",
+        synth.wrist_params()._replace(reducer_compliance_rad_per_nm=1e-3),
+        seed=4,
+        pressures_mpa=(0.5, 0.8),
+    )
     catalogue = FAST + tuple(e for e in CATALOGUE if e.family == "reducer")
     assert {e.name for e in catalogue if e.family == "reducer"} == {"reducer_backlash", "reducer_compliance"}
     d = diagnose(load_campaign(folder), catalogue=catalogue, progress=False)
-    w = d["which"]
-    assert w["verdict"] == "explained" and w["top"]["name"] == "reducer_compliance"
-    assert w["top"]["fitted_values"][0] == pytest.approx(1e-3, rel=0.1)  # measured: 1.04e-3
-    assert w["top"]["shrink"] < 0.3
+    w = d.which
+    assert w.verdict == "explained" and w.top.name == "reducer_compliance"
+    assert w.top.fitted_values[0] == pytest.approx(1e-3, rel=0.1)  # measured: 1.04e-3
+    assert w.top.shrink < 0.3
 
 
 def _copy(src, dst):
@@ -157,18 +186,22 @@ def test_malformed_campaigns_name_file_line_and_problem(campaigns, tmp_path):
     # missing file
     c = _copy(src, tmp_path / "d")
     (c / "run_080_2.csv").unlink()
-    with pytest.raises(GapError, match=r"campaign\.toml:\d+ \(\[\[runs\]\] #4\): run file .*run_080_2\.csv does not exist"):
+    with pytest.raises(
+        GapError, match=r"campaign\.toml:\d+ \(\[\[runs\]\] #4\): run file .*run_080_2\.csv does not exist"
+    ):
         load_campaign(c)
 
 
 def test_cli_gap_diagnose_writes_json_report_and_plots(campaigns, tmp_path, capsys):
-    from twin.cli import main
+    from twin_cli.cli import main
 
     out = tmp_path / "out"
     assert main(["gap", "diagnose", str(campaigns["leak"]), "--out", str(out)]) == 0
     d = json.loads((out / "diagnosis.json").read_text())
     assert d["which"]["top"]["name"] == "vane_leakage"
-    assert {c["name"] for c in d["which"]["ranking"]} == set(BY_NAME) - {"hose_loss"}  # hose loss is already in this twin
+    assert {c["name"] for c in d["which"]["ranking"]} == set(BY_NAME) - {
+        "hose_loss"
+    }  # hose loss is already in this twin
     assert (out / "report.md").read_text().startswith("# Sim-to-real gap diagnosis")
     for png in ("residual.png", "where.png", "ranking.png", "how_far.png"):
         assert (out / png).read_bytes()[:4] == b"\x89PNG"
@@ -192,12 +225,17 @@ def test_mcap_runs_from_the_plant_are_diagnosed(tmp_path):
         for name, reality in (("leak", p0._replace(leak_area_m2=4e-7)), ("nominal", p0)):
             synth.write_mcap_run(folder / f"{name}_{int(mpa * 100)}.mcap", reality, mpa)
     for mpa in (0.5, 0.8):
-        lines += ["[[runs]]", f'file = "leak_{int(mpa * 100)}.mcap"', f"supply_mpa = {mpa}", "start_deg = { wrist_pitch = 0.0 }"]
+        lines += [
+            "[[runs]]",
+            f'file = "leak_{int(mpa * 100)}.mcap"',
+            f"supply_mpa = {mpa}",
+            "start_deg = { wrist_pitch = 0.0 }",
+        ]
     (folder / "campaign.toml").write_text("\n".join(lines) + "\n")
     d = diagnose(load_campaign(folder), catalogue=FAST, progress=False)
-    w = d["which"]
-    assert w["verdict"] == "explained" and w["top"]["name"] == "vane_leakage"
-    assert w["top"]["fitted_values"][0] == pytest.approx(4e-7, rel=0.2)
+    w = d.which
+    assert w.verdict == "explained" and w.top.name == "vane_leakage"
+    assert w.top.fitted_values[0] == pytest.approx(4e-7, rel=0.2)
 
     # the nominal plant's logs replay within the twin's model tolerance because the logged valve
     # output is imposed on the valve state; taken as a set point it would be lagged a second time
@@ -209,7 +247,9 @@ def test_mcap_runs_from_the_plant_are_diagnosed(tmp_path):
         res = []
         for pr in twin.runs:
             args = pr.args[:5] + (as_output,)
-            t, theta, _, _, _ = replay_run(params_row(twin.params), *args, pr.run.start_rad, pr.inertia, 0.0, pr.ts[-1] + DT_S, DT_S)
+            t, theta, _, _, _ = replay_run(
+                params_row(twin.params), *args, pr.run.start_rad, pr.inertia, 0.0, pr.ts[-1] + DT_S, DT_S
+            )
             res.append(pr.meas - np.interp(pr.ts, t, theta))
         rms[as_output] = float(np.rad2deg(np.sqrt(np.mean(np.concatenate(res) ** 2))))
     assert rms[True] < 0.5  # MODEL_TOLERANCE_DEG
@@ -259,35 +299,46 @@ def camera_campaign(tmp_path_factory):
 
     inst = replace(synth.CAMERA, latency_s=0.030)
     motion = {q: protocols.STOP_AND_GO for q in (0.5, 0.8)}
-    return synth.make_campaign(tmp_path_factory.mktemp("gap") / "camera", synth.wrist_params(), seed=11, pressures_mpa=(0.5, 0.8), motion=motion, instrument=inst)
+    return synth.make_campaign(
+        tmp_path_factory.mktemp("gap") / "camera",
+        synth.wrist_params(),
+        seed=11,
+        pressures_mpa=(0.5, 0.8),
+        motion=motion,
+        instrument=inst,
+    )
 
 
 def test_an_undeclared_camera_latency_is_found_as_nuisance_not_an_effect(camera_campaign, tmp_path):
-    from gap.commands import verdict_line
+    from gap.run import verdict_line
 
     d = diagnose(load_campaign(camera_campaign), catalogue=FAST + _by_name("valve_dead_time"), progress=False)
-    inst = d["instrument"]
-    assert inst["latency_estimated"] and inst["latency_s"] == pytest.approx(0.030, abs=0.010)
-    assert inst["observed_rate_hz"] == pytest.approx(30.0, rel=0.05) and inst["dropped_samples"] > 0
-    assert d["noise_floor"]["measurement_deg"] == pytest.approx(0.2, rel=0.3)  # the seeded camera noise
-    assert d["which"]["verdict"] == "no significant gap", verdict_line(d)
+    inst = d.instrument
+    assert inst.latency_estimated and inst.latency_s == pytest.approx(0.030, abs=0.010)
+    assert inst.observed_rate_hz == pytest.approx(30.0, rel=0.05) and inst.dropped_samples > 0
+    assert d.noise_floor.measurement_deg == pytest.approx(0.2, rel=0.3)  # the seeded camera noise
+    assert d.which.verdict == "no significant gap", verdict_line(d)
     # declared, it is used as declared and said so
     c = _copy(camera_campaign, tmp_path / "declared")
-    (c / "campaign.toml").write_text((c / "campaign.toml").read_text() + "\n[instrument]\nlatency_s = 0.03\nnoise_deg = 0.2\nrate_hz = 30.0\n")
+    (c / "campaign.toml").write_text(
+        (c / "campaign.toml").read_text() + "\n[instrument]\nlatency_s = 0.03\nnoise_deg = 0.2\nrate_hz = 30.0\n"
+    )
     campaign = load_campaign(c)
     assert campaign.instrument.latency_s == 0.03
     from gap.diagnose import Twin
 
     assert list(Twin(campaign).latencies) == [0.03]
     (c / "campaign.toml").write_text((c / "campaign.toml").read_text().replace("latency_s = 0.03", "latency_s = -0.1"))
-    with pytest.raises(GapError, match=r"campaign\.toml:\d+ \(\[instrument\]\): latency_s = -0.1; allowed: a number in 0..1 s"):
+    with pytest.raises(
+        GapError, match=r"campaign\.toml:\d+ \(\[instrument\]\): latency_s = -0.1; allowed: a number in 0..1 s"
+    ):
         load_campaign(c)
 
 
 def test_verdict_rules_refuse_a_pair_at_nominal_flag_bounds_and_name_only_a_family():
-    from gap.commands import verdict_line
-    from gap.diagnose import Candidate
     from gap import verdict
+    from gap.diagnose import Candidate
+    from gap.run import verdict_line
 
     p0 = synth.wrist_params()
     at_nominal = Candidate("vane_leakage+heat_exchange", ["vane_leakage", "heat_exchange"], [], [4e-7, 1.4])
@@ -296,7 +347,14 @@ def test_verdict_rules_refuse_a_pair_at_nominal_flag_bounds_and_name_only_a_fami
     assert verdict.off_nominal(moved, p0) == [True, True]
     assert verdict.at_bounds(Candidate("coulomb_friction", ["coulomb_friction"], [], [60.0])) == ["high"]
     assert verdict.at_bounds(Candidate("coulomb_friction", ["coulomb_friction"], [], [31.0])) == [None]
-    outside = {"before_rms_deg": 3.0, "which": {"verdict": "outside the catalogue", "top": {"name": "coulomb_friction"}, "nearest": {"family": "friction"}}}
+    outside = SimpleNamespace(
+        before_rms_deg=3.0,
+        which=SimpleNamespace(
+            verdict="outside the catalogue",
+            top=SimpleNamespace(name="coulomb_friction"),
+            nearest=SimpleNamespace(family="friction"),
+        ),
+    )
     line = verdict_line(outside)
     assert "friction" in line and "coulomb" not in line
 
@@ -307,22 +365,38 @@ def test_hidden_angle_load_is_found_and_located_by_angle(tmp_path):
     gap growing with the angle."""
     from gap import protocols
 
-    folder = synth.make_campaign(tmp_path / "spring", synth.wrist_params(), seed=12, pressures_mpa=(0.5, 0.8), motion={q: protocols.paper_60(q) for q in (0.5, 0.8)}, rig_spring_nm_per_rad=20.0)
+    folder = synth.make_campaign(
+        tmp_path / "spring",
+        synth.wrist_params(),
+        seed=12,
+        pressures_mpa=(0.5, 0.8),
+        motion={q: protocols.paper_60(q) for q in (0.5, 0.8)},
+        rig_spring_nm_per_rad=20.0,
+    )
     d = diagnose(load_campaign(folder), catalogue=FAST + _by_name("angle_load", "inertia_error"), progress=False)
-    w = d["which"]
-    assert w["verdict"] == "explained" and w["top"]["name"] == "angle_load", w["verdict"]
-    assert w["top"]["fitted_values"][0] == pytest.approx(20.0, rel=0.15)
-    by_angle = d["where"]["angle_deg"]
-    assert by_angle["+30..+60"]["rms_deg"] > 2 * by_angle["+0..+30"]["rms_deg"]
+    w = d.which
+    assert w.verdict == "explained" and w.top.name == "angle_load", w.verdict
+    assert w.top.fitted_values[0] == pytest.approx(20.0, rel=0.15)
+    by_angle = d.where.angle_deg
+    assert by_angle["+30..+60"].rms_deg > 2 * by_angle["+0..+30"].rms_deg
 
 
 def test_hidden_incomplete_brake_release_is_given_to_the_brake(tmp_path):
     """The brake clears only at 6 bar (nominal 4.75): at 0.5 MPa it drags through every move."""
-    folder = synth.make_campaign(tmp_path / "brake", synth.wrist_params()._replace(brake_release_gauge_pa=6.0e5), seed=13, pressures_mpa=(0.5, 0.8))
-    d = diagnose(load_campaign(folder), catalogue=_by_name("coulomb_friction", "vane_leakage", "brake_incomplete_release", "brake_holding"), progress=False)
-    w = d["which"]
-    assert w["top"]["families"][0] == "brake" and w["verdict"] in ("explained", "ambiguous"), w["verdict"]
-    assert w["top"]["fitted_values"][0] == pytest.approx(6.0e5, rel=0.1)
+    folder = synth.make_campaign(
+        tmp_path / "brake",
+        synth.wrist_params()._replace(brake_release_gauge_pa=6.0e5),
+        seed=13,
+        pressures_mpa=(0.5, 0.8),
+    )
+    d = diagnose(
+        load_campaign(folder),
+        catalogue=_by_name("coulomb_friction", "vane_leakage", "brake_incomplete_release", "brake_holding"),
+        progress=False,
+    )
+    w = d.which
+    assert w.top.families[0] == "brake" and w.verdict in ("explained", "ambiguous"), w.verdict
+    assert w.top.fitted_values[0] == pytest.approx(6.0e5, rel=0.1)
 
 
 def test_bench_slice_over_both_instruments(tmp_path):

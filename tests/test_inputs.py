@@ -21,17 +21,16 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from logwait import wait_until_logged
+from test_scenarios import MINIMAL
 
 from gap.campaign import GapError, load_campaign
 from scenarios.schema import SHIPPED_DIR, ScenarioError, load, parse
-from twin.cli import build_parser, main
 from twin.errors import UserError
 from twin.mcap_log import LogError, McapWriter, read_mcap
 from twin.outputs import OutputLock, check_output, keep_result, publish_folder, write_atomic
 from twin.telemetry import SIGNALS
-
-from logwait import wait_until_logged
-from test_scenarios import MINIMAL
+from twin_cli.cli import build_parser, main
 
 ROOT = Path(__file__).resolve().parent.parent
 RIG = MINIMAL.replace('mode = "none"', 'mode = "closed_loop"')  # a 0.2 s wrist-rig scenario
@@ -49,9 +48,16 @@ def one_line_error(capsys, *needles: str) -> str:
 
 # --- command-line numbers ----------------------------------------------------------------------
 @pytest.mark.parametrize("command", [["run", "S"], ["sweep", "S"]])
-@pytest.mark.parametrize("flag, value", [
-    ("--duration", "nan"), ("--duration", "inf"), ("--duration", "-1"), ("--duration", "0"), ("--duration", "ten"),
-])
+@pytest.mark.parametrize(
+    "flag, value",
+    [
+        ("--duration", "nan"),
+        ("--duration", "inf"),
+        ("--duration", "-1"),
+        ("--duration", "0"),
+        ("--duration", "ten"),
+    ],
+)
 def test_duration_must_be_a_finite_positive_number(command, flag, value, capsys):
     with pytest.raises(SystemExit) as e:
         main([*command, flag, value])
@@ -59,23 +65,26 @@ def test_duration_must_be_a_finite_positive_number(command, flag, value, capsys)
     one_line_error(capsys, flag, repr(value), "allowed")
 
 
-@pytest.mark.parametrize("argv, flag, value", [
-    (["run", "S"], "--camera-fps", "inf"),
-    (["run", "S"], "--camera-fps", "nan"),
-    (["run", "S"], "--camera-fps", "-2"),
-    (["run", "S"], "--camera-fps", "1000"),
-    (["run", "S"], "--seed", "-1"),
-    (["run", "S"], "--seed", "1.5"),
-    (["sweep", "S"], "--workers", "-1"),
-    (["sweep", "S"], "--monte-carlo", "-3"),
-    (["sweep", "S"], "--monte-carlo", "nan"),
-    (["gap", "diagnose", "C", "--out", "D"], "--jobs", "0"),
-    (["gap", "diagnose", "C", "--out", "D"], "--jobs", "-1"),
-    (["gap", "diagnose", "C", "--out", "D"], "--model-tolerance-deg", "nan"),
-    (["gap", "diagnose", "C", "--out", "D"], "--model-tolerance-deg", "-5"),
-    (["gap", "diagnose", "C", "--out", "D"], "--model-tolerance-deg", "inf"),
-    (["gap", "bench", "--out", "D"], "--jobs", "0"),
-])
+@pytest.mark.parametrize(
+    "argv, flag, value",
+    [
+        (["run", "S"], "--camera-fps", "inf"),
+        (["run", "S"], "--camera-fps", "nan"),
+        (["run", "S"], "--camera-fps", "-2"),
+        (["run", "S"], "--camera-fps", "1000"),
+        (["run", "S"], "--seed", "-1"),
+        (["run", "S"], "--seed", "1.5"),
+        (["sweep", "S"], "--workers", "-1"),
+        (["sweep", "S"], "--monte-carlo", "-3"),
+        (["sweep", "S"], "--monte-carlo", "nan"),
+        (["gap", "diagnose", "C", "--out", "D"], "--jobs", "0"),
+        (["gap", "diagnose", "C", "--out", "D"], "--jobs", "-1"),
+        (["gap", "diagnose", "C", "--out", "D"], "--model-tolerance-deg", "nan"),
+        (["gap", "diagnose", "C", "--out", "D"], "--model-tolerance-deg", "-5"),
+        (["gap", "diagnose", "C", "--out", "D"], "--model-tolerance-deg", "inf"),
+        (["gap", "bench", "--out", "D"], "--jobs", "0"),
+    ],
+)
 def test_every_numeric_flag_refuses_nan_inf_and_out_of_range(argv, flag, value, capsys):
     with pytest.raises(SystemExit) as e:
         main([*argv, flag, value])
@@ -117,29 +126,67 @@ def test_every_argument_has_help_and_there_is_a_version(capsys):
 
 
 # --- scenario fields ---------------------------------------------------------------------------
-@pytest.mark.parametrize("text, field, value", [
-    ("", "empty scenario", ""),
-    ("# only a comment\n", "empty scenario", ""),
-    (RIG + "[start.angles_deg]\nwrist_pitch = 350.0", "start.angles_deg.wrist_pitch", "350.0"),
-    (RIG + "[[targets]]\nangles_deg = { wrist_pitch = 300.0 }", "targets[0].angles_deg.wrist_pitch", "300.0"),
-    (ARM + "[[targets]]\nangles_deg = { elbow_pitch = -100.0 }", "targets[0] puts joint elbow_pitch at -190.0 deg", "elbow_pitch -100.0"),
-    (ARM + "[[targets]]\nbrush_at_disc = 1\nstandoff_m = 0.5", "standoff_m = 0.5", "out of the brush's reach"),
-    (RIG + "[[criteria]]\nkind = 'final_error_deg'\nmax = 1.0", "criteria[0].kind", "no [[targets]]"),
-    (RIG + "[[targets]]\nangles_deg = { wrist_pitch = 30.0 }\n[[criteria]]\nkind = 'max_error_deg'\nmin = 5.0\nmax = 1.0", "criteria[0].min", "5.0"),
-    (RIG.replace("closed_loop", "none") + "[[targets]]\nangles_deg = { wrist_pitch = 30.0 }\n[[criteria]]\nkind = 'final_error_deg'\nmax = 1.0", "criteria[0].kind", "'final_error_deg'"),
-    (RIG.replace("closed_loop", "none") + "[[criteria]]\nkind = 'prediction_error_deg'\nmax = 1.0", "criteria[0].kind", "'prediction_error_deg'"),
-    (RIG + "[[criteria]]\nkind = 'brush_on_disc'\nmax = 0.1", "criteria[0].kind", "'brush_on_disc'"),
-    (RIG + "[[criteria]]\nkind = 'max_drop_m'\nmax = 0.1", "criteria[0].kind", "'max_drop_m'"),
-    (RIG + "[[criteria]]\nkind = 'max_travel_deg'\nmax = 1.0", "criteria[0].joint", "<missing>"),
-    (ARM + "[[criteria]]\nkind = 'contact_force_n'\nmax = 100.0\ndisc = 3", "criteria[0].disc", "3"),
-    (RIG + "[supply]\nkind = 'steps'\nsteps = [[inf, 0.5]]", "supply.steps", "inf"),
-    (RIG + "[supply]\nkind = 'steps'\nsteps = [[1.0, 0.5], [0.5, 0.6]]", "supply.steps", "[0.5, 0.6]"),
-    (RIG + "[[faults]]\nkind = 'hose_leak'\nat_s = 0.0\njoint = 'wrist_pitch'\nvalue = -1e-6", "faults[0].value", "-1e-06"),
-    (RIG + "[[faults]]\nkind = 'hose_leak'\nat_s = 0.0\njoint = 'wrist_pitch'\nvalue = 1e-4", "faults[0].value", "0.0001"),
-    (RIG + "[[faults]]\nkind = 'sensor_bias'\nat_s = 0.0\njoint = 'wrist_pitch'\nvalue = nan", "faults[0].value", "nan"),
-    (RIG + "[[faults]]\nkind = 'brake_fails'\nat_s = 0.0\njoint = 'wrist_pitch'\nvalue = 3.0", "faults[0].value", "3.0"),
-    (RIG + "duration = 3.0", "duration", "not a known field"),
-])
+@pytest.mark.parametrize(
+    "text, field, value",
+    [
+        ("", "empty scenario", ""),
+        ("# only a comment\n", "empty scenario", ""),
+        (RIG + "[start.angles_deg]\nwrist_pitch = 350.0", "start.angles_deg.wrist_pitch", "350.0"),
+        (RIG + "[[targets]]\nangles_deg = { wrist_pitch = 300.0 }", "targets[0].angles_deg.wrist_pitch", "300.0"),
+        (
+            ARM + "[[targets]]\nangles_deg = { elbow_pitch = -100.0 }",
+            "targets[0] puts joint elbow_pitch at -190.0 deg",
+            "elbow_pitch -100.0",
+        ),
+        (ARM + "[[targets]]\nbrush_at_disc = 1\nstandoff_m = 0.5", "standoff_m = 0.5", "out of the brush's reach"),
+        (RIG + "[[criteria]]\nkind = 'final_error_deg'\nmax = 1.0", "criteria[0].kind", "no [[targets]]"),
+        (
+            RIG
+            + "[[targets]]\nangles_deg = { wrist_pitch = 30.0 }\n"
+            + "[[criteria]]\nkind = 'max_error_deg'\nmin = 5.0\nmax = 1.0",
+            "criteria[0].min",
+            "5.0",
+        ),
+        (
+            RIG.replace("closed_loop", "none")
+            + "[[targets]]\nangles_deg = { wrist_pitch = 30.0 }\n[[criteria]]\nkind = 'final_error_deg'\nmax = 1.0",
+            "criteria[0].kind",
+            "'final_error_deg'",
+        ),
+        (
+            RIG.replace("closed_loop", "none") + "[[criteria]]\nkind = 'prediction_error_deg'\nmax = 1.0",
+            "criteria[0].kind",
+            "'prediction_error_deg'",
+        ),
+        (RIG + "[[criteria]]\nkind = 'brush_on_disc'\nmax = 0.1", "criteria[0].kind", "'brush_on_disc'"),
+        (RIG + "[[criteria]]\nkind = 'max_drop_m'\nmax = 0.1", "criteria[0].kind", "'max_drop_m'"),
+        (RIG + "[[criteria]]\nkind = 'max_travel_deg'\nmax = 1.0", "criteria[0].joint", "<missing>"),
+        (ARM + "[[criteria]]\nkind = 'contact_force_n'\nmax = 100.0\ndisc = 3", "criteria[0].disc", "3"),
+        (RIG + "[supply]\nkind = 'steps'\nsteps = [[inf, 0.5]]", "supply.steps", "inf"),
+        (RIG + "[supply]\nkind = 'steps'\nsteps = [[1.0, 0.5], [0.5, 0.6]]", "supply.steps", "[0.5, 0.6]"),
+        (
+            RIG + "[[faults]]\nkind = 'hose_leak'\nat_s = 0.0\njoint = 'wrist_pitch'\nvalue = -1e-6",
+            "faults[0].value",
+            "-1e-06",
+        ),
+        (
+            RIG + "[[faults]]\nkind = 'hose_leak'\nat_s = 0.0\njoint = 'wrist_pitch'\nvalue = 1e-4",
+            "faults[0].value",
+            "0.0001",
+        ),
+        (
+            RIG + "[[faults]]\nkind = 'sensor_bias'\nat_s = 0.0\njoint = 'wrist_pitch'\nvalue = nan",
+            "faults[0].value",
+            "nan",
+        ),
+        (
+            RIG + "[[faults]]\nkind = 'brake_fails'\nat_s = 0.0\njoint = 'wrist_pitch'\nvalue = 3.0",
+            "faults[0].value",
+            "3.0",
+        ),
+        (RIG + "duration = 3.0", "duration", "not a known field"),
+    ],
+)
 def test_scenarios_inconsistent_with_the_model_or_themselves_are_refused(text, field, value):
     with pytest.raises(ScenarioError) as e:
         parse(text, "scenarios/bad.toml")
@@ -153,8 +200,12 @@ def test_a_plan_the_controller_refuses_cannot_pass_final_error(capsys):
     braked): the error against the target asked for is 10 deg, and the criterion fails."""
     from scenarios.runner import run_scenario
 
-    s = parse(RIG.replace("duration_s = 0.2", "duration_s = 0.3") + "min_rotation_deg = 20.0\n[[targets]]\nangles_deg = { wrist_pitch = 10.0 }\n"
-              "[[criteria]]\nkind = 'final_error_deg'\nmax = 1.0\n[[criteria]]\nkind = 'max_error_deg'\nmax = 1.0\n", "refused.toml")
+    s = parse(
+        RIG.replace("duration_s = 0.2", "duration_s = 0.3")
+        + "min_rotation_deg = 20.0\n[[targets]]\nangles_deg = { wrist_pitch = 10.0 }\n"
+        "[[criteria]]\nkind = 'final_error_deg'\nmax = 1.0\n[[criteria]]\nkind = 'max_error_deg'\nmax = 1.0\n",
+        "refused.toml",
+    )
     result = run_scenario(s)
     assert result.refusal
     final, worst = result.verdicts
@@ -179,8 +230,12 @@ def test_shipped_scenarios_are_found_by_name_from_any_folder(tmp_path, monkeypat
 
 # --- campaign fields and files -----------------------------------------------------------------
 HEADER = "time_s,direction,brake_released,valve_set_gauge_pa,supply_pa,angle_rad,p_a_pa,p_b_pa"
-ROWS = ["0.00,0,0,0,601325,0.0,101325,101325", "0.02,1,1,400000,601325,,350000,101325", "0.04,1,1,400000,601325,0.01,,",
-        "0.06,1,1,400000,601325,0.03,360000,110000"]
+ROWS = [
+    "0.00,0,0,0,601325,0.0,101325,101325",
+    "0.02,1,1,400000,601325,,350000,101325",
+    "0.04,1,1,400000,601325,0.01,,",
+    "0.06,1,1,400000,601325,0.03,360000,110000",
+]
 TOML = """joint = "wrist_pitch"
 hose_length_m = 8.0
 [[runs]]
@@ -213,20 +268,43 @@ def test_a_good_small_campaign_loads(tmp_path):
     assert len(c.runs) == 2 and c.runs[0].extra["p_a_pa"][1] == 350000
 
 
-@pytest.mark.parametrize("toml, rows, needles", [
-    (TOML + "colour = 'red'\n", ROWS, ["campaign.toml", "colour is not a known field", "allowed"]),
-    (TOML.replace("supply_mpa = 0.5\n", "supply_mpa = 0.5\nsuply = 1\n", 1), ROWS, ["[[runs]] #1", "suply is not a known field"]),
-    (TOML + "[twin]\nhose_los = true\n", ROWS, ["[twin] hose_los is not a known field"]),
-    (TOML.split("[[runs]]\nfile = \"b.csv\"")[0], ROWS, ["1 [[runs]]", "at least 2"]),
-    (TOML, edit_row(3, "time_s", "3600.06"), ["a.csv", "time_s jumps from 0.04 to 3600.06", "allowed"]),
-    (TOML, edit_row(2, "time_s", "0.01"), ["a.csv:4", "time_s = 0.01 does not increase", "allowed"]),
-    (TOML, [f"{k * 0.5:.1f},0,0,0,601325,0.0,," for k in range(1300)], ["a.csv", "lasts 649.5 s", "allowed: at most 600 s"]),
-    (TOML, edit_row(1, "p_a_pa", "-5000"), ["a.csv:3", "p_a_pa = -5000", "allowed: absolute Pa above 0"]),
-    (TOML, edit_row(1, "supply_pa", "-1"), ["a.csv:3", "supply_pa = -1", "allowed"]),
-    (TOML.replace("supply_mpa = 0.5", "supply_mpa = 0.8", 1), ROWS, ["supply_mpa = 0.8", "averages 0.500 MPa", "allowed"]),
-    (TOML, edit_row(2, "angle_rad", "1e6"), ["a.csv", "angle_rad = 1e+06", "outside wrist_pitch's range", "allowed"]),
-    (TOML.replace("wrist_pitch = 0.0", "wrist_pitch = 350.0", 1), ROWS, ["start_deg.wrist_pitch = 350.0", "allowed: -90.0..90.0 deg"]),
-])
+@pytest.mark.parametrize(
+    "toml, rows, needles",
+    [
+        (TOML + "colour = 'red'\n", ROWS, ["campaign.toml", "colour is not a known field", "allowed"]),
+        (
+            TOML.replace("supply_mpa = 0.5\n", "supply_mpa = 0.5\nsuply = 1\n", 1),
+            ROWS,
+            ["[[runs]] #1", "suply is not a known field"],
+        ),
+        (TOML + "[twin]\nhose_los = true\n", ROWS, ["[twin] hose_los is not a known field"]),
+        (TOML.split('[[runs]]\nfile = "b.csv"')[0], ROWS, ["1 [[runs]]", "at least 2"]),
+        (TOML, edit_row(3, "time_s", "3600.06"), ["a.csv", "time_s jumps from 0.04 to 3600.06", "allowed"]),
+        (TOML, edit_row(2, "time_s", "0.01"), ["a.csv:4", "time_s = 0.01 does not increase", "allowed"]),
+        (
+            TOML,
+            [f"{k * 0.5:.1f},0,0,0,601325,0.0,," for k in range(1300)],
+            ["a.csv", "lasts 649.5 s", "allowed: at most 600 s"],
+        ),
+        (TOML, edit_row(1, "p_a_pa", "-5000"), ["a.csv:3", "p_a_pa = -5000", "allowed: absolute Pa above 0"]),
+        (TOML, edit_row(1, "supply_pa", "-1"), ["a.csv:3", "supply_pa = -1", "allowed"]),
+        (
+            TOML.replace("supply_mpa = 0.5", "supply_mpa = 0.8", 1),
+            ROWS,
+            ["supply_mpa = 0.8", "averages 0.500 MPa", "allowed"],
+        ),
+        (
+            TOML,
+            edit_row(2, "angle_rad", "1e6"),
+            ["a.csv", "angle_rad = 1e+06", "outside wrist_pitch's range", "allowed"],
+        ),
+        (
+            TOML.replace("wrist_pitch = 0.0", "wrist_pitch = 350.0", 1),
+            ROWS,
+            ["start_deg.wrist_pitch = 350.0", "allowed: -90.0..90.0 deg"],
+        ),
+    ],
+)
 def test_bad_campaigns_are_refused_with_file_field_value_and_allowed(tmp_path, toml, rows, needles):
     folder = campaign(tmp_path / "c", toml, rows)
     with pytest.raises(GapError) as e:
@@ -245,7 +323,9 @@ def test_a_campaign_reads_only_files_inside_its_folder(tmp_path, name):
     (folder / "link.csv").symlink_to(outside)
     name = str(outside) if name == "ABSOLUTE" else name
     (folder / "campaign.toml").write_text(TOML.replace('"b.csv"', json.dumps(name)))
-    with pytest.raises(GapError, match=r"\(\[\[runs\]\] #2\): file = .* (leaves|leads out of) the campaign folder.*allowed"):
+    with pytest.raises(
+        GapError, match=r"\(\[\[runs\]\] #2\): file = .* (leaves|leads out of) the campaign folder.*allowed"
+    ):
         load_campaign(folder)
 
 
@@ -259,7 +339,7 @@ def fake_log(path: Path, n: int = 400) -> None:
     a["supply_pa"][:] = 601325.0
     w = McapWriter(path, joints, bodies, b"", {"seed": 0})
     for start in range(0, n, 50):
-        w.write_arrays({k: v[start:start + 50] for k, v in a.items()}, start)
+        w.write_arrays({k: v[start : start + 50] for k, v in a.items()}, start)
     w.close()
 
 
@@ -282,7 +362,10 @@ def test_outputs_must_differ_from_inputs_and_each_other_and_be_writable(tmp_path
     afile = tmp_path / "afile"
     afile.write_text("x")
     cases = [
-        (["run", str(s), "--rrd", str(tmp_path / "x.log"), "--mcap", str(tmp_path / "x.log")], ["--rrd", "is also --mcap"]),
+        (
+            ["run", str(s), "--rrd", str(tmp_path / "x.log"), "--mcap", str(tmp_path / "x.log")],
+            ["--rrd", "is also --mcap"],
+        ),
         (["run", str(s), "--mcap", str(s)], ["--mcap", "is an input"]),
         (["run", str(s), "--rrd", str(tmp_path)], ["--rrd", "is a folder"]),
         (["sweep", str(s), "--out", str(afile / "x.json")], ["--out", "afile is a file, not a folder"]),
@@ -343,7 +426,7 @@ def test_a_folder_of_results_arrives_whole_or_is_kept_beside(tmp_path, capsys):
 
 
 def test_a_log_that_fails_at_the_end_costs_neither_the_summary_nor_the_other_log(tmp_path, monkeypatch, capsys):
-    import twin.commands
+    import scenarios.recording
 
     closed = []
 
@@ -358,7 +441,7 @@ def test_a_log_that_fails_at_the_end_costs_neither_the_summary_nor_the_other_log
         def close(self):
             closed.append(True)
 
-    monkeypatch.setattr(twin.commands, "open_recorders", lambda *a: [Full(), Fine()])
+    monkeypatch.setattr(scenarios.recording, "open_recorders", lambda *a: [Full(), Fine()])
     s = tmp_path / "s.toml"
     s.write_text(RIG)
     assert main(["run", str(s), "--json"]) == 2
@@ -391,9 +474,11 @@ def test_atomic_writes_leave_no_half_file(tmp_path):
 def test_two_writers_of_one_file_are_refused(tmp_path):
     f = tmp_path / "run.mcap"
     with OutputLock([f]):
-        with pytest.raises(UserError, match="another run is writing this file"):
-            with OutputLock([tmp_path / "other.rrd", f]):
-                pass
+        with (
+            pytest.raises(UserError, match="another run is writing this file"),
+            OutputLock([tmp_path / "other.rrd", f]),
+        ):
+            pass
         assert not (tmp_path / ".other.rrd.lock").exists()  # what it took is given back
     with OutputLock([f]):  # free again once the first is done
         pass
@@ -441,14 +526,33 @@ def test_sigterm_finishes_the_logs_like_ctrl_c_and_a_second_writer_is_refused(tm
     """`timeout`, systemd and docker stop a run with SIGTERM sent to its process: the run ends
     with exit status 143 and a note, its MCAP is finished (footer) and its .rrd holds as much as
     the MCAP. While it runs, a second run on the same --mcap is refused."""
-    text = (ROOT / "scenarios" / "wrist_closed_loop_60deg.toml").read_text().replace("duration_s = 6.0", "duration_s = 600.0")
+    text = (
+        (ROOT / "scenarios" / "wrist_closed_loop_60deg.toml")
+        .read_text()
+        .replace("duration_s = 6.0", "duration_s = 600.0")
+    )
     scenario = tmp_path / "long.toml"
     scenario.write_text(text)
     mcap, rrd = tmp_path / "run.mcap", tmp_path / "run.rrd"
     env = dict(os.environ, PYTHONPATH=str(ROOT))
     proc = subprocess.Popen(
-        [sys.executable, "-m", "twin.cli", "run", str(scenario), "--mcap", str(mcap), "--rrd", str(rrd), "--camera-fps", "0"],
-        cwd=tmp_path, env=env, stderr=subprocess.PIPE, stdout=subprocess.DEVNULL,
+        [
+            sys.executable,
+            "-m",
+            "twin_cli.cli",
+            "run",
+            str(scenario),
+            "--mcap",
+            str(mcap),
+            "--rrd",
+            str(rrd),
+            "--camera-fps",
+            "0",
+        ],
+        cwd=tmp_path,
+        env=env,
+        stderr=subprocess.PIPE,
+        stdout=subprocess.DEVNULL,
     )
     try:
         wait_until_logged(proc, mcap, 2.0)
@@ -470,7 +574,7 @@ def test_sigterm_finishes_the_logs_like_ctrl_c_and_a_second_writer_is_refused(tm
 
 
 def test_the_python_api_checks_its_numbers_too(tmp_path):
-    from gap.commands import run_diagnose
+    from gap.run import run_diagnose
     from scenarios.runner import run_scenario
     from scenarios.sweep import sweep
 
@@ -495,14 +599,12 @@ def test_closing_logs_is_not_cut_short_by_a_signal():
 
     finished = []
     with stop_on_sigterm():
-        with pytest.raises(Terminated):
-            with shielded():
-                os.kill(os.getpid(), signal.SIGTERM)
-                time.sleep(0.05)  # the handler has run by now
-                finished.append(True)
-        with pytest.raises(KeyboardInterrupt):
-            with shielded():
-                os.kill(os.getpid(), signal.SIGINT)
-                time.sleep(0.05)
-                finished.append(True)
+        with pytest.raises(Terminated), shielded():
+            os.kill(os.getpid(), signal.SIGTERM)
+            time.sleep(0.05)  # the handler has run by now
+            finished.append(True)
+        with pytest.raises(KeyboardInterrupt), shielded():
+            os.kill(os.getpid(), signal.SIGINT)
+            time.sleep(0.05)
+            finished.append(True)
     assert finished == [True, True]

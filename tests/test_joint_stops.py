@@ -20,10 +20,10 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from located_events import Command, solve
 
 import assets
 from gap.replay import replay_run
-from located_events import Command, solve
 from pneumatics import load_joint_params, params_row
 
 WRIST = load_joint_params(assets.JOINTS_DIR / "wrist_pitch.toml")
@@ -33,7 +33,9 @@ INERTIA = 0.164  # kg·m^2, the wrist's joint-side inertia with the reflected ro
 STOP_TOLERANCE_DEG = 0.1  # issue 12: final and per-stop angles within 0.1 deg of the reference
 
 
-def stop_and_go(supply_gauge_pa: float, cycles: int = 3, go_s: float = 0.5, drive_while_braking_s: float = 0.1, rest_s: float = 0.3) -> tuple[list[Command], float, list[tuple[float, float]]]:
+def stop_and_go(
+    supply_gauge_pa: float, cycles: int = 3, go_s: float = 0.5, drive_while_braking_s: float = 0.1, rest_s: float = 0.3
+) -> tuple[list[Command], float, list[tuple[float, float]]]:
     """Commands of `cycles` moves at full opening, each braked while the valve still drives;
     (commands, duration, rest windows (from, to) in which the joint must stand still)."""
     commands, rests, t = [], [], 0.0
@@ -46,14 +48,18 @@ def stop_and_go(supply_gauge_pa: float, cycles: int = 3, go_s: float = 0.5, driv
     return commands, t, rests
 
 
-def model_run(p: np.ndarray, commands: list[Command], t_end: float, supply_pa: float, load_nm: float) -> tuple[np.ndarray, np.ndarray]:
+def model_run(
+    p: np.ndarray, commands: list[Command], t_end: float, supply_pa: float, load_nm: float
+) -> tuple[np.ndarray, np.ndarray]:
     """The one-joint model (the gap replay's compiled loop) under the commands, on the 1 ms grid."""
     n = int(round(t_end / DT_S))
     times = np.arange(n) * DT_S
     rows = np.zeros((n, 3))
     for c in commands:
         rows[times >= c.time_s - 1e-12] = (c.direction, c.valve_set_gauge_pa, c.brake_release)
-    t, theta, *_ = replay_run(p, times, rows[:, 0], rows[:, 1], rows[:, 2], np.full(n, supply_pa), False, 0.0, INERTIA, load_nm, t_end, DT_S)
+    t, theta, *_ = replay_run(
+        p, times, rows[:, 0], rows[:, 1], rows[:, 2], np.full(n, supply_pa), False, 0.0, INERTIA, load_nm, t_end, DT_S
+    )
     return t, theta
 
 
@@ -106,7 +112,9 @@ def test_a_load_the_brake_holds_between_moves() -> None:
 @pytest.mark.parametrize(
     "reducer",
     [
-        {"reducer_compliance_rad_per_nm": 2.0e-4},  # the size-17 gear's own compliance (pneumatics/params.py: CSF-17 K3)
+        {
+            "reducer_compliance_rad_per_nm": 2.0e-4
+        },  # the size-17 gear's own compliance (pneumatics/params.py: CSF-17 K3)
         {"reducer_backlash_rad": 2.0e-3, "reducer_compliance_rad_per_nm": 2.0e-4},  # a worn gear's lost motion
     ],
     ids=["compliant", "backlash"],

@@ -15,15 +15,20 @@ import pytest
 
 import assets
 from benchmarks.bench_logging import SUPPLY_PA, wrist_schedule
-from twin.cli import main as twin_main
 from twin.errors import UserError
 from twin.mcap_log import LogError, McapRecorder, read_mcap
 from twin.plant import Plant
 from twin.rerun_log import RerunRecorder
 from twin.sim import run
+from twin_cli.cli import main as twin_main
 
 ROOT = Path(__file__).resolve().parents[1]
-META = {"seed": 1234, "scenario_name": "logs_test", "scenario_path": "scenarios/x.toml", "scenario_text": 'name = "logs_test"\n[supply]\npressure_mpa = 0.6\n'}
+META = {
+    "seed": 1234,
+    "scenario_name": "logs_test",
+    "scenario_path": "scenarios/x.toml",
+    "scenario_text": 'name = "logs_test"\n[supply]\npressure_mpa = 0.6\n',
+}
 
 
 class Predicting:
@@ -79,12 +84,19 @@ def test_mcap_round_trip_is_exact(logged):
         assert arrays[name].shape == value.shape, name
         # bit-exact, NaN where NaN was logged
         assert np.array_equal(arrays[name], value, equal_nan=True), name
-    assert np.isnan(arrays["predicted_angle_rad"][:, 0]).all() and np.isfinite(arrays["predicted_angle_rad"][:, 3]).all()
+    assert (
+        np.isnan(arrays["predicted_angle_rad"][:, 0]).all() and np.isfinite(arrays["predicted_angle_rad"][:, 3]).all()
+    )
     # the wrist really moved, so the comparison is not between constants
     assert np.ptp(arrays["true_angle_rad"][:, 3]) > np.radians(5)
     assert meta["seed"] == 1234 and meta["scenario_text"] == META["scenario_text"]
     assert meta["versions"]["mcap"] and meta["versions"]["rerun-sdk"]
-    assert meta["recovery"] == {"complete": True, "samples": len(telemetry), "duration_s": pytest.approx(1.5), "stopped_by": None}
+    assert meta["recovery"] == {
+        "complete": True,
+        "samples": len(telemetry),
+        "duration_s": pytest.approx(1.5),
+        "stopped_by": None,
+    }
 
 
 def test_mcap_uses_foxglove_schemas(logged):
@@ -108,8 +120,12 @@ def test_mcap_uses_foxglove_schemas(logged):
     G = mujoco.mjtGeom
     with open(tmp / "run.mcap", "rb") as f:
         scene = next(SceneUpdate.FromString(msg.data) for _, ch, msg in make_reader(f).iter_messages(topics=["/scene"]))
-    assert sum(len(e.cylinders) for e in scene.entities) == types.count(int(G.mjGEOM_CYLINDER)) + types.count(int(G.mjGEOM_CAPSULE))
-    assert sum(len(e.cubes) for e in scene.entities) == types.count(int(G.mjGEOM_BOX)) + types.count(int(G.mjGEOM_PLANE))
+    assert sum(len(e.cylinders) for e in scene.entities) == types.count(int(G.mjGEOM_CYLINDER)) + types.count(
+        int(G.mjGEOM_CAPSULE)
+    )
+    assert sum(len(e.cubes) for e in scene.entities) == types.count(int(G.mjGEOM_BOX)) + types.count(
+        int(G.mjGEOM_PLANE)
+    )
 
 
 CHILD = """
@@ -183,11 +199,23 @@ def test_rrd_holds_the_entities(logged):
     tmp, telemetry = logged
     paths, series, blueprints = rrd_entities(tmp / "run.rrd")
     expected = {f"/world/arm/{b}" for b in telemetry.bodies}
-    expected |= {f"/world/string/disc_{i}" for i in range(1, 9)} | {"/world/arm/brush_head/brush", "/world/scene/floor"}  # the brush geom is on its spring-mounted head
+    expected |= {f"/world/string/disc_{i}" for i in range(1, 9)} | {
+        "/world/arm/brush_head/brush",
+        "/world/scene/floor",
+    }  # the brush geom is on its spring-mounted head
     for j in telemetry.joints:
         expected |= {f"/joints/{j}/angle_deg/{s}" for s in ("true", "predicted", "target")}
-        expected |= {f"/joints/{j}/error_deg/predicted_minus_true", f"/joints/{j}/pressure_pa/chamber_a", f"/joints/{j}/pressure_pa/chamber_b"}
-        expected |= {f"/joints/{j}/valve/direction", f"/joints/{j}/valve/gauge_pa", f"/joints/{j}/brake/release", f"/joints/{j}/brake/engagement"}
+        expected |= {
+            f"/joints/{j}/error_deg/predicted_minus_true",
+            f"/joints/{j}/pressure_pa/chamber_a",
+            f"/joints/{j}/pressure_pa/chamber_b",
+        }
+        expected |= {
+            f"/joints/{j}/valve/direction",
+            f"/joints/{j}/valve/gauge_pa",
+            f"/joints/{j}/brake/release",
+            f"/joints/{j}/brake/engagement",
+        }
     expected |= {"/supply/pressure_pa", "/brush/force_n"}
     import mujoco
 
@@ -214,7 +242,9 @@ def test_replay_makes_a_recording(logged, tmp_path, capsys):
     assert "from the whole file" in capsys.readouterr().out
     paths, series, _ = rrd_entities(tmp_path / "replayed.rrd")
     assert "/world/arm/wrist" in paths and "/world/string/disc_8" in paths
-    np.testing.assert_array_equal(series["/joints/wrist_pitch/angle_deg/true"][:, 1], np.degrees(telemetry.arrays()["true_angle_rad"][:, 3]))
+    np.testing.assert_array_equal(
+        series["/joints/wrist_pitch/angle_deg/true"][:, 1], np.degrees(telemetry.arrays()["true_angle_rad"][:, 3])
+    )
 
 
 def test_replay_of_a_cut_file_says_how_much(logged, tmp_path, capsys):
@@ -231,7 +261,11 @@ def test_replay_of_a_cut_file_says_how_much(logged, tmp_path, capsys):
     np.testing.assert_array_equal(arrays["true_angle_rad"], telemetry.arrays()["true_angle_rad"][:m])
 
 
-@pytest.mark.parametrize("content", [b"", b"this is not an mcap file\n", b"\x89MCAP0\r\n\x01\x05\x00\x00"], ids=["empty", "text", "header-only"])
+@pytest.mark.parametrize(
+    "content",
+    [b"", b"this is not an mcap file\n", b"\x89MCAP0\r\n\x01\x05\x00\x00"],
+    ids=["empty", "text", "header-only"],
+)
 def test_replay_of_a_bad_file_is_a_user_error(tmp_path, capsys, content):
     bad = tmp_path / "bad.mcap"
     bad.write_bytes(content)
@@ -274,7 +308,7 @@ def test_body_poses_place_every_geom_as_mujoco_does(logged):
     put every geom where MuJoCo's own kinematics put it."""
     import mujoco
 
-    from twin.pictures import pose_geoms
+    from twin.render import pose_geoms
 
     m = mujoco.MjModel.from_xml_path(str(assets.SCENE_XML))
     plant = Plant(assets.SCENE_XML)
@@ -319,7 +353,9 @@ def test_telemetry_blocks_give_back_what_was_appended():
     tel = Telemetry(joints, bodies, block=3)
     rng = np.random.default_rng(1)
     shape = {"n": 2, "b": 3}
-    samples = [{k: rng.normal(size=tuple(shape.get(d, d) for d in dims)) for k, dims in SIGNALS.items()} for _ in range(10)]
+    samples = [
+        {k: rng.normal(size=tuple(shape.get(d, d) for d in dims)) for k, dims in SIGNALS.items()} for _ in range(10)
+    ]
     for i, s in enumerate(samples):
         tel.append(0.1 * i, s)
     assert len(tel) == 10 and tel.time_at(-1) == pytest.approx(0.9) and tel.time_at(4) == pytest.approx(0.4)
@@ -327,7 +363,9 @@ def test_telemetry_blocks_give_back_what_was_appended():
         a = tel.arrays(start)
         np.testing.assert_array_equal(a["time_s"], 0.1 * np.arange(start, 10))
         for k in SIGNALS:
-            np.testing.assert_array_equal(a[k], np.array([s[k] for s in samples[start:]]).reshape((10 - start,) + a[k].shape[1:]))
+            np.testing.assert_array_equal(
+                a[k], np.array([s[k] for s in samples[start:]]).reshape((10 - start,) + a[k].shape[1:])
+            )
     with pytest.raises(IndexError):
         tel.time_at(10)
 
@@ -364,7 +402,9 @@ def rrd_frames(path: Path) -> list[tuple[float, bytes]]:
         if chunk.entity_path.strip("/") == "camera/global_view" and not chunk.is_static:
             batch = chunk.to_record_batch()
             times = np.asarray(batch.column("time").cast("int64").to_numpy()) * 1e-9
-            out += [(t, bytes(b[0])) for t, b in zip(times, batch.column("EncodedImage:blob").to_pylist()) if b]
+            out += [
+                (t, bytes(b[0])) for t, b in zip(times, batch.column("EncodedImage:blob").to_pylist(), strict=True) if b
+            ]
     return sorted(out)
 
 
@@ -395,7 +435,10 @@ def test_camera_without_a_working_backend_says_why():
     cam = CameraProcess(plant.model, backends=("no-such-backend",))
     cam.request(np.array([0.0]), plant.data.xpos[1:][None], plant.data.xquat[1:][None])
     assert cam.close() == []
-    assert cam.error.startswith("offscreen rendering failed (MUJOCO_GL=no-such-backend: ") and "MUJOCO_GL" in cam.error[40:]
+    assert (
+        cam.error.startswith("offscreen rendering failed (MUJOCO_GL=no-such-backend: ")
+        and "MUJOCO_GL" in cam.error[40:]
+    )
 
 
 def test_ctrl_c_finishes_the_logs(tmp_path):
@@ -408,8 +451,12 @@ def test_ctrl_c_finishes_the_logs(tmp_path):
     mcap, rrd = tmp_path / "run.mcap", tmp_path / "run.rrd"
     env = dict(os.environ, PYTHONPATH=str(ROOT))
     proc = subprocess.Popen(
-        [sys.executable, "-m", "twin.cli", "run", str(long), "--mcap", str(mcap), "--rrd", str(rrd)],
-        cwd=ROOT, env=env, start_new_session=True, stderr=subprocess.PIPE, stdout=subprocess.DEVNULL,
+        [sys.executable, "-m", "twin_cli.cli", "run", str(long), "--mcap", str(mcap), "--rrd", str(rrd)],
+        cwd=ROOT,
+        env=env,
+        start_new_session=True,
+        stderr=subprocess.PIPE,
+        stdout=subprocess.DEVNULL,
         preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),  # as an interactive shell leaves it
     )
     try:
@@ -446,7 +493,10 @@ def test_brush_contact_is_logged_where_and_how_hard_it_pushes(tmp_path):
     # land up to 3 cm inside it, README), so where the contact is logged can be checked against it
     scenario = with_overrides(load(ROOT / "scenarios" / "insulator_cleaning.toml"), {"reality.arm": "nominal"})
     plant = build_plant(scenario)
-    recs = (McapRecorder(tmp_path / "c.mcap", plant.model, plant.joints, META), RerunRecorder(tmp_path / "c.rrd", plant.model, plant.joints, META))
+    recs = (
+        McapRecorder(tmp_path / "c.mcap", plant.model, plant.joints, META),
+        RerunRecorder(tmp_path / "c.rrd", plant.model, plant.joints, META),
+    )
     try:
         a = run_scenario(scenario, recorders=recs, duration_s=13.0).telemetry.arrays()
     finally:
@@ -494,7 +544,7 @@ def test_mcap_starts_at_its_declared_epoch_with_units_in_its_schemas(logged):
         meta = {m.name: m.metadata for m in reader.iter_metadata()}["twin"]
         first = next(msg for _, ch, msg in reader.iter_messages(topics=["/joint_states/true"]))
     assert json_.loads(meta["start_time_utc"]) == "2000-01-01T00:00:00Z"
-    assert dt.datetime.fromtimestamp(START_TIME_NS / 1e9, dt.timezone.utc) == dt.datetime(2000, 1, 1, tzinfo=dt.timezone.utc)
+    assert dt.datetime.fromtimestamp(START_TIME_NS / 1e9, dt.UTC) == dt.datetime(2000, 1, 1, tzinfo=dt.UTC)
     assert summary.statistics.message_start_time >= START_TIME_NS
     assert first.log_time == START_TIME_NS + round(telemetry.time_at(0) * 1e9)
     assert summary.statistics.message_end_time == START_TIME_NS + round(telemetry.time_at(-1) * 1e9)
@@ -569,7 +619,9 @@ def test_rerun_floor_is_mujocos_texture_and_the_payload_is_hidden_as_in_mujoco(l
     texture = np.frombuffer(bytes(floor.column("Mesh3D:albedo_texture_buffer").to_pylist()[0][0]), dtype=np.uint8)
     g = m.geom("floor").id
     tex = m.mat_texid[m.geom_matid[g], int(mujoco.mjtTextureRole.mjTEXROLE_RGB)]
-    np.testing.assert_array_equal(texture, m.tex_data[m.tex_adr[tex] : m.tex_adr[tex] + m.tex_height[tex] * m.tex_width[tex] * 3])
+    np.testing.assert_array_equal(
+        texture, m.tex_data[m.tex_adr[tex] : m.tex_adr[tex] + m.tex_height[tex] * m.tex_width[tex] * 3]
+    )
     image, repeat = geom_texture(m, g)
     assert len(floor.column("Mesh3D:vertex_positions").to_pylist()[0]) == 4 * int(np.prod(repeat))  # a quad per repeat
     hidden = hidden_geom_paths(m)
@@ -610,7 +662,7 @@ def test_rerun_series_are_distinct_on_the_dark_theme(logged):
 
 
 def test_recording_opens_on_the_joint_the_plan_moves():
-    from twin.rerun_log import moving_joint, most_travelled_joint
+    from twin.rerun_log import most_travelled_joint, moving_joint
 
     joints = ("base_yaw", "shoulder_pitch", "elbow_pitch")
     start = np.radians([0.0, 90.0, -30.0])
@@ -656,7 +708,9 @@ def test_both_logs_share_one_camera(tmp_path):
     in_rrd = rrd_frames(tmp_path / "both.rrd")
     with open(tmp_path / "both.mcap", "rb") as f:
         messages = make_reader(f).iter_messages(topics=[CAMERA_TOPIC])
-        in_mcap = [((m.log_time - START_TIME_NS) * 1e-9, CompressedImage.FromString(m.data).data) for _, _, m in messages]
+        in_mcap = [
+            ((m.log_time - START_TIME_NS) * 1e-9, CompressedImage.FromString(m.data).data) for _, _, m in messages
+        ]
     assert_frames_at_ticks(np.array([t for t, _ in in_rrd]))
     assert [b for _, b in in_rrd] == [b for _, b in in_mcap]
     np.testing.assert_allclose([t for t, _ in in_rrd], [t for t, _ in in_mcap], atol=1e-8)
@@ -669,7 +723,9 @@ def test_mcap_start_time_given_or_refused(tmp_path, capsys):
 
     wrist = str(ROOT / "scenarios" / "wrist_closed_loop_60deg.toml")
     out = tmp_path / "t.mcap"
-    assert twin_main(["run", wrist, "--duration", "0.1", "--mcap", str(out), "--start-time", "2026-11-23T13:00:00Z"]) in (0, 1)
+    assert twin_main(
+        ["run", wrist, "--duration", "0.1", "--mcap", str(out), "--start-time", "2026-11-23T13:00:00Z"]
+    ) in (0, 1)
     with open(out, "rb") as f:
         reader = make_reader(f)
         meta = {m.name: m.metadata for m in reader.iter_metadata()}["twin"]
@@ -677,7 +733,9 @@ def test_mcap_start_time_given_or_refused(tmp_path, capsys):
     assert start == 1_795_438_800 * 10**9  # 2026-11-23T13:00:00Z
     assert "given: 2026-11-23T13:00:00Z" in meta["start_time_source"]
     for bad in ("yesterday", "2026-11-23T13:00:00"):
-        assert twin_main(["run", wrist, "--duration", "0.1", "--mcap", str(tmp_path / "u.mcap"), "--start-time", bad]) == 2
+        assert (
+            twin_main(["run", wrist, "--duration", "0.1", "--mcap", str(tmp_path / "u.mcap"), "--start-time", bad]) == 2
+        )
         assert "--start-time" in capsys.readouterr().err and not (tmp_path / "u.mcap").exists()
 
 

@@ -23,7 +23,7 @@ TEXT = REAL.read_text()
 def test_every_real_file_loads(joint: str) -> None:
     params = load_joint_params(assets.joint_param_path(joint))
     assert isinstance(params, JointParams)
-    for field, value in zip(JointParams._fields, params):
+    for field, value in zip(JointParams._fields, params, strict=True):
         assert SPEC[field].low <= value <= SPEC[field].high, field
 
 
@@ -52,23 +52,39 @@ BAD = {
     "boolean": (_set_line("hose_loss", "hose_loss = true"), ["hose_loss", "True", "not a number", "0..1"]),
     "nan": (_set_line("viscous_nm_s", "viscous_nm_s = nan"), ["viscous_nm_s", "nan", "0..10000"]),
     "hose_loss_half": (_set_line("hose_loss", "hose_loss = 0.5"), ["hose_loss", "0.5", "0 or 1"]),
-    "brake_fed_half": (_set_line("brake_fed_by_motor", "brake_fed_by_motor = 0.5"), ["brake_fed_by_motor", "0.5", "0 or 1"]),
+    "brake_fed_half": (
+        _set_line("brake_fed_by_motor", "brake_fed_by_motor = 0.5"),
+        ["brake_fed_by_motor", "0.5", "0 or 1"],
+    ),
     "brake_band_inverted": (
         _set_line("brake_release_start_gauge_pa", "brake_release_start_gauge_pa = 6.0e5"),
         ["brake_release_start_gauge_pa", "600000", "brake_release_gauge_pa", "must not exceed"],
     ),
-    "rotor_not_inside_stator": (_set_line("rotor_radius_m", "rotor_radius_m = 0.012"), ["rotor_radius_m", "0.012", "stator_radius_m"]),
-    "unknown_field": (TEXT.replace("[motor]\n", "[motor]\ncolour = 3\n"), ["colour", "not a known field", "stator_radius_m"]),
+    "rotor_not_inside_stator": (
+        _set_line("rotor_radius_m", "rotor_radius_m = 0.012"),
+        ["rotor_radius_m", "0.012", "stator_radius_m"],
+    ),
+    "unknown_field": (
+        TEXT.replace("[motor]\n", "[motor]\ncolour = 3\n"),
+        ["colour", "not a known field", "stator_radius_m"],
+    ),
     "field_in_wrong_table": (
         _set_line("ratio", "").replace("[motor]\n", "[motor]\nratio = 120\n"),
         ["ratio", "[motor]", "not a known field"],
     ),
     "unknown_table": (TEXT + "\n[gearbox]\nratio = 120\n", ["[gearbox]", "unknown table", "motor", "effects"]),
     "effects_out_of_range": (TEXT + "\n[effects]\npolytropic_n = 1.6\n", ["polytropic_n", "1.6", "1..1.4"]),
-    "backlash_negative": (TEXT + "\n[effects]\nreducer_backlash_rad = -1\n", ["[effects] reducer_backlash_rad", "-1", "0..0.2 rad"]),
-    "compliance_too_large": (TEXT + "\n[effects]\nreducer_compliance_rad_per_nm = 0.5\n", ["reducer_compliance_rad_per_nm", "0.5", "0..0.1"]),
+    "backlash_negative": (
+        TEXT + "\n[effects]\nreducer_backlash_rad = -1\n",
+        ["[effects] reducer_backlash_rad", "-1", "0..0.2 rad"],
+    ),
+    "compliance_too_large": (
+        TEXT + "\n[effects]\nreducer_compliance_rad_per_nm = 0.5\n",
+        ["reducer_compliance_rad_per_nm", "0.5", "0..0.1"],
+    ),
     "compliant_gear_without_rotor": (
-        _set_line("rotor_inertia_kg_m2", "rotor_inertia_kg_m2 = 0.0") + "\n[effects]\nreducer_compliance_rad_per_nm = 1e-3\n",
+        _set_line("rotor_inertia_kg_m2", "rotor_inertia_kg_m2 = 0.0")
+        + "\n[effects]\nreducer_compliance_rad_per_nm = 1e-3\n",
         ["rotor_inertia_kg_m2 = 0", "reducer_compliance_rad_per_nm = 0.001", "rotor inertia > 0"],
     ),
     "not_toml": (TEXT.replace("ratio = 120", "ratio = = 120"), ["not valid TOML"]),

@@ -102,7 +102,16 @@ def reference_solution(plant: Plant, t_eval: np.ndarray):
         return [omega, d_omega, *rates, (target - engagement) / tau_brake]
 
     y0 = [0.0, 0.0, P_ATM, P_ATM, P_ATM, P_ATM, plant.air[0, J.S_BRAKE]]
-    sol = solve_ivp(rhs, (0.0, t_eval[-1]), y0, method="LSODA", rtol=1e-8, atol=[1e-10, 1e-8, 1e-3, 1e-3, 1e-3, 1e-3, 1e-9], t_eval=t_eval, max_step=1e-3)
+    sol = solve_ivp(
+        rhs,
+        (0.0, t_eval[-1]),
+        y0,
+        method="LSODA",
+        rtol=1e-8,
+        atol=[1e-10, 1e-8, 1e-3, 1e-3, 1e-3, 1e-3, 1e-9],
+        t_eval=t_eval,
+        max_step=1e-3,
+    )
     assert sol.success
     assert np.all(sol.y[1] >= 0.0)  # slides one way only: sign(w) = +1 is right
     return sol
@@ -187,7 +196,7 @@ def test_wrist_turns_tens_of_degrees_in_a_second_faster_at_higher_pressure() -> 
     # (about 60-90 deg at 0.8 MPa); DESIGN expects 50-100 deg.
     values = list(turned.values())
     assert all(30.0 < v < 180.0 for v in values)
-    assert all(b > a for a, b in zip(values, values[1:]))
+    assert all(b > a for a, b in zip(values, values[1:], strict=False))
 
 
 # --- the whole arm --------------------------------------------------------------------------------
@@ -208,7 +217,7 @@ def test_brakes_hold_the_payload_at_full_reach() -> None:
     plant.step(4000)  # 2 s
     no_warnings(plant)
     moved = np.degrees(np.abs(plant.drive_angles() - start))
-    print(f"\nbraked creep over 2 s, deg: {dict(zip(plant.joints, moved.round(5)))}")
+    print(f"\nbraked creep over 2 s, deg: {dict(zip(plant.joints, moved.round(5), strict=True))}")
     assert np.all(moved < 0.05)
 
 
@@ -224,7 +233,7 @@ def test_arm_sags_with_brakes_released_and_no_air() -> None:
     assert np.all(plant.brake_engagement()[~fed_by_motor] < 1e-3)  # brakes on lines of their own lift
     assert np.all(plant.brake_engagement()[fed_by_motor] == 1.0)  # the wrist's needs its motor's air
     fell = np.degrees(plant.drive_angles() - start)
-    print(f"\nsag in 1 s, deg: {dict(zip(plant.joints, fell.round(3)))}")
+    print(f"\nsag in 1 s, deg: {dict(zip(plant.joints, fell.round(3), strict=True))}")
     assert fell[plant.joints.index("shoulder_pitch")] < -1.0
     assert fell[plant.joints.index("elbow_pitch")] < -1.0  # the forearm's absolute pitch falls too
 
@@ -260,11 +269,17 @@ def scripted_run(plant: Plant, phases=((0, 800), (1, 1200), (2, 600))) -> None:
 
 
 def snapshot(plant: Plant) -> tuple[np.ndarray, ...]:
-    return plant.data.qpos.copy(), plant.data.qvel.copy(), plant.air.copy(), plant.data.ctrl.copy(), np.array([plant.time])
+    return (
+        plant.data.qpos.copy(),
+        plant.data.qvel.copy(),
+        plant.air.copy(),
+        plant.data.ctrl.copy(),
+        np.array([plant.time]),
+    )
 
 
 def assert_identical(a, b) -> None:
-    for x, y in zip(a, b):
+    for x, y in zip(a, b, strict=True):
         assert np.array_equal(x, y)
 
 
@@ -323,7 +338,12 @@ def test_reducer_fields_explicitly_zero_give_the_default_run_bit_identically() -
     """reducer_backlash_rad = reducer_compliance_rad_per_nm = 0 is the paper's rigid reducer: the
     plant and the one-joint model (predictor, gap replay) run exactly as without the fields, the
     rotor stays in MuJoCo's armature, and the one-joint model's motor side is its joint."""
-    rigid = {j: load_joint_params(assets.joint_param_path(j))._replace(reducer_backlash_rad=0.0, reducer_compliance_rad_per_nm=0.0) for j in assets.JOINTS}
+    rigid = {
+        j: load_joint_params(assets.joint_param_path(j))._replace(
+            reducer_backlash_rad=0.0, reducer_compliance_rad_per_nm=0.0
+        )
+        for j in assets.JOINTS
+    }
     runs = []
     for params in (None, rigid):
         plant = Plant(assets.SCENE_XML, joint_params=params)
@@ -352,7 +372,9 @@ def test_reducer_fields_explicitly_zero_give_the_default_run_bit_identically() -
             J.single_joint_step(y, x, c, x[J.S_PV], supply, 0.0, 0.164, 1e-3, p)
             hist.append(y.copy())
         hist = np.array(hist)
-        assert np.array_equal(hist[:, J.R_QM], hist[:, J.R_THETA]) and np.array_equal(hist[:, J.R_OMEGA_M], hist[:, J.R_OMEGA])
+        assert np.array_equal(hist[:, J.R_QM], hist[:, J.R_THETA]) and np.array_equal(
+            hist[:, J.R_OMEGA_M], hist[:, J.R_OMEGA]
+        )
         out.append(hist)
     assert np.array_equal(*out)
     assert np.ptp(out[0][:, J.R_THETA]) > 0.3  # it moved
@@ -364,7 +386,9 @@ def test_compliant_wrist_held_by_its_brake_twists_by_torque_over_stiffness() -> 
     kernel winds the motor side up until the spring carries the stall torque: twist = tau / k.
     The rotor's inertia leaves MuJoCo's armature for the kernel's motor side."""
     compliance = 1e-3
-    params = synth.wrist_params()._replace(reducer_compliance_rad_per_nm=compliance, efficiency_forward=1.0, efficiency_backward=1.0)
+    params = synth.wrist_params()._replace(
+        reducer_compliance_rad_per_nm=compliance, efficiency_forward=1.0, efficiency_backward=1.0
+    )
     plant = Plant(assets.WRIST_RIG_XML, joint_params={"wrist_pitch": params})
     assert plant.model.tendon_armature[plant.tendon_ids[0]] == 0.0
     plant.set_supply(SUPPLY_05)
@@ -373,11 +397,18 @@ def test_compliant_wrist_held_by_its_brake_twists_by_torque_over_stiffness() -> 
     no_warnings(plant)
     pa, pb = plant.chamber_pressures()[0]
     q_m = plant.motor_angles()[0]
-    tau = params.ratio * vane_torque(pa, pb, params.ratio * q_m, params.stator_radius_m, params.rotor_radius_m, params.vane_length_m, params.n_vanes)
+    tau = params.ratio * vane_torque(
+        pa, pb, params.ratio * q_m, params.stator_radius_m, params.rotor_radius_m, params.vane_length_m, params.n_vanes
+    )
     twist = q_m - plant.drive_angles()[0]
-    print(f"\nplant: stall torque {tau:.3f} N·m, twist {twist:.6f} rad, tau/k {tau * compliance:.6f}, joint moved {plant.drive_angles()[0]:.2e} rad")
+    print(
+        f"\nplant: stall torque {tau:.3f} N·m, twist {twist:.6f} rad, tau/k {tau * compliance:.6f}, "
+        f"joint moved {plant.drive_angles()[0]:.2e} rad"
+    )
     assert 40.0 < tau < params.brake_holding_nm
-    assert abs(plant.drive_angles()[0]) < 1e-3  # held: MuJoCo's friction constraint is slightly soft (measured: 0.4 mrad of creep in 3 s)
+    assert (
+        abs(plant.drive_angles()[0]) < 1e-3
+    )  # held: MuJoCo's friction constraint is slightly soft (measured: 0.4 mrad of creep in 3 s)
     assert twist == pytest.approx(tau * compliance, rel=1e-4)
     assert plant.joint_torques()[0] == pytest.approx(tau, rel=1e-4)  # what the gear passes to MuJoCo
 
@@ -398,12 +429,28 @@ def test_plant_and_one_joint_replay_agree_with_a_compliant_or_backlashed_reducer
     plant_deg, diff_deg = {}, {}
     for name, params in cases.items():
         run = synth.simulate_run(params, 0.6, motion)
-        _, theta, _, _, _ = replay_run(params_row(params), run["time_s"], run["direction"], run["valve_set_gauge_pa"], run["brake_released"], run["supply_pa"], False, 0.0, RIG_BODY_INERTIA + params.ratio**2 * params.rotor_inertia_kg_m2, 0.0, run["time_s"][-1], 1e-3)
+        _, theta, _, _, _ = replay_run(
+            params_row(params),
+            run["time_s"],
+            run["direction"],
+            run["valve_set_gauge_pa"],
+            run["brake_released"],
+            run["supply_pa"],
+            False,
+            0.0,
+            RIG_BODY_INERTIA + params.ratio**2 * params.rotor_inertia_kg_m2,
+            0.0,
+            run["time_s"][-1],
+            1e-3,
+        )
         sampled = np.isfinite(run["angle_rad"])
         plant_deg[name] = np.degrees(run["angle_rad"][sampled])
         diff_deg[name] = float(np.abs(plant_deg[name] - np.degrees(theta[sampled])).max())
     effect = {name: float(np.abs(plant_deg[name] - plant_deg["rigid"]).max()) for name in cases}
-    print(f"\nplant vs one-joint replay, max |difference| deg: {diff_deg}; the gear's effect on the plant's move, deg: {effect}")
+    print(
+        f"\nplant vs one-joint replay, max |difference| deg: {diff_deg}; "
+        f"the gear's effect on the plant's move, deg: {effect}"
+    )
     # measured: rigid 0.19, compliant 0.11, backlash 0.27 deg; effects 3.5 and 1.6 deg
     assert np.ptp(plant_deg["rigid"]) > 20.0  # it really moved
     baseline = diff_deg["rigid"]
@@ -419,5 +466,9 @@ def test_a_gear_too_stiff_for_the_physics_step_is_refused() -> None:
     with pytest.raises(ParameterError) as info:
         Plant(assets.WRIST_RIG_XML, joint_params={"wrist_pitch": params})
     message = str(info.value)
-    for words in ("wrist_pitch", "reducer_compliance_rad_per_nm = 1e-06", "allowed: 0 (rigid) or a compliance >= 1.25e-05"):
+    for words in (
+        "wrist_pitch",
+        "reducer_compliance_rad_per_nm = 1e-06",
+        "allowed: 0 (rigid) or a compliance >= 1.25e-05",
+    ):
         assert words in message, message

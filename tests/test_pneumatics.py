@@ -56,7 +56,13 @@ from pneumatics.joint import (
     single_joint_step,
 )
 from pneumatics.orifice import LINEAR_RATIO
-from pneumatics.reducer import CONTACT_STIFFNESS_NM_PER_RAD, MAX_STIFFNESS_NM_PER_RAD, damping, stiffness, transmitted_torque
+from pneumatics.reducer import (
+    CONTACT_STIFFNESS_NM_PER_RAD,
+    MAX_STIFFNESS_NM_PER_RAD,
+    damping,
+    stiffness,
+    transmitted_torque,
+)
 
 R, K, T_S, P_ATM, MU = AIR.r_j_per_kg_k, AIR.k, AIR.t_supply_k, AIR.p_atm_pa, AIR.mu_pa_s
 WRIST = load_joint_params(assets.joint_param_path("wrist_pitch"))
@@ -89,7 +95,9 @@ def test_sealed_chamber_keeps_p_v_to_the_n_constant(n: float) -> None:
 
 def test_inflow_into_a_rigid_chamber_is_isothermal_or_adiabatic_filling() -> None:
     # dp/dt = n R T m / V for a rigid chamber (Richer & Hurmuzlu 2000, eq. 19)
-    assert chamber_pressure_rate(2e5, 1e-4, 0.0, 1e-3, T_S, R, 1.4) == pytest.approx(1.4 * R * T_S * 1e-3 / 1e-4, rel=1e-12)
+    assert chamber_pressure_rate(2e5, 1e-4, 0.0, 1e-3, T_S, R, 1.4) == pytest.approx(
+        1.4 * R * T_S * 1e-3 / 1e-4, rel=1e-12
+    )
 
 
 # --- orifice ------------------------------------------------------------------------------------
@@ -236,9 +244,11 @@ def test_friction_factor_is_continuous_and_blasius_at_the_papers_reynolds_number
     assert friction_factor(2497.0) == pytest.approx(0.316 * 2497.0**-0.25, rel=1e-14)  # paper eq. 3, Re = 2497
     assert friction_factor(2497.0) == pytest.approx(0.0447, abs=1e-4)
     eps = 1e-7
-    assert friction_factor(BLASIUS_LAMINAR_RE * (1 - eps)) == pytest.approx(friction_factor(BLASIUS_LAMINAR_RE * (1 + eps)), rel=1e-6)
+    assert friction_factor(BLASIUS_LAMINAR_RE * (1 - eps)) == pytest.approx(
+        friction_factor(BLASIUS_LAMINAR_RE * (1 + eps)), rel=1e-6
+    )
     assert friction_factor(500.0) == pytest.approx(64.0 / 500.0, rel=1e-14)  # Hagen-Poiseuille
-    assert 64.0 / BLASIUS_LAMINAR_RE == pytest.approx(0.316 * BLASIUS_LAMINAR_RE**-0.25, rel=1e-12)
+    assert pytest.approx(0.316 * BLASIUS_LAMINAR_RE**-0.25, rel=1e-12) == 64.0 / BLASIUS_LAMINAR_RE
 
 
 # --- gas, reducer, valves, brake -----------------------------------------------------------------
@@ -372,7 +382,9 @@ def test_brake_fed_by_the_motor_follows_the_hose_end_pressure() -> None:
     assert x[S_BRAKE] == 1.0
     start, full = p[P.BRAKE_START_PA], p[P.BRAKE_RELEASE_PA]
     assert p[P.BRAKE_FED_BY_MOTOR] == 1.0 and 2e5 < start < full <= 5e5  # inside the paper's 0.5 MPa
-    advance_brake(x, command, atm + 6e5, atm + 0.5 * (start + full), atm, atm + 0.5 * (start + full), atm, 1.0, p)  # mid-band
+    advance_brake(
+        x, command, atm + 6e5, atm + 0.5 * (start + full), atm, atm + 0.5 * (start + full), atm, 1.0, p
+    )  # mid-band
     assert x[S_BRAKE] == pytest.approx(0.5, abs=1e-6)
     advance_brake(x, command, atm + 6e5, atm + full, atm, atm + full, atm, 1.0, p)
     assert x[S_BRAKE] == pytest.approx(0.0, abs=1e-6)
@@ -398,7 +410,15 @@ def test_transmission_law_is_a_dead_zone_spring_that_never_pulls() -> None:
     assert transmitted_torque(-half - 1e-5, 10.0, half, k, c) == 0.0
 
 
-def _one_joint(params, seconds: float, command, supply_pa: float, y0: np.ndarray | None = None, inertia: float = 0.164, dt: float = 1e-3) -> np.ndarray:
+def _one_joint(
+    params,
+    seconds: float,
+    command,
+    supply_pa: float,
+    y0: np.ndarray | None = None,
+    inertia: float = 0.164,
+    dt: float = 1e-3,
+) -> np.ndarray:
     """The one-joint model (pneumatics.joint.single_joint_step, as the predictor and the gap
     replay run it) under commands held from t = command(t); the state at every step."""
     p = params_row(params)
@@ -444,7 +464,11 @@ def test_compliant_joint_held_by_its_brake_twists_by_torque_over_stiffness() -> 
     lossy = WRIST._replace(reducer_compliance_rad_per_nm=compliance)
     y = _one_joint(lossy, 3.0, lambda t: (1.0, 5e5, 0.0), supply, inertia=RIG_J + J_MOTOR)[-1]
     twist = y[R_QM] - y[R_THETA]
-    assert WRIST.efficiency_forward * _stall_torque(y) * compliance * (1 - 1e-4) <= twist <= _stall_torque(y) / WRIST.efficiency_backward * compliance
+    assert (
+        WRIST.efficiency_forward * _stall_torque(y) * compliance * (1 - 1e-4)
+        <= twist
+        <= _stall_torque(y) / WRIST.efficiency_backward * compliance
+    )
     assert y[R_OMEGA_M] == 0.0  # held by the gear's friction, not swinging
 
 
@@ -454,7 +478,10 @@ def test_two_mass_oscillation_has_the_analytic_frequency(compliance: float) -> N
     against each other at w = sqrt(k (1/J_m + 1/J_j)) (damped: w sqrt(1 - zeta^2), zeta of the
     gear's damping on the reduced inertia J_m J_j / (J_m + J_j)), keeping their total momentum."""
     free = WRIST._replace(
-        reducer_compliance_rad_per_nm=compliance, coulomb_nm=0.0, viscous_nm_s=0.0, brake_holding_nm=0.0,
+        reducer_compliance_rad_per_nm=compliance,
+        coulomb_nm=0.0,
+        viscous_nm_s=0.0,
+        brake_holding_nm=0.0,
         dead_volume_m3=1e-2,  # 10 l per port: the air's spring is 1e-5 of the gear's, its torque noise
     )
     k = 1.0 / compliance
@@ -467,10 +494,18 @@ def test_two_mass_oscillation_has_the_analytic_frequency(compliance: float) -> N
     analytic = math.sqrt(k * (1.0 / J_MOTOR + 1.0 / RIG_J))
     # least squares of a damped cosine (zero crossings interpolated on the 1 ms grid are biased by
     # the decay's curvature: 0.6 % at 534 rad/s)
-    (amplitude, decay, measured, _), _ = curve_fit(lambda t, a, s, w, ph: a * np.exp(-s * t) * np.cos(w * t + ph), t, twist, p0=[0.01, 0.1 * analytic, analytic, 0.0])
+    (amplitude, decay, measured, _), _ = curve_fit(
+        lambda t, a, s, w, ph: a * np.exp(-s * t) * np.cos(w * t + ph),
+        t,
+        twist,
+        p0=[0.01, 0.1 * analytic, analytic, 0.0],
+    )
     zeta_measured = decay / math.hypot(decay, measured)
-    print(f"\ncompliance {compliance:g}: w measured {measured:.3f}, analytic {analytic:.3f} (damped {analytic * math.sqrt(1 - zeta**2):.3f}) rad/s; "
-          f"zeta {zeta_measured:.4f} vs {zeta:.4f}; {measured * t[-1] / (2 * math.pi):.1f} periods")
+    print(
+        f"\ncompliance {compliance:g}: w measured {measured:.3f}, analytic {analytic:.3f} "
+        f"(damped {analytic * math.sqrt(1 - zeta**2):.3f}) rad/s; "
+        f"zeta {zeta_measured:.4f} vs {zeta:.4f}; {measured * t[-1] / (2 * math.pi):.1f} periods"
+    )
     assert measured * t[-1] > 2 * math.pi * 10  # at least 10 periods
     assert measured == pytest.approx(analytic * math.sqrt(1.0 - zeta**2), rel=1e-3)
     assert zeta_measured == pytest.approx(zeta, rel=0.02)
@@ -498,16 +533,30 @@ def test_reversal_through_backlash_loses_the_gap() -> None:
 
     y0 = np.array([0.0, 0.0, P_ATM, P_ATM, P_ATM, P_ATM, 0.5 * gap, 0.0])  # motor on the forward flank
     rigid = _one_joint(WRIST, 1.6, command, supply, inertia=RIG_J + J_MOTOR)
-    lash = _one_joint(WRIST._replace(reducer_backlash_rad=gap, reducer_compliance_rad_per_nm=1e-5), 1.6, command, supply, y0, inertia=RIG_J + J_MOTOR)
+    lash = _one_joint(
+        WRIST._replace(reducer_backlash_rad=gap, reducer_compliance_rad_per_nm=1e-5),
+        1.6,
+        command,
+        supply,
+        y0,
+        inertia=RIG_J + J_MOTOR,
+    )
     k_rev, k_hold = round(t_rev / 1e-3), round(t_hold / 1e-3)
     twist = lash[:, R_QM] - lash[:, R_THETA]
-    stall = WRIST.ratio * 6e5 * swept_area(0.0, *GEOM) / WRIST.efficiency_backward  # the most the gear ever passes (back-driven)
+    stall = (
+        WRIST.ratio * 6e5 * swept_area(0.0, *GEOM) / WRIST.efficiency_backward
+    )  # the most the gear ever passes (back-driven)
     elastic = stall * 1e-5
     forward, back = twist[k_rev - 200 : k_rev], twist[k_hold - 300 : k_hold]
-    assert rigid[k_rev, R_THETA] > 0.3 and rigid[k_rev, R_THETA] - rigid[k_hold, R_THETA] > 0.5  # really moved, both ways
+    assert (
+        rigid[k_rev, R_THETA] > 0.3 and rigid[k_rev, R_THETA] - rigid[k_hold, R_THETA] > 0.5
+    )  # really moved, both ways
     assert np.all(forward >= 0.5 * gap) and np.all(forward <= 0.5 * gap + elastic)
     assert np.all(back <= -0.5 * gap) and np.all(back >= -0.5 * gap - elastic)
     loss = (rigid[k_rev, R_THETA] - rigid[k_hold, R_THETA]) - (lash[k_rev, R_THETA] - lash[k_hold, R_THETA])
-    print(f"\nreversal: rigid travel {rigid[k_rev, R_THETA] - rigid[k_hold, R_THETA]:.4f} rad, with backlash {gap}: loss {loss:.5f} rad ({loss / gap:.3f} b); "
-          f"twist forward {forward.min():.5f}..{forward.max():.5f}, back {back.min():.5f}..{back.max():.5f}")
+    print(
+        f"\nreversal: rigid travel {rigid[k_rev, R_THETA] - rigid[k_hold, R_THETA]:.4f} rad, "
+        f"with backlash {gap}: loss {loss:.5f} rad ({loss / gap:.3f} b); "
+        f"twist forward {forward.min():.5f}..{forward.max():.5f}, back {back.min():.5f}..{back.max():.5f}"
+    )
     assert loss == pytest.approx(gap, abs=0.1 * gap)

@@ -13,7 +13,7 @@ from scenarios.runner import run_file, run_scenario, scenario_files
 from scenarios.schema import ScenarioError, load, parse, with_overrides
 from scenarios.supply import supply_profile
 from scenarios.sweep import child_seeds, parse_grid, sweep, sweep_points
-from twin.cli import main as twin_main
+from twin_cli.cli import main as twin_main
 
 MINIMAL = """
 name = "t"
@@ -118,9 +118,11 @@ def test_sweep_on_a_dask_cluster_gives_the_local_results():
 
 
 def test_a_scenario_made_to_fail_names_the_broken_criterion(capsys):
-    text = load("scenarios/wrist_closed_loop_60deg.toml").text.replace(
-        "angles_deg = { wrist_pitch = 60.0 }", "angles_deg = { wrist_pitch = 89.0 }"
-    ).replace("max = 3.0", "max = 0.01")
+    text = (
+        load("scenarios/wrist_closed_loop_60deg.toml")
+        .text.replace("angles_deg = { wrist_pitch = 60.0 }", "angles_deg = { wrist_pitch = 89.0 }")
+        .replace("max = 3.0", "max = 0.01")
+    )
     s = parse(text, "made_to_fail.toml")
     result = run_scenario(s)
     assert not result.passed

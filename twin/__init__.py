@@ -1,16 +1,9 @@
-"""The plant and the glue: MuJoCo model, pneumatic actuators coupled to it, runs, logs, CLI.
+"""The plant and what runs it: the MuJoCo model with its pneumatic actuators (twin.plant.Plant,
+Sensors, PlantState), the run loop (twin.sim.run), telemetry, the logs (twin.rerun_log,
+twin.mcap_log, twin.camera), pictures, and the user errors and checked numbers the floors above
+share (twin.errors, twin.checks).
 
-The names below load on first use (PEP 562), so that a process needing only a light module
-(the MCAP writer process imports twin.mcap_log) does not load MuJoCo and the compiled kernels.
+Nothing is imported here: the MCAP writer and camera processes import one module of twin each
+(`python -m twin.mcap_log`, `python -m twin.camera`) and do not need the plant's compiled kernels
+(twin.plant takes ~0.5 s to import on top of numpy); import from the modules themselves.
 """
-
-from importlib import import_module
-
-_LAZY = {"SimulationError": "twin.model", "Plant": "twin.plant", "PlantState": "twin.plant", "Sensors": "twin.plant"}
-__all__ = list(_LAZY)
-
-
-def __getattr__(name: str):
-    if name in _LAZY:
-        return getattr(import_module(_LAZY[name]), name)
-    raise AttributeError(f"module 'twin' has no attribute {name!r}")

@@ -16,8 +16,9 @@ waits for the renderer except at the very end.
 
 from __future__ import annotations
 
+import contextlib
+import io
 import os
-import pickle
 import queue
 import subprocess
 import sys
@@ -27,6 +28,11 @@ from pathlib import Path
 
 import mujoco
 import numpy as np
+from PIL import Image
+
+from twin import worker
+from twin.model import has_camera
+from twin.render import PoseRenderer
 
 JPEG_QUALITY = 85  # a 480x360 frame in ~25 KB instead of 518 KB raw
 
@@ -39,7 +45,14 @@ class CameraProcess:
     renders, or the child dies, `error` says why and later requests are dropped.
     """
 
-    def __init__(self, model: mujoco.MjModel, camera: str = "global_view", width: int = 480, height: int = 360, backends: tuple[str, ...] | None = None):
+    def __init__(
+        self,
+        model: mujoco.MjModel,
+        camera: str = "global_view",
+        width: int = 480,
+        height: int = 360,
+        backends: tuple[str, ...] | None = None,
+    ):
         self._dir = tempfile.TemporaryDirectory(prefix="twin-camera-")
         self._mjb = Path(self._dir.name) / "model.mjb"
         mujoco.mj_saveModel(model, str(self._mjb), None)  # the exact compiled model, no XML paths needed
@@ -54,14 +67,12 @@ class CameraProcess:
         self._thread.start()
 
     def _start(self) -> subprocess.Popen | None:
-        root = str(Path(__file__).resolve().parent.parent)
         tried = []
         for backend in self._backends:
             env = dict(os.environ, MUJOCO_GL=backend, PYOPENGL_PLATFORM=backend)
-            env["PYTHONPATH"] = os.pathsep.join([root, os.environ.get("PYTHONPATH", "")]).rstrip(os.pathsep)
             err_path = Path(self._dir.name) / f"stderr-{backend}.txt"
-            with open(err_path, "wb") as err:  # own session: a terminal's Ctrl-C is the run's to handle
-                proc = subprocess.Popen([sys.executable, "-m", "twin.camera", str(self._mjb), *self._args], stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=err, env=env, start_new_session=True)
+            with open(err_path, "wb") as err:
+                proc = worker.start("twin.camera", [str(self._mjb), *self._args], env=env, stderr=err)
             if proc.stdout.readline().strip() == b"ready":
                 self.backend = backend
                 return proc
@@ -81,10 +92,9 @@ class CameraProcess:
             if proc is None:
                 continue
             try:
-                pickle.dump(req, proc.stdin, protocol=pickle.HIGHEST_PROTOCOL)
-                proc.stdin.flush()
-                batch = pickle.load(proc.stdout)
-            except (BrokenPipeError, EOFError, OSError, pickle.UnpicklingError) as e:
+                worker.send(proc.stdin, req)
+                batch = worker.receive(proc.stdout)
+            except worker.LOST as e:
                 self.error = f"the camera process ended ({type(e).__name__})"
                 proc.kill()
                 proc.wait()
@@ -93,10 +103,8 @@ class CameraProcess:
             with self._lock:
                 self._frames.extend(batch)
         if proc is not None:
-            try:
+            with contextlib.suppress(OSError):
                 proc.stdin.close()
-            except OSError:
-                pass
             proc.wait()
 
     def request(self, times: np.ndarray, body_pos: np.ndarray, body_quat_wxyz: np.ndarray) -> None:
@@ -125,8 +133,9 @@ class FrameFeed:
     twice for the same batch asks nothing more, and each recorder reads the frames by its own
     count (`frames_from`)."""
 
-    def __init__(self, model: mujoco.MjModel, fps: float, camera: str = "global_view", 
-                 width: int = 480, height: int = 360):
+    def __init__(
+        self, model: mujoco.MjModel, fps: float, camera: str = "global_view", width: int = 480, height: int = 360
+    ):
         self.fps = float(fps)
         self._next_t = 0.0
         self._frames: list[tuple[float, bytes]] = []
@@ -167,18 +176,8 @@ class FrameFeed:
         return self._frames[k:]
 
 
-def has_camera(model: mujoco.MjModel, name: str) -> bool:
-    return mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_CAMERA, name) >= 0
-
-
 def _serve(argv: list[str]) -> None:
     """The camera process: `python -m twin.camera MODEL.mjb CAMERA WIDTH HEIGHT`."""
-    import io
-
-    from PIL import Image
-
-    from twin.pictures import PoseRenderer
-
     model = mujoco.MjModel.from_binary_path(argv[0])
     # a software GL's costs, measured at 480x360: 82 ms a frame as the model asks, 14 without
     # shadows and reflections (PoseRenderer plain), 7.7 without 4x multisampling, 5.1 with 12
@@ -190,18 +189,13 @@ def _serve(argv: list[str]) -> None:
     out.write(b"ready\n")
     out.flush()
     try:
-        while True:
-            try:
-                times, pos, quat = pickle.load(sys.stdin.buffer)
-            except EOFError:
-                break
+        for times, pos, quat in worker.requests(sys.stdin.buffer):
             batch = []
-            for t, p, q in zip(times, pos, quat):
+            for t, p, q in zip(times, pos, quat, strict=True):
                 buf = io.BytesIO()
                 Image.fromarray(renderer.render(p, q)).save(buf, format="JPEG", quality=JPEG_QUALITY)
                 batch.append((float(t), buf.getvalue()))
-            pickle.dump(batch, out, protocol=pickle.HIGHEST_PROTOCOL)
-            out.flush()
+            worker.send(out, batch)
     finally:
         renderer.close()
 

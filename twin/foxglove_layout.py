@@ -56,27 +56,42 @@ def joint_plots(j: str, k: int) -> tuple[dict, dict]:
     pick = f'.joints[:]{{name=="{j}"}}.position'
     port = f"/joint/{j}"
     plots = {
-        f"Plot!{k}angle": _plot(f"{j}: angle (rad)", [
-            (f"/joint_states/true{pick}", "true (plant)", WHITE),
-            (f"/joint_states/predicted{pick}", "predicted (controller)", ORANGE),
-            (f"/joint_states/target{pick}", "target", BLUE),
-        ]),
-        f"Plot!{k}error": _plot(f"{j}: predicted − true (rad)", [
-            (f"{port}.predicted_minus_true_rad", "predicted − true", ORANGE),
-        ]),
-        f"Plot!{k}pressure": _plot(f"{j}: absolute pressure (Pa)", [
-            (f"{port}.pressure_a_pa", "chamber A", RED),
-            (f"{port}.pressure_b_pa", "chamber B", BLUE),
-            ("/arm.supply_pa", "supply", GREY),
-        ]),
-        f"Plot!{k}valve": _plot(f"{j}: proportional valve, gauge (Pa)", [
-            (f"{port}.valve_gauge_pa", "prop. valve set pressure", GREEN),
-        ]),
-        f"Plot!{k}commands": _plot(f"{j}: direction valve (-1, 0, +1) and brake (0 released, 1 holding)", [
-            (f"{port}.direction", "direction valve", YELLOW),
-            (f"{port}.brake_release", "brake release command", GREEN),
-            (f"{port}.brake_engagement", "brake engagement", RED),
-        ]),
+        f"Plot!{k}angle": _plot(
+            f"{j}: angle (rad)",
+            [
+                (f"/joint_states/true{pick}", "true (plant)", WHITE),
+                (f"/joint_states/predicted{pick}", "predicted (controller)", ORANGE),
+                (f"/joint_states/target{pick}", "target", BLUE),
+            ],
+        ),
+        f"Plot!{k}error": _plot(
+            f"{j}: predicted − true (rad)",
+            [
+                (f"{port}.predicted_minus_true_rad", "predicted − true", ORANGE),
+            ],
+        ),
+        f"Plot!{k}pressure": _plot(
+            f"{j}: absolute pressure (Pa)",
+            [
+                (f"{port}.pressure_a_pa", "chamber A", RED),
+                (f"{port}.pressure_b_pa", "chamber B", BLUE),
+                ("/arm.supply_pa", "supply", GREY),
+            ],
+        ),
+        f"Plot!{k}valve": _plot(
+            f"{j}: proportional valve, gauge (Pa)",
+            [
+                (f"{port}.valve_gauge_pa", "prop. valve set pressure", GREEN),
+            ],
+        ),
+        f"Plot!{k}commands": _plot(
+            f"{j}: direction valve (-1, 0, +1) and brake (0 released, 1 holding)",
+            [
+                (f"{port}.direction", "direction valve", YELLOW),
+                (f"{port}.brake_release", "brake release command", GREEN),
+                (f"{port}.brake_engagement", "brake engagement", RED),
+            ],
+        ),
     }
     return plots, _split("column", list(plots), [3, 2, 2, 1.5, 1.5])
 

@@ -17,7 +17,17 @@ from llvmlite import ir
 from pneumatics import params as P
 from pneumatics._jit import NO_JIT, borrowed, intrinsic, njit, types
 from pneumatics.friction import stribeck_excess_torque
-from pneumatics.joint import S_PA_MOTOR, S_PB_MOTOR, advance_brake, advance_discrete, advance_motor_side, advance_pressures, brake_over_step, dry_friction_limit, joint_torque
+from pneumatics.joint import (
+    S_PA_MOTOR,
+    S_PB_MOTOR,
+    advance_brake,
+    advance_discrete,
+    advance_motor_side,
+    advance_pressures,
+    brake_over_step,
+    dry_friction_limit,
+    joint_torque,
+)
 from pneumatics.reducer import is_rigid
 
 
@@ -63,7 +73,9 @@ def pneumatic_step(
         valve = advance_discrete(x[j], commands[j], supply_pa, dt_s, p)
         # brake is spring-applied: it and the joint's Coulomb friction are one dry-friction limit,
         # held by MuJoCo over the step at the brake's mean over it
-        tendon_frictionloss[t] = dry_friction_limit(brake_over_step(x[j], commands[j], supply_pa, pa_start, pb_start, dt_s, p), p)
+        tendon_frictionloss[t] = dry_friction_limit(
+            brake_over_step(x[j], commands[j], supply_pa, pa_start, pb_start, dt_s, p), p
+        )
         if is_rigid(p):
             # the torque MuJoCo holds over the step, from the pressures at its start (explicit, like
             # MuJoCo's own semi-implicit Euler; a mid-step torque was tried and was no closer to LSODA)
@@ -71,7 +83,9 @@ def pneumatic_step(
             advance_pressures(x[j], theta, omega, valve, supply_pa, dt_s, substeps, p)
         else:
             torque = advance_motor_side(x[j], theta, omega, valve, supply_pa, dt_s, substeps, p)
-        ctrl[actuator_ids[j]] = torque + stribeck_excess_torque(omega, p[P.STRIBECK_EXCESS], p[P.STRIBECK_SPEED], 0.5 * p[P.STRIBECK_SPEED])
+        ctrl[actuator_ids[j]] = torque + stribeck_excess_torque(
+            omega, p[P.STRIBECK_EXCESS], p[P.STRIBECK_SPEED], 0.5 * p[P.STRIBECK_SPEED]
+        )
         advance_brake(x[j], commands[j], supply_pa, pa_start, pb_start, x[j, S_PA_MOTOR], x[j, S_PB_MOTOR], dt_s, p)
 
 
@@ -86,7 +100,9 @@ def _mujoco_step_function():
 
     import mujoco
 
-    for path in sorted(Path(mujoco.__file__).parent.glob("libmujoco.so*")) + sorted(Path(mujoco.__file__).parent.glob("libmujoco*.dylib")):
+    for path in sorted(Path(mujoco.__file__).parent.glob("libmujoco.so*")) + sorted(
+        Path(mujoco.__file__).parent.glob("libmujoco*.dylib")
+    ):
         try:
             fn = ctypes.CDLL(str(path)).mj_step
         except (OSError, AttributeError):
@@ -122,13 +138,50 @@ def _call_mj_step(typingctx, function_address, model_address, data_address):
 
 
 @njit
-def _plant_steps(mj_step_address, n, model_address, data_address, x, commands, params, drive_map, tendon_ids, actuator_ids, qpos, qvel, ctrl, tendon_frictionloss, supply_pa, dt_s, substeps):
+def _plant_steps(
+    mj_step_address,
+    n,
+    model_address,
+    data_address,
+    x,
+    commands,
+    params,
+    drive_map,
+    tendon_ids,
+    actuator_ids,
+    qpos,
+    qvel,
+    ctrl,
+    tendon_frictionloss,
+    supply_pa,
+    dt_s,
+    substeps,
+):
     # the caller holds every array for the whole call: no reference counting in the loop (see `borrowed`)
     x, commands, params, drive_map = borrowed(x), borrowed(commands), borrowed(params), borrowed(drive_map)
     tendon_ids, actuator_ids = borrowed(tendon_ids), borrowed(actuator_ids)
-    qpos, qvel, ctrl, tendon_frictionloss = borrowed(qpos), borrowed(qvel), borrowed(ctrl), borrowed(tendon_frictionloss)
+    qpos, qvel, ctrl, tendon_frictionloss = (
+        borrowed(qpos),
+        borrowed(qvel),
+        borrowed(ctrl),
+        borrowed(tendon_frictionloss),
+    )
     for _ in range(n):
-        pneumatic_step(x, commands, params, drive_map, tendon_ids, actuator_ids, qpos, qvel, ctrl, tendon_frictionloss, supply_pa, dt_s, substeps)
+        pneumatic_step(
+            x,
+            commands,
+            params,
+            drive_map,
+            tendon_ids,
+            actuator_ids,
+            qpos,
+            qvel,
+            ctrl,
+            tendon_frictionloss,
+            supply_pa,
+            dt_s,
+            substeps,
+        )
         _call_mj_step(mj_step_address, model_address, data_address)
 
 

@@ -41,13 +41,29 @@ killed, stops there and leaves the file as a killed in-process writer would (DES
 
 from __future__ import annotations
 
+import contextlib
+import dataclasses
+import datetime as dt
+import functools
 import json
 import math
+import sys
+import time
 from pathlib import Path
 
 import numpy as np
+from foxglove_schemas_protobuf.CompressedImage_pb2 import CompressedImage
+from foxglove_schemas_protobuf.FrameTransforms_pb2 import FrameTransforms
+from foxglove_schemas_protobuf.JointStates_pb2 import JointStates
+from foxglove_schemas_protobuf.SceneUpdate_pb2 import SceneUpdate
+from mcap.records import Attachment, Channel, Footer, Message, Metadata
+from mcap.stream_reader import StreamReader
+from mcap.writer import CompressionType, Writer
+from mcap_protobuf.schema import build_file_descriptor_set
 
+from twin import worker
 from twin.errors import UserError
+from twin.provenance import package_versions
 from twin.telemetry import SIGNALS
 
 CHUNK_SIZE = 32 * 1024  # bytes: ~0.3 s of telemetry, within DESIGN's 4-64 KB
@@ -71,7 +87,11 @@ ARM_DOC = {
 ARM_DOC |= {f"brush_contact_{x}_m": f"brush contact point, world {x}, m (null: no contact)" for x in "xyz"}
 ARM_DOC |= {f"brush_push_{x}_n": f"force of the brush on what it touches, world {x}, N" for x in "xyz"}
 JOINT_FIELDS = ("pressure_a_pa", "pressure_b_pa", "valve_gauge_pa", "direction", "brake_release", "brake_engagement")
-ANGLE_CHANNELS = {"true_angle_rad": "/joint_states/true", "predicted_angle_rad": "/joint_states/predicted", "target_angle_rad": "/joint_states/target"}
+ANGLE_CHANNELS = {
+    "true_angle_rad": "/joint_states/true",
+    "predicted_angle_rad": "/joint_states/predicted",
+    "target_angle_rad": "/joint_states/target",
+}
 
 
 JOINT_JSON = "{" + ",".join(f'"{f}":%r' for f in (*JOINT_FIELDS, "predicted_minus_true_rad")) + "}"
@@ -104,34 +124,31 @@ class McapWriter:
     """
 
     def __init__(self, path, joints, bodies, scene: bytes, meta: dict | None = None, *, chunk_size: int = CHUNK_SIZE):
-        from foxglove_schemas_protobuf.CompressedImage_pb2 import CompressedImage
-        from foxglove_schemas_protobuf.FrameTransforms_pb2 import FrameTransforms
-        from foxglove_schemas_protobuf.JointStates_pb2 import JointStates
-        from foxglove_schemas_protobuf.SceneUpdate_pb2 import SceneUpdate
-        from mcap.writer import CompressionType, Writer
-        from mcap_protobuf.schema import build_file_descriptor_set
-
-        from twin.provenance import package_versions
-
         self.path = Path(path)
         self.joints = tuple(joints)
         self.bodies = tuple(bodies)
         meta = dict(meta or {})
         self.start_ns = int(meta["start_time_ns"]) if meta.get("start_time_ns") is not None else START_TIME_NS
-        self._CompressedImage = CompressedImage
         self._file = _open_for_writing(self.path)
         self._writer = Writer(self._file, chunk_size=chunk_size, compression=CompressionType.ZSTD)
         self._writer.start(profile="", library="pneumatic-arm-twin")
 
         def proto_channel(topic: str, cls) -> int:
             schema = self._writer.register_schema(
-                name=cls.DESCRIPTOR.full_name, encoding="protobuf", data=build_file_descriptor_set(cls).SerializeToString()
+                name=cls.DESCRIPTOR.full_name,
+                encoding="protobuf",
+                data=build_file_descriptor_set(cls).SerializeToString(),
             )
             return self._writer.register_channel(topic=topic, message_encoding="protobuf", schema_id=schema)
 
         def json_channel(topic: str, fields: dict[str, str]) -> int:
-            schema = {"type": "object", "properties": {k: {"type": ["number", "null"], "description": d} for k, d in fields.items()}}
-            sid = self._writer.register_schema(name=topic.strip("/").replace("/", "."), encoding="jsonschema", data=json.dumps(schema).encode())
+            schema = {
+                "type": "object",
+                "properties": {k: {"type": ["number", "null"], "description": d} for k, d in fields.items()},
+            }
+            sid = self._writer.register_schema(
+                name=topic.strip("/").replace("/", "."), encoding="jsonschema", data=json.dumps(schema).encode()
+            )
             return self._writer.register_channel(topic=topic, message_encoding="json", schema_id=sid)
 
         self._JointStates, self._FrameTransforms = JointStates, FrameTransforms
@@ -175,8 +192,12 @@ class McapWriter:
         JointStates, FrameTransforms = self._JointStates, self._FrameTransforms
         lists = {k: a[k].tolist() for k in ("time_s", *ANGLE_CHANNELS)}
         # per joint and sample, the JSON fields in order: (T, n, fields) -> nested lists
-        rows = np.stack([a[f] for f in JOINT_FIELDS] + [a["predicted_angle_rad"] - a["true_angle_rad"]], axis=-1).tolist()
-        arm_rows = np.concatenate([np.stack([a[f] for f in ARM_SCALARS], axis=-1)] + [a[v] for v in ARM_VECTORS], axis=-1).tolist()
+        rows = np.stack(
+            [a[f] for f in JOINT_FIELDS] + [a["predicted_angle_rad"] - a["true_angle_rad"]], axis=-1
+        ).tolist()
+        arm_rows = np.concatenate(
+            [np.stack([a[f] for f in ARM_SCALARS], axis=-1)] + [a[v] for v in ARM_VECTORS], axis=-1
+        ).tolist()
         pos, quat = a["body_pos_m"], a["body_quat_wxyz"]
         for k, t in enumerate(lists["time_s"]):
             seq = start + k
@@ -185,7 +206,7 @@ class McapWriter:
             for sig, ch in self._angle_ch.items():
                 msg = JointStates()
                 msg.timestamp.seconds, msg.timestamp.nanos = sec, nsec
-                for name, value in zip(self.joints, lists[sig][k]):
+                for name, value in zip(self.joints, lists[sig][k], strict=True):
                     msg.joints.add(name=name, position=value)
                 add(ch, ns, msg.SerializeToString(), ns, sequence=seq)
             tf = FrameTransforms()
@@ -197,7 +218,7 @@ class McapWriter:
                 x.translation.x, x.translation.y, x.translation.z = px, py, pz
                 x.rotation.w, x.rotation.x, x.rotation.y, x.rotation.z = qw, qx, qy, qz
             add(self._tf_ch, ns, tf.SerializeToString(), ns, sequence=seq)
-            for ch, row in zip(self._joint_ch, rows[k]):
+            for ch, row in zip(self._joint_ch, rows[k], strict=True):
                 add(ch, ns, _json_object(JOINT_JSON, row), ns, sequence=seq)
             add(self._arm_ch, ns, _json_object(ARM_JSON, arm_rows[k]), ns, sequence=seq)
         self._writer.flush()  # ends the chunk and flushes the file: a kill now loses nothing
@@ -207,10 +228,10 @@ class McapWriter:
         if not frames:
             return
         if self._camera_ch is None:
-            self._camera_ch = self._proto_channel(CAMERA_TOPIC, self._CompressedImage)
+            self._camera_ch = self._proto_channel(CAMERA_TOPIC, CompressedImage)
         for k, (t, jpeg) in enumerate(frames):
             ns = self.start_ns + int(round(t * 1e9))
-            msg = self._CompressedImage(frame_id=camera, data=jpeg, format="jpeg")
+            msg = CompressedImage(frame_id=camera, data=jpeg, format="jpeg")
             msg.timestamp.seconds, msg.timestamp.nanos = divmod(ns, 1_000_000_000)
             self._writer.add_message(self._camera_ch, ns, msg.SerializeToString(), ns, sequence=k)
         self._writer.flush()
@@ -226,9 +247,6 @@ class McapWriter:
 def start_time(text: str, where: str = "--start-time") -> dict:
     """The metadata that starts a log at `text`: "now" (the wall clock; the log then differs from
     run to run) or an ISO 8601 time with its zone (2026-11-23T13:00:00Z). LogError otherwise."""
-    import datetime as dt
-    import time
-
     if text == "now":
         return {"start_time_ns": time.time_ns(), "start_time_source": "wall clock at the run's start"}
     try:
@@ -243,9 +261,7 @@ def start_time(text: str, where: str = "--start-time") -> dict:
 
 
 def _utc(ns: int) -> str:
-    import datetime as dt
-
-    return dt.datetime.fromtimestamp(ns // 1_000_000_000, dt.timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ")
+    return dt.datetime.fromtimestamp(ns // 1_000_000_000, dt.UTC).strftime("%Y-%m-%dT%H:%M:%SZ")
 
 
 def _open_for_writing(path: Path):
@@ -255,22 +271,24 @@ def _open_for_writing(path: Path):
         raise LogError(f"{path}: cannot write the MCAP log: {e.strerror}") from e
 
 
+def _open_for_reading(path: Path):
+    try:
+        return open(path, "rb")
+    except OSError as e:
+        raise LogError(f"{path}: cannot open the MCAP log: {e.strerror}") from e
+
+
 def _serve(stdin, stdout) -> None:
     """The writer process (`python -m twin.mcap_log`): reads pickles from `stdin` (the
     McapWriter's arguments, then (columns, start) per batch, then None), writes the file, and
     answers one line on `stdout` at the end: "ok" or what failed. If the run's process vanishes
     (killed), the file is left as a killed run leaves it: every batch received is flushed and the
     summary is missing, so the reader says it is incomplete."""
-    import pickle
-
     try:
-        args, kwargs = pickle.load(stdin)
+        messages = worker.requests(stdin)
+        args, kwargs = next(messages)
         writer = McapWriter(*args, **kwargs)
-        while True:
-            try:
-                msg = pickle.load(stdin)
-            except EOFError:
-                return
+        for msg in messages:
             if msg is None:
                 writer.close()
                 stdout.write(b"ok\n")
@@ -314,11 +332,9 @@ class McapRecorder:
         camera_fps: float = 0.0,
         frames=None,
     ):
-        import os
-        import subprocess
-        import sys
-
-        from twin.rerun_log import body_name
+        # MuJoCo on use: the writer process (`python -m twin.mcap_log`) starts in 0.35 s without it, 0.59 s with
+        from twin.camera import FrameFeed
+        from twin.model import body_name
 
         self.path = Path(path)
         _open_for_writing(self.path).close()  # a bad path is refused here, before the run starts
@@ -329,34 +345,24 @@ class McapRecorder:
         self._closed = False
         self._camera = frames
         if self._camera is None and camera_fps > 0:
-            from twin.camera import FrameFeed
-
             self._camera = FrameFeed(plant_model, camera_fps)
         if not background:
             self._inline = McapWriter(*args, **kwargs)
             return
-        root = str(Path(__file__).resolve().parent.parent)  # where `twin` is importable from
-        env = dict(os.environ, PYTHONPATH=os.pathsep.join([root, os.environ.get("PYTHONPATH", "")]).rstrip(os.pathsep))
-        # a session of its own: Ctrl-C in a terminal reaches the run, which then finishes the file
-        self._proc = subprocess.Popen([sys.executable, "-m", "twin.mcap_log"], stdin=subprocess.PIPE, stdout=subprocess.PIPE, env=env, start_new_session=True)
+        self._proc = worker.start("twin.mcap_log")
         self._send((args, kwargs))
 
     def _send(self, obj) -> None:
-        import pickle
-
         try:
-            pickle.dump(obj, self._proc.stdin, protocol=pickle.HIGHEST_PROTOCOL)
-            self._proc.stdin.flush()  # the writer has each batch now: a kill of this process loses none
-        except (BrokenPipeError, OSError):
+            worker.send(self._proc.stdin, obj)  # the writer has each batch now: a kill of this process loses none
+        except OSError:  # BrokenPipeError among them
             self._closed = True
             raise LogError(f"{self.path}: the MCAP writer failed: {self._finish()}") from None
 
     def _finish(self) -> str:
         """Wait for the writer process; its last word ("ok" or what failed)."""
-        try:
+        with contextlib.suppress(BrokenPipeError, OSError):
             self._proc.stdin.close()
-        except (BrokenPipeError, OSError):
-            pass
         reply = self._proc.stdout.read().decode(errors="replace").strip()
         self._proc.wait()
         return reply or f"the writer process ended with exit code {self._proc.returncode}"
@@ -375,8 +381,6 @@ class McapRecorder:
             return []
         frames = sorted(self._camera.frames_from(0, wait=True), key=lambda f: f[0])
         if self._camera.error:  # the log holds everything else
-            import sys
-
             print(f"twin: note: no camera frames in {self.path}: {self._camera.error}", file=sys.stderr)
         return frames
 
@@ -397,12 +401,20 @@ class McapRecorder:
             raise LogError(f"{self.path}: the MCAP writer failed: {reply}")
 
 
+def _place(prim, offset=(0.0, 0.0, 0.0), *, pos, quat, rot, rgba) -> None:
+    """A foxglove primitive at a geom's pose (`offset` along the geom's own axes) in its colour."""
+    c = pos + rot @ np.asarray(offset)
+    prim.pose.position.x, prim.pose.position.y, prim.pose.position.z = (float(v) for v in c)
+    o = prim.pose.orientation
+    o.w, o.x, o.y, o.z = (float(v) for v in quat)
+    prim.color.r, prim.color.g, prim.color.b, prim.color.a = rgba
+
+
 def _scene_update(model):
     """Each geom as a foxglove primitive in its body's frame (world geoms in "world")."""
-    import mujoco
-    from foxglove_schemas_protobuf.SceneUpdate_pb2 import SceneUpdate
+    import mujoco  # on use: see McapRecorder (the writer process starts in 0.35 s without MuJoCo, 0.59 s with)
 
-    from twin.rerun_log import body_name, geom_rgba
+    from twin.model import body_name, geom_rgba
 
     G = mujoco.mjtGeom
     update = SceneUpdate()
@@ -415,15 +427,10 @@ def _scene_update(model):
         ent = entities[frame]
         t, s = int(model.geom_type[g]), model.geom_size[g]  # int: enum `in` tuple fails on numpy ints
         p, q = model.geom_pos[g], model.geom_quat[g]
-        r, gr, bl, al = (float(c) for c in geom_rgba(model, g))
-
-        def place(prim, offset=(0.0, 0.0, 0.0)):
-            R = np.empty(9)
-            mujoco.mju_quat2Mat(R, q)
-            c = p + R.reshape(3, 3) @ np.asarray(offset)
-            prim.pose.position.x, prim.pose.position.y, prim.pose.position.z = (float(v) for v in c)
-            prim.pose.orientation.w, prim.pose.orientation.x, prim.pose.orientation.y, prim.pose.orientation.z = (float(v) for v in q)
-            prim.color.r, prim.color.g, prim.color.b, prim.color.a = r, gr, bl, al
+        rgba = tuple(float(c) for c in geom_rgba(model, g))
+        R = np.empty(9)
+        mujoco.mju_quat2Mat(R, q)
+        place = functools.partial(_place, pos=p, quat=q, rot=R.reshape(3, 3), rgba=rgba)
 
         if t == G.mjGEOM_BOX:
             c = ent.cubes.add()
@@ -452,6 +459,90 @@ def _scene_update(model):
     return update
 
 
+@dataclasses.dataclass
+class _Records:
+    """What streaming a log's records gathers: each sample's messages by sequence and topic, the
+    camera frames' Message records, the metadata, and how the stream ended."""
+
+    samples: dict[int, dict[str, bytes]] = dataclasses.field(default_factory=dict)
+    images: list = dataclasses.field(default_factory=list)
+    meta: dict = dataclasses.field(default_factory=dict)
+    complete: bool = False
+    stopped_by: str | None = None
+
+
+def _cut_short(e: Exception, f, path: Path) -> str:
+    """Why reading stopped early: where in the file, and the decoding error."""
+    where = f"at byte {f.tell()} of {path.stat().st_size}"
+    return (
+        f"cut short or damaged {where}: {type(e).__name__}: {e}"
+        if str(e)
+        else f"cut short or damaged {where}: {type(e).__name__}"
+    )
+
+
+def _stream_records(path: Path, frames: bool) -> _Records:
+    """Every record up to the end of the file or to where it is cut short or damaged."""
+    topics: dict[int, str] = {}
+    got = _Records()
+    with _open_for_reading(path) as f:
+        try:
+            for rec in StreamReader(f, skip_magic=False).records:
+                if isinstance(rec, Channel):
+                    topics[rec.id] = rec.topic
+                elif isinstance(rec, Message):
+                    topic = topics.get(rec.channel_id)
+                    if topic == CAMERA_TOPIC and frames:
+                        got.images.append(rec)
+                    if topic is None or topic in ("/scene", CAMERA_TOPIC):
+                        continue
+                    got.samples.setdefault(rec.sequence, {})[topic] = rec.data
+                elif isinstance(rec, Metadata) and rec.name == "twin":
+                    got.meta.update({k: json.loads(v) for k, v in rec.metadata.items()})
+                elif isinstance(rec, Attachment) and rec.name == "scenario.toml":
+                    got.meta["scenario_text"] = rec.data.decode("utf-8", errors="replace")
+                elif isinstance(rec, Footer):
+                    got.complete = True
+        except Exception as e:  # a cut or damaged file surfaces as any decoding error (struct, zstd, CRC, mcap)
+            if not topics:
+                raise LogError(f"{path}: not a readable MCAP file ({type(e).__name__}: {e})") from e
+            got.stopped_by = _cut_short(e, f, path)
+    return got
+
+
+def _empty_arrays(joints: tuple, bodies: tuple, m: int) -> dict[str, np.ndarray]:
+    """Telemetry.arrays()'s shapes for m samples ("n": per joint, "b": per body)."""
+    n, nb = len(joints), len(bodies)
+    out = {"time_s": np.empty(m)}
+    for name, shape in SIGNALS.items():
+        dims = tuple(n if s == "n" else nb if s == "b" else s for s in shape)
+        out[name] = np.empty((m,) + dims)
+    return out
+
+
+def _fill_sample(out: dict[str, np.ndarray], i: int, msgs: dict[str, bytes], joints: tuple, bodies: tuple) -> None:
+    """Row i of `out` from one sample's messages (raises KeyError, ValueError or TypeError if malformed)."""
+    for sig, topic in ANGLE_CHANNELS.items():
+        js = JointStates.FromString(msgs[topic])
+        by_name = {x.name: x.position for x in js.joints}
+        out[sig][i] = [by_name[j] for j in joints]
+    tf = FrameTransforms.FromString(msgs["/tf"])
+    by_body = {x.child_frame_id: x for x in tf.transforms}
+    for b, body in enumerate(bodies):
+        x = by_body[body]
+        out["body_pos_m"][i, b] = (x.translation.x, x.translation.y, x.translation.z)
+        out["body_quat_wxyz"][i, b] = (x.rotation.w, x.rotation.x, x.rotation.y, x.rotation.z)
+    for j, joint in enumerate(joints):
+        rec = json.loads(msgs[f"/joint/{joint}"])
+        for fld in JOINT_FIELDS:
+            out[fld][i, j] = math.nan if rec[fld] is None else rec[fld]
+    arm = json.loads(msgs["/arm"])
+    for fld in ARM_SCALARS:
+        out[fld][i] = math.nan if arm[fld] is None else arm[fld]
+    for sig, fmt in ARM_VECTORS.items():  # absent from logs written before they existed: NaN
+        out[sig][i] = [math.nan if arm.get(fmt.format(x)) is None else arm[fmt.format(x)] for x in "xyz"]
+
+
 def read_mcap(path, frames: bool = False) -> tuple[dict[str, np.ndarray], dict]:
     """Read a log written by McapRecorder back into arrays shaped like Telemetry.arrays().
 
@@ -463,91 +554,32 @@ def read_mcap(path, frames: bool = False) -> tuple[dict[str, np.ndarray], dict]:
     frames as (simulated time s, JPEG bytes) in time order.
     Raises LogError when the file is missing, is not MCAP, or is not a log of this project.
     """
-    from foxglove_schemas_protobuf.FrameTransforms_pb2 import FrameTransforms
-    from foxglove_schemas_protobuf.JointStates_pb2 import JointStates
-    from mcap.records import Attachment, Channel, Footer, Message, Metadata
-    from mcap.stream_reader import StreamReader
-
     path = Path(path)
-    try:
-        f = open(path, "rb")
-    except OSError as e:
-        raise LogError(f"{path}: cannot open the MCAP log: {e.strerror}") from e
-    topics: dict[int, str] = {}
-    samples: dict[int, dict[str, object]] = {}
-    images: list = []  # camera frames' Message records
-    meta: dict = {}
-    complete, stopped_by = False, None
-    with f:
-        try:
-            for rec in StreamReader(f, skip_magic=False).records:
-                if isinstance(rec, Channel):
-                    topics[rec.id] = rec.topic
-                elif isinstance(rec, Message):
-                    topic = topics.get(rec.channel_id)
-                    if topic == CAMERA_TOPIC and frames:
-                        images.append(rec)
-                    if topic is None or topic in ("/scene", CAMERA_TOPIC):
-                        continue
-                    samples.setdefault(rec.sequence, {})[topic] = rec.data
-                elif isinstance(rec, Metadata) and rec.name == "twin":
-                    meta.update({k: json.loads(v) for k, v in rec.metadata.items()})
-                elif isinstance(rec, Attachment) and rec.name == "scenario.toml":
-                    meta["scenario_text"] = rec.data.decode("utf-8", errors="replace")
-                elif isinstance(rec, Footer):
-                    complete = True
-        except Exception as e:  # a cut or damaged file surfaces as any decoding error (struct, zstd, CRC, mcap)
-            if not topics:
-                raise LogError(f"{path}: not a readable MCAP file ({type(e).__name__}: {e})") from e
-            where = f"at byte {f.tell()} of {path.stat().st_size}"
-            stopped_by = f"cut short or damaged {where}: {type(e).__name__}: {e}" if str(e) else f"cut short or damaged {where}: {type(e).__name__}"
+    got = _stream_records(path, frames)
+    meta = got.meta
     if "joints" not in meta or "bodies" not in meta:
-        raise LogError(f"{path}: an MCAP file, but not a log of this project (no 'twin' metadata record with joints and bodies)")
+        raise LogError(
+            f"{path}: an MCAP file, but not a log of this project (no 'twin' metadata record with joints and bodies)"
+        )
     joints, bodies = tuple(meta["joints"]), tuple(meta["bodies"])
     needed = set(ANGLE_CHANNELS.values()) | {"/tf", "/arm"} | {f"/joint/{j}" for j in joints}
-    seqs = sorted(s for s, msgs in samples.items() if needed <= msgs.keys())
-    n, nb, m = len(joints), len(bodies), len(seqs)
-    out = {"time_s": np.empty(m)}
-    for name, shape in SIGNALS.items():
-        dims = tuple(n if s == "n" else nb if s == "b" else s for s in shape)
-        out[name] = np.empty((m,) + dims)
+    seqs = sorted(s for s, msgs in got.samples.items() if needed <= msgs.keys())
+    m = len(seqs)
+    out = _empty_arrays(joints, bodies, m)
     try:
         for i, s in enumerate(seqs):
-            msgs = samples[s]
-            for sig, topic in ANGLE_CHANNELS.items():
-                js = JointStates.FromString(msgs[topic])
-                by_name = {x.name: x.position for x in js.joints}
-                out[sig][i] = [by_name[j] for j in joints]
-            tf = FrameTransforms.FromString(msgs["/tf"])
-            by_body = {x.child_frame_id: x for x in tf.transforms}
-            for b, body in enumerate(bodies):
-                x = by_body[body]
-                out["body_pos_m"][i, b] = (x.translation.x, x.translation.y, x.translation.z)
-                out["body_quat_wxyz"][i, b] = (x.rotation.w, x.rotation.x, x.rotation.y, x.rotation.z)
-            for j, joint in enumerate(joints):
-                rec = json.loads(msgs[f"/joint/{joint}"])
-                for fld in JOINT_FIELDS:
-                    out[fld][i, j] = math.nan if rec[fld] is None else rec[fld]
-            arm = json.loads(msgs["/arm"])
-            for fld in ARM_SCALARS:
-                out[fld][i] = math.nan if arm[fld] is None else arm[fld]
-            for sig, fmt in ARM_VECTORS.items():  # absent from logs written before they existed: NaN
-                out[sig][i] = [math.nan if arm.get(fmt.format(x)) is None else arm[fmt.format(x)] for x in "xyz"]
+            _fill_sample(out, i, got.samples[s], joints, bodies)
     except (KeyError, ValueError, TypeError) as e:
         raise LogError(f"{path}: sample {s} is malformed ({type(e).__name__}: {e})") from e
     duration = float(out["time_s"][-1] - out["time_s"][0]) if m else 0.0
-    meta["recovery"] = {"complete": complete, "samples": m, "duration_s": duration, "stopped_by": stopped_by}
+    meta["recovery"] = {"complete": got.complete, "samples": m, "duration_s": duration, "stopped_by": got.stopped_by}
     if frames:
-        from foxglove_schemas_protobuf.CompressedImage_pb2 import CompressedImage
-
         start_ns = int(meta.get("start_time_ns", 0))  # logs written before it had a start began at 0
         meta["camera_frames"] = sorted(
-            ((r.log_time - start_ns) * 1e-9, CompressedImage.FromString(r.data).data) for r in images
+            ((r.log_time - start_ns) * 1e-9, CompressedImage.FromString(r.data).data) for r in got.images
         )
     return out, meta
 
 
 if __name__ == "__main__":
-    import sys
-
     _serve(sys.stdin.buffer, sys.stdout.buffer)

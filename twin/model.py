@@ -1,4 +1,5 @@
-"""Loading the MJCF into MuJoCo, looking things up by name, and treating warnings as errors."""
+"""Loading the MJCF into MuJoCo, looking things up by name, treating warnings as errors, and what
+the model says of its bodies, geoms and cameras (names, colours) for the logs and pictures."""
 
 from __future__ import annotations
 
@@ -23,7 +24,8 @@ def ids(model: mujoco.MjModel, kind: mujoco.mjtObj, names) -> np.ndarray:
     for name in names:
         i = mujoco.mj_name2id(model, kind, name)
         if i < 0:
-            raise KeyError(f"{mujoco.mjOBJECTSTRING[kind] if hasattr(mujoco, 'mjOBJECTSTRING') else kind}: no {name!r} in the model")
+            what = mujoco.mjOBJECTSTRING[kind] if hasattr(mujoco, "mjOBJECTSTRING") else kind
+            raise KeyError(f"{what}: no {name!r} in the model")
         out.append(i)
     return np.array(out, dtype=np.int64)
 
@@ -63,3 +65,23 @@ def drive_map(model: mujoco.MjModel, tendon_ids) -> np.ndarray:
     for i, rows in enumerate(terms):
         out[i, : len(rows)] = rows
     return out
+
+
+DEFAULT_GEOM_RGBA = (0.5, 0.5, 0.5, 1.0)  # MuJoCo's internal default of geom/@rgba (MJCF reference)
+
+
+def geom_rgba(model: mujoco.MjModel, g: int) -> np.ndarray:
+    """Colour of geom `g` as MuJoCo draws it, RGBA 0..1: its own rgba where that differs from the
+    default (MJCF reference: "it takes precedence over the material"), else its material's."""
+    mat, own = model.geom_matid[g], np.asarray(model.geom_rgba[g], dtype=np.float64)
+    if mat < 0 or not np.allclose(own, DEFAULT_GEOM_RGBA):
+        return own
+    return np.asarray(model.mat_rgba[mat], dtype=np.float64)
+
+
+def body_name(model: mujoco.MjModel, b: int) -> str:
+    return mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_BODY, b) or f"body_{b}"
+
+
+def has_camera(model: mujoco.MjModel, name: str) -> bool:
+    return mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_CAMERA, name) >= 0

@@ -9,6 +9,7 @@ fails after the work, and never written by two runs at once (DESIGN rule 6, "not
 
 from __future__ import annotations
 
+import contextlib
 import errno
 import fcntl
 import os
@@ -16,8 +17,8 @@ import shutil
 import sys
 import tempfile
 import time
+from collections.abc import Callable, Iterable
 from pathlib import Path
-from typing import Callable, Iterable
 
 from twin.errors import UserError
 
@@ -82,17 +83,17 @@ def write_atomic(path: Path, data: str | bytes) -> None:
     path = Path(path)
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
     try:
-        os.fchmod(fd, path.stat().st_mode & 0o7777 if path.is_file() else 0o666 & ~_umask())  # mkstemp's 0600 is for secrets
+        os.fchmod(
+            fd, path.stat().st_mode & 0o7777 if path.is_file() else 0o666 & ~_umask()
+        )  # mkstemp's 0600 is for secrets
         with os.fdopen(fd, "wb") as f:
             f.write(data.encode() if isinstance(data, str) else data)
             f.flush()
             os.fsync(f.fileno())
         os.replace(tmp, path)
     except BaseException:
-        try:
+        with contextlib.suppress(OSError):
             os.unlink(tmp)
-        except OSError:
-            pass
         raise
 
 
@@ -151,7 +152,7 @@ class OutputLock:
     def lock_path(path: Path) -> Path:
         return path.parent / f".{path.name}.lock"
 
-    def __enter__(self) -> "OutputLock":
+    def __enter__(self) -> OutputLock:
         try:
             for p in self.paths:
                 self._acquire(p)
@@ -187,10 +188,8 @@ class OutputLock:
 
     def release(self) -> None:
         for lock, fd in self._held:
-            try:
+            with contextlib.suppress(OSError):
                 os.unlink(lock)
-            except OSError:
-                pass
             os.close(fd)
         self._held.clear()
 

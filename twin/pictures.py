@@ -11,63 +11,19 @@ plot_angles_png(arrays, path): true, predicted and target angles per joint from 
 from __future__ import annotations
 
 import os
+import subprocess
+import sys
+import tempfile
 from pathlib import Path
 
 import mujoco
 import numpy as np
+from matplotlib.figure import Figure
+from matplotlib.image import imsave
 
 import assets
-
-
-def _quat_to_mat(q_wxyz: np.ndarray) -> np.ndarray:
-    out = np.empty(9)
-    mujoco.mju_quat2Mat(out, np.asarray(q_wxyz, dtype=np.float64))
-    return out.reshape(3, 3)
-
-
-def pose_geoms(model: mujoco.MjModel, data: mujoco.MjData, body_pos: np.ndarray, body_quat_wxyz: np.ndarray) -> None:
-    """Put every body at the given world poses (bodies 1.., as in Telemetry) and move the geoms
-    with them, without running kinematics: what a log holds is enough to draw the arm."""
-    for i in range(body_pos.shape[0]):
-        b = i + 1
-        R = _quat_to_mat(body_quat_wxyz[i])
-        data.xpos[b] = body_pos[i]
-        data.xquat[b] = body_quat_wxyz[i]
-        data.xmat[b] = R.ravel()
-    for g in range(model.ngeom):
-        b = model.geom_bodyid[g]
-        if b == 0:
-            continue
-        R = data.xmat[b].reshape(3, 3)
-        data.geom_xpos[g] = data.xpos[b] + R @ model.geom_pos[g]
-        data.geom_xmat[g] = (R @ _quat_to_mat(model.geom_quat[g])).ravel()
-
-
-class PoseRenderer:
-    """Offscreen frames of a camera for body poses taken from a log. Close it when done (an
-    unclosed mujoco.Renderer prints an OpenGL error at interpreter exit)."""
-
-    # what a software GL (llvmpipe, no GPU) spends most on: 82 ms a 480x360 frame with them, 14 without
-    COSTLY_EFFECTS = (mujoco.mjtRndFlag.mjRND_SHADOW, mujoco.mjtRndFlag.mjRND_REFLECTION, mujoco.mjtRndFlag.mjRND_SKYBOX, mujoco.mjtRndFlag.mjRND_HAZE)
-
-    def __init__(self, model: mujoco.MjModel, camera: str = "global_view", width: int = 640, height: int = 480, plain: bool = False):
-        # MuJoCo reads MUJOCO_GL once, at import: set it (egl or osmesa) before starting Python
-        self.model, self.camera, self.plain = model, camera, plain
-        self.data = mujoco.MjData(model)
-        mujoco.mj_forward(model, self.data)  # world-fixed cameras, lights and geoms
-        self.renderer = mujoco.Renderer(model, height, width)
-
-    def render(self, body_pos: np.ndarray | None = None, body_quat_wxyz: np.ndarray | None = None) -> np.ndarray:
-        if body_pos is not None:
-            pose_geoms(self.model, self.data, body_pos, body_quat_wxyz)
-        self.renderer.update_scene(self.data, self.camera)
-        if self.plain:  # no shadows, reflections, skybox or haze
-            for flag in self.COSTLY_EFFECTS:
-                self.renderer.scene.flags[flag] = 0
-        return self.renderer.render()
-
-    def close(self) -> None:
-        self.renderer.close()
+from twin.mcap_log import LogError, read_mcap
+from twin.model import geom_rgba
 
 
 def _home_data(model: mujoco.MjModel) -> mujoco.MjData:
@@ -79,7 +35,9 @@ def _home_data(model: mujoco.MjModel) -> mujoco.MjData:
     return data
 
 
-def render_arm_png(path, model_path=assets.SCENE_XML, qpos: np.ndarray | None = None, width: int = 960, height: int = 720) -> str:
+def render_arm_png(
+    path, model_path=assets.SCENE_XML, qpos: np.ndarray | None = None, width: int = 960, height: int = 720
+) -> str:
     """Write a PNG of the arm (keyframe "home" unless `qpos` is given) from `global_view`.
 
     Returns "mujoco-<backend>" when MuJoCo rendered it offscreen, or "matplotlib" for the fallback
@@ -98,12 +56,7 @@ def render_arm_png(path, model_path=assets.SCENE_XML, qpos: np.ndarray | None = 
             img = _render_in_subprocess(model_path, data.qpos.copy(), backend, width, height)
         except RuntimeError:
             continue
-        import matplotlib
-
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-
-        plt.imsave(path, img)
+        imsave(path, img)
         return f"mujoco-{backend}"
     _draw_geoms_matplotlib(model, data, path)
     return "matplotlib"
@@ -111,10 +64,6 @@ def render_arm_png(path, model_path=assets.SCENE_XML, qpos: np.ndarray | None = 
 
 def _render_in_subprocess(model_path, qpos: np.ndarray, backend: str, width: int, height: int) -> np.ndarray:
     """MUJOCO_GL is read once per process, so each backend is tried in a child process."""
-    import subprocess
-    import sys
-    import tempfile
-
     with tempfile.TemporaryDirectory() as tmp:
         out = Path(tmp) / "img.npy"
         code = (
@@ -125,7 +74,16 @@ def _render_in_subprocess(model_path, qpos: np.ndarray, backend: str, width: int
             "np.save(sys.argv[5], r.render()); r.close()\n"
         )
         env = dict(os.environ, MUJOCO_GL=backend, PYOPENGL_PLATFORM=backend)
-        args = [sys.executable, "-c", code, str(model_path), ",".join(repr(float(q)) for q in qpos), str(width), str(height), str(out)]
+        args = [
+            sys.executable,
+            "-c",
+            code,
+            str(model_path),
+            ",".join(repr(float(q)) for q in qpos),
+            str(width),
+            str(height),
+            str(out),
+        ]
         proc = subprocess.run(args, env=env, capture_output=True, text=True, timeout=120)
         if proc.returncode != 0 or not out.exists():
             raise RuntimeError(f"MUJOCO_GL={backend}: {proc.stderr.strip().splitlines()[-1:] or proc.returncode}")
@@ -135,14 +93,7 @@ def _render_in_subprocess(model_path, qpos: np.ndarray, backend: str, width: int
 def _draw_geoms_matplotlib(model: mujoco.MjModel, data: mujoco.MjData, path: Path) -> None:
     """Fallback: each geom drawn as a wireframe of its shape (boxes, cylinders, capsules,
     spheres) in its world pose; planes are left out."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    from twin.rerun_log import geom_rgba
-
-    fig = plt.figure(figsize=(8, 6))
+    fig = Figure(figsize=(8, 6))
     ax = fig.add_subplot(projection="3d")
     u = np.linspace(0, 2 * np.pi, 16)
     for g in range(model.ngeom):
@@ -165,31 +116,37 @@ def _draw_geoms_matplotlib(model: mujoco.MjModel, data: mujoco.MjData, path: Pat
             ax.plot_surface(P[..., 0], P[..., 1], P[..., 2], color=color, linewidth=0, alpha=0.9)
         elif t == mujoco.mjtGeom.mjGEOM_SPHERE:
             v = np.linspace(0, np.pi, 8)
-            P = s[0] * np.stack([np.outer(np.cos(u), np.sin(v)), np.outer(np.sin(u), np.sin(v)), np.outer(np.ones_like(u), np.cos(v))], -1) + pos
+            P = (
+                s[0]
+                * np.stack(
+                    [
+                        np.outer(np.cos(u), np.sin(v)),
+                        np.outer(np.sin(u), np.sin(v)),
+                        np.outer(np.ones_like(u), np.cos(v)),
+                    ],
+                    -1,
+                )
+                + pos
+            )
             ax.plot_surface(P[..., 0], P[..., 1], P[..., 2], color=color, linewidth=0, alpha=0.9)
     ax.set_xlim(-0.6, 1.2), ax.set_ylim(-0.9, 0.9), ax.set_zlim(0, 1.8)
     ax.set_box_aspect((1.8, 1.8, 1.8))
     ax.set_xlabel("x (m)"), ax.set_ylabel("y (m)"), ax.set_zlabel("z (m)")
     ax.set_title("pneumatic arm and insulator string (matplotlib fallback: no offscreen GL)")
     fig.savefig(path, dpi=120)
-    plt.close(fig)
 
 
 def plot_angles_png(arrays: dict, path, joints: tuple[str, ...] = assets.JOINTS, only_moving: bool = True) -> Path:
     """Plot true, predicted and target angles (deg) against time, one panel per joint; with
     `only_moving`, joints whose true angle stays within 0.01° are left out."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
     t = arrays["time_s"]
     true = np.degrees(arrays["true_angle_rad"])
     pred = np.degrees(arrays["predicted_angle_rad"])
     target = np.degrees(arrays["target_angle_rad"])
     keep = [k for k in range(len(joints)) if not only_moving or np.ptp(true[:, k]) > 0.01] or list(range(len(joints)))
-    fig, axes = plt.subplots(len(keep), 1, figsize=(8, 2.6 * len(keep)), sharex=True, squeeze=False)
-    for ax, k in zip(axes[:, 0], keep):
+    fig = Figure(figsize=(8, 2.6 * len(keep)))
+    axes = fig.subplots(len(keep), 1, sharex=True, squeeze=False)
+    for ax, k in zip(axes[:, 0], keep, strict=True):
         ax.plot(t, true[:, k], color="k", lw=1.5, label="true (plant)")
         if np.isfinite(pred[:, k]).any():
             ax.plot(t, pred[:, k], color="tab:red", lw=1.2, ls="--", label="predicted (controller)")
@@ -203,7 +160,6 @@ def plot_angles_png(arrays: dict, path, joints: tuple[str, ...] = assets.JOINTS,
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=110)
-    plt.close(fig)
     return path
 
 
@@ -211,8 +167,6 @@ def plot_run_angles(mcap_path, path, until_s: float | None = None, only_moving: 
     """The angles figure of a run logged as MCAP (cut short or whole; the first `until_s`
     simulated seconds if given); returns the PNG's path and the reader's recovery report.
     Raises twin.mcap_log.LogError on a file that is not a readable log."""
-    from twin.mcap_log import LogError, read_mcap
-
     arrays, meta = read_mcap(mcap_path)
     if meta["recovery"]["samples"] == 0:
         raise LogError(f"{mcap_path}: holds no complete telemetry sample; nothing to plot")

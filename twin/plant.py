@@ -32,7 +32,9 @@ from twin.model import drive_map, ids, load_model, raise_on_new_warnings, warnin
 # joint side, sqrt(k / J_joint), must stay under this many rad per physics step. Measured on the
 # wrist rig (J_joint = 0.02 kg·m^2, 0.5 ms): stable at 1.12 rad/step, unstable from 1.44.
 MAX_TRANSMISSION_PHASE_PER_STEP = 1.0
-SUBSTEPS = 1  # Heun sub-steps of the air per physics step; tests/test_plant.py shows 1 is enough at 0.5 ms: the error is the coupling's, not the air's
+# Heun sub-steps of the air per physics step; tests/test_plant.py shows 1 is enough at 0.5 ms: the
+# error is the coupling's, not the air's
+SUBSTEPS = 1
 
 
 @dataclass(frozen=True)
@@ -173,8 +175,9 @@ class Plant:
             p = self.joint_params[joint]
             raise ParameterError(
                 f"{joint}: [effects] reducer_compliance_rad_per_nm = {p.reducer_compliance_rad_per_nm:g} "
-                f"(reducer_backlash_rad = {p.reducer_backlash_rad:g}) makes a gear of {k:.4g} N·m/rad on {inertia:.4g} kg·m^2 "
-                f"of joint-side inertia, {phase:.2f} rad per {self.dt * 1e3:g} ms physics step, too stiff for the plant; "
+                f"(reducer_backlash_rad = {p.reducer_backlash_rad:g}) makes a gear of {k:.4g} N·m/rad "
+                f"on {inertia:.4g} kg·m^2 of joint-side inertia, {phase:.2f} rad per {self.dt * 1e3:g} ms "
+                "physics step, too stiff for the plant; "
                 f"allowed: 0 (rigid) or a compliance >= {least:.3g} rad/(N·m)"
             )
 
@@ -198,7 +201,17 @@ class Plant:
             commands[stuck, J.C_DIRECTION] = self.stuck_direction[stuck]
             commands[stuck, J.C_PV_SET_GAUGE_PA] = np.inf  # stuck fully open: the supply passes
         if plant_steps is not None:
-            plant_steps(n, *self._addresses, self.air, commands, self.params, *self._fixed_arrays, self.supply_pa, self.dt, SUBSTEPS)
+            plant_steps(
+                n,
+                *self._addresses,
+                self.air,
+                commands,
+                self.params,
+                *self._fixed_arrays,
+                self.supply_pa,
+                self.dt,
+                SUBSTEPS,
+            )
         else:
             args = (self.air, commands, self.params, *self._fixed_arrays, self.supply_pa, self.dt, SUBSTEPS)
             for _ in range(n):
@@ -220,7 +233,7 @@ class Plant:
         self._warnings_seen_bytes = self._warning_numbers.tobytes()
 
     def _apply_brakes(self) -> None:
-        for row, x, t in zip(self.params, self.air, self.tendon_ids):
+        for row, x, t in zip(self.params, self.air, self.tendon_ids, strict=True):
             self.model.tendon_frictionloss[t] = J.dry_friction_limit(x[J.S_BRAKE], row)
 
     # -- outputs ------------------------------------------------------------------------------
@@ -271,7 +284,14 @@ class Plant:
     def save_state(self) -> PlantState:
         buf = np.empty(self._state_size)
         mujoco.mj_getState(self.model, self.data, buf, mujoco.mjtState.mjSTATE_INTEGRATION)
-        return PlantState(buf, self.air.copy(), self.commands.copy(), self.supply_pa, self.sensor_bias_pa.copy(), self.stuck_direction.copy())
+        return PlantState(
+            buf,
+            self.air.copy(),
+            self.commands.copy(),
+            self.supply_pa,
+            self.sensor_bias_pa.copy(),
+            self.stuck_direction.copy(),
+        )
 
     def restore_state(self, state: PlantState) -> None:
         mujoco.mj_setState(self.model, self.data, state.mujoco_state, mujoco.mjtState.mjSTATE_INTEGRATION)

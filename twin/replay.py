@@ -16,7 +16,8 @@ import numpy as np
 
 import assets
 from twin.mcap_log import LogError, read_mcap
-from twin.rerun_log import RerunRecorder, body_name, most_travelled_joint
+from twin.model import body_name
+from twin.rerun_log import RerunRecorder, most_travelled_joint
 
 
 class LoggedRun:

@@ -33,9 +33,12 @@ from pathlib import Path
 
 import mujoco
 import numpy as np
+import rerun as rr
+import rerun.blueprint as rrb
 
-from twin.camera import has_camera
+from twin.camera import FrameFeed
 from twin.errors import UserError
+from twin.model import body_name, geom_rgba, has_camera
 
 TIMELINE = "time"
 
@@ -47,17 +50,7 @@ class RerunLogError(UserError):
     """A recording cannot be written or opened."""
 
 
-DEFAULT_GEOM_RGBA = (0.5, 0.5, 0.5, 1.0)  # MuJoCo's internal default of geom/@rgba (MJCF reference)
 VISIBLE_GROUPS = (0, 1, 2)  # geom groups MuJoCo's viewer and renderer show by default (mjv_defaultOption)
-
-
-def geom_rgba(model: mujoco.MjModel, g: int) -> np.ndarray:
-    """Colour of geom `g` as MuJoCo draws it, RGBA 0..1: its own rgba where that differs from the
-    default (MJCF reference: "it takes precedence over the material"), else its material's."""
-    mat, own = model.geom_matid[g], np.asarray(model.geom_rgba[g], dtype=np.float64)
-    if mat < 0 or not np.allclose(own, DEFAULT_GEOM_RGBA):
-        return own
-    return np.asarray(model.mat_rgba[mat], dtype=np.float64)
 
 
 def geom_texture(model: mujoco.MjModel, g: int) -> tuple[np.ndarray, np.ndarray] | None:
@@ -82,10 +75,6 @@ def geom_name(model: mujoco.MjModel, g: int) -> str:
     return mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_GEOM, g) or f"geom_{g}"
 
 
-def body_name(model: mujoco.MjModel, b: int) -> str:
-    return mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_BODY, b) or f"body_{b}"
-
-
 def wxyz_to_xyzw(q: np.ndarray) -> np.ndarray:
     q = np.asarray(q, dtype=np.float64)
     return np.concatenate([q[..., 1:], q[..., :1]], axis=-1)
@@ -102,8 +91,6 @@ def geom_archetype(model: mujoco.MjModel, g: int):
     sphere radius; plane (half-x, half-y, grid spacing). Rerun capsules run from z=0 to z=length,
     so they are shifted down by the half-length.
     """
-    import rerun as rr
-
     t, s = int(model.geom_type[g]), model.geom_size[g]  # int: enum `in` tuple fails on numpy ints
     color = [_rgba8(geom_rgba(model, g))]
     if t == _GEOM.mjGEOM_BOX:
@@ -111,7 +98,9 @@ def geom_archetype(model: mujoco.MjModel, g: int):
     if t == _GEOM.mjGEOM_CYLINDER:
         return rr.Cylinders3D(lengths=[2 * s[1]], radii=[s[0]], colors=color, fill_mode="solid")
     if t == _GEOM.mjGEOM_CAPSULE:
-        return rr.Capsules3D(lengths=[2 * s[1]], radii=[s[0]], translations=[[0, 0, -s[1]]], colors=color, fill_mode="solid")
+        return rr.Capsules3D(
+            lengths=[2 * s[1]], radii=[s[0]], translations=[[0, 0, -s[1]]], colors=color, fill_mode="solid"
+        )
     if t == _GEOM.mjGEOM_SPHERE:
         return rr.Ellipsoids3D(half_sizes=[[s[0]] * 3], colors=color, fill_mode="solid")
     if t == _GEOM.mjGEOM_ELLIPSOID:
@@ -125,8 +114,6 @@ def plane_mesh(model: mujoco.MjModel, g: int):
     """A plane as MuJoCo draws it: a quad (size 0 is infinite in MuJoCo: 4 m x 4 m here) with its
     material's texture repeated `texrepeat` times across it (MuJoCo's rule without texuniform),
     drawn as one textured quad per repeat, so no texture wrapping is needed of the viewer."""
-    import rerun as rr
-
     hx, hy = (model.geom_size[g][0] or 2.0), (model.geom_size[g][1] or 2.0)
     textured = geom_texture(model, g)
     if textured is None:
@@ -161,8 +148,6 @@ def _geom_parent_path(model: mujoco.MjModel, g: int) -> str:
 
 def log_static_geometry(rec, model: mujoco.MjModel) -> list[str]:
     """Log every drawable geom once (static); returns the entity paths written."""
-    import rerun as rr
-
     paths = []
     for g in range(model.ngeom):
         arch = geom_archetype(model, g)
@@ -200,7 +185,7 @@ OTHER_STYLES = {
 def moving_joint(joints, start_rad, targets_rad: list[dict[str, float]]) -> str:
     """The joint a plan moves furthest (sum of its commanded travels from the start angles),
     what the recording opens on; the first joint when the plan moves none."""
-    where = dict(zip(joints, (float(a) for a in start_rad)))
+    where = dict(zip(joints, (float(a) for a in start_rad), strict=True))
     travel = dict.fromkeys(joints, 0.0)
     for target in targets_rad:
         for j, angle in target.items():
@@ -238,8 +223,6 @@ def hidden_geom_paths(model: mujoco.MjModel) -> list[str]:
 
 def joint_views(j: str):
     """One joint's time series, one view per quantity and unit."""
-    import rerun.blueprint as rrb
-
     p = f"joints/{j}"
 
     def view(name, contents, **kw):
@@ -259,12 +242,11 @@ def joint_views(j: str):
     )
 
 
-def blueprint(joints: tuple[str, ...], model: mujoco.MjModel | None = None, focus: str | None = None,
-              camera: bool = False):
+def blueprint(
+    joints: tuple[str, ...], model: mujoco.MjModel | None = None, focus: str | None = None, camera: bool = False
+):
     """The layout the recording opens with: the arm in 3D, close up (left), and the time series of
     one joint at a time in tabs, opened on `focus` (the joint that moves; right)."""
-    import rerun.blueprint as rrb
-
     focus = focus if focus in joints else joints[0]
     hidden = [f"- {p}" for p in hidden_geom_paths(model)] if model is not None else []
     arm = rrb.Spatial3DView(
@@ -314,8 +296,6 @@ class RerunRecorder:
         frames=None,
         camera_view: bool = False,
     ):
-        import rerun as rr
-
         self.path = Path(path)
         self.model = plant_model
         self.joints = tuple(joints)
@@ -328,7 +308,9 @@ class RerunRecorder:
             raise RerunLogError(f"{self.path}: cannot write a rerun recording: {e}") from e
         if meta and meta.get("scenario_name"):
             self.rec.send_recording_name(str(meta["scenario_name"]))
-        self.rec.log("meta", rr.TextDocument(json.dumps(meta or {}, indent=2, default=str), media_type="text/plain"), static=True)
+        self.rec.log(
+            "meta", rr.TextDocument(json.dumps(meta or {}, indent=2, default=str), media_type="text/plain"), static=True
+        )
         log_static_geometry(self.rec, plant_model)
         self._log_series_styles()
         self.camera_fps = float(camera_fps)
@@ -341,14 +323,10 @@ class RerunRecorder:
         self._telemetry = None
         self._camera, self._frames_seen = frames, 0
         if self._camera is None and self.camera_fps > 0:
-            from twin.camera import FrameFeed
-
             self._camera = FrameFeed(plant_model, self.camera_fps)
         self._closed = False
 
     def _log_series_styles(self) -> None:
-        import rerun as rr
-
         styles = {f"joints/{j}/{sub}": s for j in self.joints for sub, s in SERIES_STYLES.items()} | OTHER_STYLES
         for path, (color, width, name) in styles.items():
             self.rec.log(path, rr.SeriesLines(colors=[color], widths=[width], names=[name]), static=True)
@@ -369,8 +347,6 @@ class RerunRecorder:
             self._pending = None
 
     def _send(self, telemetry, start: int) -> None:
-        import rerun as rr
-
         a = telemetry.arrays(start)
         if len(a["time_s"]) == 0:
             return
@@ -384,7 +360,9 @@ class RerunRecorder:
             send(
                 f"world/arm/{body}",
                 indexes=idx,
-                columns=rr.Transform3D.columns(translation=a["body_pos_m"][:, i], quaternion=wxyz_to_xyzw(a["body_quat_wxyz"][:, i])),
+                columns=rr.Transform3D.columns(
+                    translation=a["body_pos_m"][:, i], quaternion=wxyz_to_xyzw(a["body_quat_wxyz"][:, i])
+                ),
             )
         true_deg = np.degrees(a["true_angle_rad"])
         pred_deg = np.degrees(a["predicted_angle_rad"])
@@ -410,13 +388,13 @@ class RerunRecorder:
         send(
             "world/brush_contact",
             indexes=idx,
-            columns=rr.Arrows3D.columns(origins=a["brush_contact_m"][touching], vectors=1e-3 * a["brush_push_n"][touching]).partition(touching.astype(np.int32)),
+            columns=rr.Arrows3D.columns(
+                origins=a["brush_contact_m"][touching], vectors=1e-3 * a["brush_push_n"][touching]
+            ).partition(touching.astype(np.int32)),
         )
 
     def log_frames(self, frames: list[tuple[float, bytes]]) -> None:
         """Log camera frames (simulated time s, JPEG bytes), e.g. those a replayed log holds."""
-        import rerun as rr
-
         self._frames_seen += len(frames)
         for t, jpeg in frames:
             self.rec.set_time(TIMELINE, duration=t)

@@ -66,8 +66,9 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m twin.screenshot", description=__doc__.splitlines()[0])
     parser.add_argument("rrd", type=Path, help="a recording (.rrd) from `twin run --rrd` or `twin replay`")
     parser.add_argument("out", type=Path, help="the PNG to write")
-    parser.add_argument("--size", default="1600x1000", 
-                        help="viewer window size in logical points, WxH (default: 1600x1000)")
+    parser.add_argument(
+        "--size", default="1600x1000", help="viewer window size in logical points, WxH (default: 1600x1000)"
+    )
     args = parser.parse_args(argv)
     try:
         print(screenshot(args.rrd, args.out, args.size))

@@ -3,18 +3,24 @@
     controller.tick(sensors) --commands--> plant.step x n --> sensors (next tick)
     telemetry: true state from the plant beside the controller's prediction
 
+The loop itself is control/loop.py's `run_ticks` (the paper's experiments run it too); here it
+gets MuJoCo's plant, the telemetry and the recorders.
+
 The controller is anything with `tick(sensors) -> (n_joints, 3) commands`, `predicted_angles()`
 and `target_angles()`; it is handed only `plant.sensors()`, never the plant.
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Callable, Protocol
+from typing import Protocol
 
 import mujoco
 import numpy as np
 
+from control.loop import run_ticks
+from pneumatics import joint as J
 from twin.plant import Plant, Sensors
 from twin.telemetry import Telemetry
 
@@ -83,11 +89,11 @@ def sample(plant: Plant, controller: Controller) -> dict[str, np.ndarray]:
         "true_angle_rad": plant.drive_angles(),
         "predicted_angle_rad": controller.predicted_angles(),
         "target_angle_rad": controller.target_angles(),
-        "pressure_a_pa": plant.air[:, 1],
-        "pressure_b_pa": plant.air[:, 3],
+        "pressure_a_pa": plant.air[:, J.S_PA_MOTOR],
+        "pressure_b_pa": plant.air[:, J.S_PB_MOTOR],
         "valve_gauge_pa": plant.sensors().valve_gauge_pa,
-        "direction": plant.commands[:, 0],
-        "brake_release": plant.commands[:, 2],
+        "direction": plant.commands[:, J.C_DIRECTION],
+        "brake_release": plant.commands[:, J.C_BRAKE_RELEASE],
         "brake_engagement": plant.brake_engagement(),
         "supply_pa": np.asarray(plant.supply_pa),
         "brush_force_n": np.asarray(contact[0]),
@@ -127,30 +133,42 @@ def run(
     n_ticks = round(duration_s / (steps_per_tick * plant.dt))
     if telemetry is None:
         telemetry = Telemetry(plant.joints, body_names(plant))
-    flushed = len(telemetry)
-
-    def flush() -> None:
-        nonlocal flushed
-        for r in recorders:
-            r.write(telemetry, flushed)
-        flushed = len(telemetry)
-
+    recording = _Recording(plant, controller, telemetry, recorders, ticks_per_log, ticks_per_flush)
     try:
-        for k in range(n_ticks):
-            t = plant.time
-            if supply_pa_at is not None:
-                plant.set_supply(supply_pa_at(t))
-            if events is not None:
-                events(plant, t)
-            plant.commands[:] = controller.tick(plant.sensors())
-            if k % ticks_per_log == 0:
-                plant.check_warnings()
-                telemetry.append(t, sample(plant, controller))
-            plant.step(steps_per_tick, check_warnings=False)
-            if k % ticks_per_flush == ticks_per_flush - 1:
-                flush()
+        run_ticks(
+            controller,
+            plant,
+            steps_per_tick,
+            lambda k: k < n_ticks,
+            supply_pa_at,
+            events,
+            recording.on_tick,
+            check_warnings=False,
+        )
         plant.check_warnings()
         telemetry.append(plant.time, sample(plant, controller))
     finally:
-        flush()
+        recording.flush()
     return telemetry
+
+
+class _Recording:
+    """`run`'s work at a control tick: a telemetry sample every `ticks_per_log` ticks (MuJoCo's
+    warnings checked there too), the new samples to the recorders every `ticks_per_flush`."""
+
+    def __init__(self, plant, controller, telemetry, recorders, ticks_per_log: int, ticks_per_flush: int):
+        self.plant, self.controller, self.telemetry, self.recorders = plant, controller, telemetry, recorders
+        self.ticks_per_log, self.ticks_per_flush = ticks_per_log, ticks_per_flush
+        self.flushed = len(telemetry)
+
+    def on_tick(self, k: int, t: float) -> None:
+        if k % self.ticks_per_log == 0:
+            self.plant.check_warnings()
+            self.telemetry.append(t, sample(self.plant, self.controller))
+        if k % self.ticks_per_flush == self.ticks_per_flush - 1:
+            self.flush()
+
+    def flush(self) -> None:
+        for r in self.recorders:
+            r.write(self.telemetry, self.flushed)
+        self.flushed = len(self.telemetry)

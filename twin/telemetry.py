@@ -37,7 +37,9 @@ class Telemetry:
     def __init__(self, joints: tuple[str, ...], bodies: tuple[str, ...], block: int = 4096):
         self.joints, self.bodies = tuple(joints), tuple(bodies)
         n, b = len(self.joints), len(self.bodies)
-        self._dims = {"time_s": ()} | {name: tuple(n if d == "n" else b if d == "b" else d for d in shape) for name, shape in SIGNALS.items()}
+        self._dims = {"time_s": ()} | {
+            name: tuple(n if d == "n" else b if d == "b" else d for d in shape) for name, shape in SIGNALS.items()
+        }
         self._block = block
         self._n = 0
         self._blocks: list[dict[str, np.ndarray]] = []

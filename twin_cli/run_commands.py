@@ -8,56 +8,104 @@ import json
 import sys
 from pathlib import Path
 
-from twin.args import CAMERA_FPS as CAMERA_FPS_RANGE
-from twin.args import DURATION_S, MONTE_CARLO, SEED, WORKERS, number
-from twin.errors import UserError
+from twin.checks import CAMERA_FPS as CAMERA_FPS_RANGE
+from twin.checks import DURATION_S, MONTE_CARLO, RECORDING_CAMERA_FPS, SEED
 from twin.outputs import OutputLock, check_output, keep_result, publish_folder, write_atomic
-from twin.signals import shielded
-
-CAMERA_FPS = 2.0  # the operator's global-camera view in recordings: "a few frames per second"
+from twin_cli.args import add_workers, number
 
 
-def register(sub: argparse._SubParsersAction) -> None:
+def _add_run(sub: argparse._SubParsersAction) -> None:
+    """`twin run SCENARIO`: one run, its summary, and optionally its recordings."""
     p = sub.add_parser("run", help="run a scenario file; exit 1 if a pass criterion broke")
     p.add_argument("scenario", help="scenario TOML file, or the name of a shipped one (e.g. insulator_cleaning)")
     p.add_argument("--json", action="store_true", help="print the summary as JSON on stdout")
     p.add_argument("--rrd", type=Path, help="write a rerun recording here")
     p.add_argument("--mcap", type=Path, help="write an MCAP log here")
     p.add_argument(
-        "--camera-fps", type=number(**CAMERA_FPS_RANGE), default=CAMERA_FPS, metavar="N",
-        help=f"global-camera frames per simulated second in the recording (default {CAMERA_FPS:g}; 0: none; at most the log rate, 50)",
+        "--camera-fps",
+        type=number(**CAMERA_FPS_RANGE),
+        default=RECORDING_CAMERA_FPS,
+        metavar="N",
+        help=(
+            f"global-camera frames per simulated second in the recording "
+            f"(default {RECORDING_CAMERA_FPS:g}; 0: none; at most the log rate, 50)"
+        ),
     )
     p.add_argument("--duration", type=number(**DURATION_S), metavar="S", help="stop after this many simulated seconds")
     p.add_argument("--seed", type=number(**SEED), metavar="N", help="override the scenario's seed")
-    p.add_argument("--start-time", metavar="ISO|now",
-                   help="the MCAP log's start (default 2000-01-01T00:00:00Z, deterministic; 'now': the wall clock)")
+    p.add_argument(
+        "--start-time",
+        metavar="ISO|now",
+        help="the MCAP log's start (default 2000-01-01T00:00:00Z, deterministic; 'now': the wall clock)",
+    )
     p.set_defaults(func=cmd_run)
 
+
+def _add_sweep(sub: argparse._SubParsersAction) -> None:
+    """`twin sweep SCENARIO`: a grid of field values and/or Monte Carlo seeds."""
     p = sub.add_parser("sweep", help="run a scenario over a grid of field values and/or Monte Carlo seeds")
     p.add_argument("scenario", help="scenario TOML file, or the name of a shipped one")
-    p.add_argument("--set", action="append", default=[], metavar="FIELD=V1,V2", help="grid over a scenario field, e.g. supply.pressure_mpa=0.5,0.6,0.7 (repeatable)")
     p.add_argument(
-        "--monte-carlo", type=number(**MONTE_CARLO), default=0, metavar="N",
+        "--set",
+        action="append",
+        default=[],
+        metavar="FIELD=V1,V2",
+        help="grid over a scenario field, e.g. supply.pressure_mpa=0.5,0.6,0.7 (repeatable)",
+    )
+    p.add_argument(
+        "--monte-carlo",
+        type=number(**MONTE_CARLO),
+        default=0,
+        metavar="N",
         help="N runs per grid point with child seeds (default 0: the scenario's own seed only)",
     )
-    p.add_argument("--workers", type=number(**WORKERS), default=0, metavar="K", help="local worker processes (default 0: all cores)")
-    p.add_argument("--scheduler", metavar="ADDR", help="Dask scheduler address (e.g. tcp://host:8786): run the sweep on that cluster")
-    p.add_argument("--duration", type=number(**DURATION_S), metavar="S", help="shorten every run to this many simulated seconds")
-    p.add_argument("--out", type=Path, help="write all summaries to this JSON file, and a table (a row per run) beside it as .csv (default: print them on stdout)")
+    add_workers(p)
+    p.add_argument(
+        "--scheduler",
+        metavar="ADDR",
+        help="Dask scheduler address (e.g. tcp://host:8786): run the sweep on that cluster",
+    )
+    p.add_argument(
+        "--duration", type=number(**DURATION_S), metavar="S", help="shorten every run to this many simulated seconds"
+    )
+    p.add_argument(
+        "--out",
+        type=Path,
+        help=(
+            "write all summaries to this JSON file, and a table (a row per run) beside it as .csv "
+            "(default: print them on stdout)"
+        ),
+    )
     p.set_defaults(func=cmd_sweep)
 
+
+def _add_paper(sub: argparse._SubParsersAction) -> None:
+    """`twin paper --out DIR`: the paper's experiments reproduced."""
     p = sub.add_parser("paper", help="reproduce the paper's experiments into DIR (paper.json, PNG plots, report.md)")
     p.add_argument("--out", type=Path, required=True, metavar="DIR", help="output folder (made if missing)")
     p.add_argument("--quick", action="store_true", help="fewer angles and a shorter random-supply run")
     p.set_defaults(func=cmd_paper)
 
+
+def _add_bench(sub: argparse._SubParsersAction) -> None:
+    """`twin bench`: speed ratios against bare MuJoCo."""
     p = sub.add_parser("bench", help="speed benchmarks as ratios against bare MuJoCo measured in the same run")
     p.add_argument("--json", action="store_true", help="print the figures as JSON on stdout")
     p.add_argument("--quick", action="store_true", help="shorter runs (noisier figures)")
     p.set_defaults(func=cmd_bench)
 
 
+def register(sub: argparse._SubParsersAction) -> None:
+    """The scenario-facing subcommands, in the order of `twin --help`."""
+    _add_run(sub)
+    _add_sweep(sub)
+    _add_paper(sub)
+    _add_bench(sub)
+
+
 def cmd_run(args) -> int:
+    # on use: at the top, the libraries take `twin --help` from 0.45 to 2.2 s
+    from scenarios.recording import close_all, open_recorders
     from scenarios.runner import run_scenario
     from scenarios.schema import load, with_overrides
 
@@ -67,7 +115,9 @@ def cmd_run(args) -> int:
     outputs = {"--rrd": args.rrd, "--mcap": args.mcap}
     for flag, path in outputs.items():
         if path is not None:
-            check_output(path, flag, inputs=[Path(scenario.path)], others={f: p for f, p in outputs.items() if f != flag})
+            check_output(
+                path, flag, inputs=[Path(scenario.path)], others={f: p for f, p in outputs.items() if f != flag}
+            )
     with OutputLock(outputs.values()):
         recorders = open_recorders(scenario, args.rrd, args.mcap, args.camera_fps, args.start_time)
         try:
@@ -86,53 +136,6 @@ def cmd_run(args) -> int:
     for e in log_errors:  # the summary above is the run's result; a log that failed is said after it
         print(f"twin: error: {e}", file=sys.stderr)
     return 2 if log_errors else 0 if result.passed else 1
-
-
-def close_all(recorders) -> list[str]:
-    """Close every recorder, also when one fails (a full disk, a vanished folder) or a signal
-    arrives: the others still finish their files. Returns what failed, for after the summary."""
-    errors = []
-    with shielded():  # Ctrl-C or SIGTERM now would cut the very files it asks to keep
-        for r in recorders:
-            try:
-                r.close()
-            except (UserError, OSError) as e:
-                errors.append(str(e))
-    return errors
-
-
-def open_recorders(scenario, rrd: Path | None, mcap: Path | None, camera_fps: float = CAMERA_FPS,
-                   start_time: str | None = None) -> list:
-    """The log writers a run asked for, told what they need to know about the scenario;
-    `start_time` ("now" or ISO 8601) starts the MCAP's clock there (twin.mcap_log.start_time)."""
-    recorders = []
-    if not (rrd or mcap):
-        return recorders
-    from scenarios.runner import build_plant
-    from twin.mcap_log import start_time as start_meta
-    from twin.provenance import run_metadata
-
-    meta = run_metadata(scenario) | (start_meta(start_time) if start_time else {})
-    plant = build_plant(scenario)
-    frames = None
-    if rrd and mcap and camera_fps > 0:  # one camera process renders each frame for both logs
-        from twin.camera import FrameFeed
-
-        frames = FrameFeed(plant.model, camera_fps)
-    if rrd:
-        from scenarios.runner import resolve_targets
-        from twin.rerun_log import RerunRecorder, moving_joint
-
-        rrd.parent.mkdir(parents=True, exist_ok=True)
-        focus = moving_joint(plant.joints, plant.drive_angles(), resolve_targets(scenario, plant))
-        recorders.append(RerunRecorder(rrd, plant.model, plant.joints, meta, camera_fps=camera_fps, focus=focus,
-                                       frames=frames))
-    if mcap:
-        from twin.mcap_log import McapRecorder
-
-        mcap.parent.mkdir(parents=True, exist_ok=True)
-        recorders.append(McapRecorder(mcap, plant.model, plant.joints, meta, camera_fps=camera_fps, frames=frames))
-    return recorders
 
 
 def print_summary(summary: dict) -> None:
@@ -171,10 +174,11 @@ def print_summary(summary: dict) -> None:
 
 def _cells(values, widths) -> str:
     """Numbers right-aligned in columns of the given widths, '-' for None."""
-    return "".join(f"{'-' if v is None else f'{v:.2f}':>{w}}" for v, w in zip(values, widths))
+    return "".join(f"{'-' if v is None else f'{v:.2f}':>{w}}" for v, w in zip(values, widths, strict=True))
 
 
 def cmd_sweep(args) -> int:
+    # on use: at the top, the libraries take `twin --help` from 0.45 to 2.2 s
     from scenarios.schema import load
     from scenarios.sweep import parse_grid, sweep, table_path, write_csv
 
@@ -185,7 +189,9 @@ def cmd_sweep(args) -> int:
         results = sweep(scenario, parse_grid(args.set), args.monte_carlo, args.workers, args.scheduler, args.duration)
         passed = sum(r["passed"] for r in results)
         if args.out:
-            saved = keep_result(args.out, lambda place: write_atomic(place, json.dumps(results, indent=2)), "the sweep's summaries")
+            saved = keep_result(
+                args.out, lambda place: write_atomic(place, json.dumps(results, indent=2)), "the sweep's summaries"
+            )
             table = keep_result(table_path(saved), lambda place: write_csv(results, place), "the sweep's table")
             print(f"{len(results)} runs, {passed} passed; summaries in {saved}, one row per run in {table}")
         else:
@@ -196,16 +202,20 @@ def cmd_sweep(args) -> int:
 
 
 def cmd_paper(args) -> int:
+    # on use: at the top, the libraries take `twin --help` from 0.45 to 2.2 s
     from scenarios.paper import reproduce
 
     check_output(args.out, "--out", folder=True)
     with OutputLock([args.out]):
-        report, folder = publish_folder(args.out, lambda staging: reproduce(staging, quick=args.quick), "the paper's experiments")
+        report, folder = publish_folder(
+            args.out, lambda staging: reproduce(staging, quick=args.quick), "the paper's experiments"
+        )
     print(f"paper's experiments reproduced: {folder / report.name}")
     return 0
 
 
 def cmd_bench(args) -> int:
+    # on use: at the top, the libraries take `twin --help` from 0.45 to 2.2 s
     from benchmarks.all import run_all
 
     with contextlib.redirect_stdout(sys.stderr):  # the benchmarks' own chatter stays off the JSON

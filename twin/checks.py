@@ -1,24 +1,24 @@
 """Checked numbers from the user: NaN, infinities and values out of range are refused before any
-work with the name, the value and what is allowed. `number` is the argparse `type` for flags
-(argparse adds the flag's name); `check_number` is the same check for the Python API."""
+work with the name, the value and what is allowed. `check_number` is the check for the Python API;
+the command line's flags use the same ranges and words through twin_cli.args.number."""
 
 from __future__ import annotations
 
-import argparse
 import math
 import numbers
 
 from twin.errors import UserError
 
 
-def _allowed(low: float, high: float, unit: str, above: bool, integer: bool) -> str:
+def allowed(low: float, high: float, unit: str, above: bool, integer: bool) -> str:
+    """What a range allows, in words: "a number in 0..45 deg", "a whole number > 0 and <= 256"."""
     kind = "a whole number" if integer else "a number"
     u = f" {unit}" if unit else ""
     lo, hi = (str(int(low)), str(int(high))) if integer else (f"{low:g}", f"{high:g}")
     return f"{kind} > {lo}{u} and <= {hi}{u}" if above else f"{kind} in {lo}..{hi}{u}"
 
 
-def _problem(value, low: float, high: float, above: bool, integer: bool) -> str | None:
+def problem(value, low: float, high: float, above: bool, integer: bool) -> str | None:
     """Why `value` is refused, or None."""
     if isinstance(value, bool) or not isinstance(value, numbers.Integral if integer else numbers.Real):
         return "is not a whole number" if integer else "is not a number"
@@ -27,34 +27,20 @@ def _problem(value, low: float, high: float, above: bool, integer: bool) -> str 
     return None
 
 
-def check_number(name: str, value, low: float, high: float, unit: str = "", *, above: bool = False, integer: bool = False):
+def check_number(
+    name: str, value, low: float, high: float, unit: str = "", *, above: bool = False, integer: bool = False
+):
     """`value` if it is a finite number in low..high (`above`: strictly above `low`), else UserError."""
-    problem = _problem(value, low, high, above, integer)
-    if problem:
-        raise UserError(f"{name} = {value!r} {problem}; allowed: {_allowed(low, high, unit, above, integer)}")
+    why = problem(value, low, high, above, integer)
+    if why:
+        raise UserError(f"{name} = {value!r} {why}; allowed: {allowed(low, high, unit, above, integer)}")
     return value
-
-
-def number(low: float, high: float, unit: str = "", *, above: bool = False, integer: bool = False):
-    """An argparse `type` for a finite number in low..high (`above`: strictly above `low`)."""
-
-    def parse(text: str):
-        try:
-            value = int(text) if integer else float(text)
-        except ValueError:
-            value = text
-        problem = _problem(value, low, high, above, integer)
-        if problem:
-            raise argparse.ArgumentTypeError(f"{text!r} {problem}; allowed: {_allowed(low, high, unit, above, integer)}")
-        return value
-
-    parse.__name__ = "number"  # argparse names the type in some messages
-    return parse
 
 
 # The ranges of the numbers a user gives, shared by the command line and the Python API.
 DURATION_S = {"low": 0.0, "high": 7200.0, "unit": "s", "above": True}  # the schema's longest scenario (duration_s)
 CAMERA_FPS = {"low": 0.0, "high": 50.0, "unit": "frames/s"}  # frames come from telemetry samples, 50 a simulated s
+RECORDING_CAMERA_FPS = 2.0  # its default: the operator's global-camera view in recordings, "a few frames per second"
 SEED = {"low": 0, "high": 2**63 - 1, "integer": True}  # the schema's seed range
 MONTE_CARLO = {"low": 0, "high": 100_000, "integer": True}  # runs per grid point: a bound against typos
 WORKERS = {"low": 0, "high": 1024, "integer": True}  # 0: all local cores

@@ -1,0 +1,64 @@
+"""The one run loop of a controller and a plant (DESIGN, "One control tick").
+
+    supply_pa_at(t) -> plant;  events(plant, t);  controller.tick(plant.sensors()) -> plant.commands;
+    on_tick(k, t);  plant.step x steps_per_tick
+
+It lives here, below twin/, because the paper's experiments (control/experiments.py) run the
+controller against any plant, the controller's own model included, and control/ must not import
+twin/; twin/sim.py's `run` is this loop with telemetry and recorders as its `on_tick`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Protocol
+
+import numpy as np
+
+
+class SteppedPlant(Protocol):
+    """What the loop needs of a plant (twin.plant.Plant is one)."""
+
+    commands: np.ndarray
+
+    @property
+    def time(self) -> float: ...
+    def sensors(self): ...
+    def set_supply(self, supply_pa: float) -> None: ...
+    def step(self, n: int = 1, check_warnings: bool = True) -> None: ...
+
+
+class TickingController(Protocol):
+    def tick(self, sensors) -> np.ndarray: ...
+
+
+def run_ticks(
+    controller: TickingController,
+    plant: SteppedPlant,
+    steps_per_tick: int,
+    keep_going: Callable[[int], bool],
+    supply_pa_at: Callable[[float], float] | None = None,
+    events: Callable[[SteppedPlant, float], None] | None = None,
+    on_tick: Callable[[int, float], None] | None = None,
+    check_warnings: bool = True,
+) -> int:
+    """Control ticks k = 0, 1, ... while `keep_going(k)`; returns the number of ticks run.
+
+    Each tick, at the plant's time t: the supply is set to `supply_pa_at(t)`, `events(plant, t)`
+    applies faults, the controller is handed the plant's sensors and its commands go to the plant,
+    `on_tick(k, t)` sees the state the commands were issued in (telemetry), then the plant steps
+    `steps_per_tick` physics steps (`check_warnings` passed on).
+    """
+    k = 0
+    while keep_going(k):
+        t = plant.time
+        if supply_pa_at is not None:
+            plant.set_supply(supply_pa_at(t))
+        if events is not None:
+            events(plant, t)
+        plant.commands[:] = controller.tick(plant.sensors())
+        if on_tick is not None:
+            on_tick(k, t)
+        plant.step(steps_per_tick, check_warnings=check_warnings)
+        k += 1
+    return k

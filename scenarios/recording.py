@@ -1,0 +1,58 @@
+"""The logs a scenario's run writes (`twin run --rrd --mcap`, pneumatic_arm_twin.run): the
+recorders opened for the scenario, and closed together whatever happens to one of them."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from scenarios.runner import build_plant, resolve_targets
+from twin.camera import FrameFeed
+from twin.checks import RECORDING_CAMERA_FPS
+from twin.errors import UserError
+from twin.mcap_log import McapRecorder
+from twin.mcap_log import start_time as start_meta
+from twin.provenance import run_metadata
+from twin.rerun_log import RerunRecorder, moving_joint
+from twin.signals import shielded
+
+
+def open_recorders(
+    scenario,
+    rrd: Path | None,
+    mcap: Path | None,
+    camera_fps: float = RECORDING_CAMERA_FPS,
+    start_time: str | None = None,
+) -> list:
+    """The log writers a run asked for, told what they need to know about the scenario;
+    `start_time` ("now" or ISO 8601) starts the MCAP's clock there (twin.mcap_log.start_time)."""
+    recorders = []
+    if not (rrd or mcap):
+        return recorders
+    meta = run_metadata(scenario) | (start_meta(start_time) if start_time else {})
+    plant = build_plant(scenario)
+    frames = None
+    if rrd and mcap and camera_fps > 0:  # one camera process renders each frame for both logs
+        frames = FrameFeed(plant.model, camera_fps)
+    if rrd:
+        rrd.parent.mkdir(parents=True, exist_ok=True)
+        focus = moving_joint(plant.joints, plant.drive_angles(), resolve_targets(scenario, plant))
+        recorders.append(
+            RerunRecorder(rrd, plant.model, plant.joints, meta, camera_fps=camera_fps, focus=focus, frames=frames)
+        )
+    if mcap:
+        mcap.parent.mkdir(parents=True, exist_ok=True)
+        recorders.append(McapRecorder(mcap, plant.model, plant.joints, meta, camera_fps=camera_fps, frames=frames))
+    return recorders
+
+
+def close_all(recorders) -> list[str]:
+    """Close every recorder, also when one fails (a full disk, a vanished folder) or a signal
+    arrives: the others still finish their files. Returns what failed, for after the summary."""
+    errors = []
+    with shielded():  # Ctrl-C or SIGTERM now would cut the very files it asks to keep
+        for r in recorders:
+            try:
+                r.close()
+            except (UserError, OSError) as e:
+                errors.append(str(e))
+    return errors

@@ -1,0 +1,37 @@
+"""Checked numbers on the command line: an argparse `type` that refuses NaN, infinities and values
+out of range with what is allowed (argparse adds the flag's name), by the ranges and words of
+twin.checks, which the Python API checks with."""
+
+from __future__ import annotations
+
+import argparse
+
+from twin.checks import WORKERS, allowed, problem
+
+
+def number(low: float, high: float, unit: str = "", *, above: bool = False, integer: bool = False):
+    """An argparse `type` for a finite number in low..high (`above`: strictly above `low`)."""
+
+    def parse(text: str):
+        try:
+            value = int(text) if integer else float(text)
+        except ValueError:
+            value = text
+        why = problem(value, low, high, above, integer)
+        if why:
+            raise argparse.ArgumentTypeError(f"{text!r} {why}; allowed: {allowed(low, high, unit, above, integer)}")
+        return value
+
+    parse.__name__ = "number"  # argparse names the type in some messages
+    return parse
+
+
+def add_workers(parser: argparse.ArgumentParser) -> None:
+    """`--workers K`, as every command that runs scenarios in parallel takes it."""
+    parser.add_argument(
+        "--workers",
+        type=number(**WORKERS),
+        default=0,
+        metavar="K",
+        help="local worker processes (default 0: all cores)",
+    )
