@@ -13,39 +13,16 @@ Public surface (everything else in gap/ is internal):
 Command line: `twin gap diagnose CAMPAIGN --out DIR`, `twin gap bench --out DIR`.
 """
 
+from gap.bench import run_bench
 from gap.campaign import Campaign, GapError, Run, load_campaign
+from gap.diagnose import diagnose
 from gap.effects import CATALOGUE, NOT_IN_CATALOGUE, Effect
+from gap.report import write as write_report
+from gap.synth import make_campaign
 
-# The functions below import their module on use: `import gap` takes 0.6 s, with gap.diagnose (scipy,
-# joblib, the compiled replay) 2.0 s, with gap.report (matplotlib) 2.2 s (python -X importtime on
-# this 2-core machine, under load); a command that does not diagnose should not pay for them.
-
-
-def diagnose(campaign, *args, **kwargs):
-    from gap.diagnose import diagnose as _diagnose  # scipy/joblib imported on use
-
-    return _diagnose(campaign, *args, **kwargs)
-
-
-def write_report(diagnosis, out):
-    from gap.report import write  # matplotlib imported on use
-
-    return write(diagnosis, out)
-
-
-def make_campaign(folder, reality, **kwargs):
-    from gap.synth import make_campaign as _make
-
-    return _make(folder, reality, **kwargs)
-
-
-def run_bench(
-    out, quick: bool = False, jobs: int = 2, chamber_pressures: bool | None = None, only: str | None = None
-) -> dict:
-    from gap.bench import run_bench as _run
-
-    return _run(out, quick=quick, jobs=jobs, chamber_pressures=chamber_pressures, only=only)
-
+# Imported here, not on use: a function named like its module (`diagnose` in gap/diagnose.py) is
+# shadowed by the module once anything imports `gap.diagnose` unless the package binds it after
+# the module has loaded (tests/test_api.py). `import gap` then takes the diagnosis's libraries.
 
 __all__ = [
     "CATALOGUE",

@@ -132,3 +132,15 @@ def test_diagnose_names_a_hidden_leak(tmp_path):
     assert (tmp_path / "report" / "report.md").is_file()
     with pytest.raises(GapError, match="not in the catalogue"):
         pat.diagnose(folder, effects=["no_such_effect"])
+
+
+def test_the_gap_packages_functions_are_not_shadowed_by_their_modules():
+    # a user's earlier `import gap.diagnose` (or the package's own) must not turn `from gap import
+    # diagnose` into the module: it did while gap/__init__ imported the functions on use
+    import gap.bench
+    import gap.diagnose
+    import gap.synth
+    from gap import diagnose, make_campaign, run_bench
+
+    assert all(callable(f) for f in (diagnose, make_campaign, run_bench)), (diagnose, make_campaign, run_bench)
+    assert gap.diagnose is diagnose
