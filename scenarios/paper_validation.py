@@ -9,7 +9,8 @@ over that 1 s ("in a one second simulation", Sec. III-C): its mean and its max. 
 
 `fit_as_built` calibrates the as-built file's "calibrated" effects on these figures only: it
 minimises the squared log-ratios of the 16 twin numbers (mean and max, with and without the loss,
-four supplies) to the paper's, with the one-joint model standing in for the plant (the same
+four supplies) to the paper's, less those the nominal model puts out of any reality's reach
+(`ValidationRun.unreachable`), with the one-joint model standing in for the plant (the same
 physics; the plant agrees with it to a few tenths of a degree, tests/test_plant.py).
 """
 
