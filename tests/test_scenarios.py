@@ -118,10 +118,10 @@ def test_sweep_on_a_dask_cluster_gives_the_local_results():
 
 
 def test_a_scenario_made_to_fail_names_the_broken_criterion(capsys):
-    text = (
-        load("scenarios/wrist_closed_loop_60deg.toml")
-        .text.replace("angles_deg = { wrist_pitch = 60.0 }", "angles_deg = { wrist_pitch = 89.0 }")
-        .replace("max = 3.0", "max = 0.01")
+    text = load("scenarios/wrist_closed_loop_60deg.toml").text
+    assert "max = 4.04" in text  # the bound this test breaks (it broke nothing once the file's bound moved)
+    text = text.replace("angles_deg = { wrist_pitch = 60.0 }", "angles_deg = { wrist_pitch = 89.0 }").replace(
+        "max = 4.04", "max = 0.01"
     )
     s = parse(text, "made_to_fail.toml")
     result = run_scenario(s)
