@@ -61,15 +61,24 @@ def disc_drive_angles(model: mujoco.MjModel, disc: int, standoff_m: float = -0.0
     """Drive angles for the brush on disc `disc`'s rim: the tool level where the arm reaches,
     else tilted in 5 deg steps (up to 45 deg, up or down: the top and the bottom discs), with
     every joint inside its range."""
-    target = disc_rim_target(model, disc, standoff_m)
-    for tilt_deg in sorted(range(-45, 50, 5), key=lambda t: (abs(t), -t)):
+    try:
+        return tip_drive_angles(model, disc_rim_target(model, disc, standoff_m), 0.0)
+    except ValueError:
+        raise ValueError(f"disc_{disc} is out of the brush's reach (standoff {standoff_m} m)") from None
+
+
+def tip_drive_angles(model: mujoco.MjModel, tip_target: np.ndarray, tilt_rad: float) -> dict[str, float]:
+    """Drive angles that put brush_tip at `tip_target` with every joint inside its range: the tool
+    at `tilt_rad` where the arm reaches, else tilted from it in 5 deg steps (up to 45 deg either
+    way; the brush's tilt is free within that, its position is not). ValueError if none does."""
+    for step_deg in sorted(range(-45, 50, 5), key=lambda t: (abs(t), -t)):
         try:
-            drive = tool_drive_angles(model, target, math.radians(tilt_deg))
+            drive = tool_drive_angles(model, tip_target, tilt_rad + math.radians(step_deg))
         except ValueError:
             continue
         if _within_ranges(model, drive_to_qpos(drive)):
             return drive
-    raise ValueError(f"disc_{disc} is out of the brush's reach (standoff {standoff_m} m)")
+    raise ValueError(f"brush target {tip_target} is out of reach with every joint inside its range")
 
 
 def _within_ranges(model: mujoco.MjModel, qpos: dict[str, float]) -> bool:

@@ -19,18 +19,23 @@ the insulator string (paper Sec. II). This model sees only what that camera's pi
   so the press depth (along x) and the height are both in the picture; what he cannot see, the
   brush's offset along y, changes the rim's x under the brush by only r - sqrt(r^2 - y^2)
   (0.4 mm at 1 cm).
-- **the hands**: when the brush stands off a disc ready to press, he reads the arm's pose off
-  the picture (the pitch of the upper arm, the forearm and the tool: the lines between the
-  shoulder, elbow and wrist axes and the brush, as seen) and sets the platform's predicted
-  shoulder, elbow and wrist angles to it (the predictor drifts, its load model with it: once it
-  is 10-20 deg off, a small move it commands is a fraction of that in truth; measured in this
-  run, 3 deg commanded, 0.3-0.6 deg done). The base yaw he leaves: it turns the arm along the
-  optical axis, which he cannot see. He resets the belief only where it is off by more than
-  the picture's own noise (REREAD_RAD); then he compares the brush's face with where it should
-  stand (the standoff in front of the rim) and, while the error is over `tolerance_m`, moves
-  the brush's aim by the error he sees and lets the platform go there again (its inverse
-  kinematics, as a jog handle in the tool's frame would). The aim carries to the press and the
-  back-off on that disc, and to the next disc. At most MAX_LOOKS looks per disc.
+- **the hands**: whenever the brush stands clear of a disc (at 12-15 cm on its way, or 5 cm off
+  ready to press; a drift left until the press had by then rammed a disc on the way, 155 N against
+  the as-built arm), he reads the arm's pose off the picture (the pitch of the upper arm, the
+  forearm and the tool: the lines between the shoulder, elbow and wrist axes and the brush, as
+  seen) and sets the platform's predicted shoulder, elbow and wrist angles to it (the predictor
+  drifts, its load model with it: once it is 10-20 deg off, a small move it commands is a fraction
+  of that in truth; measured in this run, 3 deg commanded, 0.3-0.6 deg done). The base yaw he
+  leaves: it turns the arm along the optical axis, which he cannot see. He resets the belief only
+  where it is off by more than the picture's own noise (REREAD_RAD); then, ready to press, he
+  compares the brush's face with where it should stand (the standoff in front of the rim) and,
+  while the error is over `tolerance_m`, moves the brush's aim by the error he sees and lets the
+  platform go there again (its inverse kinematics, as a jog handle in the tool's frame would). The
+  aim carries to the press and the back-off on that disc, and to the next disc. At most MAX_LOOKS
+  looks per disc; then he aims the press by his last look. Where his aim would take a joint past
+  its range (the wrist at the bottom disc) the tool is tilted instead
+  (scenarios/ik.tip_drive_angles): he places the brush, not its tilt; an aim the platform refuses
+  anyway he takes back.
   A link 0.5 m long is ~80 px in the picture: a pixel at each end is ~0.7 deg of pitch.
 
 Numbers (the paper gives none for its camera): 640 x 480 at 25 frames/s, an analogue CCTV
@@ -51,12 +56,12 @@ import mujoco
 import numpy as np
 
 from scenarios.cleaning import N_DISCS
-from scenarios.ik import BRUSH_HALF_LENGTH_M, tool_drive_angles
+from scenarios.ik import BRUSH_HALF_LENGTH_M, tip_drive_angles
 from scenarios.pinhole import Pinhole, camera_of
 from scenarios.schema import Operator as OperatorParams
 
 LATENCY_SPREAD = 0.25  # each look's latency is latency_s x (1 +- this), uniform (assumed: reaction times scatter ~25 %)
-MAX_LOOKS = 6  # corrections per disc before the operator presses where the brush is
+MAX_LOOKS = 6  # corrections per disc before the operator presses, aimed by his last look
 # the platform's belief is reset from the picture when a joint's seen pitch is further off than
 # REREAD_PX pixels at the ends of the shortest link that sets it (0.7 deg for the 80 px upper arm,
 # 4.6 deg for the 25 px tool), so a reading's own noise does not trigger it
@@ -128,6 +133,7 @@ class Operator:
         self.rng = rng  # his reaction time varies from look to look
         self._latency_s = self._draw_latency()
         self.aim_offset_m = np.zeros(3)  # added to every brush target's tool-tip position (world x, z)
+        self._last_move_m = np.zeros(3)  # the last change of the aim (taken back if the platform refuses it)
         self.looks = 0
         # the string's disc type is known: its unit spacing (146 mm, U70BL) is his scale in the picture
         self.disc_pitch_m = float(model.geom("disc_1").pos[2] - model.geom("disc_2").pos[2])
@@ -161,13 +167,24 @@ class Operator:
         return {"shoulder_pitch": upper, "elbow_pitch": fore, "wrist_pitch": max(fore, tool)}
 
     def aimed(self, tip_m: np.ndarray, tilt_rad: float) -> dict[str, float]:
-        """Drive angles for a brush target with the operator's aim applied."""
-        return tool_drive_angles(self.model, tip_m + self.aim_offset_m, tilt_rad)
+        """Drive angles for a brush target with the operator's aim applied (the tool tilted from
+        `tilt_rad` where a joint would leave its range: he places the brush, not its tilt)."""
+        return tip_drive_angles(self.model, tip_m + self.aim_offset_m, tilt_rad)
 
-    def review(self, now_s: float, done_s: float, disc: int, standoff_m: float, platform) -> bool | None:
+    def take_back(self) -> None:
+        """The platform refused the last aim (out of a joint's range): the arm did not move, and
+        the same error seen again must not be added twice."""
+        self.aim_offset_m += self._last_move_m
+        self._last_move_m = np.zeros(3)
+
+    def review(
+        self, now_s: float, done_s: float, disc: int, standoff_m: float, platform, aim: bool = True
+    ) -> bool | None:
         """Look at the brush standing off `disc`, and set the platform's belief of the pose to the
         picture's (`platform.reference(joint, angle)`). None: still waiting for a picture of the
-        arm at rest; True: the aim was moved, go there again; False: close enough (or out of looks)."""
+        arm at rest; True: the belief was reset or the aim moved, go there again; False: close
+        enough (or out of looks). With `aim` False (the brush well clear of the string, on its
+        way) he only resets the belief: placing the brush to a centimetre matters before a press."""
         frame = self.camera.seen(now_s, self._latency_s, done_s)
         if frame is None:
             return None
@@ -185,16 +202,26 @@ class Operator:
                 f"platform believed {math.degrees(believed[worst]):.1f} deg: pose re-read"
             )
             return True
+        if not aim:
+            self.looks = 0
+            return False
         error = self.picture_error_m(frame, disc, standoff_m)
         miss = float(np.hypot(error[0], error[2]))
         if miss <= self.params.tolerance_m or self.looks >= MAX_LOOKS:
+            aimed = ""
+            if miss > self.params.tolerance_m:
+                # out of looks: he does not press blind, the press is aimed by what he last saw
+                self.aim_offset_m -= error
+                aimed = " aimed by it"
             self.log.append(
-                f"t = {now_s:.2f} s: disc_{disc} seen {miss * 100:.1f} cm off after {self.looks} corrections: press"
+                f"t = {now_s:.2f} s: disc_{disc} seen {miss * 100:.1f} cm off after {self.looks} corrections: "
+                f"press{aimed}"
             )
             self.looks = 0
             return False
         self.looks += 1
         self.aim_offset_m -= error
+        self._last_move_m = error
         self.log.append(
             f"t = {now_s:.2f} s: disc_{disc} seen {miss * 100:.1f} cm off "
             f"(x {error[0] * 100:+.1f}, z {error[2] * 100:+.1f} cm): aim moved"

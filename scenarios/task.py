@@ -18,7 +18,6 @@ reads the plant.
 
 from __future__ import annotations
 
-import contextlib
 import math
 from dataclasses import dataclass
 
@@ -120,10 +119,17 @@ class TaskController:
             self.reached[self.k] = True
             self.finished_s[self.k] = t
             self._review_from_s = t
-        if self.k >= 0 and self.operator is not None and self._is_approach(self.k):
+        if self.k >= 0 and self.operator is not None and self._is_standoff(self.k):
+            # he looks wherever the brush stands clear of a disc (not only before a press): a drift
+            # left until the next press has by then rammed a disc on the way
             target = self.scenario.targets[self.k]
             verdict = self.operator.review(
-                t, self._review_from_s, target.brush_at_disc, target.standoff_m, self.controller
+                t,
+                self._review_from_s,
+                target.brush_at_disc,
+                target.standoff_m,
+                self.controller,
+                aim=self._is_approach(self.k),
             )
             if verdict is None:
                 return  # waiting to see the arm at rest
@@ -148,9 +154,13 @@ class TaskController:
     def _issue(self, k: int, dwell_s: float) -> None:
         target = self._aimed(k)
         self.issued[k] = target
-        # refused: the controller noted it; the arm stays braked and the task goes on with the next target
-        with contextlib.suppress(MotionRefused):
+        try:
             self.controller.set_targets([target], sequence=self.scenario.control.sequence, dwell_s=[dwell_s])
+        except MotionRefused:
+            # the controller noted it; the arm stays braked and the task goes on with the next target
+            # (the operator takes back the aim that was refused: the arm did not move)
+            if self.operator is not None:
+                self.operator.take_back()
 
     def _aimed(self, k: int) -> dict[str, float]:
         t = self.scenario.targets[k]
@@ -177,6 +187,11 @@ class TaskController:
             and ts[k + 1].brush_at_disc == ts[k].brush_at_disc
             and ts[k + 1].standoff_m < 0
         )
+
+    def _is_standoff(self, k: int) -> bool:
+        """A target holding the brush clear of a disc (in the camera's plane: base yaw at zero)."""
+        t = self.scenario.targets[k]
+        return bool(t.brush_at_disc and t.standoff_m > 0 and not t.angles_deg)
 
     def _is_back_off(self, k: int) -> bool:
         """A target standing off a disc right after a press on it."""
