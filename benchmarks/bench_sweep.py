@@ -34,6 +34,19 @@ def timed_sweep(scenario, points: int, duration_s: float, **how) -> tuple[float,
     return points * duration_s / wall, (_cpu_s() - cpu0) / wall, results
 
 
+def start_up(scenario, loky: bool = True) -> dict[str, float]:
+    """Wall s of a sweep of 2 points of 2 control ticks on 2 workers: what starting the workers
+    costs (forked from this warm process; joblib's loky processes, cold)."""
+    out = {}
+    for way, how in (("forked", {}), ("loky", {"fork": False}))[: 2 if loky else 1]:
+        t0 = time.perf_counter()
+        sweep(scenario, monte_carlo=2, workers=2, duration_s=0.002, progress=False, **how)
+        out[f"start_up_s_2_{way}_workers"] = round(time.perf_counter() - t0, 2)
+        if how:
+            get_reusable_executor().shutdown(wait=True)
+    return out
+
+
 def _cpu_s() -> float:
     me, workers = resource.getrusage(resource.RUSAGE_SELF), resource.getrusage(resource.RUSAGE_CHILDREN)
     return me.ru_utime + me.ru_stime + workers.ru_utime + workers.ru_stime
@@ -56,6 +69,7 @@ def bench_sweep(points: int = 8, duration_s: float = 20.0, repeats: int = 3, lok
             if not how.get("fork", True):
                 get_reusable_executor().shutdown(wait=True)  # cold again next round; no threads left to fork with
     out = {"scenario": SCENARIO.stem, "points": points, "scenario_seconds_each": duration_s, "repeats": repeats}
+    out |= start_up(scenario, loky)
     out |= {f"scenario_s_per_wall_s_{w}": spread(r) for w, r in rates.items()}
     out |= {f"cpu_cores_used_{w}": spread(c) for w, c in cores.items()}
     for way in ways:
