@@ -18,7 +18,7 @@ def run_all(quick: bool = False) -> dict:
         return {
             "twin": bench_twin(seconds=1.0, rounds=1),
             "plant": bench_plant(seconds=0.3, rounds=1),
-            "control": bench_control(n_ticks=300, sim_s=0.5),
+            "control": bench_control(n_ticks=300, rounds=1),
             "logging": bench_logging(seconds=1.0, rounds=1),
             "sweep": bench_sweep(points=2, duration_s=0.5, repeats=1),
             "gap": bench_gap(jobs=2, rounds=1),
