@@ -1,5 +1,7 @@
 """`twin bench`: every speed benchmark, each a ratio against a baseline measured in the same run
-(bare MuJoCo, logging off, one worker). `quick` shortens each for a smoke run."""
+(bare MuJoCo, logging off, one worker), repeated figures as median with min-max. `twin` is the
+whole cleaning scenario against bare MuJoCo stepping the same motion. `quick` shortens each for a
+smoke run."""
 
 from __future__ import annotations
 
@@ -8,18 +10,21 @@ from benchmarks.bench_gap import bench_gap
 from benchmarks.bench_logging import bench_logging
 from benchmarks.bench_plant import bench_plant
 from benchmarks.bench_sweep import bench_sweep
+from benchmarks.bench_twin import bench_twin
 
 
 def run_all(quick: bool = False) -> dict:
     if quick:
         return {
+            "twin": bench_twin(seconds=1.0, rounds=1),
             "plant": bench_plant(seconds=0.3, rounds=1),
-            "control": bench_control(n_ticks=300, sim_s=0.5),
+            "control": bench_control(n_ticks=300, rounds=1),
             "logging": bench_logging(seconds=1.0, rounds=1),
-            "sweep": bench_sweep(points=2, duration_s=0.5),
+            "sweep": bench_sweep(points=2, duration_s=0.5, repeats=1),
             "gap": bench_gap(jobs=2, rounds=1),
         }
     return {
+        "twin": bench_twin(),
         "plant": bench_plant(),
         "control": bench_control(),
         "logging": bench_logging(),

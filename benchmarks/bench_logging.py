@@ -5,9 +5,9 @@ five joints under their controllers, the brush against the string), with `--rrd 
 without; telemetry is collected on both sides (twin.sim.run always samples), so the difference is
 what the recorders cost: opening them (the command builds the model for them), the static
 geometry, the bulk sends, handing batches to the MCAP writer process, closing (which waits for
-that process to write everything). Rounds alternate off/on and keep the best of each, to
-damp the noise of a shared machine; the time spent inside each recorder is reported too. Goal
-(issue): ratio <= 1.2.
+that process to write everything). Rounds alternate off/on; each figure is the median with its
+min-max over the rounds, the ratio taken within each round; the time spent inside each recorder
+is reported too. Goal (issue): ratio <= 1.2.
 
     PYTHONPATH=. python -m benchmarks.bench_logging [--seconds 60] [--rounds 2]
 """
@@ -22,6 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
+from benchmarks.stats import spread
 from scenarios.recording import open_recorders
 from scenarios.runner import run_scenario, scenario_files
 from scenarios.schema import load
@@ -97,38 +98,39 @@ def bench_logging(seconds: float = 60.0, rounds: int = 2, camera_fps: float = RE
     timed_run(0.2, None)  # warm-up: numba cache, imports
     with tempfile.TemporaryDirectory() as tmp:
         timed_run(0.2, Path(tmp))
-        best_off = best_on = best_cam = float("inf")
-        inside = {"open": float("inf"), "rerun": float("inf"), "mcap": float("inf")}
+        off, on, cam = [], [], []
+        inside = {"open": [], "rerun": [], "mcap": []}
         for _ in range(rounds):
-            best_off = min(best_off, timed_run(seconds, None))
+            off.append(timed_run(seconds, None))
             spent: dict = {}
-            best_on = min(best_on, timed_run(seconds, Path(tmp), spent))
-            inside = {k: min(v, spent[k]) for k, v in inside.items()}
+            on.append(timed_run(seconds, Path(tmp), spent))
+            for k in inside:
+                inside[k].append(spent[k] / off[-1])
             sizes = {p.suffix: p.stat().st_size for p in Path(tmp).iterdir()}
             if camera_fps > 0:
-                best_cam = min(best_cam, timed_run(seconds, Path(tmp), camera_fps=camera_fps))
+                cam.append(timed_run(seconds, Path(tmp), camera_fps=camera_fps))
                 rrd_with_camera = (Path(tmp) / "bench.rrd").stat().st_size
     out = {
         "seconds_simulated": seconds,
         "rounds": rounds,
         "goal_ratio": 1.2,
-        "run_s_logging_off": best_off,
-        "run_s_logging_on": best_on,
-        "ratio": best_on / best_off,
+        "run_s_logging_off": spread(off),
+        "run_s_logging_on": spread(on),
+        "ratio": spread([b / a for a, b in zip(off, on, strict=True)]),
         # the recorders' own time over the run without logs: the same cost, without the noise of
         # two wall-clock runs (rerun's encoder, the MCAP writer process and the camera process
         # run beside the run, so the wall-clock ratio exceeds 1 + these when cores are few)
-        "open_fraction": inside["open"] / best_off,
-        "rerun_fraction": inside["rerun"] / best_off,
-        "mcap_fraction": inside["mcap"] / best_off,
-        "ratio_from_recorder_time": 1.0 + sum(inside.values()) / best_off,
+        "open_fraction": spread(inside["open"]),
+        "rerun_fraction": spread(inside["rerun"]),
+        "mcap_fraction": spread(inside["mcap"]),
+        "ratio_from_recorder_time": spread([1.0 + sum(f) for f in zip(*inside.values(), strict=True)]),
         "rrd_bytes_per_simulated_s": sizes.get(".rrd", 0) / seconds,
         "mcap_bytes_per_simulated_s": sizes.get(".mcap", 0) / seconds,
     }
     if camera_fps > 0:  # frames rendered offscreen (software GL without a GPU) where a backend works
         out |= {
             "camera_fps": camera_fps,
-            "ratio_with_camera": best_cam / best_off,
+            "ratio_with_camera": spread([c / a for a, c in zip(off, cam, strict=True)]),
             "rrd_bytes_per_simulated_s_with_camera": rrd_with_camera / seconds,
         }
     return out
@@ -137,7 +139,7 @@ def bench_logging(seconds: float = 60.0, rounds: int = 2, camera_fps: float = RE
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seconds", type=float, default=60.0, help="simulated seconds per run")
-    parser.add_argument("--rounds", type=int, default=3, help="alternating off/on rounds (best kept)")
+    parser.add_argument("--rounds", type=int, default=3, help="alternating off/on rounds (median, min-max)")
     args = parser.parse_args(argv)
     print(json.dumps(bench_logging(args.seconds, args.rounds), indent=2))
     return 0

@@ -9,6 +9,7 @@ Lengths are read from the compiled model, not repeated here.
 from __future__ import annotations
 
 import math
+import weakref
 
 import mujoco
 import numpy as np
@@ -17,14 +18,29 @@ import numpy as np
 BRUSH_HALF_LENGTH_M = 0.03
 
 
+# the lengths per model, with the geometry they were read from: allocating an MjData costs ~1 ms
+# (the scene's arena) and the operator asks for the lengths at every look
+_LENGTHS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
 def arm_lengths(model: mujoco.MjModel) -> tuple[np.ndarray, float, float, float]:
-    """(shoulder position, upper arm, forearm, wrist axis to brush_tip) in m, at the zero pose."""
+    """(shoulder position, upper arm, forearm, wrist axis to brush_tip) in m, at the zero pose
+    (the model's qpos0), read from the model as it is now."""
+    geometry = b"".join(
+        a.tobytes()
+        for a in (model.qpos0, model.body_pos, model.body_quat, model.jnt_pos, model.jnt_axis, model.site_pos)
+    )
+    known = _LENGTHS.get(model)
+    if known is not None and known[0] == geometry:
+        shoulder, upper, fore, tool = known[1]
+        return shoulder.copy(), upper, fore, tool
     d = mujoco.MjData(model)
     mujoco.mj_forward(model, d)
     shoulder = d.body("upper_arm").xpos.copy()
     upper = float(np.linalg.norm(d.body("forearm").xpos - shoulder))
     fore = float(np.linalg.norm(d.body("wrist").xpos - d.body("forearm").xpos))
     tool = float(np.linalg.norm(d.site("brush_tip").xpos - d.body("wrist").xpos))
+    _LENGTHS[model] = (geometry, (shoulder.copy(), upper, fore, tool))
     return shoulder, upper, fore, tool
 
 

@@ -329,7 +329,7 @@ def test_compiled_step_loop_equals_the_python_loop(monkeypatch) -> None:
 def test_sensors_hold_no_angle() -> None:
     # the platform reads supply and valve pressures only (DESIGN rule 1)
     plant = Plant(assets.SCENE_XML)
-    fields = set(plant.sensors().__dataclass_fields__)
+    fields = set(plant.sensors()._fields)
     assert fields == {"time_s", "supply_pa", "valve_gauge_pa"}
 
 

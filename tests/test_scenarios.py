@@ -98,12 +98,21 @@ def test_same_scenario_and_seed_give_identical_summaries_and_logs():
     assert not np.array_equal(a1["supply_pa"], r3.telemetry.arrays()["supply_pa"])
 
 
-def test_sweep_on_one_and_two_workers_gives_the_same_results():
+def test_sweep_on_one_and_two_workers_gives_the_same_results(monkeypatch):
+    """Two workers forked from this process after its warm-up, or joblib's own (cold) processes,
+    give the 1-worker summaries, in the points' order."""
+    import scenarios.sweep
+
+    forked = []
+    on_forked = scenarios.sweep._on_forked_workers
+    monkeypatch.setattr(scenarios.sweep, "_on_forked_workers", lambda *a: forked.append(a[0]) or on_forked(*a))
     s = load("scenarios/wrist_random_supply.toml")
     kwargs = dict(grid={"supply.mean_mpa": [0.55, 0.65]}, monte_carlo=2, duration_s=0.6, progress=False)
     one = sweep(s, workers=1, **kwargs)
     two = sweep(s, workers=2, **kwargs)
+    assert forked == ([2] if scenarios.sweep._can_fork() else [])
     assert one == two and len(one) == 4
+    assert sweep(s, workers=2, fork=False, **kwargs) == one
 
 
 def test_sweep_on_a_dask_cluster_gives_the_local_results():

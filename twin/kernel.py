@@ -190,3 +190,22 @@ if MJ_STEP is not None and not NO_JIT:
     plant_steps = functools.partial(_plant_steps, ctypes.cast(MJ_STEP, ctypes.c_void_p).value)
 else:  # a MuJoCo build without a loadable shared library, or TWIN_NO_JIT=1: Plant.step loops in Python
     plant_steps = None
+
+
+@njit
+def _replay_steps(mj_step_address, model_address, data_address, ctrl, frictionloss, actuator_ids, tendon_ids, c, f):
+    """MuJoCo alone, stepping with the recorded ctrl `c` and tendon friction `f` (one row per
+    physics step) of the plant's actuators and drive tendons: the plant's motion without its air."""
+    ctrl, frictionloss, c, f = borrowed(ctrl), borrowed(frictionloss), borrowed(c), borrowed(f)
+    for i in range(c.shape[0]):
+        for j in range(actuator_ids.shape[0]):
+            ctrl[actuator_ids[j]] = c[i, j]
+            frictionloss[tendon_ids[j]] = f[i, j]
+        _call_mj_step(mj_step_address, model_address, data_address)
+
+
+if MJ_STEP is not None and not NO_JIT:
+    # bare MuJoCo replaying a plant's recorded torques and friction (benchmarks' baseline)
+    replay_steps = functools.partial(_replay_steps, ctypes.cast(MJ_STEP, ctypes.c_void_p).value)
+else:
+    replay_steps = None

@@ -227,5 +227,12 @@ def cmd_bench(args) -> int:
         for name, figures in results.items():
             print(f"{name}:")
             for k, v in figures.items():
-                print(f"  {k}: {v}")
+                print(f"  {k}: {_figure(v)}")
     return 0
+
+
+def _figure(v) -> str:
+    """A repeated measurement as `median (min-max)`, anything else as it is."""
+    if isinstance(v, dict) and v.keys() == {"median", "min", "max"}:
+        return f"{v['median']:g} ({v['min']:g}-{v['max']:g})"
+    return str(v)
