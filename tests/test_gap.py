@@ -414,3 +414,23 @@ def test_bench_slice_over_both_instruments(tmp_path):
     assert by["none_1"]["latency_found_s"] == pytest.approx(by["none_1"]["latency_s"], abs=0.010)
     assert s["diagnose_s_max"] >= s["diagnose_s_median"] > 0
     assert (tmp_path / "bench.json").is_file()
+
+
+def test_a_dask_cluster_gives_the_local_diagnosis(campaigns):
+    """`twin gap diagnose --scheduler ADDRESS`: singles and the pair stage on a Dask cluster (here an
+    in-process one of two workers) give the diagnosis of the local threads, value for value. The
+    catalogue lacks the hidden leak, so no single explains it and the pair stage runs too."""
+    distributed = pytest.importorskip("dask.distributed", reason="the cluster extra is not installed")
+    catalogue = _by_name("coulomb_friction", "viscous_friction")
+    campaign = load_campaign(campaigns["leak"])
+    local = diagnose(campaign, catalogue=catalogue, progress=False)
+    with distributed.LocalCluster(
+        n_workers=2, threads_per_worker=1, processes=False, dashboard_address=None
+    ) as cluster:
+        remote = diagnose(campaign, catalogue=catalogue, progress=False, scheduler=cluster.scheduler_address)
+    assert local.which.pairs, "the pair stage did not run"
+    a, b = local.which, remote.which
+    assert (a.verdict, a.top.name) == (b.verdict, b.top.name)
+    assert [(c.name, c.fitted_values, c.heldout_rms_deg) for c in a.ranking + a.pairs] == [
+        (c.name, c.fitted_values, c.heldout_rms_deg) for c in b.ranking + b.pairs
+    ]
