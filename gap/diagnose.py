@@ -10,15 +10,18 @@ Steps (each a plain function of the campaign):
    angle, speed and time since start, beside a floor of the instrument's noise and the drift
    between repeats (gap.noise, from samples both repeats have) and the twin's own model tolerance
    (measured per protocol, gap.protocols);
-3. which: for each catalogue effect, fit its one bounded parameter on training runs (a grid, then
-   a bounded 1-D search around its best point) and score it on withheld runs (leave one supply
-   pressure out; alternating split when there is one pressure). The objective and the ranking
-   count angle and pressure samples each in units of its own floor. When no single effect brings
-   the gap to the floor, the pairs of the PAIR_POOL best singles are screened in-sample (grid
-   point, then one round of 1-D refits) and the best N_PAIRS_CV are fitted per fold (grid point,
-   then bounded Nelder-Mead) and scored on withheld runs; a verdict and a family call by the
-   rules of gap.verdict (a pair counts only with both effects off nominal and a clear margin; the
-   family from the where-pattern);
+3. which: for each catalogue effect, fit its one bounded parameter on training runs and score it
+   on withheld runs (leave one supply pressure out; alternating split when there is one pressure):
+   a grid, refined around each fold's best point and then around the best on all runs, every
+   value replayed once on all runs so that the folds share the replays (`_zoom`, `_vertex`). The
+   objective and the ranking count angle and pressure samples each in units of its own floor.
+   When no single effect brings the gap to the floor, the pairs of the PAIR_POOL best singles are
+   pre-screened by adding their corrections (no replay, `superposed_sse`), the PAIR_SCREEN best
+   screened by replay in-sample (`screen_pair`) and the best N_PAIRS_CV fitted per fold and on
+   all runs by one pattern search whose replays the folds share (`_pattern_search`), scored on
+   withheld runs; a verdict and a family call by the rules of gap.verdict (a pair counts only with
+   both effects off nominal and a clear margin; the family from the where-profile and a free-form
+   fit of each family, gap.family);
 4. how far: per pressure, mean and max |error| on withheld runs before and after each effect, with
    bootstrap confidence intervals over runs.
 """
@@ -70,7 +73,8 @@ N_PAIRS_CV = 3  # pairs given the full cross-validated fit after the in-sample s
 # diagnosis with the pair stage
 PAIR_POOL = 8
 # of those 28, the replayed screen sees the PAIR_SCREEN whose corrections, simply added, fit best
-# (superposed_sse: no replay); the pairs a real interaction makes good rank high there too
+# (superposed_sse: no replay). Adding corrections ignores how two effects interact: a pair that is
+# good only through its interaction can be missed (the bench's leak + Coulomb pairs are kept)
 PAIR_SCREEN = 5
 
 

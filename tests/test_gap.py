@@ -434,3 +434,24 @@ def test_a_dask_cluster_gives_the_local_diagnosis(campaigns):
     assert [(c.name, c.fitted_values, c.heldout_rms_deg) for c in a.ranking + a.pairs] == [
         (c.name, c.fitted_values, c.heldout_rms_deg) for c in b.ranking + b.pairs
     ]
+
+
+def test_family_fit_explains_a_mix_of_its_shapes_and_not_another_familys():
+    """gap.family: a gap that is a mix of one family's corrections (at any scale, with a little
+    noise) is explained by that family's free-form fit on withheld samples and by its where-profile;
+    a family whose corrections are orthogonal to it explains neither."""
+    from gap import family
+
+    rng = np.random.default_rng(0)
+    t = np.linspace(0.0, 1.0, 400)
+    own = np.array([s * np.sin(2 * np.pi * t) + s**2 * t for s in np.linspace(0.2, 1.0, 6)])  # 2 shapes
+    other = np.array([s * np.cos(6 * np.pi * t) for s in np.linspace(0.2, 1.0, 6)])
+    gap = 0.7 * np.sin(2 * np.pi * t) + 0.3 * t + 0.01 * rng.standard_normal(t.size)
+    half = t < 0.5
+    folds = [(half, ~half), (~half, half)]
+    angle = np.ones(t.size, bool)
+    bins = np.array([np.abs(t - c) < 0.05 for c in np.linspace(0.05, 0.95, 10)], float)  # a where-profile
+    fits = family.family_fits({"own": [own], "other": [other]}, gap, folds, angle, bins)
+    assert fits["own"].shapes == 2 and fits["other"].shapes == 1
+    assert fits["own"].heldout_sse < 0.01 * fits["other"].heldout_sse
+    assert fits["own"].where_misfit < 0.05 < 0.9 < fits["other"].where_misfit
