@@ -74,7 +74,7 @@ N_PAIRS_CV = 3  # pairs given the full cross-validated fit after the in-sample s
 PAIR_POOL = 8
 # of those 28, the replayed screen sees the PAIR_SCREEN whose corrections, simply added, fit best
 # (superposed_sse: no replay). Adding corrections ignores how two effects interact: a pair that is
-# good only through its interaction can be missed (the bench's leak + Coulomb pairs are kept)
+# good only through its interaction can be missed (the bench's leak + Coulomb pair is still found)
 PAIR_SCREEN = 5
 
 
