@@ -382,12 +382,14 @@ def test_hidden_angle_load_is_found_and_located_by_angle(tmp_path):
 
 
 def test_hidden_incomplete_brake_release_is_given_to_the_brake(tmp_path):
-    """The brake clears only at 6 bar (nominal 4.75): at 0.5 MPa it drags through every move."""
+    """The brake clears only at 6 bar (nominal 4.75): at 0.5 MPa it drags through every move. Three
+    supplies: with two, each fold trains on one, and at 0.5 MPa every release pressure above ~5.7
+    bar fits alike (the brake never clears), so a fold's value is not identified there."""
     folder = synth.make_campaign(
         tmp_path / "brake",
         synth.wrist_params()._replace(brake_release_gauge_pa=6.0e5),
         seed=13,
-        pressures_mpa=(0.5, 0.8),
+        pressures_mpa=(0.5, 0.6, 0.8),
     )
     d = diagnose(
         load_campaign(folder),
