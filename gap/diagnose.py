@@ -335,9 +335,9 @@ ZOOM_POINTS = 4  # new points per refinement, evenly inside the bracket of the b
 
 def _zoom(twin: Twin, e: Effect, grid: np.ndarray, subsets: list[list[int]]):
     """Effect e on `grid`, refined around the best point of each subset of runs once, then
-    ZOOM_LEVELS - 1 times around the best of the last subset (all runs) and of each subset where the
-    effect matters (`_matters`): (values ascending, SSE per value, run and latency, residual vector
-    per value). Each value is replayed once on all runs; brackets the subsets share cost one set."""
+    ZOOM_LEVELS - 1 times around the last subset's (all runs): (values ascending, SSE per value, run
+    and latency, residual vector per value). Each value is replayed once on all runs; brackets the
+    subsets share cost one set of points."""
     every = list(range(len(twin.runs)))
     xs = list(grid)
     evals = [twin.run_sses_and_residual([(e, v)], every) for v in xs]
@@ -345,8 +345,8 @@ def _zoom(twin: Twin, e: Effect, grid: np.ndarray, subsets: list[list[int]]):
         return np.asarray(xs), np.array([s for s, _ in evals]), np.array([r for _, r in evals])
     tol = 1e-9 * (e.high - e.low)
     for level in range(ZOOM_LEVELS):
-        if level == 1:  # deeper only where the effect matters on the subset: elsewhere precision is moot
-            subsets = [idx for idx in subsets[:-1] if _matters(np.array([ev[0] for ev in evals]), idx)] + subsets[-1:]
+        if level == 1:  # the folds agree where the effect fits; where it does not, precision is moot
+            subsets = subsets[-1:]
         order = np.argsort(xs)
         xa, sa = np.asarray(xs)[order], np.array([evals[i][0] for i in order])
         new: list[float] = []
@@ -364,16 +364,6 @@ def _zoom(twin: Twin, e: Effect, grid: np.ndarray, subsets: list[list[int]]):
         np.array([evals[i][0] for i in order]),
         np.array([evals[i][1] for i in order]),
     )
-
-
-def _matters(sses: np.ndarray, idx: list[int]) -> bool:
-    """Does the effect move the fit on runs `idx`: is its best SSE there (sses: value, run, latency)
-    below MATTERS x the median over the values tried?"""
-    s = sses[:, idx].sum(axis=1).min(axis=1)
-    return bool(s.min() < MATTERS * np.median(s))
-
-
-MATTERS = 0.9  # a fold's own refinement when its best is 10 % under the median over the grid
 
 
 def _vertex(xs: np.ndarray, s: np.ndarray) -> float:
