@@ -112,6 +112,10 @@ def bench_gap(jobs: int = 2, rounds: int = 3) -> dict:
                     "verdict": d["which"]["verdict"],
                     "top": d["which"]["top"]["name"] if d["which"]["top"] else None,
                     "pair_stage": bool(d["which"]["pairs"]),
+                    # where the time goes: replays of the one-joint twin, and the fit stages' wall time
+                    "replays": d["replays"],
+                    "fit_stages_s": d["timing_s"],
+                    "load_1min": os.getloadavg()[0],
                 }
             )
     reality = p0._replace(**HIDDEN)

@@ -10,21 +10,25 @@ Steps (each a plain function of the campaign):
    angle, speed and time since start, beside a floor of the instrument's noise and the drift
    between repeats (gap.noise, from samples both repeats have) and the twin's own model tolerance
    (measured per protocol, gap.protocols);
-3. which: for each catalogue effect, fit its one bounded parameter on training runs (a grid, then
-   a bounded 1-D search around its best point) and score it on withheld runs (leave one supply
-   pressure out; alternating split when there is one pressure). The objective and the ranking
-   count angle and pressure samples each in units of its own floor. When no single effect brings
-   the gap to the floor, the pairs of the PAIR_POOL best singles are screened in-sample (grid
-   point, then one round of 1-D refits) and the best N_PAIRS_CV are fitted per fold (grid point,
-   then bounded Nelder-Mead) and scored on withheld runs; a verdict and a family call by the
-   rules of gap.verdict (a pair counts only with both effects off nominal and a clear margin; the
-   family from the where-pattern);
+3. which: for each catalogue effect, fit its one bounded parameter on training runs and score it
+   on withheld runs (leave one supply pressure out; alternating split when there is one pressure):
+   a grid, refined around each fold's best point and then around the best on all runs, every
+   value replayed once on all runs so that the folds share the replays (`_zoom`, `_vertex`). The
+   objective and the ranking count angle and pressure samples each in units of its own floor.
+   When no single effect brings the gap to the floor, the pairs of the PAIR_POOL best singles are
+   pre-screened by adding their corrections (no replay, `superposed_sse`), the PAIR_SCREEN best
+   screened by replay in-sample (`screen_pair`) and the best N_PAIRS_CV fitted per fold and on
+   all runs by one pattern search whose replays the folds share (`_pattern_search`), scored on
+   withheld runs; a verdict and a family call by the rules of gap.verdict (a pair counts only with
+   both effects off nominal and a clear margin; the family from the where-profile and a free-form
+   fit of each family, gap.family);
 4. how far: per pressure, mean and max |error| on withheld runs before and after each effect, with
    bootstrap confidence intervals over runs.
 """
 
 from __future__ import annotations
 
+import contextlib
 import math
 import sys
 import time
@@ -32,7 +36,6 @@ from dataclasses import dataclass, field
 
 import numpy as np
 from joblib import Parallel, delayed, parallel_config
-from scipy.optimize import minimize, minimize_scalar
 from tqdm import tqdm
 
 import assets
@@ -69,6 +72,10 @@ N_PAIRS_CV = 3  # pairs given the full cross-validated fit after the in-sample s
 # low-ranked singles is not searched. Counted: the full screen was ~70 % of the replays of a
 # diagnosis with the pair stage
 PAIR_POOL = 8
+# of those 28, the replayed screen sees the PAIR_SCREEN whose corrections, simply added, fit best
+# (superposed_sse: no replay). Adding corrections ignores how two effects interact: a pair that is
+# good only through its interaction can be missed (the bench's leak + Coulomb pair is still found)
+PAIR_SCREEN = 5
 
 
 @dataclass
@@ -142,7 +149,22 @@ class Twin:
         # the fit's weight on squared pressure residuals, (angle floor / pressure floor)^2 in
         # rad^2/Pa^2: both channels count in units of their own floor (set by `diagnose`)
         self.pressure_weight = 0.0
+        self.ref_latency_s = 0.0  # the nominal twin's latency: residual vectors are read at it (set by `diagnose`)
+        self.gap_vector = np.zeros(0)  # the nominal twin's residual vector at it (set by `diagnose`)
         self.n_replays = 0
+
+    def sample_mask(self, ks) -> np.ndarray:
+        """Which entries of a residual vector over all runs (`run_sses_and_residual`) are runs `ks`'."""
+        keep = set(ks)
+        return np.concatenate(
+            [np.full(pr.ts.size + pr.pmeas.size, k in keep) for k, pr in enumerate(self.runs)] or [np.zeros(0, bool)]
+        )
+
+    def angle_mask(self) -> np.ndarray:
+        """Which entries of a residual vector over all runs are angle samples (the rest: pressures)."""
+        return np.concatenate(
+            [np.r_[np.ones(pr.ts.size, bool), np.zeros(pr.pmeas.size, bool)] for pr in self.runs] or [np.zeros(0, bool)]
+        )
 
     def replay(self, params: JointParams, rig: Rig, g: int) -> tuple[np.ndarray, ...]:
         """(t, theta, omega, p_a, p_b) of the twin through group g's commands."""
@@ -179,24 +201,43 @@ class Twin:
             out[k] = (pr.meas - np.interp(pr.ts - latency_s, t, th), self._pressure_residual(pr, t, pa, pb))
         return out
 
+    def _residual_rows(self, trajs):
+        """Per (k, trajectory): the angle residual at every latency of the grid (n_latency x samples)
+        and the chamber-pressure residual."""
+        for k, (t, th, _, pa, pb) in trajs:
+            pr = self.runs[k]
+            ang = pr.meas[None, :] - np.interp(pr.ts[None, :] - self.latencies[:, None], t, th)
+            yield k, ang, self._pressure_residual(pr, t, pa, pb)
+
     def run_sses(self, effects, ks) -> np.ndarray:
         """The fit's objective per run k in `ks` and latency of the grid, shape (len(ks), n_latency):
         squared angle residuals plus weighted squared pressure residuals."""
+        return self.run_sses_and_residual(effects, ks)[0]
+
+    def run_sses_and_residual(self, effects, ks) -> tuple[np.ndarray, np.ndarray]:
+        """`run_sses`, and the residual of runs `ks` at the reference latency (`ref_latency_s`) as one
+        vector: angle (rad) then pressure (Pa) x sqrt(pressure_weight), so that its squared norm is
+        the objective (the family call and the pair screen work on these vectors, no replay)."""
         out = np.empty((len(ks), len(self.latencies)))
-        for i, (k, (t, th, _, pa, pb)) in enumerate(self._each_run(effects, ks)):
-            pr = self.runs[k]
-            shifted = np.interp(pr.ts[None, :] - self.latencies[:, None], t, th)
-            out[i] = np.sum((pr.meas[None, :] - shifted) ** 2, axis=1) + self.pressure_weight * np.sum(
-                self._pressure_residual(pr, t, pa, pb) ** 2
-            )
-        return out
+        vec = []
+        i_ref = int(np.argmin(np.abs(self.latencies - self.ref_latency_s)))
+        for i, (_, ang, pres) in enumerate(self._residual_rows(self._each_run(effects, ks))):
+            out[i] = np.sum(ang**2, axis=1) + self.pressure_weight * np.sum(pres**2)
+            vec += [ang[i_ref], math.sqrt(self.pressure_weight) * pres]
+        return out, np.concatenate(vec) if vec else np.zeros(0)
+
+    def fold_residuals(self, effects, train, test) -> tuple[float, dict[int, tuple[np.ndarray, np.ndarray]]]:
+        """The latency that fits runs `train` best with `effects`, and the residuals of runs `test` at
+        it (as `residuals_with`), from one replay of their groups."""
+        rows = list(self._residual_rows(self._each_run(effects, list(dict.fromkeys([*train, *test])))))
+        w = self.pressure_weight
+        sse = sum(np.sum(ang**2, axis=1) + w * np.sum(pres**2) for k, ang, pres in rows if k in train)
+        i = int(np.argmin(sse))
+        return float(self.latencies[i]), {k: (ang[i], pres) for k, ang, pres in rows if k in test}
 
     def latency_of(self, effects, idx) -> float:
         """The instrument latency that fits runs `idx` best with `effects` added."""
         return float(self.latencies[int(np.argmin(self.run_sses(effects, idx).sum(axis=0)))])
-
-    def sse(self, effects, idx) -> float:
-        return float(self.run_sses(effects, idx).sum(axis=0).min())
 
 
 def apply_effects(params: JointParams, effects) -> tuple[JointParams, Rig]:
@@ -233,35 +274,6 @@ def _grid(e: Effect, n: int = 8) -> np.ndarray:
     return np.linspace(e.low, e.high, n + 1)
 
 
-def _fit_1d(
-    twin: Twin,
-    e: Effect,
-    fixed: list[tuple[Effect, float]],
-    idx: list[int],
-    grid: np.ndarray,
-    grid_sse: np.ndarray | None,
-    maxiter: int = 10,
-) -> float:
-    """Bounded 1-D fit of effect `e` (others `fixed`) on runs `idx`: best grid point, then Brent's
-    bounded search between its neighbours."""
-    if e.discrete_value is not None:
-        return e.discrete_value
-    if grid_sse is None:
-        grid_sse = np.array([twin.sse(fixed + [(e, v)], idx) for v in grid])
-    j = int(np.argmin(grid_sse))
-    lo = grid[max(j - 1, 0)]
-    hi = grid[min(j + 1, len(grid) - 1)]
-    if hi <= lo:
-        return float(grid[j])
-    res = minimize_scalar(
-        lambda v: twin.sse(fixed + [(e, v)], idx),
-        bounds=(lo, hi),
-        method="bounded",
-        options={"xatol": (hi - lo) * 2e-3, "maxiter": maxiter},
-    )
-    return float(res.x) if res.fun < grid_sse[j] else float(grid[j])
-
-
 @dataclass
 class Candidate:
     name: str  # effect name, or "a+b" for a pair
@@ -274,24 +286,34 @@ class Candidate:
     )  # per run: withheld pressure residual (Pa; empty where not measured)
     fold_latencies: list[float] = field(default_factory=list)  # per fold, the instrument latency fitted with it (s)
     latency_s: float = 0.0  # fitted with the full values on all runs
+    # singles only: the values replayed and each one's residual vector over all runs
+    # (Twin.run_sses_and_residual), and the residual vector at the full value
+    grid_values: np.ndarray | None = None
+    grid_residuals: np.ndarray | None = None
+    full_residual: np.ndarray | None = None
 
 
 def fit_single(twin: Twin, e: Effect, folds) -> Candidate:
+    """Effect e's parameter fitted on each fold's training runs and on all runs, scored on each
+    fold's withheld runs. Every replay covers all runs, so the folds share them: a grid, then
+    ZOOM_LEVELS refinements inside the bracket of each fold's best point (`_zoom`), then per fold
+    the vertex of the parabola through its best point and their neighbours (`_vertex`)."""
     n = len(twin.runs)
-    grid = _grid(e)
-    # residual SSE of every run at every grid value, shared by all folds
-    per_run = np.array([twin.run_sses([(e, v)], range(n)) for v in grid])  # (grid, run, latency)
+    every = list(range(n))
+    subsets = [list(train) for train, _ in folds] + [every]
+    xs, sses, vecs = _zoom(twin, e, _grid(e), subsets)
     heldout: list = [None] * n
     heldout_p: list = [None] * n
     fold_values, fold_lat = [], []
     for train, test in folds:
-        v = _fit_1d(twin, e, [], train, grid, per_run[:, train].sum(axis=1).min(axis=1))
-        lat = twin.latency_of([(e, v)], train)
+        v = _vertex(xs, sses[:, train].sum(axis=1).min(axis=1))
+        lat, res = twin.fold_residuals([(e, v)], train, test)
         fold_values.append([v])
         fold_lat.append(lat)
-        for k, r in twin.residuals_with([(e, v)], test, lat).items():
+        for k, r in res.items():
             heldout[k], heldout_p[k] = r
-    full = _fit_1d(twin, e, [], list(range(n)), grid, per_run.sum(axis=1).min(axis=1))
+    full = _vertex(xs, sses.sum(axis=1).min(axis=1))
+    full_sse, full_vec = twin.run_sses_and_residual([(e, full)], every)
     return Candidate(
         e.name,
         [e.name],
@@ -300,74 +322,130 @@ def fit_single(twin: Twin, e: Effect, folds) -> Candidate:
         heldout,
         heldout_p,
         fold_lat,
-        twin.latency_of([(e, full)], list(range(n))),
+        float(twin.latencies[int(np.argmin(full_sse.sum(axis=0)))]),
+        grid_values=xs,
+        grid_residuals=vecs,
+        full_residual=full_vec,
     )
 
 
-def _coord_fit(
+ZOOM_LEVELS = 3  # refinements of the grid around each fold's best point (the folds share the replays)
+ZOOM_POINTS = 4  # new points per refinement, evenly inside the bracket of the best point's neighbours
+
+
+def _zoom(twin: Twin, e: Effect, grid: np.ndarray, subsets: list[list[int]]):
+    """Effect e on `grid`, refined around the best point of each subset of runs once, then
+    ZOOM_LEVELS - 1 times around the last subset's (all runs): (values ascending, SSE per value, run
+    and latency, residual vector per value). Each value is replayed once on all runs; brackets the
+    subsets share cost one set of points."""
+    every = list(range(len(twin.runs)))
+    xs = list(grid)
+    evals = [twin.run_sses_and_residual([(e, v)], every) for v in xs]
+    if e.discrete_value is not None:
+        return np.asarray(xs), np.array([s for s, _ in evals]), np.array([r for _, r in evals])
+    tol = 1e-9 * (e.high - e.low)
+    for level in range(ZOOM_LEVELS):
+        if level == 1:  # the folds agree where the effect fits; where it does not, precision is moot
+            subsets = subsets[-1:]
+        order = np.argsort(xs)
+        xa, sa = np.asarray(xs)[order], np.array([evals[i][0] for i in order])
+        new: list[float] = []
+        for idx in subsets:
+            j = int(np.argmin(sa[:, idx].sum(axis=1).min(axis=1)))
+            lo, hi = xa[max(j - 1, 0)], xa[min(j + 1, len(xa) - 1)]
+            for v in np.linspace(lo, hi, ZOOM_POINTS + 2)[1:-1]:
+                if min(abs(v - x) for x in [*xs, *new]) > tol:
+                    new.append(float(v))
+        xs += new
+        evals += [twin.run_sses_and_residual([(e, v)], every) for v in new]
+    order = np.argsort(xs)
+    return (
+        np.asarray(xs)[order],
+        np.array([evals[i][0] for i in order]),
+        np.array([evals[i][1] for i in order]),
+    )
+
+
+def _vertex(xs: np.ndarray, s: np.ndarray) -> float:
+    """The minimum of the parabola through the best of the points (xs ascending, values s) and
+    its two neighbours, kept between them; the best point itself at an end of the range."""
+    j = int(np.argmin(s))
+    if j == 0 or j == len(xs) - 1:
+        return float(xs[j])
+    (x0, x1, x2), (y0, y1, y2) = xs[j - 1 : j + 2], s[j - 1 : j + 2]
+    den = (x1 - x0) * (y1 - y2) - (x1 - x2) * (y1 - y0)
+    if den == 0.0:
+        return float(x1)
+    num = (x1 - x0) ** 2 * (y1 - y2) - (x1 - x2) ** 2 * (y1 - y0)
+    return float(np.clip(x1 - 0.5 * num / den, x0, x2))
+
+
+PAIR_LEVELS = 3  # pattern-search levels of a pair's cross-validated fit (the step halves at each)
+SCREEN_LEVELS = 1  # the same for the in-sample screen
+
+
+def _pattern_search(
     twin: Twin,
     ea: Effect,
     eb: Effect,
-    idx: list[int],
-    va: float,
-    vb: float,
-    rounds: int = 2,
-    n_grid: int = 5,
-    maxiter: int = 8,
-) -> tuple[float, float]:
-    """Coordinate descent of a pair's two parameters on runs `idx` (each a bounded 1-D fit)."""
-    for _ in range(rounds):
-        va = _fit_1d(twin, ea, [(eb, vb)], idx, _grid(ea, n_grid), None, maxiter)
-        vb = _fit_1d(twin, eb, [(ea, va)], idx, _grid(eb, n_grid), None, maxiter)
-    return va, vb
+    grid: tuple[np.ndarray, np.ndarray, np.ndarray],
+    runs: list[int],
+    subsets: list[list[int]],
+    levels: int,
+) -> list[tuple[float, float, float]]:
+    """A pair's two parameters fitted on each subset of `runs`, from the best point of the 2-D
+    `grid` (grid_a, grid_b, sse[i, j, run, latency] over `runs`): a pattern search in grid-index
+    coordinates (so a logarithmic grid is searched logarithmically), the step halving at each of
+    `levels`, each point replayed once on all `runs` and shared by the subsets. Returns per subset
+    (value_a, value_b, its SSE). Follows the correlated valleys (leak vs friction) that coordinate
+    descent crawls, at a fixed cost."""
+    ga, gb, sse = grid
+    pos = {r: i for i, r in enumerate(runs)}
+    na, nb = len(ga) - 1, len(gb) - 1
+    seen = {(float(i), float(j)): sse[i, j] for i in range(len(ga)) for j in range(len(gb))}
+
+    def best_of(idx, points):
+        cols = [pos[r] for r in idx]
+        return min(points, key=lambda u: float(seen[u][cols].sum(axis=0).min()))
+
+    centres = [best_of(idx, list(seen)) for idx in subsets]
+    step = 1.0
+    for _ in range(levels):
+        step /= 2.0
+        hood = {
+            c: [
+                (min(max(c[0] + da * step, 0.0), na), min(max(c[1] + db * step, 0.0), nb))
+                for da in (-1, 0, 1)
+                for db in (-1, 0, 1)
+            ]
+            for c in set(centres)
+        }
+        for u in dict.fromkeys(u for us in hood.values() for u in us if u not in seen):
+            seen[u] = twin.run_sses(_pair_at(ea, eb, ga, gb, u), runs)
+        centres = [best_of(idx, hood[c]) for idx, c in zip(subsets, centres, strict=True)]
+    out = []
+    for idx, c in zip(subsets, centres, strict=True):
+        (_, va), (_, vb) = _pair_at(ea, eb, ga, gb, c)
+        out.append((va, vb, float(seen[c][[pos[r] for r in idx]].sum(axis=0).min())))
+    return out
 
 
-def _nm_fit(
-    twin: Twin, ea: Effect, eb: Effect, idx: list[int], va: float, vb: float, sse0: float, maxfev: int = 40
-) -> tuple[float, float]:
-    """Bounded Nelder-Mead on the pair's two parameters (scaled to their catalogue ranges), from
-    a grid point: follows the correlated valleys (leak vs friction) that coordinate descent crawls."""
-    if ea.discrete_value is not None or eb.discrete_value is not None:  # a switch: only the other to fit
-        if ea.discrete_value is not None and eb.discrete_value is not None:
-            return va, vb
-        return _coord_fit(twin, ea, eb, idx, va, vb, rounds=1)
-    span = np.array([ea.high - ea.low, eb.high - eb.low])
-    low = np.array([ea.low, eb.low])
-
-    def f(z):
-        v = low + np.clip(z, 0.0, 1.0) * span
-        return twin.sse([(ea, float(v[0])), (eb, float(v[1]))], idx)
-
-    z0 = (np.array([va, vb]) - low) / span
-    res = minimize(
-        f,
-        z0,
-        method="Nelder-Mead",
-        bounds=[(0.0, 1.0), (0.0, 1.0)],
-        options={
-            "maxfev": maxfev,
-            "xatol": 2e-3,
-            "fatol": 1e-9,
-            "initial_simplex": [z0, z0 + [0.08 if z0[0] < 0.9 else -0.08, 0], z0 + [0, 0.08 if z0[1] < 0.9 else -0.08]],
-        },
-    )
-    if res.fun >= sse0:
-        return va, vb
-    v = low + np.clip(res.x, 0.0, 1.0) * span
-    return float(v[0]), float(v[1])
+def _pair_at(ea: Effect, eb: Effect, ga: np.ndarray, gb: np.ndarray, u: tuple[float, float]):
+    """The pair's effects at grid-index coordinates u (piecewise linear between grid points)."""
+    return [
+        (ea, float(np.interp(u[0], np.arange(len(ga)), ga))),
+        (eb, float(np.interp(u[1], np.arange(len(gb)), gb))),
+    ]
 
 
-def screen_pair(twin: Twin, a: Candidate, b: Candidate, runs: list[int], n_grid: int = 5, maxiter: int = 6) -> float:
-    """In-sample SSE of a pair: the best point of a coarse 2-D grid, then one round of bounded 1-D
-    refits from it (`_coord_fit`), so that the ranking does not depend on where the grid happens
+def screen_pair(twin: Twin, a: Candidate, b: Candidate, runs: list[int], n_grid: int = 5) -> float:
+    """In-sample SSE of a pair on `runs`: the best point of a coarse 2-D grid, then a short pattern
+    search from it (SCREEN_LEVELS), so that the ranking does not depend on where the grid happens
     to fall (a grid, not refits from the singles' values alone: an effect fitted alone can be far
     from its value in the pair, having soaked up the other)."""
     ea, eb = BY_NAME[a.name], BY_NAME[b.name]
-    ga, gb, sse = pair_grid(twin, a, b, runs, n_grid)
-    total = sse.sum(axis=2).min(axis=2)
-    i, j = np.unravel_index(int(np.argmin(total)), total.shape)
-    va, vb = _coord_fit(twin, ea, eb, runs, float(ga[i]), float(gb[j]), rounds=1, n_grid=n_grid, maxiter=maxiter)
-    return min(float(total[i, j]), twin.sse([(ea, va), (eb, vb)], runs))
+    grid = pair_grid(twin, a, b, runs, n_grid)
+    return _pattern_search(twin, ea, eb, grid, runs, [runs], SCREEN_LEVELS)[0][2]
 
 
 def pair_grid(
@@ -387,31 +465,25 @@ def pair_grid(
 def fit_pair(
     twin: Twin, a: Candidate, b: Candidate, folds, grid: tuple[np.ndarray, np.ndarray, np.ndarray]
 ) -> Candidate:
-    """Both effects fitted together on each fold's training runs (best point of the 2-D grid on
-    those runs, then coordinate descent), scored on its withheld runs; the reported values are
-    fitted on all runs the same way."""
+    """Both effects fitted together on each fold's training runs and on all runs (the 2-D grid on
+    all runs, then a pattern search whose replays the folds share, `_pattern_search`), scored on
+    each fold's withheld runs; the reported values are those fitted on all runs."""
     ea, eb = BY_NAME[a.name], BY_NAME[b.name]
-    ga, gb, sse = grid
     n = len(twin.runs)
-
-    def fit(idx):
-        s = sse[:, :, idx].sum(axis=2).min(axis=2)
-        i, j = np.unravel_index(int(np.argmin(s)), s.shape)
-        return _nm_fit(twin, ea, eb, idx, float(ga[i]), float(gb[j]), float(s[i, j]))
-
+    every = list(range(n))
+    fitted = _pattern_search(twin, ea, eb, grid, every, [list(tr) for tr, _ in folds] + [every], PAIR_LEVELS)
     heldout: list = [None] * n
     heldout_p: list = [None] * n
     fold_values, fold_lat = [], []
-    for train, test in folds:
-        va, vb = fit(train)
-        lat = twin.latency_of([(ea, va), (eb, vb)], train)
+    for (train, test), (va, vb, _) in zip(folds, fitted, strict=False):
+        lat, res = twin.fold_residuals([(ea, va), (eb, vb)], train, test)
         fold_values.append([va, vb])
         fold_lat.append(lat)
-        for k, r in twin.residuals_with([(ea, va), (eb, vb)], test, lat).items():
+        for k, r in res.items():
             heldout[k], heldout_p[k] = r
-    full = fit(list(range(n)))
-    lat = twin.latency_of([(ea, full[0]), (eb, full[1])], list(range(n)))
-    return Candidate(f"{a.name}+{b.name}", [a.name, b.name], fold_values, list(full), heldout, heldout_p, fold_lat, lat)
+    va, vb, _ = fitted[-1]
+    lat = twin.latency_of([(ea, va), (eb, vb)], every)
+    return Candidate(f"{a.name}+{b.name}", [a.name, b.name], fold_values, [va, vb], heldout, heldout_p, fold_lat, lat)
 
 
 def repeat_groups(twin: Twin) -> list[list[int]]:
@@ -481,25 +553,24 @@ def floors_of(twin: Twin, model_tolerance_deg: float) -> Floors:
     )
 
 
+@contextlib.contextmanager
 def _parallel(n_jobs: int, scheduler: str | None):
     """joblib's Parallel on local threads (the compiled replay releases the GIL), or on a Dask
-    cluster at `scheduler` (as `twin sweep --scheduler`)."""
-    if scheduler:
-        try:  # an optional dependency (the [cluster] extra): imported only when asked for
-            from dask.distributed import Client
-        except ImportError:
-            raise GapError("--scheduler needs Dask: pip install 'pneumatic-arm-twin[cluster]'") from None
-        client = Client(scheduler)
+    cluster at `scheduler` (as `twin sweep --scheduler`), one client for every stage of the fits."""
+    if not scheduler:
+        yield lambda jobs: Parallel(n_jobs=n_jobs, backend="threading")(jobs)
+        return
+    try:  # an optional dependency (the [cluster] extra): imported only when asked for
+        from dask.distributed import Client
+    except ImportError:
+        raise GapError("--scheduler needs Dask: pip install 'pneumatic-arm-twin[cluster]'") from None
 
-        def run(jobs):
-            try:
-                with parallel_config(backend="dask"):
-                    return Parallel()(jobs)
-            finally:
-                client.close()
+    def run(jobs):
+        with parallel_config(backend="dask"):
+            return Parallel()(jobs)
 
-        return run
-    return lambda jobs: Parallel(n_jobs=n_jobs, backend="threading")(jobs)
+    with Client(scheduler):
+        yield run
 
 
 @dataclass
@@ -557,15 +628,18 @@ def diagnose(
     if twin.has_pressure:  # each channel counts in units of its own floor
         twin.pressure_weight = (math.radians(fl.floor_deg) / (fl.floor_kpa * 1e3)) ** 2
     nominal_latency = twin.latency_of([], range(len(twin.runs)))
+    twin.ref_latency_s = nominal_latency
+    twin.gap_vector = twin.run_sses_and_residual([], list(range(len(twin.runs))))[1]
     before, _ = nominal_residuals(twin, nominal_latency)
     before_rms = rms_deg(before)
     significant = before_rms > fl.threshold_deg
-    fits = fit_candidates(twin, catalogue, fl, significant, _parallel(n_jobs, scheduler), progress)
+    with _parallel(n_jobs, scheduler) as run_jobs:
+        fits = fit_candidates(twin, catalogue, fl, significant, run_jobs, progress)
 
     judge = verdict.Judge(twin, fl, before_rms, fl.score, rng)
     call = judge.call(significant, fits.singles, fits.pairs)
     labels = where_labels(twin)
-    family = judge.family_call(fits.singles, labels, before, nominal_latency)
+    family = judge.family_call(fits.singles, labels, twin.gap_vector, folds_of(campaign))
     # the instrument as best understood: the latency fitted with the answer (with the nominal twin
     # alone a latency soaks up part of any gap that makes the twin run ahead); the nominal twin's
     # residual, its breakdown and how far are reported at it
@@ -713,11 +787,27 @@ def _pair_stage(twin: Twin, singles: list[Candidate], folds, run_jobs, progress:
     the full grid on all runs and the cross-validated fit."""
     pool = singles[:PAIR_POOL]  # singles come sorted by held-out score
     combos = [(a, b) for i, a in enumerate(pool) for b in pool[i + 1 :]]
+    combos = [combos[i] for i in np.argsort([superposed_sse(a, b, twin.gap_vector) for a, b in combos])[:PAIR_SCREEN]]
     distinct = sorted({pr.run.signature(): k for k, pr in reversed(list(enumerate(twin.runs)))}.values())
     with _progress(len(combos), "gap: pairs", progress):
         screen = run_jobs(delayed(screen_pair)(twin, a, b, distinct) for a, b in combos)
     order = np.argsort(screen)[:N_PAIRS_CV]
     return run_jobs(delayed(_cv_pair)(twin, combos[i][0], combos[i][1], folds) for i in order)
+
+
+def superposed_sse(a: Candidate, b: Candidate, gap: np.ndarray) -> float:
+    """A pair's least misfit over both singles' replayed values with the two corrections simply
+    added (no replay): the pre-screen that picks the PAIR_SCREEN pairs the replayed screen sees."""
+    da, db = a.grid_residuals - gap, b.grid_residuals - gap  # minus each single's correction
+    sse = (
+        gap @ gap
+        + np.sum(da**2, axis=1)[:, None]
+        + np.sum(db**2, axis=1)[None, :]
+        + 2.0 * (da @ gap)[:, None]
+        + 2.0 * (db @ gap)[None, :]
+        + 2.0 * da @ db.T
+    )
+    return float(sse.min())
 
 
 def _cv_pair(twin: Twin, a: Candidate, b: Candidate, folds) -> Candidate:

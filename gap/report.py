@@ -167,8 +167,8 @@ def _verdict(diag: Diagnosis) -> list[str]:
     if w.nearest:
         nb = w.nearest
         how = (
-            f"its best member's correction matches the gap's where-pattern ({nb.where_match:.2f}) "
-            "and fits the withheld runs best of the families that do"
+            f"its effects' shapes explain {nb.where_match:.0%} of the gap's where-profile, near the best "
+            "family there, and in any mix of them it leaves least of the gap on the withheld runs"
             if nb.by_where
             else f"no family's correction matches the gap's where-pattern well; this one comes closest "
             f"({nb.where_match:.2f})"
@@ -203,12 +203,13 @@ def _verdict(diag: Diagnosis) -> list[str]:
 
 def _families(diag: Diagnosis) -> list[str]:
     return [
-        "## Families (where-pattern match of each family's best member, and its held-out misfit)",
+        "## Families (free-form fit of each family on withheld runs, its where-pattern match; its best member)",
         "",
-        "| family | best member | where match | misfit in floors | shrink |",
-        "|---|---|---|---|---|",
+        "| family | free-form shrink | where match | best member | misfit in floors | shrink |",
+        "|---|---|---|---|---|---|",
         *(
-            f"| {x.family} | {x.best} | {x.where_match:.2f} | {x.score_in_floors:.2f} | {x.shrink:.3f} |"
+            f"| {x.family} | {x.free_form_shrink:.3f} | {x.where_match:.2f} | {x.best} | {x.score_in_floors:.2f} "
+            f"| {x.shrink:.3f} |"
             for x in diag.which.families
         ),
     ]

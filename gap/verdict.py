@@ -11,12 +11,13 @@ Rules:
   bootstrap over runs, and a 10 % margin on the score);
 - a fitted value on (or within AT_BOUND of) a catalogue bound is flagged: the true value may lie
   beyond it, or the effect is standing in for another;
-- the family call rests on the where-breakdown: each single's correction (the twin with the
-  effect fitted to all runs minus the nominal twin) is compared with the gap's pattern over
-  supply, load, angle, speed, time since start and phase (gap.where.profile_match); the families
-  whose best member matches at least PROFILE_MIN are eligible, and of those the one whose best
-  member fits the withheld runs best is the call. An "outside the catalogue" verdict names that
-  family, never a candidate.
+- the family call does not need the gap's form to be in the catalogue: each family is fitted in
+  any shape its members can take (gap.family: the leading shapes of its members' corrections at
+  every value replayed); first by where: how much of the gap's where-profile (its mean per bin of
+  supply, load, angle, speed, time since start, phase and direction, gap.where.profile_matrix) a
+  mix of those shapes explains; the families within WHERE_SLACK of the best there are eligible,
+  and of those the one whose free-form fit (mixed on training runs) leaves least on the withheld
+  runs is the call. An "outside the catalogue" verdict names that family, never a candidate.
 """
 
 from __future__ import annotations
@@ -26,7 +27,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from gap import where
+from gap import family, where
 from gap.effects import BY_NAME
 from gap.stats import mean_lower_bound, rms_deg, run_ms
 from pneumatics import JointParams
@@ -35,7 +36,9 @@ EXPLAIN_SHRINK = 0.1
 PAIR_MARGIN = 0.8  # a pair must bring the misfit (in floors) under 0.8 x the best single's
 OFF_NOMINAL = 0.03  # an effect is off its nominal value beyond 3 % of its range (log range for log effects)
 AT_BOUND = 0.01  # within 1 % of its range from a bound counts as on the bound
-PROFILE_MIN = 0.5  # a family is eligible if its best member's correction matches the gap's pattern this well
+# a family is eligible if the part of the gap's where-profile its shapes leave is at most
+# WHERE_SLACK x the least any family leaves (chosen on the bench's and six other withheld-member forms)
+WHERE_SLACK = 1.5
 
 
 def _unit(e, v: float) -> float:
@@ -84,13 +87,15 @@ class Refusal:
 
 @dataclass(frozen=True)
 class FamilyEvidence:
-    """A family's best member: its where-pattern match and its held-out misfit."""
+    """A family's best member and its held-out misfit; the family's free-form fit (gap.family) on
+    withheld runs and how its correction matches the gap's where-pattern."""
 
     family: str
     best: str  # the member (a single effect)
     score_in_floors: float
     shrink: float  # held-out rms / the nominal twin's
-    where_match: float  # gap.where.profile_match of its correction with the gap
+    where_match: float  # the part of the gap's where-profile its shapes explain (1 - gap.family.profile_misfit)
+    free_form_shrink: float  # held-out rms of the gap after the family's free-form fit / before (gap.family)
 
 
 @dataclass(frozen=True)
@@ -99,7 +104,7 @@ class FamilyCall:
 
     family: str | None
     where_match: float | None
-    by_where: bool  # some family matched the where-pattern at least PROFILE_MIN
+    by_where: bool  # the call was made among the families eligible by the where-profile
     evidence: list[FamilyEvidence]  # families by held-out misfit, best first
 
 
@@ -162,33 +167,38 @@ class Judge:
             return Call("ambiguous" if rivals else "explained", best, rivals, refused)
         return Call("outside the catalogue", best, [], refused)
 
-    def family_call(
-        self, singles: list, labels: dict[str, np.ndarray], before: list[np.ndarray], latency_s: float
-    ) -> FamilyCall:
-        """The families ranked by where-evidence and held-out fit (module docstring)."""
-        gap = np.concatenate(before)
-        best_of: dict[str, FamilyEvidence] = {}
+    def family_call(self, singles: list, labels: dict[str, np.ndarray], gap: np.ndarray, folds) -> FamilyCall:
+        """The families ranked by their free-form fit on withheld runs (gap.family), each checked
+        against the gap's where-pattern (module docstring). `gap`: the nominal twin's residual
+        vector (Twin.run_sses_and_residual); `folds`: (training, withheld) run lists."""
+        twin = self.twin
+        angle = twin.angle_mask()
+        masks = [(twin.sample_mask(tr), twin.sample_mask(te)) for tr, te in folds]
+        members: dict[str, list[np.ndarray]] = {}
         for c in singles:
-            entry = self._evidence(c, labels, gap, latency_s)
-            if entry.family not in best_of or entry.score_in_floors < best_of[entry.family].score_in_floors:
-                best_of[entry.family] = entry
-        evidence = sorted(best_of.values(), key=lambda x: x.score_in_floors)
-        eligible = [x for x in evidence if x.where_match >= PROFILE_MIN]
-        chosen = eligible[0] if eligible else (max(evidence, key=lambda x: x.where_match) if evidence else None)
-        return FamilyCall(
-            chosen.family if chosen else None, chosen.where_match if chosen else None, bool(eligible), evidence
+            members.setdefault(BY_NAME[c.name].family, []).append(gap[None, :] - c.grid_residuals)
+        fits = family.family_fits(members, gap, masks, angle, where.profile_matrix(labels))
+        nominal = sum(float(np.sum(gap[te] ** 2)) for _, te in masks)
+        best_of: dict[str, object] = {}
+        for c in singles:  # singles come sorted by score: the first of a family is its best
+            best_of.setdefault(BY_NAME[c.name].family, c)
+        evidence = sorted(
+            (
+                FamilyEvidence(
+                    f,
+                    best_of[f].name,
+                    self.score(best_of[f]),
+                    rms_deg(best_of[f].heldout) / self.before_rms if self.before_rms > 0 else math.nan,
+                    1.0 - fit.where_misfit,
+                    math.sqrt(fit.heldout_sse / nominal) if nominal > 0 else math.nan,
+                )
+                for f, fit in fits.items()
+            ),
+            key=lambda x: x.free_form_shrink,
         )
-
-    def _evidence(self, c, labels: dict[str, np.ndarray], gap: np.ndarray, latency_s: float) -> FamilyEvidence:
-        """Single c's family, held-out fit and how its correction matches the gap's where-pattern."""
-        n = len(self.twin.runs)
-        e = BY_NAME[c.name]
-        res = self.twin.residuals_with([(e, c.full_values[0])], range(n), latency_s)
-        correction = gap - np.concatenate([res[k][0] for k in range(n)])
-        return FamilyEvidence(
-            e.family,
-            c.name,
-            self.score(c),
-            rms_deg(c.heldout) / self.before_rms if self.before_rms > 0 else math.nan,
-            where.profile_match(labels, gap, correction),
-        )
+        if not evidence:
+            return FamilyCall(None, None, False, evidence)
+        # eligible: the families whose shapes explain the where-profile nearly as well as the best's
+        least = min(1.0 - x.where_match for x in evidence)
+        chosen = [x for x in evidence if 1.0 - x.where_match <= WHERE_SLACK * least][0]
+        return FamilyCall(chosen.family, chosen.where_match, True, evidence)

@@ -1,6 +1,6 @@
 """Where the twin departs: each angle sample labelled by motion phase, supply, direction, load,
-angle, speed and time since the first move; the residual broken down by those labels; and how
-well an effect's correction matches the residual's pattern over them (the family call's evidence).
+angle, speed and time since the first move; the residual broken down by those labels; and the
+where-profile, the per-bin means the family call compares (gap.family.profile_misfit).
 """
 
 from __future__ import annotations
@@ -43,8 +43,6 @@ class Breakdown:
 
 
 FACTORS = tuple(f.name for f in fields(Breakdown))
-# the factors that tell the families apart (how the gap scales); phase and direction repeat them
-PROFILE_FACTORS = ("supply_mpa", "load_kg", "angle_deg", "speed_rad_s", "time_since_start_s", "phase")
 
 
 def phases(run: Run, ts: np.ndarray) -> np.ndarray:
@@ -122,29 +120,22 @@ def breakdown(labels: dict[str, np.ndarray], residual_rad: np.ndarray) -> Breakd
     return Breakdown(**out)
 
 
-def _profile(labels: dict[str, np.ndarray], x: np.ndarray) -> np.ndarray:
-    """How `x` scales over the profile factors: per factor that varies, each bin's mean and rms
-    less the factor's overall mean and rms (the level is left out: nearly every effect makes the
-    twin run ahead or behind everywhere; what tells them apart is where more, where less), each
-    bin weighted by sqrt(n) so that it counts by its samples."""
-    parts = []
-    mean_all, rms_all = np.mean(x), math.sqrt(np.mean(x**2))
-    for factor in PROFILE_FACTORS:
+# the factors whose bins make the where-profile of the family call (gap.family.profile_misfit)
+PROFILE_BINS = ("supply_mpa", "load_kg", "angle_deg", "speed_rad_s", "time_since_start_s", "phase", "direction")
+
+
+def profile_matrix(labels: dict[str, np.ndarray]) -> np.ndarray:
+    """The where-profile as a linear map: one row per bin of each factor that varies (PROFILE_BINS),
+    its samples' mean x sqrt(their count), so that profile = matrix @ residual and each bin counts
+    by its samples. Signed means: a form that moves the twin ahead in one bin and behind in another
+    keeps that pattern."""
+    rows = []
+    for factor in PROFILE_BINS:
         lab = labels[factor]
         bins = sorted(set(lab), key=str)
         if len(bins) < 2:  # a factor that does not vary says nothing about scaling
             continue
         for b in bins:
             m = lab == b
-            w = math.sqrt(m.sum())
-            parts += [(np.mean(x[m]) - mean_all) * w, (math.sqrt(np.mean(x[m] ** 2)) - rms_all) * w]
-    return np.asarray(parts)
-
-
-def profile_match(labels: dict[str, np.ndarray], residual_rad: np.ndarray, correction_rad: np.ndarray) -> float:
-    """Cosine similarity (-1..1) between how the residual and an effect's correction (twin with the
-    effect minus the nominal twin, at the same samples) scale with supply, load, angle, speed, time
-    since start and phase: 1 = the effect moves the twin where, and as much, as the gap is."""
-    a, b = _profile(labels, residual_rad), _profile(labels, correction_rad)
-    na, nb = np.linalg.norm(a), np.linalg.norm(b)
-    return float(a @ b / (na * nb)) if na > 0 and nb > 0 else 0.0
+            rows.append(m / math.sqrt(m.sum()))
+    return np.array(rows, dtype=float).reshape(len(rows), len(next(iter(labels.values()))))

@@ -382,12 +382,14 @@ def test_hidden_angle_load_is_found_and_located_by_angle(tmp_path):
 
 
 def test_hidden_incomplete_brake_release_is_given_to_the_brake(tmp_path):
-    """The brake clears only at 6 bar (nominal 4.75): at 0.5 MPa it drags through every move."""
+    """The brake clears only at 6 bar (nominal 4.75): at 0.5 MPa it drags through every move. Three
+    supplies: with two, each fold trains on one, and at 0.5 MPa every release pressure above ~5.7
+    bar fits alike (the brake never clears), so a fold's value is not identified there."""
     folder = synth.make_campaign(
         tmp_path / "brake",
         synth.wrist_params()._replace(brake_release_gauge_pa=6.0e5),
         seed=13,
-        pressures_mpa=(0.5, 0.8),
+        pressures_mpa=(0.5, 0.6, 0.8),
     )
     d = diagnose(
         load_campaign(folder),
@@ -414,3 +416,44 @@ def test_bench_slice_over_both_instruments(tmp_path):
     assert by["none_1"]["latency_found_s"] == pytest.approx(by["none_1"]["latency_s"], abs=0.010)
     assert s["diagnose_s_max"] >= s["diagnose_s_median"] > 0
     assert (tmp_path / "bench.json").is_file()
+
+
+def test_a_dask_cluster_gives_the_local_diagnosis(campaigns):
+    """`twin gap diagnose --scheduler ADDRESS`: singles and the pair stage on a Dask cluster (here an
+    in-process one of two workers) give the diagnosis of the local threads, value for value. The
+    catalogue lacks the hidden leak, so no single explains it and the pair stage runs too."""
+    distributed = pytest.importorskip("dask.distributed", reason="the cluster extra is not installed")
+    catalogue = _by_name("coulomb_friction", "viscous_friction")
+    campaign = load_campaign(campaigns["leak"])
+    local = diagnose(campaign, catalogue=catalogue, progress=False)
+    with distributed.LocalCluster(
+        n_workers=2, threads_per_worker=1, processes=False, dashboard_address=None
+    ) as cluster:
+        remote = diagnose(campaign, catalogue=catalogue, progress=False, scheduler=cluster.scheduler_address)
+    assert local.which.pairs, "the pair stage did not run"
+    a, b = local.which, remote.which
+    assert (a.verdict, a.top.name) == (b.verdict, b.top.name)
+    assert [(c.name, c.fitted_values, c.heldout_rms_deg) for c in a.ranking + a.pairs] == [
+        (c.name, c.fitted_values, c.heldout_rms_deg) for c in b.ranking + b.pairs
+    ]
+
+
+def test_family_fit_explains_a_mix_of_its_shapes_and_not_another_familys():
+    """gap.family: a gap that is a mix of one family's corrections (at any scale, with a little
+    noise) is explained by that family's free-form fit on withheld samples and by its where-profile;
+    a family whose corrections are orthogonal to it explains neither."""
+    from gap import family
+
+    rng = np.random.default_rng(0)
+    t = np.linspace(0.0, 1.0, 400)
+    own = np.array([s * np.sin(2 * np.pi * t) + s**2 * t for s in np.linspace(0.2, 1.0, 6)])  # 2 shapes
+    other = np.array([s * np.cos(6 * np.pi * t) for s in np.linspace(0.2, 1.0, 6)])
+    gap = 0.7 * np.sin(2 * np.pi * t) + 0.3 * t + 0.01 * rng.standard_normal(t.size)
+    half = t < 0.5
+    folds = [(half, ~half), (~half, half)]
+    angle = np.ones(t.size, bool)
+    bins = np.array([np.abs(t - c) < 0.05 for c in np.linspace(0.05, 0.95, 10)], float)  # a where-profile
+    fits = family.family_fits({"own": [own], "other": [other]}, gap, folds, angle, bins)
+    assert fits["own"].shapes == 2 and fits["other"].shapes == 1
+    assert fits["own"].heldout_sse < 0.01 * fits["other"].heldout_sse
+    assert fits["own"].where_misfit < 0.05 < 0.9 < fits["other"].where_misfit
