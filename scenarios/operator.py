@@ -189,6 +189,7 @@ class Operator:
         if frame is None:
             return None
         self._latency_s = self._draw_latency()
+        self._last_move_m = np.zeros(3)  # a new look: the arm went where the last aim sent it
         seen_pose = self.read_pose(frame)
         believed = dict(zip(platform.joints, platform.predicted_angles(), strict=True))
         noise = self.reading_noise_rad(frame)
@@ -212,6 +213,7 @@ class Operator:
             if miss > self.params.tolerance_m:
                 # out of looks: he does not press blind, the press is aimed by what he last saw
                 self.aim_offset_m -= error
+                self._last_move_m = error
                 aimed = " aimed by it"
             self.log.append(
                 f"t = {now_s:.2f} s: disc_{disc} seen {miss * 100:.1f} cm off after {self.looks} corrections: "

@@ -30,7 +30,6 @@ from pathlib import Path
 import joblib
 import numpy as np
 from tqdm import tqdm
-from tqdm._monitor import TMonitor
 
 from scenarios.runner import run_scenario
 from scenarios.schema import Scenario, ScenarioError, with_overrides
@@ -110,7 +109,7 @@ def sweep(
 def _can_fork() -> bool:
     # forking a process with other threads running can copy a lock another thread holds; tqdm's
     # monitor (left by any earlier progress bar) only sleeps on its own event
-    others = [t for t in threading.enumerate() if t is not threading.main_thread() and not isinstance(t, TMonitor)]
+    others = [t for t in threading.enumerate() if t is not threading.main_thread() and t is not tqdm.monitor]
     return "fork" in multiprocessing.get_all_start_methods() and not others
 
 
