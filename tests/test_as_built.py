@@ -203,6 +203,10 @@ def test_paper_validation_on_the_as_built_plant_within_a_factor_2_where_the_nomi
             assert 0.5 < e["with_hose_loss"][stat] / PAPER["with_hose_loss"][stat][m] < 2.0, (m, stat, e)
     e05 = validation[0.5].errors()["without_hose_loss"]
     assert 0.5 < e05["mean"] / PAPER["without_hose_loss"]["mean"][0.5] < 2.0, e05
+    # the paper's shape: the error without the loss largest at 0.5 MPa (measured 15.8 against 13.9
+    # deg at 0.8 MPa; the nominal pair alone grows with the supply, tests/test_gap.py: our reading is
+    # that the supply's droop lowers the real port into the brake's band at 0.5 MPa, not probed)
+    assert e05["mean"] > validation[0.8].errors()["without_hose_loss"]["mean"]
     # the measured and the predicted runs really turn, and start together
     assert all(
         r.measured_deg[r.time_s <= 1.0][-1] > 30.0 and abs(r.measured_deg[0]) < 1e-9 for r in validation.values()
