@@ -30,6 +30,7 @@ from pneumatics import (
     hose_pressure_drop,
     isentropic_temperature,
     lag_toward,
+    least_displacement_per_rad,
     load_joint_params,
     orifice_mass_flow,
     params_row,
@@ -585,3 +586,16 @@ def test_supply_droop_follows_the_air_the_motor_draws():
     assert effective_supply(supply, full, 1.0, 0.0, atm, p) == supply  # valve shut
     # a set point under the supply: the port fills to it and draws nothing more
     assert effective_supply(supply, 3.0e5, 0.6, +1.0, atm + 3.0e5, p) == supply
+
+
+def test_a_stalled_motors_least_torque_is_at_half_a_vane_pitch():
+    # (L/2)(rho^2 - r^2) with rho^2 = B^2 + 2eB cos(phi) + e^2 cos(2 phi) is least at |phi| = pi/n
+    # (DESIGN's vane torque, written out here); the breakaway floor (control) takes this, not the mean
+    b, r, length, n = GEOM
+    e = b - r
+    phi = math.pi / n
+    analytic = 0.5 * length * (b**2 + 2 * e * b * math.cos(phi) + e**2 * math.cos(2 * phi) - r**2)
+    least = least_displacement_per_rad(*GEOM)
+    assert least == pytest.approx(analytic, rel=1e-9)
+    grid = [swept_area(x, *GEOM) for x in np.linspace(-phi + 1e-9, phi - 1e-9, 801)]
+    assert least <= min(grid) * (1 + 1e-6) and least / displacement_per_rad(*GEOM) == pytest.approx(0.866, abs=0.005)
