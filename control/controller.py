@@ -28,7 +28,7 @@ from control.predictor import predict_step
 from pneumatics import AIR, Gas, JointParams, load_joint_params, params_row
 from pneumatics import params as P
 from pneumatics.joint import C_BRAKE_RELEASE, N_COMMAND, R_OMEGA, R_THETA, initial_rigid_state, initial_state
-from pneumatics.motor import displacement_per_rad
+from pneumatics.motor import least_displacement_per_rad
 
 MODES = ("closed_loop", "open_loop")
 SEQUENCES = ("one_after_another", "together")
@@ -132,9 +132,11 @@ class ArmController:
         # the proportional valve's largest set point, gauge Pa: fully open, it passes the supply
         # (updated every tick from the measured supply; 1/k_u, full opening, until then)
         self.pv_full[:] = 1.0 / self.params[:, P.K_U]
-        # joint torque per gauge Pa of valve pressure at stall: mean displacement x ratio x efficiency
+        # joint torque per gauge Pa of valve pressure at stall, at the worst vane angle (a stalled motor
+        # must break away from wherever its vanes stand; the mean is 1/0.87 of it): least
+        # displacement x ratio x efficiency
         self.torque_per_pa[:] = [
-            displacement_per_rad(pr.stator_radius_m, pr.rotor_radius_m, pr.vane_length_m, pr.n_vanes)
+            least_displacement_per_rad(pr.stator_radius_m, pr.rotor_radius_m, pr.vane_length_m, pr.n_vanes)
             * pr.ratio
             * pr.efficiency_forward
             for pr in self.joint_params.values()

@@ -44,9 +44,17 @@ class PidGains(NamedTuple):
     max_retries: float = 3.0
     # floor of the set point while moving, as a multiple of the joint's breakaway pressure (the
     # valve pressure whose stall torque equals Coulomb friction plus the predicted load): below
-    # it the motor cannot move the joint, the loop would only wind up (0: no floor). A brake fed
-    # by the motor's port (pneumatics/brake.py) also floors it at its full-release pressure.
+    # it the motor cannot move the joint, the loop would only wind up (0: no floor).
     breakaway_margin: float = 1.2
+    # a brake fed by the motor's port (pneumatics/brake.py) drags below its full-release pressure,
+    # so while moving the set point is also floored this far above the *predicted* brake's full
+    # release: the real brake's spring is known only to its tolerance (springs and preload +-10 %,
+    # assumed: +-0.4 bar at the nominal 4 bar) and the port sits a little under the set point on
+    # an approach (the hose's drop at a slow joint's flow). Without it every approach parks the
+    # port at the edge of the real brake's drag band, where 0.1 bar of spring moved a 90 deg move
+    # by 6 deg (README, "The as-built arm"). The nominal brake clears low enough for the floor to
+    # fit under a 0.5 MPa supply and its droop (assets/joints/wrist_pitch.toml).
+    brake_clear_margin_pa: float = 0.5e5
 
 
 DEFAULT_GAINS = PidGains()  # immutable: safe as a default argument
@@ -56,7 +64,7 @@ def gains_row(g: PidGains) -> np.ndarray:
     return np.array(tuple(g), dtype=np.float64)
 
 
-G_KP, G_KI, G_KD, G_ILIM, G_TOL, G_VARR, G_RETRY, G_MAXRETRY, G_MARGIN = range(9)
+G_KP, G_KI, G_KD, G_ILIM, G_TOL, G_VARR, G_RETRY, G_MAXRETRY, G_MARGIN, G_BRAKE_MARGIN = range(10)
 
 
 @njit
@@ -185,7 +193,8 @@ def _joint_command(
 def _closed_loop_command(
     error: float, omega: float, move: np.ndarray, drive: np.ndarray, p: np.ndarray, g: np.ndarray, dt_s: float
 ) -> tuple[float, float]:
-    # (direction, set point) of the PID, floored at the breakaway pressure; the integral in place
+    # (direction, set point) of the PID, floored at the breakaway pressure and, for a brake fed by
+    # the motor's port, clear of the brake's drag band; the integral in place
     direction = 0.0
     set_point = 0.0
     pv_full = drive[D_PV_FULL]
@@ -194,7 +203,7 @@ def _closed_loop_command(
         direction = 1.0 if u > 0.0 else -1.0
         set_point = min(abs(u), pv_full)
         breakaway = drive[D_BREAKAWAY_POS] if direction > 0.0 else drive[D_BREAKAWAY_NEG]
-        # a brake fed by the motor's port drags below its full-release pressure
-        floor = max(g[G_MARGIN] * breakaway, p[P.BRAKE_FED_BY_MOTOR] * p[P.BRAKE_RELEASE_PA])
+        brake_clear = p[P.BRAKE_FED_BY_MOTOR] * (p[P.BRAKE_RELEASE_PA] + g[G_BRAKE_MARGIN])
+        floor = max(g[G_MARGIN] * breakaway, brake_clear)
         set_point = max(set_point, min(floor, pv_full))
     return direction, set_point

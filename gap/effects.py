@@ -178,7 +178,7 @@ CATALOGUE: tuple[Effect, ...] = (
         family="load",
         equation="load torque -k theta (N·m/rad), theta from the joint's zero",
     ),
-    # the brake (pneumatics/brake.py): its full-release pressure above nominal (4.75 bar; a weak
+    # the brake (pneumatics/brake.py): its full-release pressure above nominal (4.0 bar; a weak
     # piston seal or stiffer springs) leaves the lining dragging wherever the motor port's air is
     # under it (low supply, partial openings); up to 9 bar, above every supply: never fully clear
     Effect(

@@ -9,7 +9,14 @@ from pneumatics.chamber import chamber_pressure_rate
 from pneumatics.friction import coulomb_viscous_torque, reducer_output_torque, stribeck_excess_torque
 from pneumatics.gas import AIR, Gas, isentropic_temperature
 from pneumatics.hose import friction_factor, hose_mass_flow, hose_pressure_drop, hose_volume, reynolds_number
-from pneumatics.motor import chamber_volumes, displacement_per_rad, swept_area, vane_torque, wrap_motor_angle
+from pneumatics.motor import (
+    chamber_volumes,
+    displacement_per_rad,
+    least_displacement_per_rad,
+    swept_area,
+    vane_torque,
+    wrap_motor_angle,
+)
 from pneumatics.orifice import critical_pressure_ratio, flow_function, orifice_mass_flow
 from pneumatics.params import JointParams, ParameterError, load_joint_params, params_row, validated
 from pneumatics.reducer import transmitted_torque
@@ -29,6 +36,7 @@ __all__ = [
     "coulomb_viscous_torque",
     "critical_pressure_ratio",
     "displacement_per_rad",
+    "least_displacement_per_rad",
     "flow_function",
     "friction_factor",
     "hose_mass_flow",

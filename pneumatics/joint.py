@@ -95,17 +95,23 @@ def initial_state(p_atm_pa: float, brake_engaged: bool = True, theta_rad: float 
 
 
 @njit
-def effective_supply(supply_pa: float, opening: float, direction: float, p: np.ndarray) -> float:
+def effective_supply(
+    supply_pa: float, valve_gauge_pa: float, opening: float, direction: float, p_node_pa: float, p: np.ndarray
+) -> float:
     """Supply pressure at the valve after the droop of the supply line under the joint's draw.
 
-    The draw is estimated as the choked flow through the open inlet (one explicit pass; the gap
-    catalogue's "supply droop under flow"). Zero droop for the nominal joint.
+    The draw is the air the open inlet passes, from the pressure the proportional valve delivers
+    (its set point, capped by the supply) into the supplied port's valve node at `p_node_pa` (one
+    explicit pass; the gap catalogue's "supply droop under flow"): a stalled motor, its port up to
+    the supply, draws nothing and sees no droop; air pushed back from the port does not raise the
+    supply. Zero droop for the nominal joint.
     """
     if p[P.DROOP] == 0.0 or direction == 0.0:
         return supply_pa
     area = p[P.A_IN] * p[P.COND_SCALE] * opening
-    m_max = orifice_mass_flow(supply_pa, 0.0, area, p[P.GAS_T], p[P.GAS_R], p[P.GAS_K])
-    return max(p[P.GAS_P_ATM], supply_pa - p[P.DROOP] * m_max)
+    upstream = regulated_pressure(supply_pa, valve_gauge_pa, p[P.GAS_P_ATM])
+    draw = max(0.0, orifice_mass_flow(upstream, p_node_pa, area, p[P.GAS_T], p[P.GAS_R], p[P.GAS_K]))
+    return max(p[P.GAS_P_ATM], supply_pa - p[P.DROOP] * draw)
 
 
 @njit
@@ -154,7 +160,12 @@ def pressure_rates(
     t_s = p[P.GAS_T]
     n = p[P.POLY_N]
     opening = valve_opening(valve_gauge_pa, p[P.K_U], p[P.DEAD_ZONE])
-    p_s = regulated_pressure(effective_supply(supply_pa, opening, direction, p), valve_gauge_pa, p[P.GAS_P_ATM])
+    supplied_node = pa_valve if direction > 0.0 else pb_valve
+    p_s = regulated_pressure(
+        effective_supply(supply_pa, valve_gauge_pa, opening, direction, supplied_node, p),
+        valve_gauge_pa,
+        p[P.GAS_P_ATM],
+    )
     inlet_area = p[P.A_IN] * p[P.COND_SCALE] * opening
     m_a_valve = _port_valve_flow(pa_valve, direction > 0.0, p_s, inlet_area, p)
     m_b_valve = _port_valve_flow(pb_valve, direction < 0.0, p_s, inlet_area, p)

@@ -109,3 +109,12 @@ def displacement_per_rad(stator_radius_m: float, rotor_radius_m: float, vane_len
     va_lo, _ = chamber_volumes(-math.pi / n_vanes + 1e-12, stator_radius_m, rotor_radius_m, vane_length_m, n_vanes, 0.0)
     _, vb_lo = chamber_volumes(-math.pi / n_vanes + 1e-12, stator_radius_m, rotor_radius_m, vane_length_m, n_vanes, 0.0)
     return (vb_lo - va_lo) / (2.0 * math.pi / n_vanes)
+
+
+def least_displacement_per_rad(
+    stator_radius_m: float, rotor_radius_m: float, vane_length_m: float, n_vanes: float
+) -> float:
+    """Least volume slope dV_A/dphi over a vane pitch, m^3/rad: the torque per Pa of a stalled motor
+    at its worst vane angle (half a pitch from a vane at the port, where rho is shortest; the vane
+    torque is (p_A - p_B) times this slope). 0.87 of the mean for the arm's motors."""
+    return swept_area(math.pi / n_vanes - 1e-12, stator_radius_m, rotor_radius_m, vane_length_m, n_vanes)

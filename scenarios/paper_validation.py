@@ -165,8 +165,9 @@ def misfit(runs: list[ValidationRun]) -> float:
 FIT_GRID = {
     "conductance_scale": (0.8, 0.9, 1.0, 1.1, 1.2, 1.35),
     "coulomb_nm": (6.0, 9.0, 12.0, 15.0, 18.0),
-    "supply_droop_pa_s_per_kg": (0.0, 2.5e6, 5.0e6, 1.0e7),
-    "brake_release_gauge_pa": (4.25e5, 4.5e5, 4.75e5),
+    "supply_droop_pa_s_per_kg": (0.0, 2.5e6, 5.0e6, 1.0e7, 2.0e7),
+    # the nominal brake's 4.0 bar +- 0.5 bar: the real spring's tolerance (assets/joints/wrist_pitch.toml)
+    "brake_release_gauge_pa": (3.5e5, 3.75e5, 4.0e5, 4.25e5, 4.5e5),
 }
 # The 16 figures do not pin the four down alone (several points fit within 15 %), so a departure
 # from the designer's number costs like a misfit: (ln(value / nominal) / PRIOR_LOG_SIGMA)^2, a

@@ -203,6 +203,10 @@ def test_paper_validation_on_the_as_built_plant_within_a_factor_2_where_the_nomi
             assert 0.5 < e["with_hose_loss"][stat] / PAPER["with_hose_loss"][stat][m] < 2.0, (m, stat, e)
     e05 = validation[0.5].errors()["without_hose_loss"]
     assert 0.5 < e05["mean"] / PAPER["without_hose_loss"]["mean"][0.5] < 2.0, e05
+    # the paper's shape: the error without the loss largest at 0.5 MPa (measured 15.8 against 13.9
+    # deg at 0.8 MPa; the nominal pair alone grows with the supply, tests/test_gap.py: our reading is
+    # that the supply's droop lowers the real port into the brake's band at 0.5 MPa, not probed)
+    assert e05["mean"] > validation[0.8].errors()["without_hose_loss"]["mean"]
     # the measured and the predicted runs really turn, and start together
     assert all(
         r.measured_deg[r.time_s <= 1.0][-1] > 30.0 and abs(r.measured_deg[0]) < 1e-9 for r in validation.values()
@@ -253,11 +257,14 @@ def test_twin_paper_quick_writes_every_figure_with_the_papers_numbers(tmp_path):
     assert r["prediction_error"]["with_smaller_than_without_everywhere"]
     co = r["closed_vs_open_loop"]
     assert len(co["angles_deg"]) == 3
-    # closed beats open on the long moves; at 20 deg it does not with this fit (README, "What remains off")
-    assert all(c < o for c, o in zip(co["closed_loop_error_deg"][1:], co["open_loop_error_deg"][1:], strict=True))
+    # closed beats open at every angle, as in the paper (before the loop's set point was floored clear
+    # of the brake's drag band it did not at 20-30 deg: README, "The as-built arm")
+    assert all(c < o for c, o in zip(co["closed_loop_error_deg"], co["open_loop_error_deg"], strict=True))
     assert r["random_supply"]["max_error_deg"] < 2 * r["random_supply"]["paper_max_error_deg"]
-    mr = r["minimum_rotation"]  # None: no tested rotation adjusted (README, "What remains off")
-    assert mr["limit_deg"] is None or mr["limit_deg"] in mr["tested_deg"]
+    mr = r["minimum_rotation"]  # the paper's ~20 deg within a factor 2 (before the brake margin: none)
+    assert mr["limit_deg"] in mr["tested_deg"] and 10.0 <= mr["limit_deg"] <= 40.0, mr
+    ep = r["error_vs_pressure"]  # Fig. 20: within +-3 deg at 0.5 MPa (its growth with the supply is not met)
+    assert ep["pressures_mpa"][0] == 0.5 and ep["max_error_deg"][0] < 3.0, ep
     assert "Minimum rotation, Fig. 21" in (tmp_path / "report.md").read_text()
     assert len(r["error_vs_pressure"]["pressures_mpa"]) == 2
     report = (tmp_path / "report.md").read_text()

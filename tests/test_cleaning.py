@@ -219,9 +219,11 @@ def test_pinhole_agrees_with_mujocos_renderer(scene):
 
 
 def test_a_run_cut_short_is_judged_on_the_targets_it_reached(capsys):
-    """`twin run --duration 22`: disc 1 has been pressed and is judged; discs 2-8 are listed as
-    not reached, not failed; the target column shows the target in force at 22 s."""
-    assert twin_main(["run", "scenarios/insulator_cleaning.toml", "--json", "--duration", "22"]) == 0
+    """`twin run --duration 15`: disc 1 has been pressed and is judged; discs 2-8 are listed as
+    not reached, not failed; the target column shows the target in force at 15 s. (Measured, seed
+    1: disc 1 pressed from 7.9 s, disc 2 from 20.1 s; 22 s until issue 14's droop law and breakaway
+    floor let the elbow and wrist follow sooner, and disc 2 was then pressed by 22 s.)"""
+    assert twin_main(["run", "scenarios/insulator_cleaning.toml", "--json", "--duration", "15"]) == 0
     summary = json.loads(capsys.readouterr().out)
     discs = {d["disc"]: d for d in summary["discs"]}
     assert discs[1]["cleaned"] is True and 15.0 < discs[1]["peak_force_n"] < 55.0

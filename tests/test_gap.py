@@ -47,14 +47,15 @@ def test_paper_case_names_hose_loss_and_shrinks_error_on_withheld_runs(campaigns
         assert before[q].mean_deg > 3.0  # the paper's smallest error without the loss is 3.2 deg
         assert after[q].mean_deg < 0.3 * before[q].mean_deg
         assert after[q].mean_deg < 1.2  # the paper's best with the loss (0.8 MPa)
-    # the paper's shape before: larger at low pressure. Measured mean 22.5/15.0/14.9/15.6 deg and
-    # max 37.1/30.7/27.5/26.0 deg at 0.5/0.6/0.7/0.8 MPa (paper mean 22.2/14.3/13.4/3.2): the mean
-    # is largest at 0.5 MPa and the low half is larger; the max falls with every step of pressure
+    # The paper's shape (error without the loss largest at 0.5 MPa) is no longer this campaign's: its
+    # truth is the nominal wrist plus the hose loss, whose brake now clears at 4.0 bar (issue 14's
+    # brake margin) and hardly drags at 0.5 MPa, so the hose's share of the speed alone sets the
+    # error, growing with the supply: measured mean 11.6/12.1/13.9/15.9 deg, max 23.3/21.5/23.7/25.6
+    # deg at 0.5-0.8 MPa (with the 4.75 bar brake: 22.5/15.0/14.9/15.6 deg). The as-built arm keeps
+    # the paper's shape (tests/test_as_built.py).
     qs = ["0.50", "0.60", "0.70", "0.80"]
     mean = [before[q].mean_deg for q in qs]
-    peak = [before[q].max_deg for q in qs]
-    assert mean[0] > max(mean[1:]) and mean[0] + mean[1] > mean[2] + mean[3]
-    assert all(a > b for a, b in zip(peak, peak[1:], strict=False))
+    assert all(a < b for a, b in zip(mean, mean[1:], strict=False)) and mean[0] > 10.0, mean
 
 
 def test_hidden_leak_is_found_and_its_area_recovered(campaigns):
@@ -382,7 +383,7 @@ def test_hidden_angle_load_is_found_and_located_by_angle(tmp_path):
 
 
 def test_hidden_incomplete_brake_release_is_given_to_the_brake(tmp_path):
-    """The brake clears only at 6 bar (nominal 4.75): at 0.5 MPa it drags through every move. Three
+    """The brake clears only at 6 bar (nominal 4.0): at 0.5 MPa it drags through every move. Three
     supplies: with two, each fold trains on one, and at 0.5 MPa every release pressure above ~5.7
     bar fits alike (the brake never clears), so a fold's value is not identified there."""
     folder = synth.make_campaign(

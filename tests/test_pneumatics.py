@@ -30,6 +30,7 @@ from pneumatics import (
     hose_pressure_drop,
     isentropic_temperature,
     lag_toward,
+    least_displacement_per_rad,
     load_joint_params,
     orifice_mass_flow,
     params_row,
@@ -52,6 +53,7 @@ from pneumatics.joint import (
     S_PV,
     advance_brake,
     advance_discrete,
+    effective_supply,
     initial_state,
     single_joint_step,
 )
@@ -560,3 +562,40 @@ def test_reversal_through_backlash_loses_the_gap() -> None:
         f"twist forward {forward.min():.5f}..{forward.max():.5f}, back {back.min():.5f}..{back.max():.5f}"
     )
     assert loss == pytest.approx(gap, abs=0.1 * gap)
+
+
+def test_supply_droop_follows_the_air_the_motor_draws():
+    # droop = coefficient x the air the open inlet passes, from what the proportional valve delivers
+    # into the supplied port's node: the most for an empty port (choked flow, written out here from
+    # the gas constants), less as the port fills, none for a stalled motor whose port is up to the
+    # supply or above it, none with the valve shut
+    p = params_row(WRIST._replace(supply_droop_pa_s_per_kg=5.0e6))
+    atm = 101_325.0
+    supply = atm + 0.5e6
+    full = 1.0 / WRIST.k_u_per_pa  # set point of full opening (above the supply: the valve passes it)
+    area = WRIST.inlet_area_m2 * WRIST.conductance_scale
+    k, r, t = AIR.k, AIR.r_j_per_kg_k, AIR.t_supply_k
+    choked = area * supply * math.sqrt(k * (2.0 / (k + 1.0)) ** ((k + 1.0) / (k - 1.0))) / math.sqrt(r * t)
+    empty = effective_supply(supply, full, 1.0, +1.0, atm, p)
+    assert supply - empty == pytest.approx(5.0e6 * choked, rel=1e-9)
+    assert 20e3 < supply - empty < 40e3  # ~0.5 MPa into an empty port: tens of kPa at 5e6 Pa·s/kg
+    droops = [supply - effective_supply(supply, full, 1.0, -1.0, node, p) for node in (atm, 3.5e5, 5.0e5, 5.9e5)]
+    assert all(a > b > 0.0 for a, b in zip(droops, droops[1:], strict=False)), droops
+    assert effective_supply(supply, full, 1.0, +1.0, supply, p) == supply  # stalled at the supply: no draw
+    assert effective_supply(supply, full, 1.0, +1.0, supply + 0.5e5, p) == supply  # pushed back: no rise
+    assert effective_supply(supply, full, 1.0, 0.0, atm, p) == supply  # valve shut
+    # a set point under the supply: the port fills to it and draws nothing more
+    assert effective_supply(supply, 3.0e5, 0.6, +1.0, atm + 3.0e5, p) == supply
+
+
+def test_a_stalled_motors_least_torque_is_at_half_a_vane_pitch():
+    # (L/2)(rho^2 - r^2) with rho^2 = B^2 + 2eB cos(phi) + e^2 cos(2 phi) is least at |phi| = pi/n
+    # (DESIGN's vane torque, written out here); the breakaway floor (control) takes this, not the mean
+    b, r, length, n = GEOM
+    e = b - r
+    phi = math.pi / n
+    analytic = 0.5 * length * (b**2 + 2 * e * b * math.cos(phi) + e**2 * math.cos(2 * phi) - r**2)
+    least = least_displacement_per_rad(*GEOM)
+    assert least == pytest.approx(analytic, rel=1e-9)
+    grid = [swept_area(x, *GEOM) for x in np.linspace(-phi + 1e-9, phi - 1e-9, 801)]
+    assert least <= min(grid) * (1 + 1e-6) and least / displacement_per_rad(*GEOM) == pytest.approx(0.866, abs=0.005)
