@@ -249,7 +249,6 @@ class ArmController:
             pv = np.where(np.isfinite(pv), pv, 0.0)
         else:
             self._last_supply = supply
-        self.pv_full.fill(max(supply - self.gas.p_atm_pa, 0.0))
         if (self._plan or self._stepping) and not self.faulted:
             gauge = supply - self.gas.p_atm_pa
             if gauge < self._brake_release_pa:
@@ -259,10 +258,14 @@ class ArmController:
                 )
         if not self.faulted:
             self._sequence(supply)
-        # Pinocchio's load torques, asked before the compiled tick (it does not move the predicted
-        # angles) when control_step will find a joint moving and the load stale (its own test)
+        # Pinocchio's load torques, asked before the compiled tick (nothing in it before the
+        # predictor moves the predicted angles) when a joint is moving; the tick takes them only
+        # where control_step finds the load stale. With a load_update_rad > 0 they are asked only
+        # when its test already says so here (with 0 nearly every tick of a move does)
         new_load = self._no_load
-        if self.mode.tolist().count(IDLE) != len(self.joints) and self._load_is_stale():
+        if self.mode.tolist().count(IDLE) != len(self.joints) and (
+            self.load_update_rad == 0.0 or self._load_is_stale()
+        ):
             new_load = self.arm.load_torques(self.y[:, R_THETA])
         moving, timed_out, predicted = control_and_predict(
             self._modes,
@@ -276,6 +279,7 @@ class ArmController:
             self.load_update_rad,
             self.commands,
             self.faulted,
+            max(supply - self.gas.p_atm_pa, 0.0),
             new_load,
             pv,
             supply,
@@ -349,7 +353,10 @@ class ArmController:
             self.retries[i] = 0.0
             self.timeout[i] = self.move_timeout_s
             if self.mode_name == "open_loop":
-                sp = self.pv_full[i] if self.open_loop_set_point_pa is None else self.open_loop_set_point_pa
+                # full opening: the supply's gauge pressure (what this tick's pv_full holds)
+                sp = max(supply_pa - self.gas.p_atm_pa, 0.0)
+                if self.open_loop_set_point_pa is not None:
+                    sp = self.open_loop_set_point_pa
                 self.open_time[i] = open_loop_duration(
                     self.params[i], theta[i], step[i], sp, supply_pa, self.load[i], self.inertia[i], self.dt
                 )
