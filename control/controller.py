@@ -23,9 +23,8 @@ import assets
 from control import pid
 from control.arm_model import ArmModel
 from control.open_loop import open_loop_duration
-from control.pid import CLOSED, DEFAULT_GAINS, IDLE, OPEN, PidGains, gains_row
+from control.pid import CLOSED, DEFAULT_GAINS, IDLE, OPEN, PidGains, control_step, gains_row
 from control.predictor import predict_step
-from control.tick import control_and_predict
 from pneumatics import AIR, Gas, JointParams, load_joint_params, params_row
 from pneumatics import params as P
 from pneumatics.joint import C_BRAKE_RELEASE, N_COMMAND, R_OMEGA, R_THETA, initial_rigid_state, initial_state
@@ -101,7 +100,6 @@ class ArmController:
         self._make_tables(start)
         self.load_update_rad = float(load_update_rad)
         self._set_load(start)
-        self._no_load = np.zeros(0)  # control_and_predict's "no new load this tick"
         self.inertia = self.arm.drive_inertias(start) + self.rotor_inertia
         self._plan: list[tuple[np.ndarray, float]] = []  # (targets with NaN = stays, dwell_s)
         self._step_joints = np.zeros(n, dtype=bool)
@@ -249,6 +247,7 @@ class ArmController:
             pv = np.where(np.isfinite(pv), pv, 0.0)
         else:
             self._last_supply = supply
+        self.pv_full.fill(max(supply - self.gas.p_atm_pa, 0.0))
         if (self._plan or self._stepping) and not self.faulted:
             gauge = supply - self.gas.p_atm_pa
             if gauge < self._brake_release_pa:
@@ -258,16 +257,7 @@ class ArmController:
                 )
         if not self.faulted:
             self._sequence(supply)
-        # Pinocchio's load torques, asked before the compiled tick (nothing in it before the
-        # predictor moves the predicted angles) when a joint is moving; the tick takes them only
-        # where control_step finds the load stale. With a load_update_rad > 0 they are asked only
-        # when its test already says so here (with 0 nearly every tick of a move does)
-        new_load = self._no_load
-        if self.mode.tolist().count(IDLE) != len(self.joints) and (
-            self.load_update_rad == 0.0 or self._load_is_stale()
-        ):
-            new_load = self.arm.load_torques(self.y[:, R_THETA])
-        moving, timed_out, predicted = control_and_predict(
+        moving, timed_out, load_stale = control_step(
             self._modes,
             self._moves,
             self._drives,
@@ -278,32 +268,22 @@ class ArmController:
             self.dt,
             self.load_update_rad,
             self.commands,
-            self.faulted,
-            max(supply - self.gas.p_atm_pa, 0.0),
-            new_load,
-            pv,
-            supply,
-            self.load,
-            self.inertia,
         )
-        if not predicted:  # a joint timed out: fault, then predict with the commands zeroed
-            i = timed_out
-            self._fault(
-                f"{self.joints[i]} did not reach {math.degrees(self.target[i]):.2f} deg "
-                f"within {self.timeout[i]:g} s "
-                f"(predicted {math.degrees(self.y[i, R_THETA]):.2f} deg)"
-            )
+        if self.faulted:
             self.commands[:] = 0.0
-            predict_step(self.y, self.x, self.commands, pv, supply, self.load, self.inertia, self.params, self.dt)
+        if moving:
+            if load_stale:
+                self._set_load(self.y[:, R_THETA])
+            if timed_out >= 0:
+                i = timed_out
+                self._fault(
+                    f"{self.joints[i]} did not reach {math.degrees(self.target[i]):.2f} deg "
+                    f"within {self.timeout[i]:g} s "
+                    f"(predicted {math.degrees(self.y[i, R_THETA]):.2f} deg)"
+                )
+                self.commands[:] = 0.0
+        predict_step(self.y, self.x, self.commands, pv, supply, self.load, self.inertia, self.params, self.dt)
         return self.commands
-
-    def _load_is_stale(self) -> bool:
-        # control_step's test: a predicted angle has moved more than load_update_rad (a NaN counts)
-        limit = self.load_update_rad
-        for theta, taken in zip(self.y[:, R_THETA].tolist(), self._load_theta.tolist(), strict=True):
-            if not abs(theta - taken) <= limit:
-                return True
-        return False
 
     def _set_load(self, theta: np.ndarray) -> None:
         # the load torques from Pinocchio at the predicted configuration, and where they were taken
@@ -353,10 +333,7 @@ class ArmController:
             self.retries[i] = 0.0
             self.timeout[i] = self.move_timeout_s
             if self.mode_name == "open_loop":
-                # full opening: the supply's gauge pressure (what this tick's pv_full holds)
-                sp = max(supply_pa - self.gas.p_atm_pa, 0.0)
-                if self.open_loop_set_point_pa is not None:
-                    sp = self.open_loop_set_point_pa
+                sp = self.pv_full[i] if self.open_loop_set_point_pa is None else self.open_loop_set_point_pa
                 self.open_time[i] = open_loop_duration(
                     self.params[i], theta[i], step[i], sp, supply_pa, self.load[i], self.inertia[i], self.dt
                 )
