@@ -227,9 +227,9 @@ def test_arm_moves_joints_one_after_another_and_is_deterministic():
 
 
 def test_a_move_that_times_out_faults_and_the_prediction_coasts_on_with_the_valves_shut():
-    # the one-call tick (control/tick.py) hands a time-out back to Python before predicting: the
-    # fault shuts everything, then the predictor advances over the tick with zero commands and
-    # the load Pinocchio gives at the predicted angles; checked against predict_step called here
+    # the fault shuts everything on the tick the move times out, then the predictor advances over
+    # that tick with zero commands and the load Pinocchio gives at the predicted angles; checked
+    # against predict_step called here
     plant = Plant(assets.SCENE_XML)
     plant.set_supply(ATM + 0.6e6)
     c = ArmController(home_drive_angles(plant), move_timeout_s=0.05)
