@@ -23,6 +23,7 @@ from control import (
     MotionRefused,
     closed_vs_open_loop,
     minimum_rotation_limit,
+    predict_step,
     random_supply_moves,
     run_move,
     run_until_done,
@@ -237,3 +238,30 @@ def test_arm_moves_joints_one_after_another_and_is_deterministic():
     final2, _, c2 = run_arm("one_after_another")
     np.testing.assert_array_equal(final, final2)
     assert c.events == c2.events
+
+
+def test_a_move_that_times_out_faults_and_the_prediction_coasts_on_with_the_valves_shut():
+    # the fault shuts everything on the tick the move times out, then the predictor advances over
+    # that tick with zero commands and the load Pinocchio gives at the predicted angles; checked
+    # against predict_step called here
+    plant = Plant(assets.SCENE_XML)
+    plant.set_supply(ATM + 0.6e6)
+    c = ArmController(home_drive_angles(plant), move_timeout_s=0.05)
+    c.set_targets({"elbow_pitch": math.radians(60.0)})
+    for _ in range(100):
+        y, x = c.y.copy(), c.x.copy()
+        sensors = plant.sensors()
+        timing_out = bool((c.mode != 0).any()) and bool(((c.elapsed + c.dt) > c.timeout)[c.mode != 0].any())
+        plant.commands[:] = c.tick(sensors)
+        if timing_out:
+            break
+        plant.step(2)
+    assert timing_out and c.faulted and "did not reach" in c.events[-1], c.events
+    assert not c.commands.any() and not (c.mode != 0).any()
+    load = c.arm.load_torques(y[:, 0])
+    predict_step(
+        y, x, np.zeros_like(c.commands), sensors.valve_gauge_pa, sensors.supply_pa, load, c.inertia, c.params, c.dt
+    )
+    np.testing.assert_array_equal(c.load, load)
+    np.testing.assert_array_equal(c.y, y)
+    np.testing.assert_array_equal(c.x, x)

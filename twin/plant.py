@@ -88,6 +88,10 @@ class Plant:
         self.actuator_ids = ids(m, mujoco.mjtObj.mjOBJ_ACTUATOR, joints)
         self.joint_ids = ids(m, mujoco.mjtObj.mjOBJ_JOINT, joints)
         self.drive_map = drive_map(m, self.tendon_ids)
+        # the drive map's qpos and dof addresses as indices (drive_angles, drive_speeds: telemetry)
+        self._drive_qpos = self.drive_map[:, :, 0].astype(int)
+        self._drive_dofs = self.drive_map[:, :, 1].astype(int)
+        self._geom_ids: dict[str, int] = {}
         self.dt = m.opt.timestep
         for i in range(len(joints)):
             self._set_drive_tendon(i)
@@ -249,12 +253,12 @@ class Plant:
 
     def drive_angles(self) -> np.ndarray:
         """True drive-coordinate angle of each joint, rad (for logging and tests, not the controller)."""
-        q = self.data.qpos[self.drive_map[:, :, 0].astype(int)]
+        q = self.data.qpos[self._drive_qpos]
         return np.sum(self.drive_map[:, :, 2] * q, axis=1)
 
     def drive_speeds(self) -> np.ndarray:
         """True drive-coordinate speed of each joint, rad/s."""
-        v = self.data.qvel[self.drive_map[:, :, 1].astype(int)]
+        v = self.data.qvel[self._drive_dofs]
         return np.sum(self.drive_map[:, :, 2] * v, axis=1)
 
     def motor_angles(self) -> np.ndarray:
@@ -278,6 +282,12 @@ class Plant:
     def valve_directions(self) -> np.ndarray:
         """Direction valve position in effect per joint (-1, 0, +1)."""
         return self.air[:, J.S_DIR].copy()
+
+    def geom_id(self, name: str) -> int:
+        """MuJoCo's id of the named geom (-1: none), looked up once (telemetry asks every sample)."""
+        if name not in self._geom_ids:
+            self._geom_ids[name] = mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_GEOM, name)
+        return self._geom_ids[name]
 
     def site_position(self, name: str) -> np.ndarray:
         return self.data.site(name).xpos.copy()

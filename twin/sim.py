@@ -65,7 +65,7 @@ def brush_contact(plant: Plant) -> tuple[float, np.ndarray, np.ndarray]:
     in that frame (mj_contactForce) acts on geom2, its opposite on geom1.
     """
     m, d = plant.model, plant.data
-    brush = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, "brush")
+    brush = plant.geom_id("brush")
     normal, point, push = 0.0, np.zeros(3), np.zeros(3)
     if brush >= 0:
         f = np.zeros(6)
