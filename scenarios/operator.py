@@ -32,8 +32,9 @@ the insulator string (paper Sec. II). This model sees only what that camera's pi
   while the error is over `tolerance_m`, moves the brush's aim by the error he sees and lets the
   platform go there again (its inverse kinematics, as a jog handle in the tool's frame would). The
   aim carries to the press and the back-off on that disc, and to the next disc. At most MAX_LOOKS
-  looks per disc; then he aims the press by his last look. Where his aim would take a joint past
-  its range (the wrist at the bottom disc) the tool is tilted instead
+  looks per disc; then he aims the press by his last look. Placed at the plan's standoff, he
+  closes in to 2 cm and looks again before he presses (scenarios/task.TOUCH_STANDOFF_M). Where
+  his aim would take a joint past its range (the wrist at the bottom disc) the tool is tilted instead
   (scenarios/ik.tip_drive_angles): he places the brush, not its tilt; an aim the platform refuses
   anyway he takes back.
   A link 0.5 m long is ~80 px in the picture: a pixel at each end is ~0.7 deg of pitch.
@@ -216,8 +217,8 @@ class Operator:
                 self._last_move_m = error
                 aimed = " aimed by it"
             self.log.append(
-                f"t = {now_s:.2f} s: disc_{disc} seen {miss * 100:.1f} cm off after {self.looks} corrections: "
-                f"press{aimed}"
+                f"t = {now_s:.2f} s: disc_{disc} seen {miss * 100:.1f} cm off its {standoff_m * 100:.0f} cm "
+                f"standoff after {self.looks} corrections: placed{aimed}"
             )
             self.looks = 0
             return False

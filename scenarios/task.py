@@ -6,8 +6,9 @@ finish noted, and a strategy that may act between them (scenario field `control.
                  end stop (the MJCF's range, a stop the platform knows) and its predicted angle set
                  to it; only where the elbow stays in its range with the shoulder there (the string's
                  upper discs), since the parallelogram keeps the forearm's pitch
-    operator     the operator corrects the brush's aim by the global camera (scenarios/operator.py);
-                 he also clears the platform's faults (a move not finished in time) and goes on
+    operator     the operator corrects the brush's aim by the global camera (scenarios/operator.py),
+                 closes in to TOUCH_STANDOFF_M and looks again before each press; he also clears the
+                 platform's faults (a move not finished in time) and goes on
     true_angle   a bound, not a way to run the arm: the same controller handed the plant's true
                  angles every tick (it breaks the sensorless rule on purpose)
 
@@ -18,6 +19,7 @@ reads the plant.
 
 from __future__ import annotations
 
+import contextlib
 import math
 from dataclasses import dataclass
 
@@ -25,7 +27,7 @@ import numpy as np
 
 from control import ArmController, MotionRefused
 from pneumatics.joint import C_BRAKE_RELEASE, C_DIRECTION, C_PV_SET_GAUGE_PA
-from scenarios.ik import disc_rim_target
+from scenarios.ik import disc_drive_angles, disc_rim_target
 from scenarios.operator import GlobalCamera, Operator
 from scenarios.schema import Scenario
 from twin.plant import Plant
@@ -37,6 +39,12 @@ STOP_DRIVE_S_PER_RAD = (
 )
 STOP_SETTLE_S = 0.3  # brake applied before the angle is taken (brake engagement ~0.1 s, assets/joints)
 ELBOW_MARGIN_RAD = math.radians(5.0)  # keep the elbow this far inside its range at the stop
+# the operator's last look before a press is taken with the brush's face this far off the rim (m):
+# a press from the plan's 5 cm standoff is a 7.5 cm move, and the as-built arm's error over such a
+# move (up to 4 cm high and 10 deg of tilt at disc 1, measured) put the head's side, not its face,
+# on the rim's top edge, where the spring takes nothing (100-450 N). From 2 cm the press is 4.5 cm,
+# and 2 cm is twice his 1 cm placement tolerance: still clear of the rim when he looks
+TOUCH_STANDOFF_M = 0.02
 
 
 @dataclass
@@ -72,6 +80,7 @@ class TaskController:
         self.camera = GlobalCamera(plant.model, plant.data, scenario.operator) if self.strategy == "operator" else None
         self.operator = Operator(plant.model, self.camera, scenario.operator, rng) if self.camera else None
         self._review_from_s = math.nan
+        self._closing_in = False  # the operator's extra stop at TOUCH_STANDOFF_M before a press is under way
         self._stop: _StopDrive | None = None
         self._stopped_after: set[int] = set()  # back-off targets after which the stop drive was tried
         self._notes: list[str] = []
@@ -127,12 +136,21 @@ class TaskController:
                 t,
                 self._review_from_s,
                 target.brush_at_disc,
-                target.standoff_m,
+                self._standoff_m(self.k),
                 self.controller,
                 aim=self._is_approach(self.k),
             )
             if verdict is None:
                 return  # waiting to see the arm at rest
+            if not verdict and self._is_approach(self.k):
+                # placed: close in to touching distance and look again, then press (TOUCH_STANDOFF_M)
+                self._closing_in = not self._closing_in and target.standoff_m > TOUCH_STANDOFF_M
+                verdict = self._closing_in
+                if self._closing_in:
+                    self._notes.append(
+                        f"t = {t:.3f} s: disc_{target.brush_at_disc}: operator closes in to "
+                        f"{TOUCH_STANDOFF_M * 100:.0f} cm before the press"
+                    )
             if verdict:
                 self._issue(self.k, dwell_s=0.0)
                 self._review_from_s = math.inf  # set when this correction is done
@@ -162,16 +180,24 @@ class TaskController:
             if self.operator is not None:
                 self.operator.take_back()
 
+    def _standoff_m(self, k: int) -> float:
+        """Where target k holds the brush's face off its disc's rim (closer while closing in)."""
+        return TOUCH_STANDOFF_M if self._closing_in else self.scenario.targets[k].standoff_m
+
     def _aimed(self, k: int) -> dict[str, float]:
         t = self.scenario.targets[k]
         nominal = self.targets[k]
         if self.operator is None or not t.brush_at_disc:
             return dict(nominal)
+        standoff = self._standoff_m(k)
+        if self._closing_in:
+            with contextlib.suppress(ValueError):  # out of the plan's reach: keep the standoff's tilt
+                nominal = {**nominal, **disc_drive_angles(self.model, t.brush_at_disc, standoff)}
         tilt = nominal["elbow_pitch"] + nominal["wrist_pitch"]  # the tool's absolute pitch (parallelogram)
         try:
             return {
                 **nominal,
-                **self.operator.aimed(disc_rim_target(self.model, t.brush_at_disc, t.standoff_m), tilt),
+                **self.operator.aimed(disc_rim_target(self.model, t.brush_at_disc, standoff), tilt),
                 **t.angles_deg,
             }
         except ValueError:

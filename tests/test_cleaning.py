@@ -218,13 +218,24 @@ def test_pinhole_agrees_with_mujocos_renderer(scene):
     assert abs(brush[0] - seen["brush"][3]) < 2.0 and abs(brush[1] - seen["brush"][2]) < 2.0
 
 
-def test_a_run_cut_short_is_judged_on_the_targets_it_reached(capsys):
+def test_a_run_cut_short_is_judged_on_the_targets_it_reached(capsys, tmp_path):
     """`twin run --duration 22`: disc 1 has been pressed and is judged; discs 2-8 are listed as
-    not reached, not failed; the target column shows the target in force at 22 s."""
-    assert twin_main(["run", "scenarios/insulator_cleaning.toml", "--json", "--duration", "22"]) == 0
+    not reached, not failed; the target column shows the target in force at 22 s.
+
+    At 0.7 MPa with this seed the operator's press from the plan's 5 cm standoff (a 7.5 cm move)
+    put the head's side on disc 1's rim top edge, 138 N: he now closes in to 2 cm and looks again
+    before he presses, and the press stays in the spring's band."""
+    toml = (ROOT / "scenarios" / "insulator_cleaning.toml").read_text()
+    supply = "pressure_mpa = 0.6 "
+    assert supply in toml
+    path = tmp_path / "cleaning_07.toml"
+    path.write_text(toml.replace(supply, "pressure_mpa = 0.7 "))
+    argv = ["run", str(path), "--json", "--duration", "22", "--seed", "4215923173971654960"]
+    assert twin_main(argv) == 0
     summary = json.loads(capsys.readouterr().out)
     discs = {d["disc"]: d for d in summary["discs"]}
     assert discs[1]["cleaned"] is True and 15.0 < discs[1]["peak_force_n"] < 55.0
+    assert any("disc_1: operator closes in to 2 cm" in e for e in summary["controller_events"])
     assert all(discs[k]["cleaned"] is None for k in range(2, 9))
     assert any("disc_8" in t for t in summary["not_reached"])
     judged = [c for c in summary["criteria"] if c["judged"]]
