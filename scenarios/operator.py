@@ -136,6 +136,7 @@ class Operator:
         self.aim_offset_m = np.zeros(3)  # added to every brush target's tool-tip position (world x, z)
         self._last_move_m = np.zeros(3)  # the last change of the aim (taken back if the platform refuses it)
         self.looks = 0
+        self.last_miss_m = 0.0  # how far off the brush's face he last saw it (m)
         # the string's disc type is known: its unit spacing (146 mm, U70BL) is his scale in the picture
         self.disc_pitch_m = float(model.geom("disc_1").pos[2] - model.geom("disc_2").pos[2])
         self.log: list[str] = []
@@ -209,6 +210,7 @@ class Operator:
             return False
         error = self.picture_error_m(frame, disc, standoff_m)
         miss = float(np.hypot(error[0], error[2]))
+        self.last_miss_m = miss
         if miss <= self.params.tolerance_m or self.looks >= MAX_LOOKS:
             aimed = ""
             if miss > self.params.tolerance_m:

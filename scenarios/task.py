@@ -19,7 +19,6 @@ reads the plant.
 
 from __future__ import annotations
 
-import contextlib
 import math
 from dataclasses import dataclass
 
@@ -27,7 +26,7 @@ import numpy as np
 
 from control import ArmController, MotionRefused
 from pneumatics.joint import C_BRAKE_RELEASE, C_DIRECTION, C_PV_SET_GAUGE_PA
-from scenarios.ik import disc_drive_angles, disc_rim_target
+from scenarios.ik import disc_rim_target
 from scenarios.operator import GlobalCamera, Operator
 from scenarios.schema import Scenario
 from twin.plant import Plant
@@ -45,6 +44,10 @@ ELBOW_MARGIN_RAD = math.radians(5.0)  # keep the elbow this far inside its range
 # on the rim's top edge, where the spring takes nothing (100-450 N). From 2 cm the press is 4.5 cm,
 # and 2 cm is twice his 1 cm placement tolerance: still clear of the rim when he looks
 TOUCH_STANDOFF_M = 0.02
+# he presses from touching distance only if he saw the face within this of where it should stand (m):
+# the head's 25 mm press then stays inside its 50 mm stroke, and the face's edge (45 mm radius) on the
+# rim (10 mm half-thickness) with room for the press's own error
+PRESS_MISS_M = 0.02
 
 
 @dataclass
@@ -81,6 +84,8 @@ class TaskController:
         self.operator = Operator(plant.model, self.camera, scenario.operator, rng) if self.camera else None
         self._review_from_s = math.nan
         self._closing_in = False  # the operator's extra stop at TOUCH_STANDOFF_M before a press is under way
+        self._came_in_again: set[int] = set()  # discs on which he backed off from touching distance once
+        self._skip_press = False  # the operator gave up the coming press
         self._stop: _StopDrive | None = None
         self._stopped_after: set[int] = set()  # back-off targets after which the stop drive was tried
         self._notes: list[str] = []
@@ -143,14 +148,7 @@ class TaskController:
             if verdict is None:
                 return  # waiting to see the arm at rest
             if not verdict and self._is_approach(self.k):
-                # placed: close in to touching distance and look again, then press (TOUCH_STANDOFF_M)
-                self._closing_in = not self._closing_in and target.standoff_m > TOUCH_STANDOFF_M
-                verdict = self._closing_in
-                if self._closing_in:
-                    self._notes.append(
-                        f"t = {t:.3f} s: disc_{target.brush_at_disc}: operator closes in to "
-                        f"{TOUCH_STANDOFF_M * 100:.0f} cm before the press"
-                    )
+                verdict = self._close_in(t, target)
             if verdict:
                 self._issue(self.k, dwell_s=0.0)
                 self._review_from_s = math.inf  # set when this correction is done
@@ -166,6 +164,9 @@ class TaskController:
             if self._start_stop_drive(t):
                 return
         self.k += 1
+        if self._skip_press:
+            self._skip_press = False
+            self.k += 1
         if self.k < len(self.targets):
             self._issue(self.k, self.scenario.targets[self.k].dwell_s)
 
@@ -180,6 +181,36 @@ class TaskController:
             if self.operator is not None:
                 self.operator.take_back()
 
+    def _close_in(self, t: float, target) -> bool:
+        """Placed at an approach: True to go there again. From the plan's standoff he closes in to
+        TOUCH_STANDOFF_M and looks again; from there he presses, unless he ran out of looks with
+        the brush further off than the press can take (PRESS_MISS_M): then he backs off to the
+        plan's standoff and comes in again, once per disc (a press aimed by a last look 3.3 cm off
+        rammed disc 8 with 408 N, 0.8 MPa); a second time, he leaves the disc unpressed."""
+        disc = target.brush_at_disc
+        if self._closing_in and self.operator.last_miss_m > PRESS_MISS_M:
+            self._closing_in = False
+            if disc in self._came_in_again:
+                # still too far off the second time: he does not press this disc at all
+                self._skip_press = True
+                self._notes.append(
+                    f"t = {t:.3f} s: disc_{disc}: operator leaves the disc unpressed "
+                    f"(seen {self.operator.last_miss_m * 100:.1f} cm off again)"
+                )
+                return False
+            self._came_in_again.add(disc)
+            self._notes.append(
+                f"t = {t:.3f} s: disc_{disc}: operator backs off to {target.standoff_m * 100:.0f} cm "
+                f"and comes in again (seen {self.operator.last_miss_m * 100:.1f} cm off)"
+            )
+            return True
+        self._closing_in = not self._closing_in and target.standoff_m > TOUCH_STANDOFF_M
+        if self._closing_in:
+            self._notes.append(
+                f"t = {t:.3f} s: disc_{disc}: operator closes in to {TOUCH_STANDOFF_M * 100:.0f} cm before the press"
+            )
+        return self._closing_in
+
     def _standoff_m(self, k: int) -> float:
         """Where target k holds the brush's face off its disc's rim (closer while closing in)."""
         return TOUCH_STANDOFF_M if self._closing_in else self.scenario.targets[k].standoff_m
@@ -190,10 +221,7 @@ class TaskController:
         if self.operator is None or not t.brush_at_disc:
             return dict(nominal)
         standoff = self._standoff_m(k)
-        if self._closing_in:
-            with contextlib.suppress(ValueError):  # out of the plan's reach: keep the standoff's tilt
-                nominal = {**nominal, **disc_drive_angles(self.model, t.brush_at_disc, standoff)}
-        tilt = nominal["elbow_pitch"] + nominal["wrist_pitch"]  # the tool's absolute pitch (parallelogram)
+        tilt = self._press_tilt(k)
         try:
             return {
                 **nominal,
@@ -202,6 +230,21 @@ class TaskController:
             }
         except ValueError:
             return dict(nominal)  # the aim is out of reach: go where the plan says
+
+    def _press_tilt(self, k: int) -> float:
+        """The tool's absolute pitch (elbow + wrist drive, the parallelogram) of the plan's press on
+        target k's disc, for every target on that disc: the operator sets the brush's tilt while it is
+        well clear and comes in along the tool's axis (a tilt changed at the rim, 10-17 deg of wrist at
+        disc 1 for a 1.4 cm correction, swung the head's side under the rim: 218 N). The target's own
+        tilt where its disc has no press."""
+        ts = self.scenario.targets
+        disc = ts[k].brush_at_disc
+        near = sorted(
+            (i for i in range(len(ts)) if ts[i].brush_at_disc == disc and ts[i].standoff_m < 0),
+            key=lambda i: abs(i - k),
+        )
+        plan = self.targets[near[0]] if near else self.targets[k]
+        return plan["elbow_pitch"] + plan["wrist_pitch"]
 
     def _is_approach(self, k: int) -> bool:
         """A target standing off a disc, followed by a press on the same disc."""
