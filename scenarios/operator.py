@@ -57,7 +57,7 @@ import mujoco
 import numpy as np
 
 from scenarios.cleaning import N_DISCS
-from scenarios.ik import BRUSH_HALF_LENGTH_M, tip_drive_angles
+from scenarios.ik import BRUSH_HALF_LENGTH_M, drive_to_qpos, tip_drive_angles, tool_drive_angles
 from scenarios.pinhole import Pinhole, camera_of
 from scenarios.schema import Operator as OperatorParams
 
@@ -172,6 +172,27 @@ class Operator:
         """Drive angles for a brush target with the operator's aim applied (the tool tilted from
         `tilt_rad` where a joint would leave its range: he places the brush, not its tilt)."""
         return tip_drive_angles(self.model, tip_m + self.aim_offset_m, tilt_rad)
+
+    def pressed(self, tip_m: np.ndarray, wrist_rad: float, tilt_rad: float) -> dict[str, float]:
+        """Drive angles of the shoulder and elbow that put the brush at `tip_m` (his aim applied)
+        with the wrist left at `wrist_rad`: he presses with the big joints and lets the tool's tilt
+        follow the forearm (a few degrees over a press). The wrist pair is sized at its reducer's
+        limit for the payload (DESIGN, "Sizing"): its small moves under load are the least exact
+        of the arm's, 2-3 times the predicted at discs 1 and 7 (as-built, 0.6-0.8 MPa), enough to
+        swing the head's side onto the rim. The tool's pitch is the forearm's plus the wrist's, so
+        the planar IK is repeated with the tilt it gives (the 0.15 m tool is short against the
+        0.5 m links: a few rounds settle it to a micrometre), from the tool's pitch `tilt_rad`.
+        ValueError if out of reach or range."""
+        drive = tool_drive_angles(self.model, tip_m + self.aim_offset_m, tilt_rad)
+        for _ in range(12):
+            drive = tool_drive_angles(self.model, tip_m + self.aim_offset_m, drive["elbow_pitch"] + wrist_rad)
+        drive["wrist_pitch"] = wrist_rad
+        for joint, q in drive_to_qpos(drive).items():
+            lo, hi = self.model.joint(joint).range
+            if not lo <= q <= hi:
+                raise ValueError(f"{joint} at {math.degrees(q):.1f} deg is out of its range")
+        del drive["wrist_pitch"]
+        return drive
 
     def take_back(self) -> None:
         """The platform refused the last aim (out of a joint's range): the arm did not move, and

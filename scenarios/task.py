@@ -19,6 +19,7 @@ reads the plant.
 
 from __future__ import annotations
 
+import contextlib
 import math
 from dataclasses import dataclass
 
@@ -222,10 +223,16 @@ class TaskController:
             return dict(nominal)
         standoff = self._standoff_m(k)
         tilt = self._press_tilt(k)
+        tip = disc_rim_target(self.model, t.brush_at_disc, standoff)
+        if standoff < 0:
+            wrist = float(self.controller.predicted_angles()[self.controller.joints.index("wrist_pitch")])
+            with contextlib.suppress(ValueError):  # out of reach with the wrist where it is: the full aim
+                held = {j: q for j, q in nominal.items() if j != "wrist_pitch"}
+                return {**held, **self.operator.pressed(tip, wrist, tilt), **t.angles_deg}
         try:
             return {
                 **nominal,
-                **self.operator.aimed(disc_rim_target(self.model, t.brush_at_disc, standoff), tilt),
+                **self.operator.aimed(tip, tilt),
                 **t.angles_deg,
             }
         except ValueError:
