@@ -179,10 +179,10 @@ class Operator:
         follow the forearm (a few degrees over a press). The wrist pair is sized at its reducer's
         limit for the payload (DESIGN, "Sizing"): its small moves under load are the least exact
         of the arm's, 2-3 times the predicted at discs 1 and 7 (as-built, 0.6-0.8 MPa), enough to
-        swing the head's side onto the rim. The tool's pitch is the forearm's plus the wrist's, so
-        the planar IK is repeated with the tilt it gives (the 0.15 m tool is short against the
-        0.5 m links: a few rounds settle it to a micrometre), from the tool's pitch `tilt_rad`.
-        ValueError if out of reach or range."""
+        swing the head's side onto the rim (and a correction at 2 cm off it, 60 N). The tool's
+        pitch is the forearm's plus the wrist's, so the planar IK is repeated with the tilt it
+        gives (the 0.15 m tool is short against the 0.5 m links: a few rounds settle it to a
+        micrometre), from the tool's pitch `tilt_rad`. ValueError if out of reach or range."""
         drive = tool_drive_angles(self.model, tip_m + self.aim_offset_m, tilt_rad)
         for _ in range(12):
             drive = tool_drive_angles(self.model, tip_m + self.aim_offset_m, drive["elbow_pitch"] + wrist_rad)

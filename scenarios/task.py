@@ -224,7 +224,7 @@ class TaskController:
         standoff = self._standoff_m(k)
         tilt = self._press_tilt(k)
         tip = disc_rim_target(self.model, t.brush_at_disc, standoff)
-        if standoff < 0:
+        if standoff <= TOUCH_STANDOFF_M:  # at touching distance (his corrections there) and the press
             wrist = float(self.controller.predicted_angles()[self.controller.joints.index("wrist_pitch")])
             with contextlib.suppress(ValueError):  # out of reach with the wrist where it is: the full aim
                 held = {j: q for j, q in nominal.items() if j != "wrist_pitch"}
