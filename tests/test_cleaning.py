@@ -166,6 +166,24 @@ def test_an_aim_beyond_a_joints_range_tilts_the_brush_and_keeps_its_place(scene)
     assert np.allclose(operator.aim_offset_m, [0.01, 0.0, -0.07])
 
 
+def test_the_operator_presses_with_the_big_joints_and_leaves_the_wrist(scene):
+    """A press from touching distance at each disc moves the shoulder and elbow only: the wrist is
+    not commanded, and with it where it stands MuJoCo's kinematics put the brush's tip where the
+    press aims to a micrometre; the tool's tilt follows the forearm by a few degrees."""
+    from scenarios.ik import disc_rim_target
+
+    camera = GlobalCamera(scene, mujoco.MjData(scene), OperatorParams())
+    operator = Operator(scene, camera, OperatorParams(), np.random.default_rng(0))
+    for disc in range(2, 9):
+        touch = disc_drive_angles(scene, disc, 0.02)
+        tip = disc_rim_target(scene, disc, -0.025)
+        press = operator.pressed(tip, touch["wrist_pitch"], touch["elbow_pitch"] + touch["wrist_pitch"])
+        assert "wrist_pitch" not in press
+        d = hold_arm_at(scene, {**press, "wrist_pitch": touch["wrist_pitch"]}, seconds=0.002)
+        assert np.linalg.norm(d.site("brush_tip").xpos - tip) < 1e-5, disc
+        assert abs(press["elbow_pitch"] - touch["elbow_pitch"]) < math.radians(6.0), disc
+
+
 RENDER = """
 import sys, json, mujoco, numpy as np
 m = mujoco.MjModel.from_xml_path(sys.argv[1]); d = mujoco.MjData(m)
