@@ -32,8 +32,9 @@ the insulator string (paper Sec. II). This model sees only what that camera's pi
   while the error is over `tolerance_m`, moves the brush's aim by the error he sees and lets the
   platform go there again (its inverse kinematics, as a jog handle in the tool's frame would). The
   aim carries to the press and the back-off on that disc, and to the next disc. At most MAX_LOOKS
-  looks per disc; then he aims the press by his last look. Where his aim would take a joint past
-  its range (the wrist at the bottom disc) the tool is tilted instead
+  looks per disc; then he aims the press by his last look. Placed at the plan's standoff, he
+  closes in to 2 cm and looks again before he presses (scenarios/task.TOUCH_STANDOFF_M). Where
+  his aim would take a joint past its range (the wrist at the bottom disc) the tool is tilted instead
   (scenarios/ik.tip_drive_angles): he places the brush, not its tilt; an aim the platform refuses
   anyway he takes back.
   A link 0.5 m long is ~80 px in the picture: a pixel at each end is ~0.7 deg of pitch.
@@ -56,7 +57,7 @@ import mujoco
 import numpy as np
 
 from scenarios.cleaning import N_DISCS
-from scenarios.ik import BRUSH_HALF_LENGTH_M, tip_drive_angles
+from scenarios.ik import BRUSH_HALF_LENGTH_M, drive_to_qpos, tip_drive_angles, tool_drive_angles
 from scenarios.pinhole import Pinhole, camera_of
 from scenarios.schema import Operator as OperatorParams
 
@@ -135,6 +136,7 @@ class Operator:
         self.aim_offset_m = np.zeros(3)  # added to every brush target's tool-tip position (world x, z)
         self._last_move_m = np.zeros(3)  # the last change of the aim (taken back if the platform refuses it)
         self.looks = 0
+        self.last_miss_m = 0.0  # how far off the brush's face he last saw it (m)
         # the string's disc type is known: its unit spacing (146 mm, U70BL) is his scale in the picture
         self.disc_pitch_m = float(model.geom("disc_1").pos[2] - model.geom("disc_2").pos[2])
         self.log: list[str] = []
@@ -170,6 +172,27 @@ class Operator:
         """Drive angles for a brush target with the operator's aim applied (the tool tilted from
         `tilt_rad` where a joint would leave its range: he places the brush, not its tilt)."""
         return tip_drive_angles(self.model, tip_m + self.aim_offset_m, tilt_rad)
+
+    def pressed(self, tip_m: np.ndarray, wrist_rad: float, tilt_rad: float) -> dict[str, float]:
+        """Drive angles of the shoulder and elbow that put the brush at `tip_m` (his aim applied)
+        with the wrist left at `wrist_rad`: he presses with the big joints and lets the tool's tilt
+        follow the forearm (a few degrees over a press). The wrist pair is sized at its reducer's
+        limit for the payload (DESIGN, "Sizing"): its small moves under load are the least exact
+        of the arm's, 2-3 times the predicted at discs 1 and 7 (as-built, 0.6-0.8 MPa), enough to
+        swing the head's side onto the rim (and a correction at 2 cm off it, 60 N). The tool's
+        pitch is the forearm's plus the wrist's, so the planar IK is repeated with the tilt it
+        gives (the 0.15 m tool is short against the 0.5 m links: a few rounds settle it to a
+        micrometre), from the tool's pitch `tilt_rad`. ValueError if out of reach or range."""
+        drive = tool_drive_angles(self.model, tip_m + self.aim_offset_m, tilt_rad)
+        for _ in range(12):
+            drive = tool_drive_angles(self.model, tip_m + self.aim_offset_m, drive["elbow_pitch"] + wrist_rad)
+        drive["wrist_pitch"] = wrist_rad
+        for joint, q in drive_to_qpos(drive).items():
+            lo, hi = self.model.joint(joint).range
+            if not lo <= q <= hi:
+                raise ValueError(f"{joint} at {math.degrees(q):.1f} deg is out of its range")
+        del drive["wrist_pitch"]
+        return drive
 
     def take_back(self) -> None:
         """The platform refused the last aim (out of a joint's range): the arm did not move, and
@@ -208,6 +231,7 @@ class Operator:
             return False
         error = self.picture_error_m(frame, disc, standoff_m)
         miss = float(np.hypot(error[0], error[2]))
+        self.last_miss_m = miss
         if miss <= self.params.tolerance_m or self.looks >= MAX_LOOKS:
             aimed = ""
             if miss > self.params.tolerance_m:
@@ -216,8 +240,8 @@ class Operator:
                 self._last_move_m = error
                 aimed = " aimed by it"
             self.log.append(
-                f"t = {now_s:.2f} s: disc_{disc} seen {miss * 100:.1f} cm off after {self.looks} corrections: "
-                f"press{aimed}"
+                f"t = {now_s:.2f} s: disc_{disc} seen {miss * 100:.1f} cm off its {standoff_m * 100:.0f} cm "
+                f"standoff after {self.looks} corrections: placed{aimed}"
             )
             self.looks = 0
             return False

@@ -6,8 +6,9 @@ finish noted, and a strategy that may act between them (scenario field `control.
                  end stop (the MJCF's range, a stop the platform knows) and its predicted angle set
                  to it; only where the elbow stays in its range with the shoulder there (the string's
                  upper discs), since the parallelogram keeps the forearm's pitch
-    operator     the operator corrects the brush's aim by the global camera (scenarios/operator.py);
-                 he also clears the platform's faults (a move not finished in time) and goes on
+    operator     the operator corrects the brush's aim by the global camera (scenarios/operator.py),
+                 closes in to TOUCH_STANDOFF_M and looks again before each press; he also clears the
+                 platform's faults (a move not finished in time) and goes on
     true_angle   a bound, not a way to run the arm: the same controller handed the plant's true
                  angles every tick (it breaks the sensorless rule on purpose)
 
@@ -18,6 +19,7 @@ reads the plant.
 
 from __future__ import annotations
 
+import contextlib
 import math
 from dataclasses import dataclass
 
@@ -37,6 +39,16 @@ STOP_DRIVE_S_PER_RAD = (
 )
 STOP_SETTLE_S = 0.3  # brake applied before the angle is taken (brake engagement ~0.1 s, assets/joints)
 ELBOW_MARGIN_RAD = math.radians(5.0)  # keep the elbow this far inside its range at the stop
+# the operator's last look before a press is taken with the brush's face this far off the rim (m):
+# a press from the plan's 5 cm standoff is a 7.5 cm move, and the as-built arm's error over such a
+# move (up to 4 cm high and 10 deg of tilt at disc 1, measured) put the head's side, not its face,
+# on the rim's top edge, where the spring takes nothing (100-450 N). From 2 cm the press is 4.5 cm,
+# and 2 cm is twice his 1 cm placement tolerance: still clear of the rim when he looks
+TOUCH_STANDOFF_M = 0.02
+# he presses from touching distance only if he saw the face within this of where it should stand (m):
+# the head's 25 mm press then stays inside its 50 mm stroke, and the face's edge (45 mm radius) on the
+# rim (10 mm half-thickness) with room for the press's own error
+PRESS_MISS_M = 0.02
 
 
 @dataclass
@@ -72,6 +84,9 @@ class TaskController:
         self.camera = GlobalCamera(plant.model, plant.data, scenario.operator) if self.strategy == "operator" else None
         self.operator = Operator(plant.model, self.camera, scenario.operator, rng) if self.camera else None
         self._review_from_s = math.nan
+        self._closing_in = False  # the operator's extra stop at TOUCH_STANDOFF_M before a press is under way
+        self._came_in_again: set[int] = set()  # discs on which he backed off from touching distance once
+        self._skip_press = False  # the operator gave up the coming press
         self._stop: _StopDrive | None = None
         self._stopped_after: set[int] = set()  # back-off targets after which the stop drive was tried
         self._notes: list[str] = []
@@ -127,12 +142,14 @@ class TaskController:
                 t,
                 self._review_from_s,
                 target.brush_at_disc,
-                target.standoff_m,
+                self._standoff_m(self.k),
                 self.controller,
                 aim=self._is_approach(self.k),
             )
             if verdict is None:
                 return  # waiting to see the arm at rest
+            if not verdict and self._is_approach(self.k):
+                verdict = self._close_in(t, target)
             if verdict:
                 self._issue(self.k, dwell_s=0.0)
                 self._review_from_s = math.inf  # set when this correction is done
@@ -148,6 +165,9 @@ class TaskController:
             if self._start_stop_drive(t):
                 return
         self.k += 1
+        if self._skip_press:
+            self._skip_press = False
+            self.k += 1
         if self.k < len(self.targets):
             self._issue(self.k, self.scenario.targets[self.k].dwell_s)
 
@@ -162,20 +182,76 @@ class TaskController:
             if self.operator is not None:
                 self.operator.take_back()
 
+    def _close_in(self, t: float, target) -> bool:
+        """Placed at an approach: True to go there again. From the plan's standoff he closes in to
+        TOUCH_STANDOFF_M and looks again; from there he presses, unless he ran out of looks with
+        the brush further off than the press can take (PRESS_MISS_M): then he backs off to the
+        plan's standoff and comes in again, once per disc (a press aimed by a last look 3.3 cm off
+        rammed disc 8 with 408 N, 0.8 MPa); a second time, he leaves the disc unpressed."""
+        disc = target.brush_at_disc
+        if self._closing_in and self.operator.last_miss_m > PRESS_MISS_M:
+            self._closing_in = False
+            if disc in self._came_in_again:
+                # still too far off the second time: he does not press this disc at all
+                self._skip_press = True
+                self._notes.append(
+                    f"t = {t:.3f} s: disc_{disc}: operator leaves the disc unpressed "
+                    f"(seen {self.operator.last_miss_m * 100:.1f} cm off again)"
+                )
+                return False
+            self._came_in_again.add(disc)
+            self._notes.append(
+                f"t = {t:.3f} s: disc_{disc}: operator backs off to {target.standoff_m * 100:.0f} cm "
+                f"and comes in again (seen {self.operator.last_miss_m * 100:.1f} cm off)"
+            )
+            return True
+        self._closing_in = not self._closing_in and target.standoff_m > TOUCH_STANDOFF_M
+        if self._closing_in:
+            self._notes.append(
+                f"t = {t:.3f} s: disc_{disc}: operator closes in to {TOUCH_STANDOFF_M * 100:.0f} cm before the press"
+            )
+        return self._closing_in
+
+    def _standoff_m(self, k: int) -> float:
+        """Where target k holds the brush's face off its disc's rim (closer while closing in)."""
+        return TOUCH_STANDOFF_M if self._closing_in else self.scenario.targets[k].standoff_m
+
     def _aimed(self, k: int) -> dict[str, float]:
         t = self.scenario.targets[k]
         nominal = self.targets[k]
         if self.operator is None or not t.brush_at_disc:
             return dict(nominal)
-        tilt = nominal["elbow_pitch"] + nominal["wrist_pitch"]  # the tool's absolute pitch (parallelogram)
+        standoff = self._standoff_m(k)
+        tilt = self._press_tilt(k)
+        tip = disc_rim_target(self.model, t.brush_at_disc, standoff)
+        if standoff <= TOUCH_STANDOFF_M:  # at touching distance (his corrections there) and the press
+            wrist = float(self.controller.predicted_angles()[self.controller.joints.index("wrist_pitch")])
+            with contextlib.suppress(ValueError):  # out of reach with the wrist where it is: the full aim
+                held = {j: q for j, q in nominal.items() if j != "wrist_pitch"}
+                return {**held, **self.operator.pressed(tip, wrist, tilt), **t.angles_deg}
         try:
             return {
                 **nominal,
-                **self.operator.aimed(disc_rim_target(self.model, t.brush_at_disc, t.standoff_m), tilt),
+                **self.operator.aimed(tip, tilt),
                 **t.angles_deg,
             }
         except ValueError:
             return dict(nominal)  # the aim is out of reach: go where the plan says
+
+    def _press_tilt(self, k: int) -> float:
+        """The tool's absolute pitch (elbow + wrist drive, the parallelogram) of the plan's press on
+        target k's disc, for every target on that disc: the operator sets the brush's tilt while it is
+        well clear and comes in along the tool's axis (a tilt changed at the rim, 10-17 deg of wrist at
+        disc 1 for a 1.4 cm correction, swung the head's side under the rim: 218 N). The target's own
+        tilt where its disc has no press."""
+        ts = self.scenario.targets
+        disc = ts[k].brush_at_disc
+        near = sorted(
+            (i for i in range(len(ts)) if ts[i].brush_at_disc == disc and ts[i].standoff_m < 0),
+            key=lambda i: abs(i - k),
+        )
+        plan = self.targets[near[0]] if near else self.targets[k]
+        return plan["elbow_pitch"] + plan["wrist_pitch"]
 
     def _is_approach(self, k: int) -> bool:
         """A target standing off a disc, followed by a press on the same disc."""

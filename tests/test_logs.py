@@ -482,16 +482,21 @@ def test_ctrl_c_finishes_the_logs(tmp_path):
 
 
 def test_brush_contact_is_logged_where_and_how_hard_it_pushes(tmp_path):
-    """The first 13 s of the cleaning task press the brush on disc 1: each sample in contact has
-    its point on the disc's rim and a push into the disc (MuJoCo's contact frame read the right way
-    round), no smaller than the normal force; MCAP gives the vectors back exactly, and the
-    recording draws one arrow per sample in contact."""
+    """The first 13 s of the cleaning task press the brush on the string: each sample in contact has
+    its point on the disc's surface (rim or face, whichever the press meets) and a push into the
+    disc along that surface's inward normal (MuJoCo's contact frame read the right way round), no
+    smaller than the normal force; MCAP gives the vectors back exactly, and the recording draws one
+    arrow per sample in contact."""
     from scenarios.runner import build_plant, run_scenario
     from scenarios.schema import load, with_overrides
 
-    # reality = the nominal self: the brush lands on the rim as planned (the as-built arm's presses
-    # land up to 3 cm inside it, README), so where the contact is logged can be checked against it
-    scenario = with_overrides(load(ROOT / "scenarios" / "insulator_cleaning.toml"), {"reality.arm": "nominal"})
+    # reality = the nominal self, run by the predictor alone (deterministic, no operator): where it
+    # lands (a rim or a face) is the run's business; the test checks that what is logged is on a
+    # disc's surface and pushes into it
+    scenario = with_overrides(
+        load(ROOT / "scenarios" / "insulator_cleaning.toml"),
+        {"reality.arm": "nominal", "control.strategy": "sensorless"},
+    )
     plant = build_plant(scenario)
     recs = (
         McapRecorder(tmp_path / "c.mcap", plant.model, plant.joints, META),
@@ -504,15 +509,28 @@ def test_brush_contact_is_logged_where_and_how_hard_it_pushes(tmp_path):
             r.close()
     touching = np.isfinite(a["brush_contact_m"][:, 0])
     assert touching.sum() >= 5 and np.all(a["brush_force_n"][~touching] == 0.0)
-    g = plant.model.geom("disc_1")
-    centre, radius = plant.data.geom_xpos[g.id], g.size[0]  # the string does not move
     p, push = a["brush_contact_m"][touching], a["brush_push_n"][touching]
-    radial = np.hypot(p[:, 0] - centre[0], p[:, 1] - centre[1])
-    assert np.all(np.abs(radial - radius) < 0.01) and np.all(np.abs(p[:, 2] - centre[2]) < 0.02)
-    inward = np.einsum("ij,ij->i", push[:, :2], (centre[:2] - p[:, :2]) / radial[:, None])
-    # the brush pushes the disc away from it: inward always, and mostly so once pressed (the first
-    # touch lands on the rim's top edge, so it pushes down as well)
-    # (the spring-mounted head's first touch can bounce: one sample in 28 pushes outward at 13 s)
+    # the disc each point belongs to (cylinders, axes vertical, the string does not move): the
+    # nearest centre; the sensorless press need not land on the disc it was aimed at
+    discs = [plant.model.geom(f"disc_{k}") for k in range(1, 9)]
+    centres = np.array([plant.data.geom_xpos[g.id] for g in discs])
+    nearest = np.argmin(np.linalg.norm(p[:, None, :] - centres[None], axis=2), axis=1)
+    centre, (radius, half) = centres[nearest], discs[0].size[:2]  # the eight are alike (scene.xml)
+    assert all(np.array_equal(g.size, discs[0].size) for g in discs)
+    radial = np.hypot(p[:, 0] - centre[:, 0], p[:, 1] - centre[:, 1])
+    height = p[:, 2] - centre[:, 2]
+    # on the surface: MuJoCo's contact point sits mid-penetration, millimetres from it
+    off_rim, off_face = radial - radius, np.abs(height) - half
+    assert np.all(np.abs(np.maximum(off_rim, off_face)) < 0.005), (off_rim.max(), off_face.max())
+    # the inward normal of the surface each point is on: the rim's, or the top or bottom face's
+    on_rim = off_rim > off_face
+    inward_normal = np.zeros_like(p)
+    inward_normal[on_rim, :2] = (centre[on_rim, :2] - p[on_rim, :2]) / radial[on_rim, None]
+    inward_normal[~on_rim, 2] = -np.sign(height[~on_rim])
+    inward = np.einsum("ij,ij->i", push, inward_normal)
+    # the brush pushes the disc away from it: into the surface it touches, nearly always, and mostly
+    # along its normal (the spring-mounted head's first touch can bounce: one sample in 28 pushed
+    # outward at 13 s)
     assert np.mean(inward > 0) > 0.9 and np.median(inward / np.linalg.norm(push, axis=1)) > 0.9
     assert np.all(np.linalg.norm(push, axis=1) >= a["brush_force_n"][touching] - 1e-9)
     back, _ = read_mcap(tmp_path / "c.mcap")
