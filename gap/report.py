@@ -136,7 +136,8 @@ def _pressure_line(p: PressureFloor) -> str:
     return (
         f"Chamber pressures measured: the fit weighs them in units of their floor {p.floor_kpa:.1f} kPa "
         f"(transducer noise {p.noise_kpa:.2f} kPa, model tolerance {p.model_tolerance_kpa} kPa); "
-        f"nominal twin pressure residual {p.before_rms_kpa:.1f} kPa rms. "
+        f"nominal twin pressure residual {p.before_rms_kpa:.1f} kPa rms; significant above "
+        f"{p.significance_threshold_kpa:.1f} kPa (either channel makes a gap significant). "
         "Candidates are ranked by held-out misfit in units of the floors, angle and pressure together."
     )
 

@@ -1,9 +1,10 @@
 """The verdict of a diagnosis and its family-level call, from the fitted candidates.
 
 Rules:
-- a gap is significant above SIGNIFICANCE x floor (gap.diagnose.Floors);
-- a candidate explains it if its held-out rms is under the threshold, or under EXPLAIN_SHRINK of
-  the nominal twin's;
+- a gap is significant above SIGNIFICANCE x floor in either channel, the angle or (where measured)
+  the chamber pressures, each against its own floor (gap.diagnose.Floors.above);
+- a candidate explains it if, in every channel measured, its held-out rms is under the threshold,
+  or under EXPLAIN_SHRINK of the nominal twin's;
 - a pair counts only if both its effects moved off their nominal values (an effect left at its
   nominal value is no effect: the pair is its other member alone) and it beats the best single by
   a clear margin (score <= PAIR_MARGIN x the best single's);
@@ -29,7 +30,7 @@ import numpy as np
 
 from gap import family, where
 from gap.effects import BY_NAME
-from gap.stats import mean_lower_bound, rms_deg, run_ms
+from gap.stats import mean_lower_bound, rms_deg, rms_kpa, run_ms
 from pneumatics import JointParams
 
 EXPLAIN_SHRINK = 0.1
@@ -117,11 +118,19 @@ class Call:
 
 
 class Judge:
-    def __init__(self, twin, floors, before_rms: float, score, rng: np.random.Generator):
+    def __init__(self, twin, floors, before_rms: float, score, rng: np.random.Generator, before_kpa=None):
+        """`before_rms` (deg) and `before_kpa` (None: no chamber pressure measured): the nominal
+        twin's rms residuals."""
         self.twin, self.floors, self.before_rms, self.score, self.rng = twin, floors, before_rms, score, rng
+        self.before_kpa = before_kpa
 
     def explains(self, c) -> bool:
-        return rms_deg(c.heldout) <= max(self.floors.threshold_deg, EXPLAIN_SHRINK * self.before_rms)
+        """Held-out, every channel measured is under its threshold or shrunk to EXPLAIN_SHRINK."""
+        fl = self.floors
+        if rms_deg(c.heldout) > max(fl.threshold_deg, EXPLAIN_SHRINK * self.before_rms):
+            return False
+        p = rms_kpa(c.heldout_p)
+        return p is None or self.before_kpa is None or p <= max(fl.threshold_kpa, EXPLAIN_SHRINK * self.before_kpa)
 
     def pair_counts(self, pair, best) -> str:
         """'' if the pair counts, else why not."""
