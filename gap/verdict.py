@@ -16,9 +16,10 @@ Rules:
   any shape its members can take (gap.family: the leading shapes of its members' corrections at
   every value replayed); first by where: how much of the gap's where-profile (its mean per bin of
   supply, load, angle, speed, time since start, phase and direction, gap.where.profile_matrix) a
-  mix of those shapes explains; the families within WHERE_SLACK of the best there are eligible,
-  and of those the one whose free-form fit (mixed on training runs) leaves least on the withheld
-  runs is the call. An "outside the catalogue" verdict names that family, never a candidate.
+  mix of those shapes explains; the families whose misfit there is not clearly worse than the
+  best's (a one-sided 95 % bootstrap over runs, gap.family.where_eligible) are eligible, and of
+  those the one whose free-form fit (mixed on training runs) leaves least on the withheld runs is
+  the call. An "outside the catalogue" verdict names that family, never a candidate.
 """
 
 from __future__ import annotations
@@ -37,9 +38,6 @@ EXPLAIN_SHRINK = 0.1
 PAIR_MARGIN = 0.8  # a pair must bring the misfit (in floors) under 0.8 x the best single's
 OFF_NOMINAL = 0.03  # an effect is off its nominal value beyond 3 % of its range (log range for log effects)
 AT_BOUND = 0.01  # within 1 % of its range from a bound counts as on the bound
-# a family is eligible if the part of the gap's where-profile its shapes leave is at most
-# WHERE_SLACK x the least any family leaves (chosen on the bench's and six other withheld-member forms)
-WHERE_SLACK = 1.5
 
 
 def _unit(e, v: float) -> float:
@@ -186,7 +184,19 @@ class Judge:
         members: dict[str, list[np.ndarray]] = {}
         for c in singles:
             members.setdefault(BY_NAME[c.name].family, []).append(gap[None, :] - c.grid_residuals)
-        fits = family.family_fits(members, gap, masks, angle, where.profile_matrix(labels))
+        bases = {f: family.shapes(np.vstack(cs)) for f, cs in members.items()}
+        bins = where.profile_bins(labels)
+        fits = {f: family.fit(b, gap, masks, angle, where.profile_matrix(labels, None, bins)) for f, b in bases.items()}
+        run_of = np.repeat(np.arange(len(twin.runs)), [pr.ts.size for pr in twin.runs])
+        eligible = set(
+            family.where_eligible(
+                {f: b[:, angle] for f, b in bases.items()},
+                gap[angle],
+                lambda w: where.profile_matrix(labels, w, bins),
+                run_of,
+                self.rng,
+            )
+        )
         nominal = sum(float(np.sum(gap[te] ** 2)) for _, te in masks)
         best_of: dict[str, object] = {}
         for c in singles:  # singles come sorted by score: the first of a family is its best
@@ -207,7 +217,6 @@ class Judge:
         )
         if not evidence:
             return FamilyCall(None, None, False, evidence)
-        # eligible: the families whose shapes explain the where-profile nearly as well as the best's
-        least = min(1.0 - x.where_match for x in evidence)
-        chosen = [x for x in evidence if 1.0 - x.where_match <= WHERE_SLACK * least][0]
+        # eligible: the families whose shapes explain the where-profile not clearly worse than the best's
+        chosen = [x for x in evidence if x.family in eligible][0]
         return FamilyCall(chosen.family, chosen.where_match, True, evidence)

@@ -493,3 +493,14 @@ def test_family_fit_explains_a_mix_of_its_shapes_and_not_another_familys():
     assert fits["own"].shapes == 2 and fits["other"].shapes == 1
     assert fits["own"].heldout_sse < 0.01 * fits["other"].heldout_sse
     assert fits["own"].where_misfit < 0.05 < 0.9 < fits["other"].where_misfit
+    # where-eligibility by a bootstrap over runs (8 runs of 50 samples), no slack: a family whose
+    # shapes fit the profile as well (here: the same) stays eligible, the orthogonal one does not
+    run_of = np.repeat(np.arange(8), 50)
+
+    def profile_of(w):
+        m = bins if w is None else bins * w[None, :]
+        n = m.sum(axis=1, keepdims=True)
+        return np.divide(m, np.sqrt(n), out=np.zeros_like(m), where=n > 0)
+
+    bases = {f: family.shapes(c) for f, c in (("own", own), ("same", 2.0 * own), ("other", other))}
+    assert family.where_eligible(bases, gap, profile_of, run_of, np.random.default_rng(1)) == ["own", "same"]
