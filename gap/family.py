@@ -10,16 +10,23 @@ linear mix of them is a form the family could take, including forms the catalogu
 times). The gap is fitted by least squares on each fold's training runs and scored on its withheld
 runs, so a family whose shapes only fit by chance gains nothing. The corrections are the twin's
 own, not the measurements: no withheld sample enters the basis. No replay is made here.
+
+Which families the where-profile leaves in the running (`where_eligible`) is told by the profile's
+own uncertainty, not by a slack on the misfit: the runs are resampled with replacement and a family
+stays eligible unless its where-profile misfit is worse than the best family's in 95 % of the
+resamples (one-sided), the same test over runs as a candidate's rivals (gap.verdict).
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
 
 MAX_SHAPES = 3  # the same cap for every family: a family with more members gains no more freedom
 ENERGY = 0.999  # shapes kept until they carry this fraction of the corrections' energy
+N_BOOT = 200  # resamples of the runs for where_eligible
 
 
 @dataclass(frozen=True)
@@ -83,3 +90,32 @@ def family_fits(
 ) -> dict[str, FamilyFit]:
     """Per family, its free-form fit; `members` maps a family to its members' correction matrices."""
     return {f: fit(shapes(np.vstack(cs)), gap, folds, angle, profile) for f, cs in members.items()}
+
+
+def where_eligible(
+    bases: dict[str, np.ndarray],
+    gap: np.ndarray,
+    profile_of: Callable[[np.ndarray | None], np.ndarray],
+    run_of: np.ndarray,
+    rng: np.random.Generator,
+    n_boot: int = N_BOOT,
+) -> list[str]:
+    """The families (keys of `bases`, each its shapes over the angle samples) whose where-profile
+    misfit is not clearly worse than the least any family leaves on all runs: the one-sided 95 %
+    lower bound of the difference, over resamples of the runs (`run_of`: each angle sample's run;
+    `profile_of(weights)`: the profile matrix with each sample counted by its weight), is <= 0."""
+    names = list(bases)
+
+    def misfits(weights):
+        profile = profile_of(weights)
+        return np.array([profile_misfit(bases[f], gap, profile) for f in names])
+
+    best = int(np.argmin(misfits(None)))
+    n_runs = int(run_of.max()) + 1 if run_of.size else 0
+    if n_runs < 2:
+        return names
+    boot = np.array(
+        [misfits(np.bincount(rng.integers(0, n_runs, n_runs), minlength=n_runs)[run_of]) for _ in range(n_boot)]
+    )
+    lower = np.quantile(boot - boot[:, [best]], 0.05, axis=0)
+    return [f for f, lo in zip(names, lower, strict=True) if lo <= 0.0]

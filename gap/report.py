@@ -136,7 +136,8 @@ def _pressure_line(p: PressureFloor) -> str:
     return (
         f"Chamber pressures measured: the fit weighs them in units of their floor {p.floor_kpa:.1f} kPa "
         f"(transducer noise {p.noise_kpa:.2f} kPa, model tolerance {p.model_tolerance_kpa} kPa); "
-        f"nominal twin pressure residual {p.before_rms_kpa:.1f} kPa rms. "
+        f"nominal twin pressure residual {p.before_rms_kpa:.1f} kPa rms; significant above "
+        f"{p.significance_threshold_kpa:.1f} kPa (either channel makes a gap significant). "
         "Candidates are ranked by held-out misfit in units of the floors, angle and pressure together."
     )
 
@@ -166,9 +167,16 @@ def _verdict(diag: Diagnosis) -> list[str]:
     w, top, lines = diag.which, diag.which.top, []
     if w.nearest:
         nb = w.nearest
+        least = min(x.free_form_shrink for x in nb.evidence)
+        held_out = (
+            "and in any mix of them it leaves least of the gap on the withheld runs"
+            if least < 1.0
+            else f"but no family's shapes shrink the gap on the withheld runs (the best leaves {least:.2f} of it): "
+            "a weak call, from the where-profile alone"
+        )
         how = (
             f"its effects' shapes explain {nb.where_match:.0%} of the gap's where-profile, near the best "
-            "family there, and in any mix of them it leaves least of the gap on the withheld runs"
+            f"family there, {held_out}"
             if nb.by_where
             else f"no family's correction matches the gap's where-pattern well; this one comes closest "
             f"({nb.where_match:.2f})"

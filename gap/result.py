@@ -50,6 +50,7 @@ class PressureFloor:
     model_tolerance_kpa: float | None = field(default=None, metadata=OMIT_NONE)
     floor_kpa: float | None = field(default=None, metadata=OMIT_NONE)
     before_rms_kpa: float | None = field(default=None, metadata=OMIT_NONE)
+    significance_threshold_kpa: float | None = field(default=None, metadata=OMIT_NONE)
 
 
 @dataclass(frozen=True)

@@ -1,9 +1,10 @@
 """The verdict of a diagnosis and its family-level call, from the fitted candidates.
 
 Rules:
-- a gap is significant above SIGNIFICANCE x floor (gap.diagnose.Floors);
-- a candidate explains it if its held-out rms is under the threshold, or under EXPLAIN_SHRINK of
-  the nominal twin's;
+- a gap is significant above SIGNIFICANCE x floor in either channel, the angle or (where measured)
+  the chamber pressures, each against its own floor (gap.diagnose.Floors.above);
+- a candidate explains it if, in every channel measured, its held-out rms is under the threshold,
+  or under EXPLAIN_SHRINK of the nominal twin's;
 - a pair counts only if both its effects moved off their nominal values (an effect left at its
   nominal value is no effect: the pair is its other member alone) and it beats the best single by
   a clear margin (score <= PAIR_MARGIN x the best single's);
@@ -15,9 +16,10 @@ Rules:
   any shape its members can take (gap.family: the leading shapes of its members' corrections at
   every value replayed); first by where: how much of the gap's where-profile (its mean per bin of
   supply, load, angle, speed, time since start, phase and direction, gap.where.profile_matrix) a
-  mix of those shapes explains; the families within WHERE_SLACK of the best there are eligible,
-  and of those the one whose free-form fit (mixed on training runs) leaves least on the withheld
-  runs is the call. An "outside the catalogue" verdict names that family, never a candidate.
+  mix of those shapes explains; the families whose misfit there is not clearly worse than the
+  best's (a one-sided 95 % bootstrap over runs, gap.family.where_eligible) are eligible, and of
+  those the one whose free-form fit (mixed on training runs) leaves least on the withheld runs is
+  the call. An "outside the catalogue" verdict names that family, never a candidate.
 """
 
 from __future__ import annotations
@@ -29,16 +31,13 @@ import numpy as np
 
 from gap import family, where
 from gap.effects import BY_NAME
-from gap.stats import mean_lower_bound, rms_deg, run_ms
+from gap.stats import mean_lower_bound, rms_deg, rms_kpa, run_ms
 from pneumatics import JointParams
 
 EXPLAIN_SHRINK = 0.1
 PAIR_MARGIN = 0.8  # a pair must bring the misfit (in floors) under 0.8 x the best single's
 OFF_NOMINAL = 0.03  # an effect is off its nominal value beyond 3 % of its range (log range for log effects)
 AT_BOUND = 0.01  # within 1 % of its range from a bound counts as on the bound
-# a family is eligible if the part of the gap's where-profile its shapes leave is at most
-# WHERE_SLACK x the least any family leaves (chosen on the bench's and six other withheld-member forms)
-WHERE_SLACK = 1.5
 
 
 def _unit(e, v: float) -> float:
@@ -117,11 +116,19 @@ class Call:
 
 
 class Judge:
-    def __init__(self, twin, floors, before_rms: float, score, rng: np.random.Generator):
+    def __init__(self, twin, floors, before_rms: float, score, rng: np.random.Generator, before_kpa=None):
+        """`before_rms` (deg) and `before_kpa` (None: no chamber pressure measured): the nominal
+        twin's rms residuals."""
         self.twin, self.floors, self.before_rms, self.score, self.rng = twin, floors, before_rms, score, rng
+        self.before_kpa = before_kpa
 
     def explains(self, c) -> bool:
-        return rms_deg(c.heldout) <= max(self.floors.threshold_deg, EXPLAIN_SHRINK * self.before_rms)
+        """Held-out, every channel measured is under its threshold or shrunk to EXPLAIN_SHRINK."""
+        fl = self.floors
+        if rms_deg(c.heldout) > max(fl.threshold_deg, EXPLAIN_SHRINK * self.before_rms):
+            return False
+        p = rms_kpa(c.heldout_p)
+        return p is None or self.before_kpa is None or p <= max(fl.threshold_kpa, EXPLAIN_SHRINK * self.before_kpa)
 
     def pair_counts(self, pair, best) -> str:
         """'' if the pair counts, else why not."""
@@ -177,7 +184,19 @@ class Judge:
         members: dict[str, list[np.ndarray]] = {}
         for c in singles:
             members.setdefault(BY_NAME[c.name].family, []).append(gap[None, :] - c.grid_residuals)
-        fits = family.family_fits(members, gap, masks, angle, where.profile_matrix(labels))
+        bases = {f: family.shapes(np.vstack(cs)) for f, cs in members.items()}
+        bins = where.profile_bins(labels)
+        fits = {f: family.fit(b, gap, masks, angle, where.profile_matrix(labels, None, bins)) for f, b in bases.items()}
+        run_of = np.repeat(np.arange(len(twin.runs)), [pr.ts.size for pr in twin.runs])
+        eligible = set(
+            family.where_eligible(
+                {f: b[:, angle] for f, b in bases.items()},
+                gap[angle],
+                lambda w: where.profile_matrix(labels, w, bins),
+                run_of,
+                self.rng,
+            )
+        )
         nominal = sum(float(np.sum(gap[te] ** 2)) for _, te in masks)
         best_of: dict[str, object] = {}
         for c in singles:  # singles come sorted by score: the first of a family is its best
@@ -198,7 +217,6 @@ class Judge:
         )
         if not evidence:
             return FamilyCall(None, None, False, evidence)
-        # eligible: the families whose shapes explain the where-profile nearly as well as the best's
-        least = min(1.0 - x.where_match for x in evidence)
-        chosen = [x for x in evidence if 1.0 - x.where_match <= WHERE_SLACK * least][0]
+        # eligible: the families whose shapes explain the where-profile not clearly worse than the best's
+        chosen = [x for x in evidence if x.family in eligible][0]
         return FamilyCall(chosen.family, chosen.where_match, True, evidence)

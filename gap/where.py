@@ -124,18 +124,26 @@ def breakdown(labels: dict[str, np.ndarray], residual_rad: np.ndarray) -> Breakd
 PROFILE_BINS = ("supply_mpa", "load_kg", "angle_deg", "speed_rad_s", "time_since_start_s", "phase", "direction")
 
 
-def profile_matrix(labels: dict[str, np.ndarray]) -> np.ndarray:
-    """The where-profile as a linear map: one row per bin of each factor that varies (PROFILE_BINS),
-    its samples' mean x sqrt(their count), so that profile = matrix @ residual and each bin counts
-    by its samples. Signed means: a form that moves the twin ahead in one bin and behind in another
-    keeps that pattern."""
+def profile_bins(labels: dict[str, np.ndarray]) -> np.ndarray:
+    """One 0/1 row per bin of each factor that varies (PROFILE_BINS) over the samples: which fall
+    in it (a factor that does not vary says nothing about scaling)."""
     rows = []
     for factor in PROFILE_BINS:
         lab = labels[factor]
         bins = sorted(set(lab), key=str)
-        if len(bins) < 2:  # a factor that does not vary says nothing about scaling
-            continue
-        for b in bins:
-            m = lab == b
-            rows.append(m / math.sqrt(m.sum()))
+        if len(bins) >= 2:
+            rows += [lab == b for b in bins]
     return np.array(rows, dtype=float).reshape(len(rows), len(next(iter(labels.values()))))
+
+
+def profile_matrix(labels: dict[str, np.ndarray], weights: np.ndarray | None = None, bins=None) -> np.ndarray:
+    """The where-profile as a linear map: one row per bin (`profile_bins`, or `bins` if given), its
+    samples' mean x sqrt(their count), so that profile = matrix @ residual and each bin counts by
+    its samples. Signed means: a form that moves the twin ahead in one bin and behind in another
+    keeps that pattern. `weights` (per sample; None: 1 each) count a sample as often as its run was
+    drawn in a bootstrap over runs (gap.family.where_eligible); a bin left empty is a zero row."""
+    m = profile_bins(labels) if bins is None else bins
+    if weights is not None:
+        m = m * np.asarray(weights, dtype=float)[None, :]
+    total = m.sum(axis=1, keepdims=True)
+    return np.divide(m, np.sqrt(total), out=np.zeros_like(m), where=total > 0)

@@ -336,6 +336,42 @@ def test_an_undeclared_camera_latency_is_found_as_nuisance_not_an_effect(camera_
         load_campaign(c)
 
 
+def test_each_channel_is_tested_against_its_own_floor():
+    """A gap under the angle's threshold but three floors in the chamber pressures is significant,
+    and a candidate that fits the angle but leaves the pressure gap does not explain it (the angle
+    alone decided both before: a 0.02 rad backlash the pressures showed clearly was no gap)."""
+    from gap import verdict
+    from gap.diagnose import Candidate, Floors
+
+    fl = Floors(0.2, None, 0.36, 0.4, 0.8, None, 2.5, 5.0)  # angle floor 0.4 deg, pressure 2.5 kPa
+    assert fl.above(0.6, 8.0) and fl.above(0.9, 1.0)
+    assert not fl.above(0.6, 4.0) and not fl.above(0.6, None)
+    judge = verdict.Judge(None, fl, 0.6, fl.score, np.random.default_rng(0), before_kpa=8.0)
+    angle = [np.full(50, np.radians(0.2))]
+    fits_both = Candidate("a", ["a"], [], [0.0], angle, [np.full(100, 1.0e3)])
+    angle_only = Candidate("b", ["b"], [], [0.0], angle, [np.full(100, 7.0e3)])
+    assert judge.explains(fits_both) and not judge.explains(angle_only)
+
+
+def test_a_pair_search_follows_the_narrow_valley_of_two_effects_acting_alike():
+    """More leakage and less Coulomb friction move the joint alike: their misfit is a narrow curved
+    valley (the shape and scale measured on a leak + Coulomb campaign's staircase runs). The pair's
+    screen must reach its floor, not stop on its wall worse than the leak alone at its best value."""
+    from gap.diagnose import Candidate, screen_pair
+
+    def sse(leak, coulomb):
+        return 0.043 * (coulomb - 30.0 + 6e7 * (leak - 3e-7)) ** 2 + 5e12 * (leak - 3e-7) ** 2 + 4e-4
+
+    class Valley:  # the twin's objective, without replays: per run and latency
+        def run_sses(self, effects, runs):
+            v = dict((e.name, x) for e, x in effects)
+            return np.full((len(runs), 1), sse(v["vane_leakage"], v["coulomb_friction"]) / len(runs))
+
+    leak_alone = min(sse(x, 15.0) for x in np.geomspace(1e-8, 2e-6, 2000))  # Coulomb at its nominal value
+    found = screen_pair(Valley(), Candidate("vane_leakage", [], [], []), Candidate("coulomb_friction", [], [], []), [0])
+    assert found < 0.1 * leak_alone and found < 2e-3
+
+
 def test_verdict_rules_refuse_a_pair_at_nominal_flag_bounds_and_name_only_a_family():
     from gap import verdict
     from gap.diagnose import Candidate
@@ -458,3 +494,14 @@ def test_family_fit_explains_a_mix_of_its_shapes_and_not_another_familys():
     assert fits["own"].shapes == 2 and fits["other"].shapes == 1
     assert fits["own"].heldout_sse < 0.01 * fits["other"].heldout_sse
     assert fits["own"].where_misfit < 0.05 < 0.9 < fits["other"].where_misfit
+    # where-eligibility by a bootstrap over runs (8 runs of 50 samples), no slack: a family whose
+    # shapes fit the profile as well (here: the same) stays eligible, the orthogonal one does not
+    run_of = np.repeat(np.arange(8), 50)
+
+    def profile_of(w):
+        m = bins if w is None else bins * w[None, :]
+        n = m.sum(axis=1, keepdims=True)
+        return np.divide(m, np.sqrt(n), out=np.zeros_like(m), where=n > 0)
+
+    bases = {f: family.shapes(c) for f, c in (("own", own), ("same", 2.0 * own), ("other", other))}
+    assert family.where_eligible(bases, gap, profile_of, run_of, np.random.default_rng(1)) == ["own", "same"]
