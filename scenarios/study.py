@@ -98,7 +98,7 @@ def table(study_rows: list[Row]) -> str:
         finished = "not finished" if math.isnan(r.finished_s) else f"{r.finished_s:.1f}"
         peak = "-" if math.isnan(r.peak_force_n) else f"{r.peak_force_n:.0f}"
         lines.append(
-            f"| {r.strategy} | {r.supply_mpa:.1f} | {r.runs} | {r.cleaned_min} / {r.cleaned_mean:.2f} | {peak} | "
+            f"| {r.strategy} | {r.supply_mpa:g} | {r.runs} | {r.cleaned_min} / {r.cleaned_mean:.2f} | {peak} | "
             f"{r.brushed_m:.2f} | {finished} | {r.final_error_deg:.2f} |"
         )
     return "\n".join(lines)

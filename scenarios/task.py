@@ -7,8 +7,9 @@ finish noted, and a strategy that may act between them (scenario field `control.
                  to it; only where the elbow stays in its range with the shoulder there (the string's
                  upper discs), since the parallelogram keeps the forearm's pitch
     operator     the operator corrects the brush's aim by the global camera (scenarios/operator.py),
-                 closes in to TOUCH_STANDOFF_M and looks again before each press; he also clears the
-                 platform's faults (a move not finished in time) and goes on
+                 closes in to TOUCH_STANDOFF_M and looks again before each press, backs out to it
+                 (wrist held) before the plan's back-off; he also clears the platform's faults (a
+                 move not finished in time) and goes on
     true_angle   a bound, not a way to run the arm: the same controller handed the plant's true
                  angles every tick (it breaks the sensorless rule on purpose)
 
@@ -85,6 +86,7 @@ class TaskController:
         self.operator = Operator(plant.model, self.camera, scenario.operator, rng) if self.camera else None
         self._review_from_s = math.nan
         self._closing_in = False  # the operator's extra stop at TOUCH_STANDOFF_M before a press is under way
+        self._backing_out = False  # ... and after it, on the way out (the press's move reversed)
         self._came_in_again: set[int] = set()  # discs on which he backed off from touching distance once
         self._skip_press = False  # the operator gave up the coming press
         self._stop: _StopDrive | None = None
@@ -134,6 +136,12 @@ class TaskController:
             self.reached[self.k] = True
             self.finished_s[self.k] = t
             self._review_from_s = t
+        if self._backing_out:
+            # out of the press to touching distance: now the plan's back-off
+            self._backing_out = False
+            self._issue(self.k, dwell_s=0.0)
+            self.reached[self.k] = False
+            return
         if self.k >= 0 and self.operator is not None and self._is_standoff(self.k):
             # he looks wherever the brush stands clear of a disc (not only before a press): a drift
             # left until the next press has by then rammed a disc on the way
@@ -169,6 +177,16 @@ class TaskController:
             self._skip_press = False
             self.k += 1
         if self.k < len(self.targets):
+            # the operator backs out of a press the way he went in, to touching distance with the
+            # wrist held, before the plan's back-off: the back-off whole (7.5 cm, a 16 deg shoulder
+            # and 9 deg elbow move at disc 1) let the faster elbow swing the brush back onto the rim
+            # on the way out (57 N, as-built, 0.6 MPa)
+            self._backing_out = self.operator is not None and self._is_back_off(self.k)
+            if self._backing_out:
+                disc = self.scenario.targets[self.k].brush_at_disc
+                self._notes.append(
+                    f"t = {t:.3f} s: disc_{disc}: operator backs out to {TOUCH_STANDOFF_M * 100:.0f} cm, wrist held"
+                )
             self._issue(self.k, self.scenario.targets[self.k].dwell_s)
 
     def _issue(self, k: int, dwell_s: float) -> None:
@@ -214,7 +232,7 @@ class TaskController:
 
     def _standoff_m(self, k: int) -> float:
         """Where target k holds the brush's face off its disc's rim (closer while closing in)."""
-        return TOUCH_STANDOFF_M if self._closing_in else self.scenario.targets[k].standoff_m
+        return TOUCH_STANDOFF_M if self._closing_in or self._backing_out else self.scenario.targets[k].standoff_m
 
     def _aimed(self, k: int) -> dict[str, float]:
         t = self.scenario.targets[k]

@@ -254,6 +254,7 @@ def test_a_run_cut_short_is_judged_on_the_targets_it_reached(capsys, tmp_path):
     discs = {d["disc"]: d for d in summary["discs"]}
     assert discs[1]["cleaned"] is True and 15.0 < discs[1]["peak_force_n"] < 55.0
     assert any("disc_1: operator closes in to 2 cm" in e for e in summary["controller_events"])
+    assert any("disc_1: operator backs out to 2 cm" in e for e in summary["controller_events"])
     assert all(discs[k]["cleaned"] is None for k in range(2, 9))
     assert any("disc_8" in t for t in summary["not_reached"])
     judged = [c for c in summary["criteria"] if c["judged"]]
