@@ -82,14 +82,15 @@ def fit(
 
 
 def family_fits(
-    members: dict[str, list[np.ndarray]],
+    bases: dict[str, np.ndarray],
     gap: np.ndarray,
     folds: list[tuple[np.ndarray, np.ndarray]],
     angle: np.ndarray,
     profile: np.ndarray,
 ) -> dict[str, FamilyFit]:
-    """Per family, its free-form fit; `members` maps a family to its members' correction matrices."""
-    return {f: fit(shapes(np.vstack(cs)), gap, folds, angle, profile) for f, cs in members.items()}
+    """Per family, its free-form fit; `bases` maps a family to its shapes (`shapes` of its members'
+    corrections)."""
+    return {f: fit(b, gap, folds, angle, profile) for f, b in bases.items()}
 
 
 def where_eligible(

@@ -186,7 +186,7 @@ class Judge:
             members.setdefault(BY_NAME[c.name].family, []).append(gap[None, :] - c.grid_residuals)
         bases = {f: family.shapes(np.vstack(cs)) for f, cs in members.items()}
         bins = where.profile_bins(labels)
-        fits = {f: family.fit(b, gap, masks, angle, where.profile_matrix(labels, None, bins)) for f, b in bases.items()}
+        fits = family.family_fits(bases, gap, masks, angle, where.profile_matrix(labels, None, bins))
         run_of = np.repeat(np.arange(len(twin.runs)), [pr.ts.size for pr in twin.runs])
         eligible = set(
             family.where_eligible(

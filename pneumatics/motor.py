@@ -106,8 +106,9 @@ def vane_torque(
 
 def displacement_per_rad(stator_radius_m: float, rotor_radius_m: float, vane_length_m: float, n_vanes: float) -> float:
     """Mean swept volume per motor radian in m^3/rad (a vane pitch's swept volume over its angle)."""
-    va_lo, _ = chamber_volumes(-math.pi / n_vanes + 1e-12, stator_radius_m, rotor_radius_m, vane_length_m, n_vanes, 0.0)
-    _, vb_lo = chamber_volumes(-math.pi / n_vanes + 1e-12, stator_radius_m, rotor_radius_m, vane_length_m, n_vanes, 0.0)
+    va_lo, vb_lo = chamber_volumes(
+        -math.pi / n_vanes + 1e-12, stator_radius_m, rotor_radius_m, vane_length_m, n_vanes, 0.0
+    )
     return (vb_lo - va_lo) / (2.0 * math.pi / n_vanes)
 
 

@@ -264,11 +264,12 @@ class TaskController:
         tilt where its disc has no press."""
         ts = self.scenario.targets
         disc = ts[k].brush_at_disc
-        near = sorted(
+        press = min(
             (i for i in range(len(ts)) if ts[i].brush_at_disc == disc and ts[i].standoff_m < 0),
             key=lambda i: abs(i - k),
+            default=k,
         )
-        plan = self.targets[near[0]] if near else self.targets[k]
+        plan = self.targets[press]
         return plan["elbow_pitch"] + plan["wrist_pitch"]
 
     def _is_approach(self, k: int) -> bool:

@@ -490,7 +490,7 @@ def test_family_fit_explains_a_mix_of_its_shapes_and_not_another_familys():
     folds = [(half, ~half), (~half, half)]
     angle = np.ones(t.size, bool)
     bins = np.array([np.abs(t - c) < 0.05 for c in np.linspace(0.05, 0.95, 10)], float)  # a where-profile
-    fits = family.family_fits({"own": [own], "other": [other]}, gap, folds, angle, bins)
+    fits = family.family_fits({"own": family.shapes(own), "other": family.shapes(other)}, gap, folds, angle, bins)
     assert fits["own"].shapes == 2 and fits["other"].shapes == 1
     assert fits["own"].heldout_sse < 0.01 * fits["other"].heldout_sse
     assert fits["own"].where_misfit < 0.05 < 0.9 < fits["other"].where_misfit
