@@ -138,10 +138,17 @@ def _plot_error_vs_pressure(r: dict, out: Path) -> None:
     ep = r["error_vs_pressure"]
     fig = Figure(figsize=(6, 3.5))
     ax = fig.subplots()
-    ax.plot(ep["pressures_mpa"], ep["mean_error_deg"], "o-", label=f"twin, mean over {ep['angles_deg']} deg moves")
-    ax.plot(ep["pressures_mpa"], ep["max_error_deg"], "^:", label="twin, max")
+    ax.plot(
+        ep["pressures_mpa"], ep["mean_error_deg"], "o-", label=f"arm's loop (brakes), final, mean {ep['angles_deg']}"
+    )
+    ax.plot(ep["pressures_mpa"], ep["max_error_deg"], "^:", label="arm's loop (brakes), final, max")
     held = ep["fig17_loop"]
-    ax.plot(ep["pressures_mpa"], held["true_mean_error_deg"], "s-", label="Fig. 17's loop held on the valve, true")
+    ax.plot(
+        ep["pressures_mpa"],
+        held["true_mean_error_deg"],
+        "s-",
+        label=f"Fig. 17's loop held on the valve, true, mean {held['angles_deg'][0]}-{held['angles_deg'][-1]}",
+    )
     ax.plot(ep["pressures_mpa"], held["predicted_mean_error_deg"], "s--", label="the same, its own (predicted)")
     ax.axhline(ep["paper_bound_at_05_deg"], color="r", ls="--", label="paper: within 3 deg at 0.5 MPa")
     labels = ("supply pressure, MPa (gauge)", "closed-loop |error|, deg", "Fig. 20: control error against supply")
