@@ -153,13 +153,13 @@ def closed_vs_open_loop(
     predictor_params: JointParams | None = None,
     supply_gauge_pa: float = 0.5e6,
 ) -> dict[float, tuple[float, float]]:
-    """Paper Fig. 23: {angle: (closed-loop |final error|, open-loop |final error|)} in degrees,
-    the truth read from a fresh plant per run."""
+    """Paper Fig. 23: {angle: (closed-loop |final error|, open-loop |final error|, the open loop's
+    predicted |final error|)} in degrees, the truth read from a fresh plant per run."""
     out = {}
     for a in angles_deg:
         closed = run_move(a, "closed_loop", make_plant(), predictor_params, supply_gauge_pa)[0]
-        opened = run_move(a, "open_loop", make_plant(), predictor_params, supply_gauge_pa)[0]
-        out[a] = (abs(closed - a), abs(opened - a))
+        opened, opened_predicted = run_move(a, "open_loop", make_plant(), predictor_params, supply_gauge_pa)
+        out[a] = (abs(closed - a), abs(opened - a), abs(opened_predicted - a))
     return out
 
 
@@ -173,6 +173,62 @@ def error_against_pressure(
     wrist rig moved from 0 at each constant supply, the truth read from a fresh plant per move."""
     return {
         mpa: [abs(run_move(a, "closed_loop", make_plant(), predictor_params, mpa * 1e6)[0] - a) for a in angles_deg]
+        for mpa in pressures_mpa
+    }
+
+
+# Fig. 17 as the paper draws it: the PID on the predicted angle and nothing else, no arrival band
+# handing the joint to the brake, no re-move (the brake is not in the scheme; Fig. 19's hold at 0 deg
+# could show 4.33 deg of error only with the joint held on the valve)
+FIG17_GAINS = DEFAULT_GAINS._replace(tolerance_rad=0.0, max_retries=0.0)
+
+
+def held_on_valve(
+    target_deg: float,
+    plant,
+    predictor_params: JointParams | None = None,
+    supply_gauge_pa: float = 0.5e6,
+    hold_s: float = 8.0,
+    window_s: float = 3.0,
+    gains: PidGains = FIG17_GAINS,
+) -> tuple[float, float]:
+    """One move of the wrist rig from 0 to `target_deg` under the loop of Fig. 17 as drawn: the PID
+    keeps the valve in control for `hold_s` (never braking). Returns the largest |true - target|
+    and |predicted - target| (deg) over the last `window_s`: the control error of a held joint."""
+    c = ArmController(
+        {"wrist_pitch": 0.0},
+        assets.WRIST_RIG_XML,
+        predictor_params=None if predictor_params is None else {"wrist_pitch": predictor_params},
+        gains=gains,
+        move_timeout_s=hold_s + 1.0,
+    )
+    c.set_targets({"wrist_pitch": math.radians(target_deg)})
+    target = math.radians(target_deg)
+    n_ticks = round(hold_s / c.dt)
+    first = n_ticks - round(window_s / c.dt)
+    worst = [0.0, 0.0]
+
+    def look(k: int, t: float) -> None:
+        if k >= first:
+            worst[0] = max(worst[0], abs(plant.drive_angles()[0] - target))
+            worst[1] = max(worst[1], abs(c.predicted_angles()[0] - target))
+
+    run_ticks(c, plant, 2, lambda k: k < n_ticks, lambda t: P_ATM_PA + supply_gauge_pa, on_tick=look)
+    return math.degrees(worst[0]), math.degrees(worst[1])
+
+
+def held_error_against_pressure(
+    make_plant: Callable[[], object],
+    pressures_mpa=(0.5, 0.6, 0.7, 0.8),
+    angles_deg=(30, 60, 90),
+    predictor_params: JointParams | None = None,
+    hold_s: float = 8.0,
+    window_s: float = 3.0,
+) -> dict[float, list[tuple[float, float]]]:
+    """Paper Fig. 20 under Fig. 17's loop as drawn (`held_on_valve`): {supply MPa: [(true, predicted)
+    largest |error| over the hold's last `window_s`, deg, per angle]}, a fresh plant per move."""
+    return {
+        mpa: [held_on_valve(a, make_plant(), predictor_params, mpa * 1e6, hold_s, window_s) for a in angles_deg]
         for mpa in pressures_mpa
     }
 

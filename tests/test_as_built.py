@@ -265,6 +265,14 @@ def test_twin_paper_quick_writes_every_figure_with_the_papers_numbers(tmp_path):
     assert mr["limit_deg"] in mr["tested_deg"] and 10.0 <= mr["limit_deg"] <= 40.0, mr
     ep = r["error_vs_pressure"]  # Fig. 20: within +-3 deg at 0.5 MPa (its growth with the supply is not met)
     assert ep["pressures_mpa"][0] == 0.5 and ep["max_error_deg"][0] < 3.0, ep
+    # Fig. 20 under Fig. 17's loop as drawn (the PID holds the joint on the valve): the paper's trend,
+    # the error growing with the supply, within +-3 deg at 0.5 MPa (with the arm's hand-over to the
+    # brake it does not grow: README, "What remains off")
+    held = ep["fig17_loop"]
+    assert held["predicted_grows_with_pressure"] and held["true_grows_with_pressure"], held
+    assert held["true_max_error_deg"][0] < 3.0, held
+    # the open loop's error is the as-built joint's, not the valve time's: its own prediction lands
+    assert max(co["open_loop_predicted_error_deg"]) < 0.5, co
     assert "Minimum rotation, Fig. 21" in (tmp_path / "report.md").read_text()
     assert len(r["error_vs_pressure"]["pressures_mpa"]) == 2
     report = (tmp_path / "report.md").read_text()
