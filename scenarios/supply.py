@@ -46,5 +46,6 @@ class _Steps:
 
     def due_s(self, t: float) -> float:
         """When the value next changes after t (math.inf: never)."""
-        i = np.searchsorted(self.times, t, side="right")
-        return float(self.times[i]) if i < len(self.times) else math.inf
+        if not len(self.times) or t >= self.times[-1]:
+            return math.inf  # constant from here on (asked often: no search)
+        return float(self.times[np.searchsorted(self.times, t, side="right")])

@@ -36,6 +36,7 @@ from twin.plant import SUBSTEPS, Plant
 # the round-off of MuJoCo's summed time (~1e-13 s over an hour) and far below a tick (1 ms), so the
 # Python loop, which compares times its own way, sees the tick where the callback acts
 DUE_MARGIN_S = 1e-6
+CONTROLLED = 3  # `_ticks` stopped after the controller's part of its last tick, before the plant's steps
 
 
 @njit
@@ -46,6 +47,7 @@ def _ticks(
     load_callback_address,  # void f(void*, void*): Python's Pinocchio load at the predicted angles
     callback_failed,  # (1,): set by the callback when it raised
     n_ticks,
+    last_unstepped,  # the last tick's physics steps are left to the caller (its `on_tick` comes first)
     steps_per_tick,
     time_s,  # MuJoCo's d.time now
     stop_s,  # no tick at or after this time
@@ -128,6 +130,8 @@ def _ticks(
             return k, status, time_s, time_s if status == MID_TICK else last_tick_s
         last_tick_s = time_s
         commands_p[:] = commands_c
+        if last_unstepped and k == n_ticks - 1:
+            return k, CONTROLLED, time_s, last_tick_s
         for _ in range(steps_per_tick):  # Plant.step
             pneumatic_step(
                 air,
@@ -157,7 +161,8 @@ class CompiledTicks:
 
     due_s: callables of the simulated time giving when each callback (the supply profile, the
     faults) next needs its call (math.inf: never again); next_tick: the next tick index at or after
-    k whose `on_tick` has work; n_ticks: the run's end.
+    k whose `on_tick` has work; on_tick: the run loop's, called here on such a tick when its controller
+    part ran compiled; n_ticks: the run's end.
     """
 
     def __init__(
@@ -168,9 +173,10 @@ class CompiledTicks:
         n_ticks: int,
         due_s: Sequence[Callable[[float], float]] = (),
         next_tick: Callable[[int], int] | None = None,
+        on_tick: Callable[[int, float], None] | None = None,
     ):
         self.plant, self.controller, self.steps_per_tick, self.n_ticks = plant, controller, steps_per_tick, n_ticks
-        self.due_s, self.next_tick = tuple(due_s), next_tick
+        self.due_s, self.next_tick, self.on_tick = tuple(due_s), next_tick, on_tick
         self._control_result = np.zeros(3)
         self._callback_failed = np.zeros(1)
         self._callback_error: BaseException | None = None
@@ -192,9 +198,12 @@ class CompiledTicks:
         arm, until_s = self.controller.compiled_ticks(t)
         if arm is None:
             return 0
+        # up to the next tick with `on_tick` work: its controller part too, when there is an on_tick
         end = self.n_ticks if self.next_tick is None else min(self.n_ticks, self.next_tick(k))
-        until_s = min([until_s, *(due(t) for due in self.due_s)])
-        if end <= k or until_s - DUE_MARGIN_S <= t:
+        with_on_tick = self.on_tick is not None and end < self.n_ticks
+        for due in self.due_s:
+            until_s = min(until_s, due(t))
+        if end + with_on_tick <= k or until_s - DUE_MARGIN_S <= t:
             return 0
         state = arm.compiled_state()
         self._callback_arm = arm
@@ -203,7 +212,8 @@ class CompiledTicks:
             *plant._addresses,
             self._load_callback_address,
             self._callback_failed,
-            end - k,
+            end + with_on_tick - k,
+            with_on_tick,
             self.steps_per_tick,
             t,
             until_s - DUE_MARGIN_S,
@@ -221,7 +231,7 @@ class CompiledTicks:
             raise self._callback_error
         if t_end != plant.time:
             raise RuntimeError(f"compiled ticks: MuJoCo's time {plant.time!r}, the loop's {t_end!r}")
-        if ran == 0 and status != MID_TICK:
+        if ran == 0 and status == NEEDS_PYTHON:
             return 0
         arm.take_compiled_state(state[0], last_tick_s, plant.supply_pa)
         if status == MID_TICK:  # tick k + ran: control_step ran, the rest is Python's
@@ -230,6 +240,12 @@ class CompiledTicks:
                 (bool(moving), int(timed_out), bool(stale)), self._valve_gauge_pa.copy(), plant.supply_pa
             )
             plant.commands[:] = commands
+            if with_on_tick and k + ran == end:
+                self.on_tick(k + ran, t_end)
+            plant.step(self.steps_per_tick, check_warnings=False)
+            ran += 1
+        elif status == CONTROLLED:  # tick k + ran, commands issued: the run's on_tick, then the plant's steps
+            self.on_tick(k + ran, t_end)
             plant.step(self.steps_per_tick, check_warnings=False)
             ran += 1
         return ran

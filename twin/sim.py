@@ -139,7 +139,15 @@ def run(
     due = [getattr(f, "due_s", None) for f in (supply_pa_at, events) if f is not None]
     batch = None
     if all(d is not None for d in due):
-        batch = compiled_ticks(plant, controller, steps_per_tick, n_ticks, due_s=due, next_tick=recording.next_tick)
+        batch = compiled_ticks(
+            plant,
+            controller,
+            steps_per_tick,
+            n_ticks,
+            due_s=due,
+            next_tick=recording.next_tick,
+            on_tick=recording.on_tick,
+        )
     try:
         run_ticks(
             controller,
