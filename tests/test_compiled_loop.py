@@ -8,6 +8,7 @@ the Python loop with itself)."""
 from __future__ import annotations
 
 import json
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -20,8 +21,17 @@ from scenarios.schema import load
 SCENARIOS = {p.stem: p for p in scenario_files()}
 
 
+def _with_dwell(scenario):
+    # the wrist to 60 deg, a 1 s dwell there (counted down by the compiled ticks), back to 20 deg
+    there = replace(scenario.targets[0], dwell_s=1.0)
+    back = replace(scenario.targets[0], angles_deg={"wrist_pitch": 20.0})
+    return replace(scenario, targets=(there, back), criteria=())
+
+
 def _run_both(name: str, seconds: float, monkeypatch) -> tuple:
-    scenario = load(SCENARIOS[name])
+    scenario = (
+        _with_dwell(load(SCENARIOS[name[: -len("+dwell")]])) if name.endswith("+dwell") else load(SCENARIOS[name])
+    )
     with monkeypatch.context() as m:
         m.setattr(twin.sim, "compiled_ticks", lambda *a, **k: None)
         python = run_scenario(scenario, duration_s=seconds)
@@ -47,6 +57,7 @@ def _run_both(name: str, seconds: float, monkeypatch) -> tuple:
         ("insulator_cleaning", 8.0),
         # the open loop's valve time, a fault (the supply under the brakes' release) mid-move
         ("wrist_open_loop_60deg", 3.0),
+        ("wrist_closed_loop_60deg+dwell", 6.0),
         ("fault_supply_lost", 4.0),
     ],
 )

@@ -2,18 +2,17 @@
 
 The run loop (control/loop.py) pays Python every tick: the sensors, the controller's tick around
 its compiled parts, the plant's step. Most ticks need none of it: the arm at rest, a dwell, a move
-whose predicted load is still fresh. `_ticks` runs such ticks back to back, each one exactly
-what the Python loop does (the same compiled control_step, predict_step, pneumatic_step and
-MuJoCo's mj_step, in the same order, on the same arrays), and returns to Python on the first tick
-that needs it:
+(whose stale predicted load it asks of Pinocchio through a callback). `_ticks` runs such ticks back
+to back, each one exactly what the Python loop does (the same compiled control_step, predict_step
+and plant steps of the air and MuJoCo's mj_step, in the same order, on the same arrays), and
+returns to Python on the first tick that needs it:
 
-* the controller says so (control/compiled_tick.py: a step of the plan ends or begins, the
-  predicted load is stale and Pinocchio must give it, a time-out, a sensor not a number, `done`
-  changed);
+* the controller says so (control/compiled_tick.py: a step of the plan ends or begins, a
+  time-out, a sensor not a number, `done` changed);
 * a callback is due: the run's telemetry tick, the task's camera frame, a fault, a supply step,
   the run's end (each tells when, `CompiledTicks.__call__`).
 
-A tick the compiled loop left half done (control_step ran, Pinocchio wanted) is finished in Python
+A tick the compiled loop left half done (control_step ran, a time-out) is finished in Python
 by `ArmController.finish_tick` and the plant's step. Results are bit-identical to the per-tick loop
 (tests/test_compiled_loop.py).
 """
@@ -29,7 +28,7 @@ import numpy as np
 from control.compiled_tick import MID_TICK, NEEDS_PYTHON, TICKED, controller_tick, end_tick
 from pneumatics import joint as J
 from pneumatics._jit import NO_JIT, borrowed, njit
-from twin.kernel import MJ_STEP, _call_mj_step, pneumatic_step
+from twin.kernel import MJ_STEP, _call_mj_step, _plant_steps
 from twin.plant import SUBSTEPS, Plant
 
 # a callback due at time T is handed back to Python from the tick at T - DUE_MARGIN_S on: far above
@@ -132,23 +131,26 @@ def _ticks(
         commands_p[:] = commands_c
         if last_unstepped and k == n_ticks - 1:
             return k, CONTROLLED, time_s, last_tick_s
-        for _ in range(steps_per_tick):  # Plant.step
-            pneumatic_step(
-                air,
-                commands_p,
-                params_p,
-                drive_map,
-                tendon_ids,
-                actuator_ids,
-                qpos,
-                qvel,
-                ctrl,
-                tendon_frictionloss,
-                supply_pa,
-                dt_s,
-                substeps,
-            )
-            _call_mj_step(mj_step_address, model_address, data_address)
+        _plant_steps(  # Plant.step
+            mj_step_address,
+            steps_per_tick,
+            model_address,
+            data_address,
+            air,
+            commands_p,
+            params_p,
+            drive_map,
+            tendon_ids,
+            actuator_ids,
+            qpos,
+            qvel,
+            ctrl,
+            tendon_frictionloss,
+            supply_pa,
+            dt_s,
+            substeps,
+        )
+        for _ in range(steps_per_tick):
             time_s += dt_s  # as mj_step advances d.time (checked against it on return)
     return n_ticks, TICKED, time_s, last_tick_s
 
