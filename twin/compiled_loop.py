@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import ctypes
 import math
+import sys
 from collections.abc import Callable, Sequence
 
 import numpy as np
@@ -209,26 +210,32 @@ class CompiledTicks:
             return 0
         state = arm.compiled_state()
         self._callback_arm = arm
-        ran, status, t_end, last_tick_s = _ticks(
-            MJ_STEP_ADDRESS,
-            *plant._addresses,
-            self._load_callback_address,
-            self._callback_failed,
-            end + with_on_tick - k,
-            with_on_tick,
-            self.steps_per_tick,
-            t,
-            until_s - DUE_MARGIN_S,
-            arm.done,
-            self._control_result,
-            *state,
-            self._valve_gauge_pa,
-            *self._plant_arrays,
-            plant.supply_pa,
-            *self._mujoco,
-            plant.dt,
-            SUBSTEPS,
-        )
+        # an exception raised in the load's callback before its own `try` (Ctrl-C's KeyboardInterrupt
+        # at its first line) would be printed and dropped by ctypes: taken from the unraisable hook
+        hook, sys.unraisablehook = sys.unraisablehook, self._unraisable
+        try:
+            ran, status, t_end, last_tick_s = _ticks(
+                MJ_STEP_ADDRESS,
+                *plant._addresses,
+                self._load_callback_address,
+                self._callback_failed,
+                end + with_on_tick - k,
+                with_on_tick,
+                self.steps_per_tick,
+                t,
+                until_s - DUE_MARGIN_S,
+                arm.done,
+                self._control_result,
+                *state,
+                self._valve_gauge_pa,
+                *self._plant_arrays,
+                plant.supply_pa,
+                *self._mujoco,
+                plant.dt,
+                SUBSTEPS,
+            )
+        finally:
+            sys.unraisablehook = hook
         if self._callback_error is not None:
             raise self._callback_error
         if t_end != plant.time:
@@ -251,6 +258,11 @@ class CompiledTicks:
             plant.step(self.steps_per_tick, check_warnings=False)
             ran += 1
         return ran
+
+    def _unraisable(self, unraisable) -> None:
+        if unraisable.exc_value is not None and self._callback_error is None:
+            self._callback_error = unraisable.exc_value
+            self._callback_failed[0] = 1.0
 
     def _update_load(self, _a, _b) -> None:
         # called from compiled code (ctypes, which would print and drop an exception): noted, raised
