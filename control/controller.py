@@ -22,6 +22,17 @@ import numpy as np
 import assets
 from control import pid
 from control.arm_model import ArmModel
+from control.compiled_tick import (
+    FLOW_ATM,
+    FLOW_BRAKE_RELEASE,
+    FLOW_DT,
+    FLOW_DWELL,
+    FLOW_FAULTED,
+    FLOW_LOAD_UPDATE,
+    FLOW_PLAN,
+    FLOW_STEPPING,
+    N_FLOW,
+)
 from control.open_loop import open_loop_duration
 from control.pid import CLOSED, DEFAULT_GAINS, IDLE, OPEN, PidGains, control_step, gains_row
 from control.predictor import predict_step
@@ -259,7 +270,7 @@ class ArmController:
                 )
         if not self.faulted:
             self._sequence(supply)
-        moving, timed_out, load_stale = control_step(
+        result = control_step(
             self._modes,
             self._moves,
             self._drives,
@@ -271,21 +282,59 @@ class ArmController:
             self.load_update_rad,
             self.commands,
         )
+        return self.finish_tick(result, pv, supply)
+
+    def finish_tick(self, control_result, valve_gauge_pa: np.ndarray, supply_pa: float) -> np.ndarray:
+        """The tick's part after control_step (whose (moving, timed out, load stale) it is handed):
+        a fault's commands, the load from Pinocchio when stale, a time-out, the prediction's step."""
+        moving, timed_out, load_stale = control_result
         if self.faulted:
             self.commands[:] = 0.0
         if moving:
             if load_stale:
                 self._set_load(self.y[:, R_THETA])
             if timed_out >= 0:
-                i = timed_out
+                i = int(timed_out)
                 self._fault(
                     f"{self.joints[i]} did not reach {math.degrees(self.target[i]):.2f} deg "
                     f"within {self.timeout[i]:g} s "
                     f"(predicted {math.degrees(self.y[i, R_THETA]):.2f} deg)"
                 )
                 self.commands[:] = 0.0
-        predict_step(self.y, self.x, self.commands, pv, supply, self.load, self.inertia, self.params, self.dt)
+        predict_step(
+            self.y, self.x, self.commands, valve_gauge_pa, supply_pa, self.load, self.inertia, self.params, self.dt
+        )
         return self.commands
+
+    # -- ticks in compiled code (control/compiled_tick.py) -------------------------------------
+    def compiled_ticks(self, time_s: float) -> tuple[ArmController | None, float]:
+        """(the controller whose ticks `controller_tick` can run, until when): always itself."""
+        return self, math.inf
+
+    def compiled_state(self) -> tuple:
+        """The arrays `controller_tick` works on, after `flow` and `step_joints`, in its order; the
+        flow array is made from the controller's scalars (`take_compiled_state` reads it back)."""
+        flow = np.zeros(N_FLOW)
+        flow[FLOW_DWELL] = self._dwell_left
+        flow[FLOW_STEPPING] = float(self._stepping)
+        flow[FLOW_PLAN] = float(bool(self._plan))
+        flow[FLOW_FAULTED] = float(self.faulted)
+        flow[FLOW_BRAKE_RELEASE] = self._brake_release_pa
+        flow[FLOW_DT] = self.dt
+        flow[FLOW_LOAD_UPDATE] = self.load_update_rad
+        flow[FLOW_ATM] = self.gas.p_atm_pa
+        arrays = (self._modes, self._moves, self._drives, self.y, self.x, self.params, self._g, self.commands)
+        return (flow, self._step_joints, *arrays, self.load, self.inertia)
+
+    def update_load(self) -> None:
+        """The load torques from Pinocchio at the predicted angles (a stale load, mid-tick)."""
+        self._set_load(self.y[:, R_THETA])
+
+    def take_compiled_state(self, flow: np.ndarray, time_s: float, supply_pa: float) -> None:
+        """After compiled ticks, the last of them at `time_s`: what they changed of the scalars."""
+        self._dwell_left = float(flow[FLOW_DWELL])
+        self.time_s = float(time_s)
+        self._last_supply = float(supply_pa)
 
     def _set_load(self, theta: np.ndarray) -> None:
         # the load torques from Pinocchio at the predicted configuration, and where they were taken

@@ -41,6 +41,7 @@ def run_ticks(
     events: Callable[[SteppedPlant, float], None] | None = None,
     on_tick: Callable[[int, float], None] | None = None,
     check_warnings: bool = True,
+    batch: Callable[[int], int] | None = None,
 ) -> int:
     """Control ticks k = 0, 1, ... while `keep_going(k)`; returns the number of ticks run.
 
@@ -48,11 +49,20 @@ def run_ticks(
     applies faults, the controller is handed the plant's sensors and its commands go to the plant,
     `on_tick(k, t)` sees the state the commands were issued in (telemetry), then the plant steps
     `steps_per_tick` physics steps (`check_warnings` passed on).
+
+    `batch(k)`, where given, runs ticks k, k+1, ... that need none of the above in Python, exactly
+    as this loop would (twin/compiled_loop.py), and returns how many it ran (0: tick k is the
+    loop's); it stops before `keep_going` would.
     """
     # the loop's own cost is paid every tick: its calls bound once, not looked up each time
     sensors, tick, step, commands = plant.sensors, controller.tick, plant.step, plant.commands
     k = 0
     while keep_going(k):
+        if batch is not None:
+            ran = batch(k)
+            if ran:
+                k += ran
+                continue
         t = plant.time
         if supply_pa_at is not None:
             plant.set_supply(supply_pa_at(t))

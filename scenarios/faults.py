@@ -9,6 +9,7 @@ sensor_bias       the joint's proportional-valve pressure sensor reads `value` P
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 
 from pneumatics import AIR
@@ -28,6 +29,12 @@ def fault_events(faults: tuple[Fault, ...]) -> tuple[Callable[[Plant, float], No
             fault = pending.pop(0)
             apply_fault(plant, fault)
 
+    def due_s(t: float) -> float:
+        # when `events` next does something a call before did not: the next fault (the lost supply
+        # stays lost: a call after it only sets it again)
+        return min(pending[0].at_s if pending else math.inf, supply_lost_at if t < supply_lost_at else math.inf)
+
+    events.due_s = due_s  # the run loop may skip calling `events` until then (twin/compiled_loop.py)
     return events, lambda t: t >= supply_lost_at
 
 

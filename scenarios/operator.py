@@ -118,6 +118,19 @@ class GlobalCamera:
         self.frames.append(Frame(time_s, seen[0], self.rim_px, self.disc_pitch_px, seen[1:]))
         self._next_s += self.period_s * max(1, math.floor((time_s - self._next_s) / self.period_s) + 1)
 
+    @property
+    def next_frame_s(self) -> float:
+        """When the next frame is due (`capture` takes it at a tick within 1e-9 s of it or after)."""
+        return self._next_s - 1e-9
+
+    def seen_from_s(self, latency_s: float, taken_after_s: float) -> float:
+        """The earliest time `seen(now, latency_s, taken_after_s)` can give a frame, from the frames
+        taken so far (math.inf: none of them; a later frame comes at `next_frame_s`)."""
+        for f in self.frames:
+            if f.time_s >= taken_after_s - 1e-9:
+                return f.time_s + latency_s - 1e-9
+        return math.inf
+
     def seen(self, now_s: float, latency_s: float, taken_after_s: float) -> Frame | None:
         """The newest frame taken at or after `taken_after_s` that the operator has seen by now."""
         for f in reversed(self.frames):
@@ -199,6 +212,11 @@ class Operator:
         the same error seen again must not be added twice."""
         self.aim_offset_m += self._last_move_m
         self._last_move_m = np.zeros(3)
+
+    def review_due_s(self, done_s: float) -> float:
+        """The earliest time `review(now, done_s, ...)` can do more than wait for a picture (math.inf:
+        not before the camera's next frame)."""
+        return self.camera.seen_from_s(self._latency_s, done_s)
 
     def review(
         self, now_s: float, done_s: float, disc: int, standoff_m: float, platform, aim: bool = True

@@ -118,6 +118,32 @@ class TaskController:
                 return self._drive_into_stop(sensors)
         return self.controller.tick(sensors)
 
+    def compiled_ticks(self, time_s: float) -> tuple[ArmController | None, float]:
+        """(the platform's controller, until when) where the coming ticks would only tick it, as
+        `tick` does when nothing is due: no bound reading the plant, no stop drive, no fault for the
+        operator to clear, no target to take up (or the operator still waiting for a picture of
+        the arm at rest); until the camera's next frame. (None, ...): `tick` must run
+        (twin/compiled_loop.py)."""
+        c = self.controller
+        if (
+            self._plant is not None
+            or self._stop is not None
+            or (c.faulted and self.operator is not None and 0 <= self.k < len(self.targets))
+        ):
+            return None, time_s
+        until = self.camera.next_frame_s if self.camera is not None else math.inf
+        if c.done and not c.faulted and self.k < len(self.targets):
+            until = min(until, self._waiting_until(time_s))
+        return c, until
+
+    def _waiting_until(self, time_s: float) -> float:
+        """Until when `_between_targets` only waits for the operator's picture of the arm at rest
+        (`time_s`: it does more now)."""
+        k = self.k
+        if k < 0 or not self.reached[k] or self._backing_out or self.operator is None or not self._is_standoff(k):
+            return time_s
+        return self.operator.review_due_s(self._review_from_s)
+
     def predicted_angles(self) -> np.ndarray:
         return self.controller.predicted_angles()
 

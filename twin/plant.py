@@ -118,6 +118,9 @@ class Plant:
         self._fixed_arrays = (self.drive_map, self.tendon_ids, self.actuator_ids, *self._mujoco_arrays)
         self._addresses = (m._address, self.data._address)
         self._valve_gauge_pa = self.air[:, J.S_PV]  # a view (`air` is only ever written in place)
+        # False: every physics step goes through `step` (a caller that wraps it, e.g. to record each
+        # step); True lets the run loop step this plant's arrays from compiled code (twin/compiled_loop.py)
+        self.compiled_ticks = True
 
     # -- inputs -------------------------------------------------------------------------------
     def set_supply(self, supply_pa: float) -> None:

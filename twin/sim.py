@@ -21,6 +21,7 @@ import numpy as np
 
 from control.loop import run_ticks
 from pneumatics import joint as J
+from twin.compiled_loop import compiled_ticks
 from twin.plant import Plant, Sensors
 from twin.telemetry import Telemetry
 
@@ -134,6 +135,19 @@ def run(
     if telemetry is None:
         telemetry = Telemetry(plant.joints, body_names(plant))
     recording = _Recording(plant, controller, telemetry, recorders, ticks_per_log, ticks_per_flush)
+    # ticks needing no Python run compiled when every callback says when it is next due
+    due = [getattr(f, "due_s", None) for f in (supply_pa_at, events) if f is not None]
+    batch = None
+    if all(d is not None for d in due):
+        batch = compiled_ticks(
+            plant,
+            controller,
+            steps_per_tick,
+            n_ticks,
+            due_s=due,
+            next_tick=recording.next_tick,
+            on_tick=recording.on_tick,
+        )
     try:
         run_ticks(
             controller,
@@ -144,6 +158,7 @@ def run(
             events,
             recording.on_tick,
             check_warnings=False,
+            batch=batch,
         )
         plant.check_warnings()
         telemetry.append(plant.time, sample(plant, controller))
@@ -167,6 +182,12 @@ class _Recording:
             self.telemetry.append(t, sample(self.plant, self.controller))
         if k % self.ticks_per_flush == self.ticks_per_flush - 1:
             self.flush()
+
+    def next_tick(self, k: int) -> int:
+        """The first tick from k on where `on_tick` has work."""
+        log = -k % self.ticks_per_log
+        flush = (self.ticks_per_flush - 1 - k) % self.ticks_per_flush
+        return k + min(log, flush)
 
     def flush(self) -> None:
         for r in self.recorders:
