@@ -4,6 +4,7 @@ reader, `twin replay` on good, cut and corrupt files, the pictures."""
 from __future__ import annotations
 
 import os
+import re
 import signal
 import subprocess
 import sys
@@ -447,7 +448,9 @@ def test_ctrl_c_finishes_the_logs(tmp_path):
     writer and the camera run in processes of their own."""
     text = (ROOT / "scenarios" / "insulator_cleaning.toml").read_text()
     long = tmp_path / "long.toml"
-    long.write_text(text.replace("duration_s = 90.0", "duration_s = 900.0"))
+    longer, n = re.subn(r"(?m)^duration_s = [0-9.]+", "duration_s = 900.0", text)
+    assert n == 1, "the cleaning scenario's duration_s line was not found"  # else the run may end first
+    long.write_text(longer)
     mcap, rrd = tmp_path / "run.mcap", tmp_path / "run.rrd"
     env = dict(os.environ, PYTHONPATH=str(ROOT))
     proc = subprocess.Popen(
