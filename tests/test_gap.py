@@ -372,6 +372,33 @@ def test_a_pair_search_follows_the_narrow_valley_of_two_effects_acting_alike():
     assert found < 0.1 * leak_alone and found < 2e-3
 
 
+def test_a_pair_search_starts_in_every_basin_of_the_grid():
+    """Two effects acting alike can leave two basins: a shallow one on a grid point and the true,
+    deeper one between grid points, whose nearest grid points read worse than the shallow one's.
+    From the grid's best point alone the simplex settles in the shallow basin; the search must
+    start from each of the grid's best local minima and reach the deeper one."""
+    from gap.diagnose import Candidate, _grid, screen_pair
+    from gap.effects import BY_NAME
+
+    ga, gb = _grid(BY_NAME["vane_leakage"], 5), _grid(BY_NAME["coulomb_friction"], 5)
+
+    def sse(leak, coulomb):  # in grid-index coordinates: basin A on a grid point, basin B between
+        i, j = np.interp(leak, ga, np.arange(len(ga))), np.interp(coulomb, gb, np.arange(len(gb)))
+        return min(1e-3 + 1e-3 * ((i - 1.0) ** 2 + (j - 4.0) ** 2), 1e-5 + 5e-3 * ((i - 3.3) ** 2 + (j - 2.5) ** 2))
+
+    class TwoBasins:  # the twin's objective, without replays: per run and latency
+        def run_sses(self, effects, runs):
+            v = dict((e.name, x) for e, x in effects)
+            return np.full((len(runs), 1), sse(v["vane_leakage"], v["coulomb_friction"]) / len(runs))
+
+    grid = np.array([[sse(a, b) for b in gb] for a in ga])
+    assert np.unravel_index(np.argmin(grid), grid.shape) == (1, 4)  # the grid's best is the shallow basin
+    found = screen_pair(
+        TwoBasins(), Candidate("vane_leakage", [], [], []), Candidate("coulomb_friction", [], [], []), [0]
+    )
+    assert found < 1e-4
+
+
 def test_verdict_rules_refuse_a_pair_at_nominal_flag_bounds_and_name_only_a_family():
     from gap import verdict
     from gap.diagnose import Candidate
