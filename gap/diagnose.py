@@ -670,12 +670,27 @@ def diagnose(
     judge = verdict.Judge(twin, fl, before_rms, fl.score, rng, before_kpa)
     call = judge.call(significant, fits.singles, fits.pairs)
     labels = where_labels(twin)
-    family = judge.family_call(fits.singles, labels, twin.gap_vector, folds_of(campaign))
+    family = judge.family_call(
+        fits.singles, labels, twin.gap_vector, folds_of(campaign), in_twin_corrections(twin, catalogue)
+    )
     # the instrument as best understood: the latency fitted with the answer (with the nominal twin
     # alone a latency soaks up part of any gap that makes the twin run ahead); the nominal twin's
     # residual, its breakdown and how far are reported at it
     latency = call.top.latency_s if call.top is not None else nominal_latency
     return result_of(judge, fits, call, family, labels, latency, rng)
+
+
+def in_twin_corrections(twin: Twin, catalogue) -> dict[str, list[np.ndarray]]:
+    """Per family, for each catalogue switch the nominal twin already has on (the hose loss): the
+    correction of switching it off, and its opposite (more of it, to first order), so that a family
+    is in the family call even when none of its members is a candidate (a narrower hose)."""
+    out: dict[str, list[np.ndarray]] = {}
+    every = list(range(len(twin.runs)))
+    for e in catalogue:
+        if e.discrete_value is not None and e.value_of(twin.params) == e.discrete_value:
+            c = twin.gap_vector - twin.run_sses_and_residual([(e, e.low)], every)[1]
+            out.setdefault(e.family, []).append(np.vstack([c, -c]))
+    return out
 
 
 def result_of(
