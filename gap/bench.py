@@ -244,9 +244,10 @@ def run_bench(
 
 
 def selected(case: Case, quick: bool, only: str | None) -> bool:
-    """Is `case` in the quick slice (with `quick`) and named by `only` (when given)?"""
+    """Is `case` in the quick slice (with `quick`) and named by `only` (when given: names, a trailing
+    `*` matching the start of a name, or a kind: single, form, pair, outside, none)?"""
     named = not only or any(
-        case.name == o or (o.endswith("*") and case.name.startswith(o[:-1])) for o in only.split(",")
+        case.name == o or case.kind == o or (o.endswith("*") and case.name.startswith(o[:-1])) for o in only.split(",")
     )
     return named and not (quick and case.name not in QUICK)
 
@@ -313,7 +314,9 @@ def summarise(results: list[dict], quick: bool, chamber_pressures: bool | None, 
         "form_differs_scoring": (
             "family level: the call (the families of the top candidate's effects if explained/ambiguous, else the "
             "diagnosis's nearest family) is the withheld form's family "
-            "(Stribeck -> friction, valve lag -> valve timing)"
+            "(Stribeck -> friction, valve lag -> valve timing; the forms built apart from the catalogue's laws: "
+            "narrow hose -> hose, hose leak -> leakage or hose, slow brake release and brake fed by the supply -> "
+            "brake, clogged exhaust -> valve)"
         ),
         "false_alarm_by_instrument": {
             i.name: _rate_of([r["verdict"] != "no significant gap" for r in none if r["instrument"] == i.name])
