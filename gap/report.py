@@ -219,8 +219,8 @@ def _families(diag: Diagnosis) -> list[str]:
         "| family | held-out shrink | where match | best member | misfit in floors | shrink |",
         "|---|---|---|---|---|---|",
         *(
-            f"| {x.family} | {x.heldout_shrink:.3f} | {x.where_match:.2f} | {x.best} | {x.score_in_floors:.2f} "
-            f"| {x.shrink:.3f} |"
+            f"| {x.family} | {x.heldout_shrink:.3f} | {x.where_match:.2f} | {x.best} "
+            f"| {_or_dash(x.score_in_floors, 2)} | {_or_dash(x.shrink, 3)} |"
             for x in diag.which.families
         ),
     ]
@@ -282,3 +282,8 @@ def _how_far(diag: Diagnosis) -> list[str]:
         )
         lines.append(f"| {name} | {cells} |")
     return lines
+
+
+def _or_dash(v: float, digits: int) -> str:
+    """`v` to `digits` decimals, or a dash where there is none (a family whose only member is in the twin)."""
+    return "—" if math.isnan(v) else f"{v:.{digits}f}"
