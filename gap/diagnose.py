@@ -382,7 +382,7 @@ def _vertex(xs: np.ndarray, s: np.ndarray) -> float:
 
 
 # A pair's two parameters are searched by Nelder-Mead in grid-index coordinates (a logarithmic grid
-# searched logarithmically) from the best point of a coarse 2-D grid. Two effects that act alike
+# searched logarithmically) from the best local minima of a coarse 2-D grid. Two effects that act alike
 # (leak vs friction) leave a narrow curved valley: a pattern search on halving steps from the grid
 # stops on its wall, in-sample worse than the pair's better member alone (on the bench's staircase
 # leak + Coulomb pair: 0.136 against the leak's 0.049 and 0.0004 at the true values), while the
@@ -391,6 +391,7 @@ PAIR_EVALS = 60  # the search on all runs (the screen on distinct runs, the full
 FOLD_EVALS = 20  # each fold's refit on its training runs, from the full fit's point
 FOLD_STEP = 0.1  # its initial simplex, in grid steps: a fold's optimum lies near all runs'
 SEARCH_XTOL = 0.01  # in grid steps
+PAIR_STARTS = 2  # the search starts from the grid's best local minima, at most this many (`_grid_starts`)
 
 
 def _valley_search(
@@ -423,10 +424,28 @@ def _valley_search(
     return best, seen[best]
 
 
-def _grid_best(sse: np.ndarray, cols: list[int]) -> tuple[float, float]:
-    """The grid-index point of least SSE over runs `cols` (sse[i, j, run, latency])."""
-    i, j = np.unravel_index(int(np.argmin(sse[:, :, cols].sum(axis=2).min(axis=2))), sse.shape[:2])
-    return float(i), float(j)
+def _grid_starts(sse: np.ndarray, cols: list[int], n: int = PAIR_STARTS) -> list[tuple[float, float]]:
+    """The grid's local minima over runs `cols` (no lower point among its 8 neighbours), best first,
+    at most `n`: the starts of the valley search. Two effects acting alike can leave two basins
+    (more leak and less friction, or the reverse, both near the data); the grid's best point lies
+    in the wrong one as often as not, and the simplex does not cross the ridge between them."""
+    s = sse[:, :, cols].sum(axis=2).min(axis=2)
+    padded = np.pad(s, 1, constant_values=np.inf)
+    neighbours = np.stack(
+        [padded[1 + di : 1 + di + s.shape[0], 1 + dj : 1 + dj + s.shape[1]] for di in (-1, 0, 1) for dj in (-1, 0, 1)]
+    )
+    minima = np.argwhere(s <= neighbours.min(axis=0))
+    order = np.argsort(s[minima[:, 0], minima[:, 1]], kind="stable")[:n]
+    return [(float(minima[k, 0]), float(minima[k, 1])) for k in order]
+
+
+def _multi_start_search(
+    twin: Twin, ea: Effect, eb: Effect, ga: np.ndarray, gb: np.ndarray, runs: list[int], sse: np.ndarray, cols
+) -> tuple[tuple[float, float], float]:
+    """The valley search from each of the grid's best local minima (`_grid_starts` over `cols`),
+    the best point found."""
+    found = [_valley_search(twin, ea, eb, ga, gb, runs, u, 0.5, PAIR_EVALS) for u in _grid_starts(sse, cols)]
+    return min(found, key=lambda x: x[1])
 
 
 def _pair_at(ea: Effect, eb: Effect, ga: np.ndarray, gb: np.ndarray, u: tuple[float, float]):
@@ -439,13 +458,12 @@ def _pair_at(ea: Effect, eb: Effect, ga: np.ndarray, gb: np.ndarray, u: tuple[fl
 
 def screen_pair(twin: Twin, a: Candidate, b: Candidate, runs: list[int], n_grid: int = 5) -> float:
     """In-sample SSE of a pair on `runs`: a coarse 2-D grid, then the valley search from its best
-    point (`_valley_search`), so that the ranking does not depend on where the grid happens to
+    local minima (`_multi_start_search`), so that the ranking does not depend on where the grid happens to
     fall (a grid, not refits from the singles' values alone: an effect fitted alone can be far
     from its value in the pair, having soaked up the other)."""
     ea, eb = BY_NAME[a.name], BY_NAME[b.name]
     ga, gb, sse = pair_grid(twin, a, b, runs, n_grid)
-    start = _grid_best(sse, list(range(len(runs))))
-    return _valley_search(twin, ea, eb, ga, gb, runs, start, 0.5, PAIR_EVALS)[1]
+    return _multi_start_search(twin, ea, eb, ga, gb, runs, sse, list(range(len(runs))))[1]
 
 
 def pair_grid(
@@ -466,13 +484,13 @@ def fit_pair(
     twin: Twin, a: Candidate, b: Candidate, folds, grid: tuple[np.ndarray, np.ndarray, np.ndarray]
 ) -> Candidate:
     """Both effects fitted together on all runs (the 2-D grid on all runs, then the valley search
-    from its best point, `_valley_search`) and refitted on each fold's training runs from there,
+    from its best local minima, `_multi_start_search`) and refitted on each fold's training runs from there,
     scored on each fold's withheld runs; the reported values are those fitted on all runs."""
     ea, eb = BY_NAME[a.name], BY_NAME[b.name]
     n = len(twin.runs)
     every = list(range(n))
     ga, gb, sse = grid
-    full, _ = _valley_search(twin, ea, eb, ga, gb, every, _grid_best(sse, every), 0.5, PAIR_EVALS)
+    full, _ = _multi_start_search(twin, ea, eb, ga, gb, every, sse, every)
     per_fold = [_valley_search(twin, ea, eb, ga, gb, list(tr), full, FOLD_STEP, FOLD_EVALS)[0] for tr, _ in folds]
     heldout: list = [None] * n
     heldout_p: list = [None] * n
@@ -652,12 +670,27 @@ def diagnose(
     judge = verdict.Judge(twin, fl, before_rms, fl.score, rng, before_kpa)
     call = judge.call(significant, fits.singles, fits.pairs)
     labels = where_labels(twin)
-    family = judge.family_call(fits.singles, labels, twin.gap_vector, folds_of(campaign))
+    family = judge.family_call(
+        fits.singles, labels, twin.gap_vector, folds_of(campaign), in_twin_corrections(twin, catalogue)
+    )
     # the instrument as best understood: the latency fitted with the answer (with the nominal twin
     # alone a latency soaks up part of any gap that makes the twin run ahead); the nominal twin's
     # residual, its breakdown and how far are reported at it
     latency = call.top.latency_s if call.top is not None else nominal_latency
     return result_of(judge, fits, call, family, labels, latency, rng)
+
+
+def in_twin_corrections(twin: Twin, catalogue) -> dict[str, list[np.ndarray]]:
+    """Per family, for each catalogue switch the nominal twin already has on (the hose loss): the
+    correction of switching it off, and its opposite (more of it, to first order), so that a family
+    is in the family call even when none of its members is a candidate (a narrower hose)."""
+    out: dict[str, list[np.ndarray]] = {}
+    every = list(range(len(twin.runs)))
+    for e in catalogue:
+        if e.discrete_value is not None and e.value_of(twin.params) == e.discrete_value:
+            c = twin.gap_vector - twin.run_sses_and_residual([(e, e.low)], every)[1]
+            out.setdefault(e.family, []).append(np.vstack([c, -c]))
+    return out
 
 
 def result_of(

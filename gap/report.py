@@ -167,20 +167,22 @@ def _verdict(diag: Diagnosis) -> list[str]:
     w, top, lines = diag.which, diag.which.top, []
     if w.nearest:
         nb = w.nearest
-        least = min(x.free_form_shrink for x in nb.evidence)
+        least = min(x.heldout_shrink for x in nb.evidence)
+        own = next(x.heldout_shrink for x in nb.evidence if x.family == nb.family)
         held_out = (
-            "and in any mix of them it leaves least of the gap on the withheld runs"
+            f"its own corrections leave {own:.2f} of the gap on the withheld runs, the least any family leaves "
+            f"being {least:.2f}"
             if least < 1.0
-            else f"but no family's shapes shrink the gap on the withheld runs (the best leaves {least:.2f} of it): "
-            "a weak call, from the where-profile alone"
+            else f"but no family's corrections shrink the gap on the withheld runs (the best leaves {least:.2f} "
+            "of it): a weak call"
         )
-        how = (
-            f"its effects' shapes explain {nb.where_match:.0%} of the gap's where-profile, near the best "
-            f"family there, {held_out}"
-            if nb.by_where
-            else f"no family's correction matches the gap's where-pattern well; this one comes closest "
-            f"({nb.where_match:.2f})"
+        tied = (
+            f"; the withheld runs do not tell it apart from {', '.join(nb.tied)}, and its shapes explain most "
+            f"of the gap's where-profile among them ({nb.where_match:.0%})"
+            if nb.tied
+            else ""
         )
+        how = held_out + tied
         lines += [
             f"No catalogue entry or pair explains the gap. Nearest family: **{nb.family}** ({how}). "
             "The unmodelled effect may be another form of it, or something not catalogued.",
@@ -211,13 +213,14 @@ def _verdict(diag: Diagnosis) -> list[str]:
 
 def _families(diag: Diagnosis) -> list[str]:
     return [
-        "## Families (free-form fit of each family on withheld runs, its where-pattern match; its best member)",
+        "## Families (the fit of each family's own corrections on withheld runs, its where-pattern match; "
+        "its best member)",
         "",
-        "| family | free-form shrink | where match | best member | misfit in floors | shrink |",
+        "| family | held-out shrink | where match | best member | misfit in floors | shrink |",
         "|---|---|---|---|---|---|",
         *(
-            f"| {x.family} | {x.free_form_shrink:.3f} | {x.where_match:.2f} | {x.best} | {x.score_in_floors:.2f} "
-            f"| {x.shrink:.3f} |"
+            f"| {x.family} | {x.heldout_shrink:.3f} | {x.where_match:.2f} | {x.best} "
+            f"| {_or_dash(x.score_in_floors, 2)} | {_or_dash(x.shrink, 3)} |"
             for x in diag.which.families
         ),
     ]
@@ -279,3 +282,8 @@ def _how_far(diag: Diagnosis) -> list[str]:
         )
         lines.append(f"| {name} | {cells} |")
     return lines
+
+
+def _or_dash(v: float, digits: int) -> str:
+    """`v` to `digits` decimals, or a dash where there is none (a family whose only member is in the twin)."""
+    return "—" if math.isnan(v) else f"{v:.{digits}f}"

@@ -12,14 +12,14 @@ Rules:
   bootstrap over runs, and a 10 % margin on the score);
 - a fitted value on (or within AT_BOUND of) a catalogue bound is flagged: the true value may lie
   beyond it, or the effect is standing in for another;
-- the family call does not need the gap's form to be in the catalogue: each family is fitted in
-  any shape its members can take (gap.family: the leading shapes of its members' corrections at
-  every value replayed); first by where: how much of the gap's where-profile (its mean per bin of
-  supply, load, angle, speed, time since start, phase and direction, gap.where.profile_matrix) a
-  mix of those shapes explains; the families whose misfit there is not clearly worse than the
-  best's (a one-sided 95 % bootstrap over runs, gap.family.where_eligible) are eligible, and of
-  those the one whose free-form fit (mixed on training runs) leaves least on the withheld runs is
-  the call. An "outside the catalogue" verdict names that family, never a candidate.
+- the family call does not need the gap's form to be in the catalogue: each family is fitted with its
+  own corrections (gap.family: per fold, one member's correction or two members' added, at the
+  values the single fits replayed, chosen on the training runs) and scored on the withheld runs;
+  the call is the family that leaves least there, unless others are not clearly worse (a one-sided
+  95 % bootstrap over runs, the test of a candidate's rivals): then, of those tied, the one whose
+  shapes explain most of the gap's where-profile (its mean per bin of supply, load, angle, speed,
+  time since start, phase and direction, gap.where.profile_matrix), and the report names the others.
+  An "outside the catalogue" verdict names that family, never a candidate.
 """
 
 from __future__ import annotations
@@ -94,7 +94,7 @@ class FamilyEvidence:
     score_in_floors: float
     shrink: float  # held-out rms / the nominal twin's
     where_match: float  # the part of the gap's where-profile its shapes explain (1 - gap.family.profile_misfit)
-    free_form_shrink: float  # held-out rms of the gap after the family's free-form fit / before (gap.family)
+    heldout_shrink: float  # held-out rms of the gap after the family's own corrections / before (gap.family)
 
 
 @dataclass(frozen=True)
@@ -103,7 +103,7 @@ class FamilyCall:
 
     family: str | None
     where_match: float | None
-    by_where: bool  # the call was made among the families eligible by the where-profile
+    tied: list[str]  # other families the withheld runs do not tell apart from it (the where-profile chose)
     evidence: list[FamilyEvidence]  # families by held-out misfit, best first
 
 
@@ -174,49 +174,53 @@ class Judge:
             return Call("ambiguous" if rivals else "explained", best, rivals, refused)
         return Call("outside the catalogue", best, [], refused)
 
-    def family_call(self, singles: list, labels: dict[str, np.ndarray], gap: np.ndarray, folds) -> FamilyCall:
-        """The families ranked by their free-form fit on withheld runs (gap.family), each checked
-        against the gap's where-pattern (module docstring). `gap`: the nominal twin's residual
-        vector (Twin.run_sses_and_residual); `folds`: (training, withheld) run lists."""
+    def family_call(
+        self, singles: list, labels: dict[str, np.ndarray], gap: np.ndarray, folds, in_twin: dict | None = None
+    ) -> FamilyCall:
+        """The families ranked by the fit of their own corrections on withheld runs (gap.family),
+        ties told apart by the gap's where-profile (module docstring). `gap`: the nominal twin's
+        residual vector (Twin.run_sses_and_residual); `folds`: (training, withheld) run lists;
+        `in_twin`: per family, corrections of the members the nominal twin already has (taking
+        them out, and the opposite)."""
         twin = self.twin
         angle = twin.angle_mask()
         masks = [(twin.sample_mask(tr), twin.sample_mask(te)) for tr, te in folds]
         members: dict[str, list[np.ndarray]] = {}
         for c in singles:
             members.setdefault(BY_NAME[c.name].family, []).append(gap[None, :] - c.grid_residuals)
-        bases = {f: family.shapes(np.vstack(cs)) for f, cs in members.items()}
-        bins = where.profile_bins(labels)
-        fits = family.family_fits(bases, gap, masks, angle, where.profile_matrix(labels, None, bins))
-        run_of = np.repeat(np.arange(len(twin.runs)), [pr.ts.size for pr in twin.runs])
-        eligible = set(
-            family.where_eligible(
-                {f: b[:, angle] for f, b in bases.items()},
-                gap[angle],
-                lambda w: where.profile_matrix(labels, w, bins),
-                run_of,
-                self.rng,
-            )
-        )
+        for f, cs in (in_twin or {}).items():
+            members.setdefault(f, []).extend(cs)
+        profile = where.profile_matrix(labels)
+        fits = family.family_fits(members, gap, masks, angle, profile)
+        if not fits:
+            return FamilyCall(None, None, [], [])
+        run_masks = [twin.sample_mask([k]) for k in range(len(twin.runs))]
+        per_run = {f: np.array([np.sum(ft.heldout[m] ** 2) for m in run_masks]) for f, ft in fits.items()}
         nominal = sum(float(np.sum(gap[te] ** 2)) for _, te in masks)
         best_of: dict[str, object] = {}
         for c in singles:  # singles come sorted by score: the first of a family is its best
             best_of.setdefault(BY_NAME[c.name].family, c)
         evidence = sorted(
-            (
-                FamilyEvidence(
-                    f,
-                    best_of[f].name,
-                    self.score(best_of[f]),
-                    rms_deg(best_of[f].heldout) / self.before_rms if self.before_rms > 0 else math.nan,
-                    1.0 - fit.where_misfit,
-                    math.sqrt(fit.heldout_sse / nominal) if nominal > 0 else math.nan,
-                )
-                for f, fit in fits.items()
-            ),
-            key=lambda x: x.free_form_shrink,
+            (self._evidence(f, best_of.get(f), fit, nominal) for f, fit in fits.items()),
+            key=lambda x: x.heldout_shrink,
         )
-        if not evidence:
-            return FamilyCall(None, None, False, evidence)
-        # eligible: the families whose shapes explain the where-profile not clearly worse than the best's
-        chosen = [x for x in evidence if x.family in eligible][0]
-        return FamilyCall(chosen.family, chosen.where_match, True, evidence)
+        lead = evidence[0].family
+        tied = [
+            x
+            for x in evidence
+            if x.family == lead or mean_lower_bound(per_run[x.family] - per_run[lead], self.rng) <= 0.0
+        ]
+        chosen = max(tied, key=lambda x: x.where_match)  # the first of the most where-like: stable order
+        return FamilyCall(chosen.family, chosen.where_match, [x.family for x in tied if x is not chosen], evidence)
+
+    def _evidence(self, f: str, best, fit, nominal: float) -> FamilyEvidence:
+        """Family f's line of evidence: its best single member (None: only a member already in the
+        twin), the fit of its own corrections (gap.family.FamilyFit)."""
+        return FamilyEvidence(
+            f,
+            best.name if best is not None else "(in the twin)",
+            self.score(best) if best is not None else math.nan,
+            rms_deg(best.heldout) / self.before_rms if best is not None and self.before_rms > 0 else math.nan,
+            1.0 - fit.where_misfit,
+            math.sqrt(fit.heldout_sse / nominal) if nominal > 0 else math.nan,
+        )

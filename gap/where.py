@@ -136,14 +136,11 @@ def profile_bins(labels: dict[str, np.ndarray]) -> np.ndarray:
     return np.array(rows, dtype=float).reshape(len(rows), len(next(iter(labels.values()))))
 
 
-def profile_matrix(labels: dict[str, np.ndarray], weights: np.ndarray | None = None, bins=None) -> np.ndarray:
-    """The where-profile as a linear map: one row per bin (`profile_bins`, or `bins` if given), its
-    samples' mean x sqrt(their count), so that profile = matrix @ residual and each bin counts by
-    its samples. Signed means: a form that moves the twin ahead in one bin and behind in another
-    keeps that pattern. `weights` (per sample; None: 1 each) count a sample as often as its run was
-    drawn in a bootstrap over runs (gap.family.where_eligible); a bin left empty is a zero row."""
-    m = profile_bins(labels) if bins is None else bins
-    if weights is not None:
-        m = m * np.asarray(weights, dtype=float)[None, :]
+def profile_matrix(labels: dict[str, np.ndarray]) -> np.ndarray:
+    """The where-profile as a linear map: one row per bin (`profile_bins`), its samples' mean x
+    sqrt(their count), so that profile = matrix @ residual and each bin counts by its samples.
+    Signed means: a form that moves the twin ahead in one bin and behind in another keeps that
+    pattern."""
+    m = profile_bins(labels)
     total = m.sum(axis=1, keepdims=True)
     return np.divide(m, np.sqrt(total), out=np.zeros_like(m), where=total > 0)

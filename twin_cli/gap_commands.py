@@ -52,7 +52,8 @@ def register(subparsers) -> None:
     b.add_argument(
         "--only",
         metavar="CASES",
-        help="only these cases, comma-separated (a trailing * matches the start of a name: none*)",
+        help="only these cases, comma-separated: names, a trailing * matching the start of a name (none*), "
+        "or kinds (single, form, pair, outside, none)",
     )
     b.set_defaults(func=cmd_bench)
 
