@@ -193,6 +193,11 @@ class ArmModel:
             g = g + self.spring_k * (q - self.spring_ref)
         return self.C_inv_T.dot(g)
 
+    def spring_torques(self, drive_angles: np.ndarray) -> np.ndarray:
+        """The joint springs' share of `load_torques` (N·m per drive): C^-T k (q - q_ref)."""
+        q = self.C_inv.dot(drive_angles)
+        return self.C_inv_T.dot(self.spring_k * (q - self.spring_ref))
+
     def drive_inertias(self, drive_angles: np.ndarray) -> np.ndarray:
         """Diagonal of the drive-space mass matrix C^-T M(q) C^-1 (kg·m²), links only (no rotor)."""
         M = pin.crba(self.model, self.data, self.C_inv @ np.asarray(drive_angles, dtype=float))

@@ -333,17 +333,15 @@ def test_the_wrist_counterbalance_lets_the_papers_wrist_turn_either_way_at_0_5_m
         * p.efficiency_forward
     )
     w, e = arm.joints.index("wrist_pitch"), arm.joints.index("elbow_pitch")
-    k, ref = arm.spring_k[w], arm.spring_ref[w]  # the wrist is its own drive (no coupling)
-    assert k > 0.0
     need_pa, need_without_pa = [], []
     lo, hi = joint_range(mujoco.MjModel.from_xml_path(str(ARM_XML)), "wrist_pitch")
     for wrist in np.linspace(lo, hi, 37):
         for pitch in np.radians(np.linspace(-90.0, 90.0, 37)):  # the tool's absolute pitch
             drive = np.zeros(len(arm.joints))
             drive[w], drive[e] = wrist, pitch - wrist  # tool pitch = forearm (elbow drive) + wrist
-            load = arm.load_torques(drive)[w]
+            load, spring = arm.load_torques(drive)[w], arm.spring_torques(drive)[w]
             need_pa.append((abs(load) + p.coulomb_nm) / per_pa)
-            need_without_pa.append((abs(load - k * (wrist - ref)) + p.coulomb_nm) / per_pa)
+            need_without_pa.append((abs(load - spring) + p.coulomb_nm) / per_pa)
     floor_pa = p.brake_release_gauge_pa + DEFAULT_GAINS.brake_clear_margin_pa
     assert max(need_without_pa) > 0.5e6  # the paper's wrist alone: stalls with the supply at its port
     assert max(need_pa) < floor_pa  # with the counterbalance: moves wherever the loop moves it
