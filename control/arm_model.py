@@ -170,7 +170,11 @@ class ArmModel:
         for i in range(1, m.njoints):
             names_by_v[m.joints[i].idx_v] = m.names[i]
         self.spring_k, self.spring_ref = joint_springs(xml_path, tuple(names_by_v))
-        self._springs = bool(np.any(self.spring_k))
+        # (index, k, q_ref) of each sprung joint: added one by one in load_torques, per tick (a numpy
+        # expression on the 5-vectors costs more than the few floats)
+        self._springs = [
+            (int(i), float(self.spring_k[i]), float(self.spring_ref[i])) for i in np.flatnonzero(self.spring_k)
+        ]
         self._q = np.zeros(m.nq)
         lo, hi = m.lowerPositionLimit, m.upperPositionLimit
         self.joint_lower = np.array(lo, dtype=float)
@@ -190,7 +194,8 @@ class ArmModel:
         q = self.C_inv.dot(drive_angles)
         g = pin.computeGeneralizedGravity(self.model, self.data, q)
         if self._springs:
-            g = g + self.spring_k * (q - self.spring_ref)
+            for i, k, ref in self._springs:  # in Pinocchio's data.g, scratch recomputed every call
+                g[i] += k * (q[i] - ref)
         return self.C_inv_T.dot(g)
 
     def spring_torques(self, drive_angles: np.ndarray) -> np.ndarray:
