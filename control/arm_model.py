@@ -55,6 +55,24 @@ def drive_coefficients(xml_path: str | Path, joints: tuple[str, ...]) -> dict[st
     return out
 
 
+def joint_springs(xml_path: str | Path, joints: tuple[str, ...]) -> tuple[np.ndarray, np.ndarray]:
+    """Per joint (model joint names), the MJCF's joint spring: stiffness (N·m/rad) and springref
+    (rad), zeros where it has none (the wrist's counterbalance, assets/arm.xml). MuJoCo's law:
+    torque = -stiffness (q - springref). Springs set through <default> classes are refused: they
+    would be missed here (the file is read, not compiled)."""
+    root = _read_xml(Path(xml_path))
+    for default in root.iter("default"):
+        for joint in default.findall("joint"):
+            if float(joint.attrib.get("stiffness", "0")) != 0.0:
+                raise ValueError(
+                    f"{xml_path}: a joint stiffness in a <default> class is not supported; set it on the joint"
+                )
+    found = {j.attrib.get("name"): j for j in root.iter("joint")}
+    k = np.array([float(found[j].attrib.get("stiffness", "0")) if j in found else 0.0 for j in joints])
+    ref = np.array([float(found[j].attrib.get("springref", "0")) if j in found else 0.0 for j in joints])
+    return k, ref
+
+
 def _pinocchio_model(xml_path: Path, payload_kg: float | None) -> pin.Model:
     return _lock_undriven(_full_model(xml_path, payload_kg))
 
@@ -146,6 +164,17 @@ class ArmModel:
         self.C = C  # drive = C q
         self.C_inv = np.linalg.inv(C)  # q = C^-1 drive
         self.C_inv_T = np.ascontiguousarray(self.C_inv.T)  # f = C^-T tau
+        # joint springs (the wrist's counterbalance), in Pinocchio's joint order: their holding torque
+        # k (q - q_ref) is part of each drive's static load, as gravity's is
+        names_by_v = [""] * m.nv
+        for i in range(1, m.njoints):
+            names_by_v[m.joints[i].idx_v] = m.names[i]
+        self.spring_k, self.spring_ref = joint_springs(xml_path, tuple(names_by_v))
+        # (index, k, q_ref) of each sprung joint: added one by one in load_torques, per tick (a numpy
+        # expression on the 5-vectors costs more than the few floats)
+        self._springs = [
+            (int(i), float(self.spring_k[i]), float(self.spring_ref[i])) for i in np.flatnonzero(self.spring_k)
+        ]
         self._q = np.zeros(m.nq)
         lo, hi = m.lowerPositionLimit, m.upperPositionLimit
         self.joint_lower = np.array(lo, dtype=float)
@@ -156,13 +185,23 @@ class ArmModel:
         return self.C_inv @ np.asarray(drive_angles, dtype=float)
 
     def load_torques(self, drive_angles: np.ndarray) -> np.ndarray:
-        """Load torque on each drive (N·m) from gravity, payload included, f = C^-T g(q).
+        """Load torque on each drive (N·m) from gravity, payload included, and the joints' springs,
+        f = C^-T (g(q) + k (q - q_ref)).
 
         Positive when the load pulls the drive negative (it adds to the torque the drive must make,
         `single_joint_rates`'s `load_torque_nm`)."""
         # ndarray.dot: the same product as @, with half its call overhead on 5-vectors (per tick)
-        g = pin.computeGeneralizedGravity(self.model, self.data, self.C_inv.dot(drive_angles))
+        q = self.C_inv.dot(drive_angles)
+        g = pin.computeGeneralizedGravity(self.model, self.data, q)
+        if self._springs:
+            for i, k, ref in self._springs:  # in Pinocchio's data.g, scratch recomputed every call
+                g[i] += k * (q[i] - ref)
         return self.C_inv_T.dot(g)
+
+    def spring_torques(self, drive_angles: np.ndarray) -> np.ndarray:
+        """The joint springs' share of `load_torques` (N·m per drive): C^-T k (q - q_ref)."""
+        q = self.C_inv.dot(drive_angles)
+        return self.C_inv_T.dot(self.spring_k * (q - self.spring_ref))
 
     def drive_inertias(self, drive_angles: np.ndarray) -> np.ndarray:
         """Diagonal of the drive-space mass matrix C^-T M(q) C^-1 (kg·m²), links only (no rotor)."""

@@ -61,13 +61,15 @@ def test_drive_load_torque_equals_mujoco_bias_through_tendon_jacobian():
         mujoco.mj_forward(m, d)
         ten_j = np.zeros((m.ntendon, m.nv))
         mujoco.mju_sparse2dense(ten_j, d.ten_J, m.ten_J_rownnz, m.ten_J_rowadr, m.ten_J_colind)
-        # qfrc_bias = J_tendon^T f  ->  f, the load each drive holds (on the driven joints' dofs: the
-        # brush head's spring slide is undriven, at its stop, and locked in the controller's model)
+        # qfrc_bias - qfrc_spring = J_tendon^T f  ->  f, the load each drive holds (gravity and the
+        # wrist's counterbalance spring, MuJoCo's own; on the driven joints' dofs: the brush head's
+        # spring slide is undriven, at its stop, and locked in the controller's model)
         dofs = [m.joint(j).dofadr[0] for j in assets.JOINTS]
-        f_mujoco = np.linalg.solve(ten_j[tids][:, dofs].T, d.qfrc_bias[dofs])
+        assert np.any(d.qfrc_spring[dofs] != 0.0)  # the counterbalance is in the comparison
+        f_mujoco = np.linalg.solve(ten_j[tids][:, dofs].T, d.qfrc_bias[dofs] - d.qfrc_spring[dofs])
         drive = d.ten_length[tids]
         np.testing.assert_allclose(arm.load_torques(drive), f_mujoco, atol=1e-9)
-        g = {j: d.qfrc_bias[m.joint(j).dofadr[0]] for j in assets.JOINTS}
+        g = {j: d.qfrc_bias[m.joint(j).dofadr[0]] - d.qfrc_spring[m.joint(j).dofadr[0]] for j in assets.JOINTS}
         f = dict(zip(arm.joints, arm.load_torques(drive), strict=True))
         assert f["elbow_pitch"] == pytest.approx(g["elbow_pitch"], abs=1e-9)  # parallelogram
         assert f["shoulder_pitch"] == pytest.approx(g["shoulder_pitch"] - g["elbow_pitch"], abs=1e-9)

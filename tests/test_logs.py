@@ -525,15 +525,18 @@ def test_brush_contact_is_logged_where_and_how_hard_it_pushes(tmp_path):
     # on the surface: MuJoCo's contact point sits mid-penetration, millimetres from it
     off_rim, off_face = radial - radius, np.abs(height) - half
     assert np.all(np.abs(np.maximum(off_rim, off_face)) < 0.005), (off_rim.max(), off_face.max())
-    # the inward normal of the surface each point is on: the rim's, or the top or bottom face's
-    on_rim = off_rim > off_face
-    inward_normal = np.zeros_like(p)
-    inward_normal[on_rim, :2] = (centre[on_rim, :2] - p[on_rim, :2]) / radial[on_rim, None]
-    inward_normal[~on_rim, 2] = -np.sign(height[~on_rim])
-    inward = np.einsum("ij,ij->i", push, inward_normal)
+    # the inward normals of the surfaces each point is on: the rim's, the top or bottom face's, or
+    # both where it sits on the edge between them (within 5 mm of each; there the contact's normal
+    # may point anywhere between the two: with the wrist's counterbalance the sensorless press lands
+    # on disc 2's top edge, pushing at ~45 deg)
+    on_rim, on_face = off_rim > off_face - 0.005, off_face > off_rim - 0.005
+    rim_normal, face_normal = np.zeros_like(p), np.zeros_like(p)
+    rim_normal[on_rim, :2] = (centre[on_rim, :2] - p[on_rim, :2]) / radial[on_rim, None]
+    face_normal[on_face, 2] = -np.sign(height[on_face])
+    inward = np.einsum("ij,ij->i", push, rim_normal) + np.einsum("ij,ij->i", push, face_normal)
     # the brush pushes the disc away from it: into the surface it touches, nearly always, and mostly
-    # along its normal (the spring-mounted head's first touch can bounce: one sample in 28 pushed
-    # outward at 13 s)
+    # along its normal, or inside the edge's cone of normals (the spring-mounted head's first touch
+    # can bounce: one sample in 28 pushed outward at 13 s)
     assert np.mean(inward > 0) > 0.9 and np.median(inward / np.linalg.norm(push, axis=1)) > 0.9
     assert np.all(np.linalg.norm(push, axis=1) >= a["brush_force_n"][touching] - 1e-9)
     back, _ = read_mcap(tmp_path / "c.mcap")

@@ -16,6 +16,12 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
+import assets
+from control.arm_model import ArmModel
+from control.pid import DEFAULT_GAINS
+from pneumatics import load_joint_params
+from pneumatics.motor import least_displacement_per_rad
+
 ASSETS = Path(__file__).resolve().parents[1] / "assets"
 ARM_XML = ASSETS / "arm.xml"
 SCENE_XML = ASSETS / "scene.xml"
@@ -306,3 +312,36 @@ def test_brush_reaches_the_disc_rim(scene: mujoco.MjModel, disc: str) -> None:
         lo, hi = joint_range(scene, name)
         assert lo <= value <= hi, (name, value)
     assert np.linalg.norm(tip_position(scene, q) - near_rim) < 0.02, {k: math.degrees(v) for k, v in q.items()}
+
+
+# --- the wrist's counterbalance ----------------------------------------------------------------
+
+
+def test_the_wrist_counterbalance_lets_the_papers_wrist_turn_either_way_at_0_5_mpa() -> None:
+    """DESIGN "Sizing": the paper's wrist pair (1UP motor, ratio 120) is a slewing joint, and at
+    0.5 MPa it stalled under the 20 kg payload (issue 13). A moving motor's port is held between
+    the brake's full release plus the loop's margin (4.5 bar) and the supply (5 bar); a stalled one
+    must break away at its worst vane angle. The static load is the controller's (Pinocchio's
+    gravity plus the MJCF's spring), checked against MuJoCo in tests/test_control.py. Without the
+    spring, lifting the level tool needs more than the supply; with it, every tool pitch over the
+    wrist's whole range needs less than the floor, lifting or lowering."""
+    arm = ArmModel(ARM_XML, payload_kg=PAYLOAD_KG)
+    p = load_joint_params(assets.joint_param_path("wrist_pitch"))
+    per_pa = (
+        least_displacement_per_rad(p.stator_radius_m, p.rotor_radius_m, p.vane_length_m, p.n_vanes)
+        * p.ratio
+        * p.efficiency_forward
+    )
+    w, e = arm.joints.index("wrist_pitch"), arm.joints.index("elbow_pitch")
+    need_pa, need_without_pa = [], []
+    lo, hi = joint_range(mujoco.MjModel.from_xml_path(str(ARM_XML)), "wrist_pitch")
+    for wrist in np.linspace(lo, hi, 37):
+        for pitch in np.radians(np.linspace(-90.0, 90.0, 37)):  # the tool's absolute pitch
+            drive = np.zeros(len(arm.joints))
+            drive[w], drive[e] = wrist, pitch - wrist  # tool pitch = forearm (elbow drive) + wrist
+            load, spring = arm.load_torques(drive)[w], arm.spring_torques(drive)[w]
+            need_pa.append((abs(load) + p.coulomb_nm) / per_pa)
+            need_without_pa.append((abs(load - spring) + p.coulomb_nm) / per_pa)
+    floor_pa = p.brake_release_gauge_pa + DEFAULT_GAINS.brake_clear_margin_pa
+    assert max(need_without_pa) > 0.5e6  # the paper's wrist alone: stalls with the supply at its port
+    assert max(need_pa) < floor_pa  # with the counterbalance: moves wherever the loop moves it
