@@ -63,6 +63,11 @@ from scenarios.schema import Operator as OperatorParams
 
 LATENCY_SPREAD = 0.25  # each look's latency is latency_s x (1 +- this), uniform (assumed: reaction times scatter ~25 %)
 MAX_LOOKS = 6  # corrections per disc before the operator presses, aimed by his last look
+# corrections of a press's depth per disc (he presses again by what he sees, then lets it be): the
+# platform's own error over a press, 1-2 cm (the arrival band, 0.5 deg on each of shoulder and
+# elbow, ~4 mm each at the brush; the as-built elbow's small moves 1-3 times the predicted),
+# is what one correction takes out
+MAX_PRESS_LOOKS = 2
 # the platform's belief is reset from the picture when a joint's seen pitch is further off than
 # REREAD_PX pixels at the ends of the shortest link that sets it (0.7 deg for the 80 px upper arm,
 # 4.6 deg for the 25 px tool), so a reading's own noise does not trigger it
@@ -149,6 +154,7 @@ class Operator:
         self.aim_offset_m = np.zeros(3)  # added to every brush target's tool-tip position (world x, z)
         self._last_move_m = np.zeros(3)  # the last change of the aim (taken back if the platform refuses it)
         self.looks = 0
+        self.press_looks = 0  # corrections of the press on the disc under way
         self.last_miss_m = 0.0  # how far off the brush's face he last saw it (m)
         # the string's disc type is known: its unit spacing (146 mm, U70BL) is his scale in the picture
         self.disc_pitch_m = float(model.geom("disc_1").pos[2] - model.geom("disc_2").pos[2])
@@ -206,6 +212,42 @@ class Operator:
                 raise ValueError(f"{joint} at {math.degrees(q):.1f} deg is out of its range")
         del drive["wrist_pitch"]
         return drive
+
+    def press_error_m(self, frame: Frame, disc: int, press_m: float) -> float:
+        """How much deeper than `press_m` the brush's carrier stands in the rim (m, world x; negative:
+        short), as the picture shows it. In a press the head's face stays on the rim and its spring
+        gives: what shows the press is where the carrier (the head's seat at its forward stop,
+        `brush_tip`, the last arm point) stands, a face's length behind where the face would be."""
+        scale = self.disc_pitch_m / max(frame.disc_pitch_px, 1.0)
+        seen = (frame.arm_px[-1, 0] - frame.rim_px[disc - 1, 0]) * scale + BRUSH_HALF_LENGTH_M
+        return float(seen - press_m)
+
+    def review_press(self, now_s: float, done_s: float, disc: int, press_m: float) -> bool | None:
+        """Look at the brush pressed into `disc` (the press finished at `done_s`). None: still
+        waiting for a picture of it; True: the press is off by more than `tolerance_m` (his aim
+        moved along the press by what he sees, at most MAX_PRESS_LOOKS times a disc: press again);
+        False: pressed as planned (or out of looks)."""
+        frame = self.camera.seen(now_s, self._latency_s, done_s)
+        if frame is None:
+            return None
+        self._latency_s = self._draw_latency()
+        error = self.press_error_m(frame, disc, press_m)
+        if abs(error) <= self.params.tolerance_m or self.press_looks >= MAX_PRESS_LOOKS:
+            self.log.append(
+                f"t = {now_s:.2f} s: disc_{disc} seen pressed {(press_m + error) * 100:.1f} cm "
+                f"after {self.press_looks} corrections: pressed"
+            )
+            self.press_looks = 0
+            return False
+        self.press_looks += 1
+        move = np.array([error, 0.0, 0.0])
+        self.aim_offset_m -= move
+        self._last_move_m = move
+        self.log.append(
+            f"t = {now_s:.2f} s: disc_{disc} seen pressed {(press_m + error) * 100:.1f} cm "
+            f"for {press_m * 100:.1f}: press moved {-error * 100:+.1f} cm"
+        )
+        return True
 
     def take_back(self) -> None:
         """The platform refused the last aim (out of a joint's range): the arm did not move, and

@@ -50,6 +50,7 @@ TOUCH_STANDOFF_M = 0.02
 # the head's 25 mm press then stays inside its 50 mm stroke, and the face's edge (45 mm radius) on the
 # rim (10 mm half-thickness) with room for the press's own error
 PRESS_MISS_M = 0.02
+RIM_NORMAL = np.array([-1.0, 0.0, 0.0])  # the discs' rims face the arm along -x (scenarios/ik.disc_rim_target)
 
 
 @dataclass
@@ -140,7 +141,13 @@ class TaskController:
         """Until when `_between_targets` only waits for the operator's picture of the arm at rest
         (`time_s`: it does more now)."""
         k = self.k
-        if k < 0 or not self.reached[k] or self._backing_out or self.operator is None or not self._is_standoff(k):
+        if (
+            k < 0
+            or not self.reached[k]
+            or self._backing_out
+            or self.operator is None
+            or not (self._is_standoff(k) or self._is_press(k))
+        ):
             return time_s
         return self.operator.review_due_s(self._review_from_s)
 
@@ -162,6 +169,17 @@ class TaskController:
             self.reached[self.k] = True
             self.finished_s[self.k] = t
             self._review_from_s = t
+        if self.k >= 0 and self.operator is not None and self._is_press(self.k):
+            # he looks at the press as he looks at every standoff, and presses again if it is off
+            target = self.scenario.targets[self.k]
+            verdict = self.operator.review_press(t, self._review_from_s, target.brush_at_disc, -target.standoff_m)
+            if verdict is None:
+                return  # waiting to see the arm pressed
+            if verdict:
+                self._issue(self.k, target.dwell_s)
+                self._review_from_s = math.inf  # set when this press is done
+                self.reached[self.k] = False
+                return
         if self._backing_out:
             # out of the press to touching distance: now the plan's back-off
             self._backing_out = False
@@ -218,8 +236,14 @@ class TaskController:
     def _issue(self, k: int, dwell_s: float) -> None:
         target = self._aimed(k)
         self.issued[k] = target
+        self.controller.expect_press(*self._expected_surface(k))
+        # out of a press the shoulder first: its turn alone pulls the brush back from the rim (the
+        # elbow sits on the upper arm's end, which moves back and up); with the joints turning
+        # together the faster elbow pushed it deeper first, 35 mm and 51 N at disc 1 (as-built, 0.52
+        # MPa) once the press reached its planned depth
+        sequence = "one_after_another" if self._backing_out else self.scenario.control.sequence
         try:
-            self.controller.set_targets([target], sequence=self.scenario.control.sequence, dwell_s=[dwell_s])
+            self.controller.set_targets([target], sequence=sequence, dwell_s=[dwell_s])
         except MotionRefused:
             # the controller noted it; the arm stays braked and the task goes on with the next target
             # (the operator takes back the aim that was refused: the arm did not move)
@@ -255,6 +279,18 @@ class TaskController:
                 f"t = {t:.3f} s: disc_{disc}: operator closes in to {TOUCH_STANDOFF_M * 100:.0f} cm before the press"
             )
         return self._closing_in
+
+    def _expected_surface(self, k: int) -> tuple[np.ndarray | None, np.ndarray | None]:
+        """The rim target k works at, as the platform's load model should expect it (the plan's
+        rim, moved by the operator's aim: where he has placed it in the platform's belief), and
+        its normal towards the arm; (None, None) for a target off the string."""
+        disc = self.scenario.targets[k].brush_at_disc
+        if not disc:
+            return None, None
+        surface = disc_rim_target(self.model, disc, 0.0)
+        if self.operator is not None:
+            surface = surface + self.operator.aim_offset_m
+        return surface, RIM_NORMAL
 
     def _standoff_m(self, k: int) -> float:
         """Where target k holds the brush's face off its disc's rim (closer while closing in)."""
@@ -308,6 +344,11 @@ class TaskController:
             and ts[k + 1].brush_at_disc == ts[k].brush_at_disc
             and ts[k + 1].standoff_m < 0
         )
+
+    def _is_press(self, k: int) -> bool:
+        """A target pressing the brush into a disc's rim."""
+        t = self.scenario.targets[k]
+        return bool(t.brush_at_disc and t.standoff_m < 0)
 
     def _is_standoff(self, k: int) -> bool:
         """A target holding the brush clear of a disc (in the camera's plane: base yaw at zero)."""
