@@ -214,13 +214,17 @@ class Operator:
         return drive
 
     def press_error_m(self, frame: Frame, disc: int, press_m: float) -> float:
-        """How much deeper than `press_m` the brush's carrier stands in the rim (m, world x; negative:
-        short), as the picture shows it. In a press the head's face stays on the rim and its spring
-        gives: what shows the press is where the carrier (the head's seat at its forward stop,
-        `brush_tip`, the last arm point) stands, a face's length behind where the face would be."""
+        """How much further than `press_m` the brush's head is pushed into its carrier (m; negative:
+        short), as the picture shows it: the head's face stands BRUSH_HALF_LENGTH_M ahead of the
+        carrier (`brush_tip`, the last arm point) at rest and its stroke less in a press, along the
+        tool's axis (the line from the wrist's axis to the carrier). The stroke is what the force
+        is (the spring's), wherever on the face the rim bears: at disc 1, tilted 15 deg, the carrier
+        stood 11 mm past the rim point with the head pushed 26 mm in (the face's lower half on it)."""
         scale = self.disc_pitch_m / max(frame.disc_pitch_px, 1.0)
-        seen = (frame.arm_px[-1, 0] - frame.rim_px[disc - 1, 0]) * scale + BRUSH_HALF_LENGTH_M
-        return float(seen - press_m)
+        wrist, carrier = frame.arm_px[-2], frame.arm_px[-1]
+        axis = (carrier - wrist) / max(float(np.linalg.norm(carrier - wrist)), 1.0)
+        ahead = float((frame.brush_px - carrier) @ axis) * scale
+        return BRUSH_HALF_LENGTH_M - ahead - press_m
 
     def review_press(self, now_s: float, done_s: float, disc: int, press_m: float) -> bool | None:
         """Look at the brush pressed into `disc` (the press finished at `done_s`). None: still
@@ -234,7 +238,7 @@ class Operator:
         error = self.press_error_m(frame, disc, press_m)
         if abs(error) <= self.params.tolerance_m or self.press_looks >= MAX_PRESS_LOOKS:
             self.log.append(
-                f"t = {now_s:.2f} s: disc_{disc} seen pressed {(press_m + error) * 100:.1f} cm "
+                f"t = {now_s:.2f} s: disc_{disc} head seen pushed in {(press_m + error) * 100:.1f} cm "
                 f"after {self.press_looks} corrections: pressed"
             )
             self.press_looks = 0
@@ -244,7 +248,7 @@ class Operator:
         self.aim_offset_m -= move
         self._last_move_m = move
         self.log.append(
-            f"t = {now_s:.2f} s: disc_{disc} seen pressed {(press_m + error) * 100:.1f} cm "
+            f"t = {now_s:.2f} s: disc_{disc} head seen pushed in {(press_m + error) * 100:.1f} cm "
             f"for {press_m * 100:.1f}: press moved {-error * 100:+.1f} cm"
         )
         return True
