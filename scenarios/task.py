@@ -7,11 +7,16 @@ finish noted, and a strategy that may act between them (scenario field `control.
                  to it; only where the elbow stays in its range with the shoulder there (the string's
                  upper discs), since the parallelogram keeps the forearm's pitch
     operator     the operator corrects the brush's aim by the global camera (scenarios/operator.py),
-                 closes in to TOUCH_STANDOFF_M and looks again before each press, backs out to it
-                 (wrist held) before the plan's back-off; he also clears the platform's faults (a
-                 move not finished in time) and goes on
+                 closes in to TOUCH_STANDOFF_M and looks again before each press, looks at the
+                 press (the head's stroke) and presses again where it is off, backs out to
+                 TOUCH_STANDOFF_M (wrist held, shoulder first) before the plan's back-off; he also
+                 clears the platform's faults (a move not finished in time) and goes on
     true_angle   a bound, not a way to run the arm: the same controller handed the plant's true
                  angles every tick (it breaks the sensorless rule on purpose)
+
+Whatever the strategy, the platform's load model is told the rim each disc target works at (the
+plan's, moved by the operator's aim), so that its predictor meets the head spring's reaction where
+the true arm does (ArmController.expect_press).
 
 The task controller is what the run loop ticks (twin/sim.py's Controller protocol). It hands the
 platform's controller only the sensors; the operator sees only the camera's frames; the bound alone
