@@ -9,7 +9,7 @@ finish noted, and a strategy that may act between them (scenario field `control.
     operator     the operator corrects the brush's aim by the global camera (scenarios/operator.py),
                  closes in to TOUCH_STANDOFF_M and looks again before each press, looks at the
                  press (the head's stroke) and presses again where it is off, backs out to
-                 TOUCH_STANDOFF_M (wrist held, shoulder first) before the plan's back-off; he also
+                 TOUCH_STANDOFF_M (wrist held, out of the rim first) before the plan's back-off; he also
                  clears the platform's faults (a move not finished in time) and goes on
     true_angle   a bound, not a way to run the arm: the same controller handed the plant's true
                  angles every tick (it breaks the sensorless rule on purpose)
@@ -29,11 +29,12 @@ import contextlib
 import math
 from dataclasses import dataclass
 
+import mujoco
 import numpy as np
 
 from control import ArmController, MotionRefused
 from pneumatics.joint import C_BRAKE_RELEASE, C_DIRECTION, C_PV_SET_GAUGE_PA
-from scenarios.ik import disc_rim_target
+from scenarios.ik import disc_rim_target, drive_to_qpos
 from scenarios.operator import GlobalCamera, Operator
 from scenarios.schema import Scenario
 from twin.plant import Plant
@@ -99,6 +100,7 @@ class TaskController:
         self._stopped_after: set[int] = set()  # back-off targets after which the stop drive was tried
         self._notes: list[str] = []
         self._commands = np.zeros_like(controller.commands)
+        self._kinematics = mujoco.MjData(plant.model)  # scratch: where a move would take the brush
 
     # -- Controller protocol -------------------------------------------------------------------
     def tick(self, sensors) -> np.ndarray:
@@ -181,7 +183,7 @@ class TaskController:
             if verdict is None:
                 return  # waiting to see the arm pressed
             if verdict:
-                self._issue(self.k, target.dwell_s)
+                self._issue(self.k, target.dwell_s, pressed=True)
                 self._review_from_s = math.inf  # set when this press is done
                 self.reached[self.k] = False
                 return
@@ -236,24 +238,47 @@ class TaskController:
                 self._notes.append(
                     f"t = {t:.3f} s: disc_{disc}: operator backs out to {TOUCH_STANDOFF_M * 100:.0f} cm, wrist held"
                 )
-            self._issue(self.k, self.scenario.targets[self.k].dwell_s)
+            self._issue(self.k, self.scenario.targets[self.k].dwell_s, pressed=self._backing_out)
 
-    def _issue(self, k: int, dwell_s: float) -> None:
+    def _issue(self, k: int, dwell_s: float, pressed: bool = False) -> None:
+        """Send target k; `pressed`: the brush is in a press now (see `_out_of_the_rim_first`)."""
         target = self._aimed(k)
         self.issued[k] = target
         self.controller.expect_press(*self._expected_surface(k))
-        # out of a press the shoulder first: its turn alone pulls the brush back from the rim (the
-        # elbow sits on the upper arm's end, which moves back and up); with the joints turning
-        # together the faster elbow pushed it deeper first, 35 mm and 51 N at disc 1 (as-built, 0.52
-        # MPa) once the press reached its planned depth
-        sequence = "one_after_another" if self._backing_out else self.scenario.control.sequence
+        steps = self._out_of_the_rim_first(target) if pressed else [target]
         try:
-            self.controller.set_targets([target], sequence=sequence, dwell_s=[dwell_s])
+            self.controller.set_targets(
+                steps,
+                sequence=self.scenario.control.sequence,
+                dwell_s=[0.0] * (len(steps) - 1) + [dwell_s],
+            )
         except MotionRefused:
             # the controller noted it; the arm stays braked and the task goes on with the next target
             # (the operator takes back the aim that was refused: the arm did not move)
             if self.operator is not None:
                 self.operator.take_back()
+
+    def _out_of_the_rim_first(self, target: dict[str, float]) -> list[dict[str, float]]:
+        """A move that starts with the brush pressed into a rim, in two steps: first the joints whose
+        own turn draws the brush out of the rim (along its normal), then the others. Turning
+        together, the faster joint leads: out of disc 1's press the elbow's turn, which alone
+        pushes the brush in, pushed the head to 35 mm (51 N) and, in a 1 cm shallower press, to 47
+        mm (47 N) before the shoulder drew it out (as-built, 0.52 MPa). The brush then goes no
+        deeper than where it starts or ends."""
+        here = dict(zip(self.controller.joints, self.controller.predicted_angles().tolist(), strict=True))
+        start = self._tip_m(here) @ RIM_NORMAL
+        out = {j: q for j, q in target.items() if self._tip_m({**here, j: q}) @ RIM_NORMAL > start}
+        if not out or len(out) == len(target):
+            return [target]
+        return [out, target]
+
+    def _tip_m(self, drive: dict[str, float]) -> np.ndarray:
+        """Where the brush's tip stands (world) at these drive angles: the scene's kinematics."""
+        d = self._kinematics
+        for joint, q in drive_to_qpos(drive).items():
+            d.joint(joint).qpos[0] = q
+        mujoco.mj_kinematics(self.model, d)
+        return d.site("brush_tip").xpos.copy()
 
     def _close_in(self, t: float, target) -> bool:
         """Placed at an approach: True to go there again. From the plan's standoff he closes in to
