@@ -14,12 +14,15 @@ from __future__ import annotations
 
 import tempfile
 import xml.etree.ElementTree as ET
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 import pinocchio as pin
 
 import assets
+
+TOOL_FRAME = "brush_tip"  # the head's centre at its forward stop (assets/arm.xml site)
 
 
 def _read_xml(path: Path) -> ET.Element:
@@ -71,6 +74,36 @@ def joint_springs(xml_path: str | Path, joints: tuple[str, ...]) -> tuple[np.nda
     k = np.array([float(found[j].attrib.get("stiffness", "0")) if j in found else 0.0 for j in joints])
     ref = np.array([float(found[j].attrib.get("springref", "0")) if j in found else 0.0 for j in joints])
     return k, ref
+
+
+@dataclass(frozen=True)
+class HeadSpring:
+    """The brush head's spring slide (joint `brush_stroke`, assets/arm.xml): the force it presses
+    with is preload_n + stiffness_n_m x stroke, up to stroke_m (bottomed out)."""
+
+    stiffness_n_m: float
+    preload_n: float
+    stroke_m: float
+
+    def force_n(self, press_m: float) -> float:
+        """The head's force pressed `press_m` into a surface (0 clear of it), the spring's law: the
+        head leaves its stop at the preload; past the stroke the rigid arm pushes, which the plan
+        never asks for (the spring's end force is kept, not extrapolated)."""
+        if press_m <= 0.0:
+            return 0.0
+        return self.preload_n + self.stiffness_n_m * min(press_m, self.stroke_m)
+
+
+def head_spring(xml_path: str | Path, joint: str = "brush_stroke") -> HeadSpring | None:
+    """The MJCF's spring slide `joint` (stiffness, springref, range), None where the model has none.
+    MuJoCo's law: force = -stiffness (q - springref); the head rests at q = 0 (its forward stop),
+    so the preload is stiffness x springref and the stroke the range's length."""
+    found = next((j for j in _read_xml(Path(xml_path)).iter("joint") if j.attrib.get("name") == joint), None)
+    if found is None:
+        return None
+    k, ref = joint_springs(xml_path, (joint,))
+    lo, hi = (float(v) for v in found.attrib["range"].split())
+    return HeadSpring(float(k[0]), float(k[0] * ref[0]), hi - lo)
 
 
 def _pinocchio_model(xml_path: Path, payload_kg: float | None) -> pin.Model:
@@ -176,6 +209,13 @@ class ArmModel:
             (int(i), float(self.spring_k[i]), float(self.spring_ref[i])) for i in np.flatnonzero(self.spring_k)
         ]
         self._q = np.zeros(m.nq)
+        # the brush head's spring and the frame it is pressed at (press_torques)
+        self.head_spring = head_spring(xml_path)
+        self._tool_frame = m.getFrameId(TOOL_FRAME) if m.existFrame(TOOL_FRAME) else -1
+        if self._tool_frame < 0:
+            self.head_spring = None
+        self._no_press = np.zeros(n)
+        self._no_press.flags.writeable = False  # returned by press_torques clear of the surface, shared
         lo, hi = m.lowerPositionLimit, m.upperPositionLimit
         self.joint_lower = np.array(lo, dtype=float)
         self.joint_upper = np.array(hi, dtype=float)
@@ -197,6 +237,26 @@ class ArmModel:
             for i, k, ref in self._springs:  # in Pinocchio's data.g, scratch recomputed every call
                 g[i] += k * (q[i] - ref)
         return self.C_inv_T.dot(g)
+
+    def press_torques(self, drive_angles: np.ndarray, surface_m: np.ndarray, normal: np.ndarray) -> np.ndarray:
+        """The load on each drive (N·m, `load_torques`'s sign) of the brush head pressed into a
+        surface: the plane through `surface_m` (where `tool_frame` stands when the head's face
+        touches it) with the unit `normal` pointing out of it, towards the arm (numpy arrays). The
+        head is pressed by the depth of the frame behind the plane along the normal and pushes back
+        along it with its spring's force (f = F n, world): the drive must add -C^-T J^T f to hold
+        it. Zeros (read-only, shared) clear of the surface, or without a head spring in the model."""
+        if self.head_spring is None:
+            return self._no_press
+        # per tick while a move is on a disc: ~5 us clear of it (forward kinematics of one frame)
+        q = self.C_inv.dot(drive_angles)
+        m, d = self.model, self.data
+        pin.forwardKinematics(m, d, q)
+        tip = pin.updateFramePlacement(m, d, self._tool_frame).translation
+        force = self.head_spring.force_n(float(surface_m.dot(normal) - tip.dot(normal)))
+        if force == 0.0:
+            return self._no_press
+        jac = pin.computeFrameJacobian(m, d, q, self._tool_frame, pin.LOCAL_WORLD_ALIGNED)[:3]
+        return -self.C_inv_T.dot(jac.T.dot(force * normal))
 
     def spring_torques(self, drive_angles: np.ndarray) -> np.ndarray:
         """The joint springs' share of `load_torques` (N·m per drive): C^-T k (q - q_ref)."""

@@ -110,6 +110,7 @@ class ArmController:
         self.commands = np.zeros((n, N_COMMAND))
         self._make_tables(start)
         self.load_update_rad = float(load_update_rad)
+        self._press: tuple[np.ndarray, np.ndarray] | None = None  # the surface the brush is expected to press
         self._set_load(start)
         self.inertia = self.arm.drive_inertias(start) + self.rotor_inertia
         self._plan: list[tuple[np.ndarray, float]] = []  # (targets with NaN = stays, dwell_s)
@@ -339,7 +340,22 @@ class ArmController:
     def _set_load(self, theta: np.ndarray) -> None:
         # the load torques from Pinocchio at the predicted configuration, and where they were taken
         self.load[:] = self.arm.load_torques(theta)  # in place: control_step's Belief holds these arrays
+        if self._press is not None:
+            self.load += self.arm.press_torques(theta, *self._press)
         self._load_theta[:] = theta
+
+    def expect_press(self, surface_m: np.ndarray | None, normal: np.ndarray | None = None) -> None:
+        """The surface the coming moves press the brush into (ArmModel.press_torques: a point where
+        the tool frame stands when the head's face touches it, the unit normal out of it; world),
+        or None. The predictor then meets the head spring's reaction wherever its predicted brush
+        is behind the surface, as the true arm does: without it, a press stalled the true joints
+        short of the prediction (3-6 mm at the brush in the cleaning study's presses, as-built)."""
+        if surface_m is None:
+            self._press = None
+        else:
+            n = np.asarray(normal, dtype=float)
+            self._press = (np.asarray(surface_m, dtype=float).copy(), n / np.linalg.norm(n))
+        self._set_load(self.y[:, R_THETA])
 
     def _fault(self, why: str) -> None:
         if not self.faulted:

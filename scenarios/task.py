@@ -7,11 +7,16 @@ finish noted, and a strategy that may act between them (scenario field `control.
                  to it; only where the elbow stays in its range with the shoulder there (the string's
                  upper discs), since the parallelogram keeps the forearm's pitch
     operator     the operator corrects the brush's aim by the global camera (scenarios/operator.py),
-                 closes in to TOUCH_STANDOFF_M and looks again before each press, backs out to it
-                 (wrist held) before the plan's back-off; he also clears the platform's faults (a
-                 move not finished in time) and goes on
+                 closes in to TOUCH_STANDOFF_M and looks again before each press, looks at the
+                 press (the head's stroke) and presses again where it is off, backs out to
+                 TOUCH_STANDOFF_M (wrist held, out of the rim first) before the plan's back-off; he also
+                 clears the platform's faults (a move not finished in time) and goes on
     true_angle   a bound, not a way to run the arm: the same controller handed the plant's true
                  angles every tick (it breaks the sensorless rule on purpose)
+
+Whatever the strategy, the platform's load model is told the rim each disc target works at (the
+plan's, moved by the operator's aim), so that its predictor meets the head spring's reaction where
+the true arm does (ArmController.expect_press).
 
 The task controller is what the run loop ticks (twin/sim.py's Controller protocol). It hands the
 platform's controller only the sensors; the operator sees only the camera's frames; the bound alone
@@ -24,11 +29,12 @@ import contextlib
 import math
 from dataclasses import dataclass
 
+import mujoco
 import numpy as np
 
 from control import ArmController, MotionRefused
 from pneumatics.joint import C_BRAKE_RELEASE, C_DIRECTION, C_PV_SET_GAUGE_PA
-from scenarios.ik import disc_rim_target
+from scenarios.ik import disc_rim_target, drive_to_qpos
 from scenarios.operator import GlobalCamera, Operator
 from scenarios.schema import Scenario
 from twin.plant import Plant
@@ -50,6 +56,7 @@ TOUCH_STANDOFF_M = 0.02
 # the head's 25 mm press then stays inside its 50 mm stroke, and the face's edge (45 mm radius) on the
 # rim (10 mm half-thickness) with room for the press's own error
 PRESS_MISS_M = 0.02
+RIM_NORMAL = np.array([-1.0, 0.0, 0.0])  # the discs' rims face the arm along -x (scenarios/ik.disc_rim_target)
 
 
 @dataclass
@@ -93,6 +100,7 @@ class TaskController:
         self._stopped_after: set[int] = set()  # back-off targets after which the stop drive was tried
         self._notes: list[str] = []
         self._commands = np.zeros_like(controller.commands)
+        self._kinematics = mujoco.MjData(plant.model)  # scratch: where a move would take the brush
 
     # -- Controller protocol -------------------------------------------------------------------
     def tick(self, sensors) -> np.ndarray:
@@ -140,7 +148,13 @@ class TaskController:
         """Until when `_between_targets` only waits for the operator's picture of the arm at rest
         (`time_s`: it does more now)."""
         k = self.k
-        if k < 0 or not self.reached[k] or self._backing_out or self.operator is None or not self._is_standoff(k):
+        if (
+            k < 0
+            or not self.reached[k]
+            or self._backing_out
+            or self.operator is None
+            or not (self._is_standoff(k) or self._is_press(k))
+        ):
             return time_s
         return self.operator.review_due_s(self._review_from_s)
 
@@ -162,6 +176,17 @@ class TaskController:
             self.reached[self.k] = True
             self.finished_s[self.k] = t
             self._review_from_s = t
+        if self.k >= 0 and self.operator is not None and self._is_press(self.k):
+            # he looks at the press as he looks at every standoff, and presses again if it is off
+            target = self.scenario.targets[self.k]
+            verdict = self.operator.review_press(t, self._review_from_s, target.brush_at_disc, -target.standoff_m)
+            if verdict is None:
+                return  # waiting to see the arm pressed
+            if verdict:
+                self._issue(self.k, target.dwell_s, pressed=True)
+                self._review_from_s = math.inf  # set when this press is done
+                self.reached[self.k] = False
+                return
         if self._backing_out:
             # out of the press to touching distance: now the plan's back-off
             self._backing_out = False
@@ -213,18 +238,47 @@ class TaskController:
                 self._notes.append(
                     f"t = {t:.3f} s: disc_{disc}: operator backs out to {TOUCH_STANDOFF_M * 100:.0f} cm, wrist held"
                 )
-            self._issue(self.k, self.scenario.targets[self.k].dwell_s)
+            self._issue(self.k, self.scenario.targets[self.k].dwell_s, pressed=self._backing_out)
 
-    def _issue(self, k: int, dwell_s: float) -> None:
+    def _issue(self, k: int, dwell_s: float, pressed: bool = False) -> None:
+        """Send target k; `pressed`: the brush is in a press now (see `_out_of_the_rim_first`)."""
         target = self._aimed(k)
         self.issued[k] = target
+        self.controller.expect_press(*self._expected_surface(k))
+        steps = self._out_of_the_rim_first(target) if pressed else [target]
         try:
-            self.controller.set_targets([target], sequence=self.scenario.control.sequence, dwell_s=[dwell_s])
+            self.controller.set_targets(
+                steps,
+                sequence=self.scenario.control.sequence,
+                dwell_s=[0.0] * (len(steps) - 1) + [dwell_s],
+            )
         except MotionRefused:
             # the controller noted it; the arm stays braked and the task goes on with the next target
             # (the operator takes back the aim that was refused: the arm did not move)
             if self.operator is not None:
                 self.operator.take_back()
+
+    def _out_of_the_rim_first(self, target: dict[str, float]) -> list[dict[str, float]]:
+        """A move that starts with the brush pressed into a rim, in two steps: first the joints whose
+        own turn draws the brush out of the rim (along its normal), then the others. Turning
+        together, the faster joint leads: out of disc 1's press the elbow's turn, which alone
+        pushes the brush in, pushed the head to 35 mm (51 N) and, in a 1 cm shallower press, to 47
+        mm (47 N) before the shoulder drew it out (as-built, 0.52 MPa). The brush then goes no
+        deeper than where it starts or ends."""
+        here = dict(zip(self.controller.joints, self.controller.predicted_angles().tolist(), strict=True))
+        start = self._tip_m(here) @ RIM_NORMAL
+        out = {j: q for j, q in target.items() if self._tip_m({**here, j: q}) @ RIM_NORMAL > start}
+        if not out or len(out) == len(target):
+            return [target]
+        return [out, target]
+
+    def _tip_m(self, drive: dict[str, float]) -> np.ndarray:
+        """Where the brush's tip stands (world) at these drive angles: the scene's kinematics."""
+        d = self._kinematics
+        for joint, q in drive_to_qpos(drive).items():
+            d.joint(joint).qpos[0] = q
+        mujoco.mj_kinematics(self.model, d)
+        return d.site("brush_tip").xpos.copy()
 
     def _close_in(self, t: float, target) -> bool:
         """Placed at an approach: True to go there again. From the plan's standoff he closes in to
@@ -255,6 +309,18 @@ class TaskController:
                 f"t = {t:.3f} s: disc_{disc}: operator closes in to {TOUCH_STANDOFF_M * 100:.0f} cm before the press"
             )
         return self._closing_in
+
+    def _expected_surface(self, k: int) -> tuple[np.ndarray | None, np.ndarray | None]:
+        """The rim target k works at, as the platform's load model should expect it (the plan's
+        rim, moved by the operator's aim: where he has placed it in the platform's belief), and
+        its normal towards the arm; (None, None) for a target off the string."""
+        disc = self.scenario.targets[k].brush_at_disc
+        if not disc:
+            return None, None
+        surface = disc_rim_target(self.model, disc, 0.0)
+        if self.operator is not None:
+            surface = surface + self.operator.aim_offset_m
+        return surface, RIM_NORMAL
 
     def _standoff_m(self, k: int) -> float:
         """Where target k holds the brush's face off its disc's rim (closer while closing in)."""
@@ -308,6 +374,11 @@ class TaskController:
             and ts[k + 1].brush_at_disc == ts[k].brush_at_disc
             and ts[k + 1].standoff_m < 0
         )
+
+    def _is_press(self, k: int) -> bool:
+        """A target pressing the brush into a disc's rim."""
+        t = self.scenario.targets[k]
+        return bool(t.brush_at_disc and t.standoff_m < 0)
 
     def _is_standoff(self, k: int) -> bool:
         """A target holding the brush clear of a disc (in the camera's plane: base yaw at zero)."""
