@@ -94,7 +94,7 @@ def initial_state(p_atm_pa: float, brake_engaged: bool = True, theta_rad: float 
     return x
 
 
-@njit
+@njit(inline="always")
 def effective_supply(
     supply_pa: float, valve_gauge_pa: float, opening: float, direction: float, p_node_pa: float, p: np.ndarray
 ) -> float:
@@ -114,7 +114,7 @@ def effective_supply(
     return max(p[P.GAS_P_ATM], supply_pa - p[P.DROOP] * draw)
 
 
-@njit
+@njit(inline="always")
 def _port_valve_flow(p_node: float, supplied: bool, supply_pa: float, inlet_area: float, p: np.ndarray) -> float:
     # mass flow into a port's valve node from the supply (through the proportional valve) or
     # from the atmosphere (through the exhaust throttle; negative when exhausting)
@@ -125,7 +125,7 @@ def _port_valve_flow(p_node: float, supplied: bool, supply_pa: float, inlet_area
     return orifice_mass_flow(p[P.GAS_P_ATM], p_node, p[P.A_EX] * p[P.COND_SCALE], p[P.GAS_T], r, k)
 
 
-@njit
+@njit(inline="always")
 def _hose_flow(p_valve: float, p_motor: float, supply_pa: float, p: np.ndarray) -> float:
     # mass flow valve node -> motor node. Air leaving the motor has expanded from the supply
     # pressure and is colder (paper eq. 2); the hose's mean temperature is T_m = (T_B + T_o)/2
@@ -137,7 +137,7 @@ def _hose_flow(p_valve: float, p_motor: float, supply_pa: float, p: np.ndarray) 
     return hose_mass_flow(p_valve, p_motor, t_mean, p[P.HOSE_L], p[P.HOSE_D], p[P.GAS_R], p[P.GAS_MU])
 
 
-@njit
+@njit(inline="always")
 def pressure_rates(
     pa_valve: float,
     pa_motor: float,
