@@ -233,9 +233,8 @@ class ArmModel:
         # ndarray.dot: the same product as @, with half its call overhead on 5-vectors (per tick)
         q = self.C_inv.dot(drive_angles)
         g = pin.computeGeneralizedGravity(self.model, self.data, q)
-        if self._springs:
-            for i, k, ref in self._springs:  # in Pinocchio's data.g, scratch recomputed every call
-                g[i] += k * (q[i] - ref)
+        for i, k, ref in self._springs:  # in Pinocchio's data.g, scratch recomputed every call
+            g[i] += k * (q[i] - ref)
         return self.C_inv_T.dot(g)
 
     def press_torques(self, drive_angles: np.ndarray, surface_m: np.ndarray, normal: np.ndarray) -> np.ndarray:

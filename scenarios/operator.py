@@ -217,7 +217,7 @@ class Operator:
         del drive["wrist_pitch"]
         return drive
 
-    def press_error_m(self, frame: Frame, disc: int, press_m: float) -> float:
+    def press_error_m(self, frame: Frame, press_m: float) -> float:
         """How much further than `press_m` the brush's head is pushed into its carrier (m; negative:
         short), as the picture shows it: the head's face stands BRUSH_HALF_LENGTH_M ahead of the
         carrier (`brush_tip`, the last arm point) at rest and its stroke less in a press, along the
@@ -239,7 +239,7 @@ class Operator:
         if frame is None:
             return None
         self._latency_s = self._draw_latency()
-        error = self.press_error_m(frame, disc, press_m)
+        error = self.press_error_m(frame, press_m)
         if abs(error) <= self.params.tolerance_m or self.press_looks >= MAX_PRESS_LOOKS:
             self.log.append(
                 f"t = {now_s:.2f} s: disc_{disc} head seen pushed in {(press_m + error) * 100:.1f} cm "

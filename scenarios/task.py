@@ -357,7 +357,7 @@ class TaskController:
         ts = self.scenario.targets
         disc = ts[k].brush_at_disc
         press = min(
-            (i for i in range(len(ts)) if ts[i].brush_at_disc == disc and ts[i].standoff_m < 0),
+            (i for i in range(len(ts)) if ts[i].brush_at_disc == disc and self._is_press(i)),
             key=lambda i: abs(i - k),
             default=k,
         )

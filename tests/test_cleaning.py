@@ -189,7 +189,7 @@ def test_the_operator_reads_the_press_off_the_picture(scene, press_m, tilt_rad):
     camera.capture(0.0)
     operator = Operator(scene, camera, params, np.random.default_rng(0))
     pixel_m = camera.pinhole.metres_per_px(float(-camera.pinhole.camera_frame(brush_face_m(d)[None])[0, 2]))
-    assert abs(operator.press_error_m(camera.frames[-1], 3, 0.025) - (stroke - 0.025)) < 2 * pixel_m
+    assert abs(operator.press_error_m(camera.frames[-1], 0.025) - (stroke - 0.025)) < 2 * pixel_m
 
 
 def test_an_aim_beyond_a_joints_range_tilts_the_brush_and_keeps_its_place(scene):

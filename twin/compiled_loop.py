@@ -187,9 +187,7 @@ class CompiledTicks:
         self._load_callback = _LOAD_CALLBACK(self._update_load)  # kept alive while compiled code may call it
         self._load_callback_address = ctypes.cast(self._load_callback, ctypes.c_void_p).value
         self._valve_gauge_pa = np.zeros(len(plant.joints))
-        p, d = plant, plant.data
-        self._plant_arrays = (p.air, p.commands, p.params, p.sensor_bias_pa)
-        self._mujoco = (p.drive_map, p.tendon_ids, p.actuator_ids, d.qpos, d.qvel, d.ctrl, p.model.tendon_frictionloss)
+        self._plant_arrays = (plant.air, plant.commands, plant.params, plant.sensor_bias_pa)
 
     def __call__(self, k: int) -> int:
         """Run ticks k, k+1, ... in compiled code while none needs Python; how many were run (0:
@@ -230,7 +228,7 @@ class CompiledTicks:
                 self._valve_gauge_pa,
                 *self._plant_arrays,
                 plant.supply_pa,
-                *self._mujoco,
+                *plant._fixed_arrays,
                 plant.dt,
                 SUBSTEPS,
             )
