@@ -64,6 +64,7 @@ from scenarios.cleaning import N_DISCS
 from scenarios.ik import BRUSH_HALF_LENGTH_M, drive_to_qpos, tip_drive_angles, tool_drive_angles
 from scenarios.pinhole import Pinhole, camera_of
 from scenarios.schema import Operator as OperatorParams
+from twin.camera_frames import CLOCK_NEXT_S, CLOCK_TAKEN, record_frame, row_size
 
 LATENCY_SPREAD = 0.25  # each look's latency is latency_s x (1 +- this), uniform (assumed: reaction times scatter ~25 %)
 MAX_LOOKS = 6  # corrections per disc before the operator presses, aimed by his last look
@@ -78,6 +79,7 @@ MAX_PRESS_LOOKS = 2
 REREAD_PX = 2.0
 ARM_POINTS = ("upper_arm", "forearm", "wrist")  # bodies whose origins are the shoulder, elbow, wrist axes
 CAMERA = "global_view"
+FRAMES_KEPT = 64  # the camera's last frames kept (2.6 s at 25 frames/s: longer than any look's latency)
 
 
 @dataclass(frozen=True)
@@ -103,7 +105,10 @@ def disc_rims_m(model: mujoco.MjModel) -> np.ndarray:
 
 
 class GlobalCamera:
-    """The global camera's frames at its frame rate, the last few kept (what the screen showed)."""
+    """The global camera's frames at its frame rate, the last few kept (what the screen showed).
+
+    A frame is recorded as the world points it shows (twin/camera_frames.py, also from the run
+    loop's compiled ticks: `compiled_state`); its picture is made when `frames` is read."""
 
     def __init__(self, model: mujoco.MjModel, data: mujoco.MjData, params: OperatorParams):
         self.data = data
@@ -111,26 +116,39 @@ class GlobalCamera:
         self.period_s = 1.0 / params.camera_fps
         self.rim_px = np.floor(self.pinhole.project(disc_rims_m(model)))
         self.disc_pitch_px = float(abs(self.rim_px[-1, 1] - self.rim_px[0, 1]) / (N_DISCS - 1))
-        self.frames: deque[Frame] = deque(maxlen=64)
-        self._next_s = 0.0
+        self._frames: deque[Frame] = deque(maxlen=FRAMES_KEPT)
+        body = [mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, b) for b in ("brush_head", *ARM_POINTS)]
+        self.body_ids = np.array(body, dtype=np.int64)
+        self.site_ids = np.array([mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, "brush_tip")], dtype=np.int64)
+        self.clock = np.array([0.0, self.period_s, 0.0])  # next frame due, period, frames taken
+        self.rows = np.zeros((FRAMES_KEPT, row_size(len(self.body_ids), len(self.site_ids))))
+        self._made = 0  # frames taken whose picture is made
 
     def capture(self, time_s: float) -> None:
         """Take a frame if one is due (called every control tick)."""
-        if time_s + 1e-9 < self._next_s:
-            return
         d = self.data
-        seen = np.floor(
-            self.pinhole.project(
-                np.array([brush_face_m(d), *(d.body(b).xpos for b in ARM_POINTS), d.site("brush_tip").xpos])
-            )
-        )
-        self.frames.append(Frame(time_s, seen[0], self.rim_px, self.disc_pitch_px, seen[1:]))
-        self._next_s += self.period_s * max(1, math.floor((time_s - self._next_s) / self.period_s) + 1)
+        record_frame(self.clock, self.rows, self.body_ids, self.site_ids, d.xpos, d.xmat, d.site_xpos, time_s)
+
+    def compiled_state(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """(clock, rows, body_ids, site_ids): what `record_frame` takes frames with."""
+        return self.clock, self.rows, self.body_ids, self.site_ids
+
+    @property
+    def frames(self) -> deque[Frame]:
+        """The last FRAMES_KEPT frames, oldest first, their pictures made from the recorded points."""
+        taken = int(self.clock[CLOCK_TAKEN])
+        for i in range(max(self._made, taken - FRAMES_KEPT), taken):
+            r = self.rows[i % FRAMES_KEPT]
+            face = r[1:4] + BRUSH_HALF_LENGTH_M * r[4:7]  # brush_face_m of the recorded head
+            seen = np.floor(self.pinhole.project(np.array([face, r[7:10], r[10:13], r[13:16], r[16:19]])))
+            self._frames.append(Frame(float(r[0]), seen[0], self.rim_px, self.disc_pitch_px, seen[1:]))
+        self._made = taken
+        return self._frames
 
     @property
     def next_frame_s(self) -> float:
         """When the next frame is due (`capture` takes it at a tick within 1e-9 s of it or after)."""
-        return self._next_s - 1e-9
+        return float(self.clock[CLOCK_NEXT_S]) - 1e-9
 
     def seen_from_s(self, latency_s: float, taken_after_s: float) -> float:
         """The earliest time `seen(now, latency_s, taken_after_s)` can give a frame, from the frames

@@ -101,6 +101,7 @@ class TaskController:
         self._notes: list[str] = []
         self._commands = np.zeros_like(controller.commands)
         self._kinematics = mujoco.MjData(plant.model)  # scratch: where a move would take the brush
+        self._camera_compiled = False  # the run loop's compiled ticks take the camera's frames (`compiled_camera`)
 
     # -- Controller protocol -------------------------------------------------------------------
     def tick(self, sensors) -> np.ndarray:
@@ -130,7 +131,8 @@ class TaskController:
         """(the platform's controller, until when) where the coming ticks would only tick it, as
         `tick` does when nothing is due: no bound reading the plant, no stop drive, no fault for the
         operator to clear, no target to take up (or the operator still waiting for a picture of
-        the arm at rest); until the camera's next frame. (None, ...): `tick` must run
+        the arm at rest); until the camera's next frame, unless the compiled ticks take its frames
+        (`compiled_camera`) and the operator is not waiting for one. (None, ...): `tick` must run
         (twin/compiled_loop.py)."""
         c = self.controller
         if (
@@ -139,10 +141,23 @@ class TaskController:
             or (c.faulted and self.operator is not None and 0 <= self.k < len(self.targets))
         ):
             return None, time_s
-        until = self.camera.next_frame_s if self.camera is not None else math.inf
+        until = math.inf
+        if self.camera is not None and not self._camera_compiled:
+            until = self.camera.next_frame_s
         if c.done and not c.faulted and self.k < len(self.targets):
+            # waiting for the operator's picture: each new frame may be the one he sees
             until = min(until, self._waiting_until(time_s))
+            if self.camera is not None:
+                until = min(until, self.camera.next_frame_s)
         return c, until
+
+    def compiled_camera(self) -> tuple | None:
+        """The camera's `compiled_state` (twin/camera_frames.py), for compiled ticks that take its
+        frames from now on (`compiled_ticks` then no longer stops at each frame); None: no camera."""
+        if self.camera is None:
+            return None
+        self._camera_compiled = True
+        return self.camera.compiled_state()
 
     def _waiting_until(self, time_s: float) -> float:
         """Until when `_between_targets` only waits for the operator's picture of the arm at rest

@@ -9,8 +9,14 @@ returns to Python on the first tick that needs it:
 
 * the controller says so (control/compiled_tick.py: a step of the plan ends or begins, a
   time-out, a sensor not a number, `done` changed);
-* a callback is due: the run's telemetry tick, the task's camera frame, a fault, a supply step,
-  the run's end (each tells when, `CompiledTicks.__call__`).
+* a callback is due: a fault, a supply step, the task's camera frame while the operator waits
+  for one, the run's end (each tells when, `CompiledTicks.__call__`).
+
+Two things a tick may need of Python it calls without returning, through ctypes callbacks: the
+Pinocchio load at the predicted angles, and the run's `on_tick` (the telemetry sample, the
+recorders' flush) at the ticks it has work, after the controller's part and before the plant's
+steps, where the Python loop calls it. The task's camera takes its frames in the compiled ticks
+too (twin/camera_frames.py): a frame is a few world points copied, its picture made when looked at.
 
 A tick the compiled loop left half done (control_step ran, a time-out) is finished in Python
 by `ArmController.finish_tick` and the plant's step. Results are bit-identical to the per-tick loop
@@ -29,6 +35,7 @@ import numpy as np
 from control.compiled_tick import MID_TICK, NEEDS_PYTHON, TICKED, controller_tick, end_tick
 from pneumatics import joint as J
 from pneumatics._jit import NO_JIT, borrowed, njit
+from twin.camera_frames import no_camera, record_frame
 from twin.kernel import MJ_STEP, _call_mj_step, _plant_steps
 from twin.plant import SUBSTEPS, Plant
 
@@ -36,7 +43,8 @@ from twin.plant import SUBSTEPS, Plant
 # the round-off of MuJoCo's summed time (~1e-13 s over an hour) and far below a tick (1 ms), so the
 # Python loop, which compares times its own way, sees the tick where the callback acts
 DUE_MARGIN_S = 1e-6
-CONTROLLED = 3  # `_ticks` stopped after the controller's part of its last tick, before the plant's steps
+# on_tick_args: [the next tick (of this call's) whose `on_tick` has work, the tick calling it, its time]
+ON_TICK_NEXT, ON_TICK_K, ON_TICK_T = range(3)
 
 
 @njit
@@ -45,9 +53,10 @@ def _ticks(
     model_address,
     data_address,
     load_callback_address,  # void f(void*, void*): Python's Pinocchio load at the predicted angles
-    callback_failed,  # (1,): set by the callback when it raised
+    on_tick_address,  # void f(void*, void*): the run's `on_tick` (telemetry), at the ticks on_tick_args names
+    on_tick_args,
+    callback_failed,  # (1,): set by a callback when it raised
     n_ticks,
-    last_unstepped,  # the last tick's physics steps are left to the caller (its `on_tick` comes first)
     steps_per_tick,
     time_s,  # MuJoCo's d.time now
     stop_s,  # no tick at or after this time
@@ -80,6 +89,13 @@ def _ticks(
     tendon_frictionloss,
     dt_s,
     substeps,
+    camera_clock,  # a scene camera's frames (twin/camera_frames.py): taken at the start of each tick
+    camera_rows,
+    camera_body_ids,
+    camera_site_ids,
+    xpos,
+    xmat,
+    site_xpos,
 ):
     # returns (ticks run whole, what stopped them, MuJoCo's time at the tick it stopped on, the time
     # of the last tick the controller ran)
@@ -100,6 +116,8 @@ def _ticks(
     for k in range(n_ticks):
         if time_s >= stop_s:
             return k, NEEDS_PYTHON, time_s, last_tick_s
+        # the task's frame (a tick handed back below takes it again: no longer due, nothing taken)
+        record_frame(camera_clock, camera_rows, camera_body_ids, camera_site_ids, xpos, xmat, site_xpos, time_s)
         for j in range(air.shape[0]):  # Plant.sensors
             valve_gauge_pa[j] = air[j, J.S_PV] + sensor_bias_pa[j]
         status = controller_tick(
@@ -130,8 +148,11 @@ def _ticks(
             return k, status, time_s, time_s if status == MID_TICK else last_tick_s
         last_tick_s = time_s
         commands_p[:] = commands_c
-        if last_unstepped and k == n_ticks - 1:
-            return k, CONTROLLED, time_s, last_tick_s
+        if k == on_tick_args[ON_TICK_NEXT]:  # the run's telemetry sees the commands issued, then the steps
+            on_tick_args[ON_TICK_K], on_tick_args[ON_TICK_T] = k, time_s
+            _call_mj_step(on_tick_address, 0, 0)
+            if callback_failed[0] != 0.0:
+                return k, NEEDS_PYTHON, time_s, last_tick_s  # the caller raises what failed
         _plant_steps(  # Plant.step
             mj_step_address,
             steps_per_tick,
@@ -164,8 +185,9 @@ class CompiledTicks:
 
     due_s: callables of the simulated time giving when each callback (the supply profile, the
     faults) next needs its call (math.inf: never again); next_tick: the next tick index at or after
-    k whose `on_tick` has work; on_tick: the run loop's, called here on such a tick when its controller
-    part ran compiled; n_ticks: the run's end.
+    k whose `on_tick` has work (None: every tick); on_tick: the run loop's, called on such a tick
+    when its controller part ran compiled (from the compiled ticks); n_ticks: the run's end.
+    A controller with `compiled_camera` hands its camera's frames to the compiled ticks.
     """
 
     def __init__(
@@ -184,10 +206,18 @@ class CompiledTicks:
         self._callback_failed = np.zeros(1)
         self._callback_error: BaseException | None = None
         self._callback_arm = None
-        self._load_callback = _LOAD_CALLBACK(self._update_load)  # kept alive while compiled code may call it
+        self._load_callback = _CALLBACK(self._update_load)  # kept alive while compiled code may call it
         self._load_callback_address = ctypes.cast(self._load_callback, ctypes.c_void_p).value
+        self._on_tick_callback = _CALLBACK(self._call_on_tick)
+        self._on_tick_address = ctypes.cast(self._on_tick_callback, ctypes.c_void_p).value
+        self._on_tick_args = np.zeros(3)
+        self._k0 = 0  # the tick the compiled ticks began at
         self._valve_gauge_pa = np.zeros(len(plant.joints))
         self._plant_arrays = (plant.air, plant.commands, plant.params, plant.sensor_bias_pa)
+        # the task's camera, whose frames the compiled ticks take from now on (its `compiled_camera`)
+        camera = getattr(controller, "compiled_camera", None)
+        d = plant.data
+        self._camera = (*((camera() if camera else None) or no_camera()), d.xpos, d.xmat, d.site_xpos)
 
     def __call__(self, k: int) -> int:
         """Run ticks k, k+1, ... in compiled code while none needs Python; how many were run (0:
@@ -199,15 +229,13 @@ class CompiledTicks:
         arm, until_s = self.controller.compiled_ticks(t)
         if arm is None:
             return 0
-        # up to the next tick with `on_tick` work: its controller part too, when there is an on_tick
-        end = self.n_ticks if self.next_tick is None else min(self.n_ticks, self.next_tick(k))
-        with_on_tick = self.on_tick is not None and end < self.n_ticks
         for due in self.due_s:
             until_s = min(until_s, due(t))
-        if end + with_on_tick <= k or until_s - DUE_MARGIN_S <= t:
+        if self.n_ticks <= k or until_s - DUE_MARGIN_S <= t:
             return 0
         state = arm.compiled_state()
-        self._callback_arm = arm
+        self._callback_arm, self._k0 = arm, k
+        self._on_tick_args[ON_TICK_NEXT] = self._on_tick_due(k) - k
         # an exception raised in the load's callback before its own `try` (Ctrl-C's KeyboardInterrupt
         # at its first line) would be printed and dropped by ctypes: taken from the unraisable hook
         hook, sys.unraisablehook = sys.unraisablehook, self._unraisable
@@ -216,9 +244,10 @@ class CompiledTicks:
                 MJ_STEP_ADDRESS,
                 *plant._addresses,
                 self._load_callback_address,
+                self._on_tick_address,
+                self._on_tick_args,
                 self._callback_failed,
-                end + with_on_tick - k,
-                with_on_tick,
+                self.n_ticks - k,
                 self.steps_per_tick,
                 t,
                 until_s - DUE_MARGIN_S,
@@ -231,6 +260,7 @@ class CompiledTicks:
                 *plant._fixed_arrays,
                 plant.dt,
                 SUBSTEPS,
+                *self._camera,
             )
         finally:
             sys.unraisablehook = hook
@@ -247,32 +277,45 @@ class CompiledTicks:
                 (bool(moving), int(timed_out), bool(stale)), self._valve_gauge_pa.copy(), plant.supply_pa
             )
             plant.commands[:] = commands
-            if with_on_tick and k + ran == end:
+            if self._on_tick_due(k + ran) == k + ran:
                 self.on_tick(k + ran, t_end)
             plant.step(self.steps_per_tick, check_warnings=False)
             ran += 1
-        elif status == CONTROLLED:  # tick k + ran, commands issued: the run's on_tick, then the plant's steps
-            self.on_tick(k + ran, t_end)
-            plant.step(self.steps_per_tick, check_warnings=False)
-            ran += 1
         return ran
+
+    def _on_tick_due(self, k: int) -> int:
+        """The first tick from k on where `on_tick` has work (past the run's end: none)."""
+        if self.on_tick is None:
+            return self.n_ticks
+        return k if self.next_tick is None else self.next_tick(k)
 
     def _unraisable(self, unraisable) -> None:
         if unraisable.exc_value is not None and self._callback_error is None:
             self._callback_error = unraisable.exc_value
             self._callback_failed[0] = 1.0
 
+    # the callbacks below are called from compiled code (ctypes, which would print and drop an
+    # exception): what they raise is noted, and raised by __call__ once the compiled ticks have returned
     def _update_load(self, _a, _b) -> None:
-        # called from compiled code (ctypes, which would print and drop an exception): noted, raised
-        # by __call__ once the compiled ticks have returned
         try:
             self._callback_arm.update_load()
         except BaseException as e:  # noqa: BLE001 - re-raised by __call__
             self._callback_error = e
             self._callback_failed[0] = 1.0
 
+    def _call_on_tick(self, _a, _b) -> None:
+        # the run's on_tick at a tick whose controller part ran compiled (commands issued, no step yet)
+        try:
+            args = self._on_tick_args
+            k = self._k0 + int(args[ON_TICK_K])
+            self.on_tick(k, float(args[ON_TICK_T]))
+            args[ON_TICK_NEXT] = self._on_tick_due(k + 1) - self._k0
+        except BaseException as e:  # noqa: BLE001 - re-raised by __call__
+            self._callback_error = e
+            self._callback_failed[0] = 1.0
 
-_LOAD_CALLBACK = ctypes.CFUNCTYPE(None, ctypes.c_void_p, ctypes.c_void_p)
+
+_CALLBACK = ctypes.CFUNCTYPE(None, ctypes.c_void_p, ctypes.c_void_p)
 
 
 def compiled_ticks(plant: Plant, controller, steps_per_tick: int, n_ticks: int, **kwargs) -> CompiledTicks | None:
