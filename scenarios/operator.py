@@ -54,7 +54,6 @@ between 18 and 42 N.
 from __future__ import annotations
 
 import math
-from collections import deque
 from dataclasses import dataclass
 
 import mujoco
@@ -108,7 +107,7 @@ class GlobalCamera:
     """The global camera's frames at its frame rate, the last few kept (what the screen showed).
 
     A frame is recorded as the world points it shows (twin/camera_frames.py, also from the run
-    loop's compiled ticks: `compiled_state`); its picture is made when `frames` is read."""
+    loop's compiled ticks: `compiled_state`); its picture is made when the operator looks at it."""
 
     def __init__(self, model: mujoco.MjModel, data: mujoco.MjData, params: OperatorParams):
         self.data = data
@@ -116,13 +115,11 @@ class GlobalCamera:
         self.period_s = 1.0 / params.camera_fps
         self.rim_px = np.floor(self.pinhole.project(disc_rims_m(model)))
         self.disc_pitch_px = float(abs(self.rim_px[-1, 1] - self.rim_px[0, 1]) / (N_DISCS - 1))
-        self._frames: deque[Frame] = deque(maxlen=FRAMES_KEPT)
         body = [mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, b) for b in ("brush_head", *ARM_POINTS)]
         self.body_ids = np.array(body, dtype=np.int64)
         self.site_ids = np.array([mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, "brush_tip")], dtype=np.int64)
         self.clock = np.array([0.0, self.period_s, 0.0])  # next frame due, period, frames taken
         self.rows = np.zeros((FRAMES_KEPT, row_size(len(self.body_ids), len(self.site_ids))))
-        self._made = 0  # frames taken whose picture is made
 
     def capture(self, time_s: float) -> None:
         """Take a frame if one is due (called every control tick)."""
@@ -134,16 +131,24 @@ class GlobalCamera:
         return self.clock, self.rows, self.body_ids, self.site_ids
 
     @property
-    def frames(self) -> deque[Frame]:
-        """The last FRAMES_KEPT frames, oldest first, their pictures made from the recorded points."""
+    def frames(self) -> list[Frame]:
+        """The last FRAMES_KEPT frames, oldest first."""
+        return [self._frame(i) for i in self._kept()]
+
+    def _kept(self) -> range:
+        # the numbers of the frames still in the ring, oldest first
         taken = int(self.clock[CLOCK_TAKEN])
-        for i in range(max(self._made, taken - FRAMES_KEPT), taken):
-            r = self.rows[i % FRAMES_KEPT]
-            face = r[1:4] + BRUSH_HALF_LENGTH_M * r[4:7]  # brush_face_m of the recorded head
-            seen = np.floor(self.pinhole.project(np.array([face, r[7:10], r[10:13], r[13:16], r[16:19]])))
-            self._frames.append(Frame(float(r[0]), seen[0], self.rim_px, self.disc_pitch_px, seen[1:]))
-        self._made = taken
-        return self._frames
+        return range(max(0, taken - FRAMES_KEPT), taken)
+
+    def _time_s(self, i: int) -> float:
+        return float(self.rows[i % FRAMES_KEPT, 0])
+
+    def _frame(self, i: int) -> Frame:
+        """Frame number i, its picture made from the recorded points."""
+        r = self.rows[i % FRAMES_KEPT]
+        face = r[1:4] + BRUSH_HALF_LENGTH_M * r[4:7]  # brush_face_m of the recorded head
+        seen = np.floor(self.pinhole.project(np.array([face, r[7:10], r[10:13], r[13:16], r[16:19]])))
+        return Frame(float(r[0]), seen[0], self.rim_px, self.disc_pitch_px, seen[1:])
 
     @property
     def next_frame_s(self) -> float:
@@ -153,16 +158,18 @@ class GlobalCamera:
     def seen_from_s(self, latency_s: float, taken_after_s: float) -> float:
         """The earliest time `seen(now, latency_s, taken_after_s)` can give a frame, from the frames
         taken so far (math.inf: none of them; a later frame comes at `next_frame_s`)."""
-        for f in self.frames:
-            if f.time_s >= taken_after_s - 1e-9:
-                return f.time_s + latency_s - 1e-9
+        for i in self._kept():
+            t = self._time_s(i)
+            if t >= taken_after_s - 1e-9:
+                return t + latency_s - 1e-9
         return math.inf
 
     def seen(self, now_s: float, latency_s: float, taken_after_s: float) -> Frame | None:
         """The newest frame taken at or after `taken_after_s` that the operator has seen by now."""
-        for f in reversed(self.frames):
-            if f.time_s + latency_s <= now_s + 1e-9:
-                return f if f.time_s >= taken_after_s - 1e-9 else None
+        for i in reversed(self._kept()):
+            t = self._time_s(i)
+            if t + latency_s <= now_s + 1e-9:
+                return self._frame(i) if t >= taken_after_s - 1e-9 else None
         return None
 
 

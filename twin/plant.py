@@ -91,6 +91,8 @@ class Plant:
         # the drive map's qpos and dof addresses as indices (drive_angles, drive_speeds: telemetry)
         self._drive_qpos = self.drive_map[:, :, 0].astype(int)
         self._drive_dofs = self.drive_map[:, :, 1].astype(int)
+        self._drive_coefficients = self.drive_map[:, :, 2].copy()
+        self._qpos, self._qvel = self.data.qpos, self.data.qvel  # views (each attribute access builds one)
         self._geom_ids: dict[str, int] = {}
         self.dt = m.opt.timestep
         for i in range(len(joints)):
@@ -256,13 +258,11 @@ class Plant:
 
     def drive_angles(self) -> np.ndarray:
         """True drive-coordinate angle of each joint, rad (for logging and tests, not the controller)."""
-        q = self.data.qpos[self._drive_qpos]
-        return np.sum(self.drive_map[:, :, 2] * q, axis=1)
+        return (self._drive_coefficients * self._qpos[self._drive_qpos]).sum(axis=1)
 
     def drive_speeds(self) -> np.ndarray:
         """True drive-coordinate speed of each joint, rad/s."""
-        v = self.data.qvel[self._drive_dofs]
-        return np.sum(self.drive_map[:, :, 2] * v, axis=1)
+        return (self._drive_coefficients * self._qvel[self._drive_dofs]).sum(axis=1)
 
     def motor_angles(self) -> np.ndarray:
         """Angle of each joint's motor side on the joint side (motor angle / ratio), rad: the drive
