@@ -23,6 +23,9 @@ import pinocchio as pin
 import assets
 
 TOOL_FRAME = "brush_tip"  # the head's centre at its forward stop (assets/arm.xml site)
+# press_torques skips the kinematics while the tool frame is certainly further than this in front of
+# the surface (m): far above the kinematics' round-off (~1e-15 m), far below any press
+CLEAR_MARGIN_M = 1e-9
 
 
 def _read_xml(path: Path) -> ET.Element:
@@ -214,6 +217,14 @@ class ArmModel:
         self._tool_frame = m.getFrameId(TOOL_FRAME) if m.existFrame(TOOL_FRAME) else -1
         if self._tool_frame < 0:
             self.head_spring = None
+        # how far the tool frame can move per radian of any joint: no further from a revolute joint's
+        # axis than the chain's placements summed (inf where a joint is not revolute: no bound)
+        revolute = all(m.joints[i].shortname().startswith("JointModelR") for i in range(1, m.njoints))
+        reach = sum(float(np.linalg.norm(m.jointPlacements[i].translation)) for i in range(1, m.njoints))
+        if self._tool_frame >= 0:
+            reach += float(np.linalg.norm(m.frames[self._tool_frame].placement.translation))
+        self._reach_m = reach if revolute else np.inf
+        self._clear_at: tuple | None = None  # (surface, normal, q, clearance m) of the last press_torques clear of it
         self._no_press = np.zeros(n)
         self._no_press.flags.writeable = False  # returned by press_torques clear of the surface, shared
         lo, hi = m.lowerPositionLimit, m.upperPositionLimit
@@ -243,15 +254,27 @@ class ArmModel:
         touches it) with the unit `normal` pointing out of it, towards the arm (numpy arrays). The
         head is pressed by the depth of the frame behind the plane along the normal and pushes back
         along it with its spring's force (f = F n, world): the drive must add -C^-T J^T f to hold
-        it. Zeros (read-only, shared) clear of the surface, or without a head spring in the model."""
+        it. Zeros (read-only, shared) clear of the surface, or without a head spring in the model.
+        A surface is known by its arrays: a new surface comes in new arrays, not changed in place."""
         if self.head_spring is None:
             return self._no_press
-        # per tick while a move is on a disc: ~5 us clear of it (forward kinematics of one frame)
+        # per tick while a move is on a disc: ~5 us clear of it (forward kinematics of one frame), none
+        # while the joints have turned too little since the last look to bring the frame to the surface
         q = self.C_inv.dot(drive_angles)
+        clear = self._clear_at
+        if (
+            clear is not None
+            and clear[0] is surface_m
+            and clear[1] is normal
+            and clear[3] - self._reach_m * float(np.abs(q - clear[2]).sum()) > CLEAR_MARGIN_M
+        ):
+            return self._no_press  # what the kinematics below would give: no force
         m, d = self.model, self.data
         pin.forwardKinematics(m, d, q)
         tip = pin.updateFramePlacement(m, d, self._tool_frame).translation
-        force = self.head_spring.force_n(float(surface_m.dot(normal) - tip.dot(normal)))
+        press_m = float(surface_m.dot(normal) - tip.dot(normal))
+        self._clear_at = (surface_m, normal, q, -press_m) if press_m < 0.0 else None
+        force = self.head_spring.force_n(press_m)
         if force == 0.0:
             return self._no_press
         jac = pin.computeFrameJacobian(m, d, q, self._tool_frame, pin.LOCAL_WORLD_ALIGNED)[:3]

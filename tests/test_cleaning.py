@@ -172,6 +172,39 @@ def test_the_press_load_is_the_head_springs_force_by_virtual_work(scene):
     assert not arm.press_torques(np.array([clear[j] for j in arm.joints]), surface, normal).any()
 
 
+def test_the_press_load_skips_the_kinematics_only_where_they_give_nothing(scene):
+    """press_torques skips Pinocchio's kinematics while the joints have turned too little since its
+    last look to bring the tool to the surface: along an approach from 6 cm off disc 3's rim to
+    2 cm into it and back, every load equals the one computed afresh (the surface handed in new
+    arrays each time: no skip), bit for bit; the skip was taken, and the press was felt."""
+    from control.arm_model import ArmModel
+    from scenarios.ik import disc_rim_target, tool_drive_angles
+
+    arm, fresh = ArmModel(assets.ARM_XML, payload_kg=20.0), ArmModel(assets.ARM_XML, payload_kg=20.0)
+    surface, normal = disc_rim_target(scene, 3, 0.0), np.array([-1.0, 0.0, 0.0])
+    far, deep = (tool_drive_angles(scene, surface + [x, 0.0, 0.0], 0.0) for x in (-0.06, 0.02))
+    a, b = (np.array([p[j] for j in arm.joints]) for p in (far, deep))
+    path = [a + (b - a) * s for s in np.concatenate([np.linspace(0, 1, 400), np.linspace(1, 0, 400)])]
+    looked, pressed = [], 0
+    forward = ArmModel.press_torques.__globals__["pin"].forwardKinematics
+
+    def counted(*args):
+        looked.append(1)
+        return forward(*args)
+
+    with pytest.MonkeyPatch.context() as m:
+        m.setattr(ArmModel.press_torques.__globals__["pin"], "forwardKinematics", counted)
+        for drive in path:
+            got = arm.press_torques(drive, surface, normal)
+            n = len(looked)
+            want = fresh.press_torques(drive, surface.copy(), normal.copy())
+            del looked[n:]
+            assert np.array_equal(got, want)
+            pressed += bool(want.any())
+    assert 0 < len(looked) < len(path) - 100  # the kinematics skipped on most of the way clear of the rim
+    assert pressed > 100
+
+
 @pytest.mark.parametrize(("press_m", "tilt_rad"), [(0.010, 0.0), (0.035, 0.26)])
 def test_the_operator_reads_the_press_off_the_picture(scene, press_m, tilt_rad):
     """Pressed into disc 3's rim, level or tilted 15 deg up as at disc 1, the head's face stays on

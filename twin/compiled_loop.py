@@ -112,6 +112,13 @@ def _ticks(
         borrowed(ctrl),
         borrowed(tendon_frictionloss),
     )
+    camera_clock, camera_rows, camera_body_ids, camera_site_ids = (
+        borrowed(camera_clock),
+        borrowed(camera_rows),
+        borrowed(camera_body_ids),
+        borrowed(camera_site_ids),
+    )
+    xpos, xmat, site_xpos, on_tick_args = borrowed(xpos), borrowed(xmat), borrowed(site_xpos), borrowed(on_tick_args)
     last_tick_s = math.nan
     for k in range(n_ticks):
         if time_s >= stop_s:
