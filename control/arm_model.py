@@ -266,14 +266,16 @@ class ArmModel:
             clear is not None
             and clear[0] is surface_m
             and clear[1] is normal
-            and clear[3] - self._reach_m * float(np.abs(q - clear[2]).sum()) > CLEAR_MARGIN_M
+            # (a list's sum: numpy's costs more than the kinematics it would spare)
+            and clear[3] - self._reach_m * sum([abs(a - b) for a, b in zip(q.tolist(), clear[2], strict=True)])
+            > CLEAR_MARGIN_M
         ):
             return self._no_press  # what the kinematics below would give: no force
         m, d = self.model, self.data
         pin.forwardKinematics(m, d, q)
         tip = pin.updateFramePlacement(m, d, self._tool_frame).translation
         press_m = float(surface_m.dot(normal) - tip.dot(normal))
-        self._clear_at = (surface_m, normal, q, -press_m) if press_m < 0.0 else None
+        self._clear_at = (surface_m, normal, q.tolist(), -press_m) if press_m < 0.0 else None
         force = self.head_spring.force_n(press_m)
         if force == 0.0:
             return self._no_press
