@@ -83,3 +83,21 @@ def test_an_error_in_the_load_from_compiled_code_is_raised(monkeypatch):
     monkeypatch.setattr(ArmController, "update_load", broken)
     with pytest.raises(ValueError, match="pinocchio broke"):
         run_scenario(load(SCENARIOS["insulator_cleaning"]), duration_s=2.0)
+
+
+def test_an_error_in_on_tick_from_compiled_code_is_raised(monkeypatch):
+    # the run's on_tick (telemetry) is called through a ctypes callback too: what it raises ends the
+    # run there, with the samples taken before it kept
+    samples = []
+    on_tick = twin.sim._Recording.on_tick
+
+    def breaks_at_one_second(self, k, t):
+        if t > 1.0 - 1e-6:  # (the tick at 1 s: its time summed by MuJoCo lands within round-off)
+            raise ValueError(f"telemetry broke at {t:.3f} s")
+        on_tick(self, k, t)
+        samples.append(len(self.telemetry))
+
+    monkeypatch.setattr(twin.sim._Recording, "on_tick", breaks_at_one_second)
+    with pytest.raises(ValueError, match="telemetry broke at 1.000 s"):
+        run_scenario(load(SCENARIOS["insulator_cleaning"]), duration_s=2.0)
+    assert samples[-1] == 50  # one sample every 20 ms before it
