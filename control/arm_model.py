@@ -248,6 +248,36 @@ class ArmModel:
             g[i] += k * (q[i] - ref)
         return self.C_inv_T.dot(g)
 
+    def load_slope(self, drive_angles: np.ndarray) -> np.ndarray:
+        """The derivative of `load_torques` by the drive angles, (n, n) N·m/rad: C^-T (dg/dq + k) C^-1,
+        dg/dq from `pin.computeGeneralizedGravityDerivatives` (the press's load is not smooth and has
+        none: control/predicted_load.py)."""
+        q = self.C_inv.dot(drive_angles)
+        dg = pin.computeGeneralizedGravityDerivatives(self.model, self.data, q)
+        for i, k, _ in self._springs:
+            dg[i, i] += k
+        return self.C_inv_T.dot(dg).dot(self.C_inv)
+
+    def press_clearance_m(self, drive_angles: np.ndarray, surface_m: np.ndarray, normal: np.ndarray) -> float:
+        """How far (m) the tool frame is certainly in front of the surface at these drive angles, less
+        CLEAR_MARGIN_M, after `press_torques` there: the clearance its last look found, less the chain's
+        reach times the joints' turn since (what `press_torques` skips its kinematics by). inf without
+        a head spring (nothing presses); -inf where no bound is known (pressed, touching, a chain that
+        is not all revolute)."""
+        if self.head_spring is None:
+            return np.inf
+        clear = self._clear_at
+        if clear is None or clear[0] is not surface_m or clear[1] is not normal or not np.isfinite(self._reach_m):
+            return -np.inf
+        q = self.C_inv.dot(drive_angles)
+        turn = sum([abs(a - b) for a, b in zip(q.tolist(), clear[2], strict=True)])
+        return clear[3] - self._reach_m * turn - CLEAR_MARGIN_M
+
+    @property
+    def reach_m(self) -> float:
+        """How far the tool frame can move per radian of any joint's turn (m; inf: no bound)."""
+        return self._reach_m
+
     def press_torques(self, drive_angles: np.ndarray, surface_m: np.ndarray, normal: np.ndarray) -> np.ndarray:
         """The load on each drive (N·m, `load_torques`'s sign) of the brush head pressed into a
         surface: the plane through `surface_m` (where `tool_frame` stands when the head's face

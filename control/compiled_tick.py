@@ -27,15 +27,16 @@ import numpy as np
 
 from control import pid
 from control.pid import IDLE, control_step
+from control.predicted_load import advance_load
 from control.predictor import predict_step
 from pneumatics._jit import borrowed, njit
 
 TICKED, NEEDS_PYTHON, MID_TICK = 0, 1, 2
 # columns of the controller's flow array: the dwell still to wait (s); 1.0 while a step of the plan
 # is under way; 1.0 while plan steps are waiting; 1.0 when faulted; the lowest supply gauge (Pa) a
-# brake can lift at; the period (s); the load's update distance (rad); atmosphere (Pa)
-FLOW_DWELL, FLOW_STEPPING, FLOW_PLAN, FLOW_FAULTED, FLOW_BRAKE_RELEASE, FLOW_DT, FLOW_LOAD_UPDATE, FLOW_ATM = range(8)
-N_FLOW = 8
+# brake can lift at; the period (s); atmosphere (Pa)
+FLOW_DWELL, FLOW_STEPPING, FLOW_PLAN, FLOW_FAULTED, FLOW_BRAKE_RELEASE, FLOW_DT, FLOW_ATM = range(7)
+N_FLOW = 7
 
 
 @njit
@@ -85,6 +86,10 @@ def controller_tick(
     commands: np.ndarray,  # (n, 3) written
     load_nm: np.ndarray,
     inertia_kg_m2: np.ndarray,
+    load_base: np.ndarray,  # the load's tangent (control/predicted_load.py: advance_load's arrays)
+    load_slope: np.ndarray,
+    c_inv: np.ndarray,
+    load_bound: np.ndarray,
     valve_gauge_pa: np.ndarray,  # (n,) measured
     supply_pa: float,  # measured, absolute
     was_done: bool,  # `done` when the compiled ticks began: a change needs Python (the task acts on it)
@@ -107,9 +112,8 @@ def controller_tick(
     faulted = flow[FLOW_FAULTED] != 0.0
     if not faulted and flow[FLOW_STEPPING] == 0.0 and flow[FLOW_DWELL] > 0.0:
         flow[FLOW_DWELL] -= dt
-    moving, timed_out, load_stale = control_step(
-        modes, moves, drives, y, x, params, g, dt, flow[FLOW_LOAD_UPDATE], commands
-    )
+    moving, timed_out = control_step(modes, moves, drives, y, x, params, g, dt, commands)
+    load_stale = moving and advance_load(drives, y, load_base, load_slope, c_inv, load_bound)
     if moving and (load_stale or timed_out >= 0):
         control_result[0], control_result[1], control_result[2] = moving, timed_out, load_stale
         return MID_TICK

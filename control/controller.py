@@ -8,7 +8,8 @@ the start pose once (the operator homes the arm) and from then on predicts.
 Per tick: fault checks -> plan sequencing (which joints move toward which targets) -> PID on the
 predicted angles (control/pid.py) -> the predictor advances over the period with the commands
 just issued (control/predictor.py), the load torques from Pinocchio at the predicted
-configuration (control/arm_model.py, one gravity call for all joints, only while something moves).
+configuration (control/arm_model.py, one gravity call for all joints, only while something moves;
+between looks, their tangent: control/predicted_load.py).
 """
 
 from __future__ import annotations
@@ -28,13 +29,13 @@ from control.compiled_tick import (
     FLOW_DT,
     FLOW_DWELL,
     FLOW_FAULTED,
-    FLOW_LOAD_UPDATE,
     FLOW_PLAN,
     FLOW_STEPPING,
     N_FLOW,
 )
 from control.open_loop import open_loop_duration
 from control.pid import CLOSED, DEFAULT_GAINS, IDLE, OPEN, PidGains, control_step, gains_row
+from control.predicted_load import B_CLEARANCE, B_RADIUS, B_REACH, LOAD_UPDATE_RAD, N_BOUND, advance_load
 from control.predictor import predict_step
 from pneumatics import AIR, Gas, JointParams, load_joint_params, params_row
 from pneumatics import params as P
@@ -61,7 +62,8 @@ class ArmController:
     move_timeout_s: a move not finished by then is stopped, braked and reported as a fault.
     open_loop_set_point_pa: the open loop's proportional-valve set point (default: full opening, 1/k_u).
     load_update_rad: the load torques are taken from Pinocchio again once a predicted drive angle has
-        moved more than this since they were last taken (0: whenever any has moved at all).
+        moved more than this since they were last taken, their tangent used in between (0: whenever
+        any has moved at all; control/predicted_load.py).
     """
 
     def __init__(
@@ -77,7 +79,7 @@ class ArmController:
         open_loop_set_point_pa: float | None = None,
         payload_kg: float | None = None,
         control_period_s: float = 1e-3,
-        load_update_rad: float = 0.0,
+        load_update_rad: float = LOAD_UPDATE_RAD,
         gas: Gas = AIR,
     ):
         if mode not in MODES:
@@ -110,6 +112,13 @@ class ArmController:
         self.commands = np.zeros((n, N_COMMAND))
         self._make_tables(start)
         self.load_update_rad = float(load_update_rad)
+        # the load's tangent between Pinocchio's looks (control/predicted_load.py)
+        self._load_base = np.zeros(n)
+        self._load_slope = np.zeros((n, n))
+        self._c_inv = np.ascontiguousarray(self.arm.C_inv)
+        self._load_bound = np.zeros(N_BOUND)
+        self._load_bound[B_RADIUS] = self.load_update_rad
+        self._load_bound[B_REACH] = self.arm.reach_m
         self._press: tuple[np.ndarray, np.ndarray] | None = None  # the surface the brush is expected to press
         self._set_load(start)
         self.inertia = self.arm.drive_inertias(start) + self.rotor_inertia
@@ -280,10 +289,13 @@ class ArmController:
             self.params,
             self._g,
             self.dt,
-            self.load_update_rad,
             self.commands,
         )
-        return self.finish_tick(result, pv, supply)
+        moving, timed_out = result
+        stale = moving and advance_load(
+            self._drives, self.y, self._load_base, self._load_slope, self._c_inv, self._load_bound
+        )
+        return self.finish_tick((moving, timed_out, stale), pv, supply)
 
     def finish_tick(self, control_result, valve_gauge_pa: np.ndarray, supply_pa: float) -> np.ndarray:
         """The tick's part after control_step (whose (moving, timed out, load stale) it is handed):
@@ -322,10 +334,10 @@ class ArmController:
         flow[FLOW_FAULTED] = float(self.faulted)
         flow[FLOW_BRAKE_RELEASE] = self._brake_release_pa
         flow[FLOW_DT] = self.dt
-        flow[FLOW_LOAD_UPDATE] = self.load_update_rad
         flow[FLOW_ATM] = self.gas.p_atm_pa
         arrays = (self._modes, self._moves, self._drives, self.y, self.x, self.params, self._g, self.commands)
-        return (flow, self._step_joints, *arrays, self.load, self.inertia)
+        load = (self._load_base, self._load_slope, self._c_inv, self._load_bound)
+        return (flow, self._step_joints, *arrays, self.load, self.inertia, *load)
 
     def update_load(self) -> None:
         """The load torques from Pinocchio at the predicted angles (a stale load, mid-tick)."""
@@ -340,9 +352,15 @@ class ArmController:
     def _set_load(self, theta: np.ndarray) -> None:
         # the load torques from Pinocchio at the predicted configuration, and where they were taken
         self.load[:] = self.arm.load_torques(theta)  # in place: control_step's Belief holds these arrays
+        clearance = np.inf
         if self._press is not None:
             self.load += self.arm.press_torques(theta, *self._press)
+            clearance = self.arm.press_clearance_m(theta, *self._press)
         self._load_theta[:] = theta
+        self._load_base[:] = self.load
+        self._load_bound[B_CLEARANCE] = clearance
+        if self.load_update_rad > 0.0:  # (0: the tangent is never used away from theta)
+            self._load_slope[:] = self.arm.load_slope(theta)
 
     def expect_press(self, surface_m: np.ndarray | None, normal: np.ndarray | None = None) -> None:
         """The surface the coming moves press the brush into (ArmModel.press_torques: a point where

@@ -111,21 +111,18 @@ def control_step(
     params: np.ndarray,  # (n, N_COLUMNS) the predictor's parameter rows (Coulomb friction)
     g: np.ndarray,  # gains_row
     dt_s: float,
-    load_update_rad: float,  # how far a predicted angle may move before the load is stale, rad
     commands: np.ndarray,  # (n, 3) written
-) -> tuple[bool, int, bool]:
+) -> tuple[bool, int]:
     """One control period of every joint's move: the commands to issue now.
 
     The breakaway pressure of a joint is the valve pressure whose stall torque just overcomes its
     Coulomb friction and the predicted load, turning + and -. Returns (whether any joint was
-    moving, the first joint that timed out or -1, whether a predicted angle has moved more than
-    `load_update_rad` from the one its load was taken at).
+    moving, the first joint that timed out or -1).
     """
     # the caller holds every array for the whole call: no reference counting (see `borrowed`)
     modes, moves, drives, y, x = borrowed(modes), borrowed(moves), borrowed(drives), borrowed(y), borrowed(x)
     params, g, commands = borrowed(params), borrowed(g), borrowed(commands)
     any_moving = False
-    load_stale = False
     timed_out = -1
     for j in range(modes.shape[0]):
         coulomb = params[j, P.COULOMB]
@@ -141,12 +138,10 @@ def control_step(
                 modes[j, K_OUTCOME] = TIMED_OUT
                 if timed_out < 0:
                     timed_out = j
-        if not abs(y[j, R_THETA] - drives[j, D_LOAD_THETA]) <= load_update_rad:  # (a NaN counts as moved)
-            load_stale = True
         commands[j, C_DIRECTION], commands[j, C_PV_SET_GAUGE_PA], commands[j, C_BRAKE_RELEASE] = _joint_command(
             modes[j], moves[j], drives[j], y[j], x[j], params[j], g, dt_s
         )
-    return any_moving, timed_out, load_stale
+    return any_moving, timed_out
 
 
 @njit
