@@ -91,10 +91,10 @@ def test_an_error_in_on_tick_from_compiled_code_is_raised(monkeypatch):
     samples = []
     on_tick = twin.sim._Recording.on_tick
 
-    def breaks_at_one_second(self, k, t):
+    def breaks_at_one_second(self, k, t, row=None):
         if t > 1.0 - 1e-6:  # (the tick at 1 s: its time summed by MuJoCo lands within round-off)
             raise ValueError(f"telemetry broke at {t:.3f} s")
-        on_tick(self, k, t)
+        on_tick(self, k, t, row)
         samples.append(len(self.telemetry))
 
     monkeypatch.setattr(twin.sim._Recording, "on_tick", breaks_at_one_second)

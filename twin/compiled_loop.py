@@ -38,6 +38,7 @@ from pneumatics._jit import NO_JIT, borrowed, njit
 from twin.camera_frames import no_camera, record_frame
 from twin.kernel import MJ_STEP, _call_mj_step, _plant_steps
 from twin.plant import SUBSTEPS, Plant
+from twin.sample_row import fill_row
 
 # a callback due at time T is handed back to Python from the tick at T - DUE_MARGIN_S on: far above
 # the round-off of MuJoCo's summed time (~1e-13 s over an hour) and far below a tick (1 ms), so the
@@ -55,6 +56,7 @@ def _ticks(
     load_callback_address,  # void f(void*, void*): Python's Pinocchio load at the predicted angles
     on_tick_address,  # void f(void*, void*): the run's `on_tick` (telemetry), at the ticks on_tick_args names
     on_tick_args,
+    sample_row,  # (width,) or (0,): the telemetry sample `fill_row` writes before each on_tick call
     callback_failed,  # (1,): set by a callback when it raised
     n_ticks,
     steps_per_tick,
@@ -100,6 +102,7 @@ def _ticks(
     xpos,
     xmat,
     site_xpos,
+    xquat,
 ):
     # returns (ticks run whole, what stopped them, MuJoCo's time at the tick it stopped on, the time
     # of the last tick the controller ran)
@@ -123,6 +126,7 @@ def _ticks(
         borrowed(camera_site_ids),
     )
     xpos, xmat, site_xpos, on_tick_args = borrowed(xpos), borrowed(xmat), borrowed(site_xpos), borrowed(on_tick_args)
+    xquat, sample_row = borrowed(xquat), borrowed(sample_row)
     last_tick_s = math.nan
     for k in range(n_ticks):
         if time_s >= stop_s:
@@ -165,6 +169,21 @@ def _ticks(
         commands_p[:] = commands_c
         if k == on_tick_args[ON_TICK_NEXT]:  # the run's telemetry sees the commands issued, then the steps
             on_tick_args[ON_TICK_K], on_tick_args[ON_TICK_T] = k, time_s
+            if sample_row.shape[0] > 0:
+                fill_row(
+                    sample_row,
+                    time_s,
+                    qpos,
+                    drive_map,
+                    y,
+                    moves,
+                    air,
+                    sensor_bias_pa,
+                    commands_p,
+                    supply_pa,
+                    xpos,
+                    xquat,
+                )
             _call_mj_step(on_tick_address, 0, 0)
             if callback_failed[0] != 0.0:
                 return k, NEEDS_PYTHON, time_s, last_tick_s  # the caller raises what failed
@@ -203,6 +222,8 @@ class CompiledTicks:
     k whose `on_tick` has work (None: every tick); on_tick: the run loop's, called on such a tick
     when its controller part ran compiled (from the compiled ticks); n_ticks: the run's end.
     A controller with `compiled_camera` hands its camera's frames to the compiled ticks.
+    sample_row: a telemetry row (twin/sample_row.py) the compiled ticks fill before each call of
+    `on_tick`, which is then handed it as a third argument (None: on_tick(k, t) takes its own).
     """
 
     def __init__(
@@ -213,7 +234,8 @@ class CompiledTicks:
         n_ticks: int,
         due_s: Sequence[Callable[[float], float]] = (),
         next_tick: Callable[[int], int] | None = None,
-        on_tick: Callable[[int, float], None] | None = None,
+        on_tick: Callable[..., None] | None = None,
+        sample_row: np.ndarray | None = None,
     ):
         self.plant, self.controller, self.steps_per_tick, self.n_ticks = plant, controller, steps_per_tick, n_ticks
         self.due_s, self.next_tick, self.on_tick = tuple(due_s), next_tick, on_tick
@@ -226,6 +248,7 @@ class CompiledTicks:
         self._on_tick_callback = _CALLBACK(self._call_on_tick)
         self._on_tick_address = ctypes.cast(self._on_tick_callback, ctypes.c_void_p).value
         self._on_tick_args = np.zeros(3)
+        self._sample_row = np.zeros(0) if sample_row is None else sample_row
         self._k0 = 0  # the tick the compiled ticks began at
         self._valve_gauge_pa = np.zeros(len(plant.joints))
         self._plant_arrays = (plant.air, plant.commands, plant.params, plant.sensor_bias_pa)
@@ -233,6 +256,7 @@ class CompiledTicks:
         camera = getattr(controller, "compiled_camera", None)
         d = plant.data
         self._camera = (*((camera() if camera else None) or no_camera()), d.xpos, d.xmat, d.site_xpos)
+        self._xquat = d.xquat
 
     def __call__(self, k: int) -> int:
         """Run ticks k, k+1, ... in compiled code while none needs Python; how many were run (0:
@@ -261,6 +285,7 @@ class CompiledTicks:
                 self._load_callback_address,
                 self._on_tick_address,
                 self._on_tick_args,
+                self._sample_row,
                 self._callback_failed,
                 self.n_ticks - k,
                 self.steps_per_tick,
@@ -276,6 +301,7 @@ class CompiledTicks:
                 plant.dt,
                 SUBSTEPS,
                 *self._camera,
+                self._xquat,
             )
         finally:
             sys.unraisablehook = hook
@@ -323,7 +349,10 @@ class CompiledTicks:
         try:
             args = self._on_tick_args
             k = self._k0 + int(args[ON_TICK_K])
-            self.on_tick(k, float(args[ON_TICK_T]))
+            if self._sample_row.shape[0]:
+                self.on_tick(k, float(args[ON_TICK_T]), self._sample_row)
+            else:
+                self.on_tick(k, float(args[ON_TICK_T]))
             args[ON_TICK_NEXT] = self._on_tick_due(k + 1) - self._k0
         except BaseException as e:  # noqa: BLE001 - re-raised by __call__
             self._callback_error = e

@@ -23,6 +23,7 @@ from control.loop import run_ticks
 from pneumatics import joint as J
 from twin.compiled_loop import compiled_ticks
 from twin.plant import Plant, Sensors
+from twin.sample_row import ROW_SIGNALS
 from twin.telemetry import Telemetry
 
 CONTROL_PERIOD_S = 1e-3  # the platform PC's control period (issue: "a 1 ms control period")
@@ -147,6 +148,7 @@ def run(
             due_s=due,
             next_tick=recording.next_tick,
             on_tick=recording.on_tick,
+            sample_row=recording.row,
         )
     try:
         run_ticks(
@@ -175,11 +177,23 @@ class _Recording:
         self.plant, self.controller, self.telemetry, self.recorders = plant, controller, telemetry, recorders
         self.ticks_per_log, self.ticks_per_flush = ticks_per_log, ticks_per_flush
         self.flushed = len(telemetry)
+        # the row compiled ticks fill with a sample (twin/sample_row.py), in the telemetry's layout
+        assert tuple(telemetry.layout) == ROW_SIGNALS, "twin/sample_row.py writes another layout"
+        self.row = np.zeros(telemetry.width)
+        self._brush = [telemetry.layout[s] for s in ("brush_force_n", "brush_contact_m", "brush_push_n")]
 
-    def on_tick(self, k: int, t: float) -> None:
+    def on_tick(self, k: int, t: float, row: np.ndarray | None = None) -> None:
+        """The run's work at tick k (time t): a sample on a log tick (`row`: taken already by the
+        compiled ticks, but for the brush's contacts), the recorders' flush on a flush tick."""
         if k % self.ticks_per_log == 0:
             self.plant.check_warnings()
-            self.telemetry.append(t, sample(self.plant, self.controller))
+            if row is None:
+                self.telemetry.append(t, sample(self.plant, self.controller))
+            else:
+                if self.plant.data.ncon:
+                    for sl, value in zip(self._brush, brush_contact(self.plant), strict=True):
+                        row[sl] = value
+                self.telemetry.append_row(row)
         if k % self.ticks_per_flush == self.ticks_per_flush - 1:
             self.flush()
 

@@ -32,7 +32,11 @@ class Telemetry:
     """Column buffers for one run: per signal, float64 blocks of a fixed number of samples, a new
     block when the last is full. Nothing is copied or freed while the run grows, so a long run
     holds its record at 8 bytes per value and leaves the allocator no holes (doubling one array
-    instead left about twice the record resident after an hour; benchmarks/long_run.py)."""
+    instead left about twice the record resident after an hour; benchmarks/long_run.py).
+
+    A block is one (samples, width) array whose columns are the signals, "time_s" first and then
+    SIGNALS in order, each flattened (`layout`): a sample is one row, which the compiled ticks can
+    fill whole (twin/sample_row.py); each signal's columns are read as views of the blocks."""
 
     def __init__(self, joints: tuple[str, ...], bodies: tuple[str, ...], block: int = 4096):
         self.joints, self.bodies = tuple(joints), tuple(bodies)
@@ -40,19 +44,39 @@ class Telemetry:
         self._dims = {"time_s": ()} | {
             name: tuple(n if d == "n" else b if d == "b" else d for d in shape) for name, shape in SIGNALS.items()
         }
+        self.layout: dict[str, slice] = {}
+        width = 0
+        for name, dims in self._dims.items():
+            size = int(np.prod(dims, dtype=int))
+            self.layout[name] = slice(width, width + size)
+            width += size
+        self.width = width
         self._block = block
         self._n = 0
-        self._blocks: list[dict[str, np.ndarray]] = []
+        self._blocks: list[dict[str, np.ndarray]] = []  # per block, each signal's view of its rows
+        self._rows: list[np.ndarray] = []  # the blocks, (block, width)
 
-    def append(self, time_s: float, sample: dict[str, np.ndarray]) -> None:
+    def _row(self) -> np.ndarray:
+        # the next sample's row (a new block when the last is full)
         i = self._n % self._block
         if i == 0:
-            self._blocks.append({k: np.empty((self._block,) + dims) for k, dims in self._dims.items()})
-        cols = self._blocks[-1]
-        cols["time_s"][i] = time_s
-        for name in SIGNALS:
-            cols[name][i] = sample[name]
+            rows = np.empty((self._block, self.width))
+            self._rows.append(rows)
+            self._blocks.append(
+                {k: rows[:, sl].reshape((self._block,) + self._dims[k]) for k, sl in self.layout.items()}
+            )
         self._n += 1
+        return self._rows[-1][i]
+
+    def append(self, time_s: float, sample: dict[str, np.ndarray]) -> None:
+        row = self._row()
+        row[0] = time_s
+        for name in SIGNALS:
+            row[self.layout[name]] = np.ravel(sample[name])
+
+    def append_row(self, row: np.ndarray) -> None:
+        """Append a sample given as one row of `width` values in `layout`'s order."""
+        self._row()[:] = row
 
     def __len__(self) -> int:
         return self._n
