@@ -359,7 +359,7 @@ class ArmController:
         self._load_theta[:] = theta
         self._load_base[:] = self.load
         self._load_bound[B_CLEARANCE] = clearance
-        if self.load_update_rad > 0.0:  # (0: the tangent is never used away from theta)
+        if self.load_update_rad > 0.0 and clearance > -np.inf:  # (else never used away from theta)
             self._load_slope[:] = self.arm.load_slope(theta)
 
     def expect_press(self, surface_m: np.ndarray | None, normal: np.ndarray | None = None) -> None:
