@@ -158,11 +158,10 @@ class GlobalCamera:
     def seen_from_s(self, latency_s: float, taken_after_s: float) -> float:
         """The earliest time `seen(now, latency_s, taken_after_s)` can give a frame, from the frames
         taken so far (math.inf: none of them; a later frame comes at `next_frame_s`)."""
-        for i in self._kept():
-            t = self._time_s(i)
-            if t >= taken_after_s - 1e-9:
-                return t + latency_s - 1e-9
-        return math.inf
+        kept = self._kept()
+        times = self.rows[np.arange(kept.start, kept.stop) % FRAMES_KEPT, 0]  # oldest first (asked every
+        after = np.flatnonzero(times >= taken_after_s - 1e-9)  # tick of a wait: one array, not 64 floats)
+        return float(times[after[0]]) + latency_s - 1e-9 if after.size else math.inf
 
     def seen(self, now_s: float, latency_s: float, taken_after_s: float) -> Frame | None:
         """The newest frame taken at or after `taken_after_s` that the operator has seen by now."""
