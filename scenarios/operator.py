@@ -288,9 +288,11 @@ class Operator:
         self._last_move_m = np.zeros(3)
 
     def review_due_s(self, done_s: float) -> float:
-        """The earliest time `review(now, done_s, ...)` can do more than wait for a picture (math.inf:
-        not before the camera's next frame)."""
-        return self.camera.seen_from_s(self._latency_s, done_s)
+        """The earliest time `review(now, done_s, ...)` (or `review_press`) can do more than wait for
+        a picture: his latency after the first frame taken since `done_s`, of the frames so far or,
+        if none, of the camera's next (taken at its due time at the earliest, `next_frame_s`)."""
+        latency = self._latency_s
+        return min(self.camera.seen_from_s(latency, done_s), self.camera.next_frame_s + latency - 1e-9)
 
     def review(
         self, now_s: float, done_s: float, disc: int, standoff_m: float, platform, aim: bool = True

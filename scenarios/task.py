@@ -132,8 +132,8 @@ class TaskController:
         `tick` does when nothing is due: no bound reading the plant, no stop drive, no fault for the
         operator to clear, no target to take up (or the operator still waiting for a picture of
         the arm at rest); until the camera's next frame, unless the compiled ticks take its frames
-        (`compiled_camera`) and the operator is not waiting for one. (None, ...): `tick` must run
-        (twin/compiled_loop.py)."""
+        (`compiled_camera`); while the operator waits for a picture, until he can have seen one.
+        (None, ...): `tick` must run (twin/compiled_loop.py)."""
         c = self.controller
         if (
             self._plant is not None
@@ -145,10 +145,9 @@ class TaskController:
         if self.camera is not None and not self._camera_compiled:
             until = self.camera.next_frame_s
         if c.done and not c.faulted and self.k < len(self.targets):
-            # waiting for the operator's picture: each new frame may be the one he sees
+            # waiting for the operator's picture: until he can have seen one (the frames are taken
+            # in compiled code meanwhile; when they are not, `until` stops at each already)
             until = min(until, self._waiting_until(time_s))
-            if self.camera is not None:
-                until = min(until, self.camera.next_frame_s)
         return c, until
 
     def compiled_camera(self) -> tuple | None:
