@@ -58,6 +58,14 @@ def hose_pressure_drop(
 
 
 @njit
+def blasius_coefficient(length_m: float, diameter_m: float, mu_pa_s: float) -> float:
+    """The part of the Blasius branch that depends on the hose and the gas only (SI units):
+    8 * 0.316 (4 / (pi d mu))^-0.25 L, so that dp = it / (pi^2 rho d^5) * m^1.75. The kernels read
+    it from the parameter row (`params_row`) rather than take a power every call."""
+    return 8.0 * 0.316 * (4.0 / (math.pi * diameter_m * mu_pa_s)) ** -0.25 * length_m
+
+
+@njit
 def hose_mass_flow(
     p_in_pa: float, p_out_pa: float, t_mean_k: float, length_m: float, diameter_m: float, r: float, mu_pa_s: float
 ) -> float:
@@ -67,6 +75,22 @@ def hose_mass_flow(
     branch dp = 128 mu L m / (pi rho d^4), on the Blasius branch dp is proportional to m^1.75;
     the branch is picked by the Reynolds number of the result.
     """
+    blasius = blasius_coefficient(length_m, diameter_m, mu_pa_s)
+    return hose_mass_flow_with(p_in_pa, p_out_pa, t_mean_k, length_m, diameter_m, r, mu_pa_s, blasius)
+
+
+@njit
+def hose_mass_flow_with(
+    p_in_pa: float,
+    p_out_pa: float,
+    t_mean_k: float,
+    length_m: float,
+    diameter_m: float,
+    r: float,
+    mu_pa_s: float,
+    blasius_coefficient_: float,
+) -> float:
+    """`hose_mass_flow` with the hose's `blasius_coefficient` passed in (the kernels keep it)."""
     dp = p_in_pa - p_out_pa
     if dp == 0.0:
         return 0.0
@@ -76,13 +100,7 @@ def hose_mass_flow(
     m = math.pi * rho * diameter_m**4 * adp / (128.0 * mu_pa_s * length_m)
     if reynolds_number(m, diameter_m, mu_pa_s) > BLASIUS_LAMINAR_RE:
         # Blasius: dp = 8 * 0.316 (4 m/(pi d mu))^-0.25 L m^2 / (pi^2 rho d^5)
-        coef = (
-            8.0
-            * 0.316
-            * (4.0 / (math.pi * diameter_m * mu_pa_s)) ** -0.25
-            * length_m
-            / (math.pi**2 * rho * diameter_m**5)
-        )
+        coef = blasius_coefficient_ / (math.pi**2 * rho * diameter_m**5)
         m = (adp / coef) ** (1.0 / 1.75)
     return m if dp > 0.0 else -m
 

@@ -37,7 +37,7 @@ from pneumatics.brake import brake_feed_gauge_pa, brake_holding_torque, brake_me
 from pneumatics.chamber import chamber_pressure_rate
 from pneumatics.friction import coulomb_viscous_torque, reducer_output_torque, stribeck_excess_torque
 from pneumatics.gas import isentropic_temperature
-from pneumatics.hose import hose_mass_flow, hose_volume
+from pneumatics.hose import hose_mass_flow_with, hose_volume
 from pneumatics.integrators import heun_increment, rk4_increment
 from pneumatics.motor import chamber_geometry, vane_torque
 from pneumatics.orifice import orifice_mass_flow
@@ -134,7 +134,9 @@ def _hose_flow(p_valve: float, p_motor: float, supply_pa: float, p: np.ndarray) 
     t_mean = t_s
     if p_motor > p_valve and p_motor < supply_pa:
         t_mean = 0.5 * (isentropic_temperature(p_motor, supply_pa, t_s, p[P.POLY_N]) + t_s)
-    return hose_mass_flow(p_valve, p_motor, t_mean, p[P.HOSE_L], p[P.HOSE_D], p[P.GAS_R], p[P.GAS_MU])
+    return hose_mass_flow_with(
+        p_valve, p_motor, t_mean, p[P.HOSE_L], p[P.HOSE_D], p[P.GAS_R], p[P.GAS_MU], p[P.HOSE_BLASIUS]
+    )
 
 
 @njit(inline="always")
@@ -170,7 +172,9 @@ def pressure_rates(
     m_a_valve = _port_valve_flow(pa_valve, direction > 0.0, p_s, inlet_area, p)
     m_b_valve = _port_valve_flow(pb_valve, direction < 0.0, p_s, inlet_area, p)
 
-    v_a, v_b, slope = chamber_geometry(phi_motor, p[P.STATOR], p[P.ROTOR], p[P.VANE_L], p[P.N_VANES], p[P.DEAD_V])
+    v_a, v_b, slope = chamber_geometry(
+        phi_motor, p[P.STATOR], p[P.ROTOR], p[P.VANE_L], p[P.N_VANES], p[P.DEAD_V], p[P.HALF_PITCH_V]
+    )
     dv_a = slope * omega_motor
     m_leak = orifice_mass_flow(pa_motor, pb_motor, p[P.LEAK_A], t_s, r, p[P.GAS_K])  # A -> B past the vanes
     # a leak in port A's hose (a fault) vents at the hose's valve end

@@ -22,6 +22,8 @@ from pydantic_core import PydanticCustomError
 
 from pneumatics.fields import MISSING, TABLE, TEXT, Problem, first_problem, number, number_check, read_toml
 from pneumatics.gas import AIR, Gas
+from pneumatics.hose import blasius_coefficient
+from pneumatics.motor import half_pitch_volume
 
 
 class ParameterError(ValueError):
@@ -246,13 +248,28 @@ def load_joint_params(path: str | Path) -> JointParams:
     return _related(params, str(path))
 
 
+# numbers the kernels need at every call that depend on the parameters alone, kept in the row
+# after the gas's fields (computed once by the laws' own functions: the same operations, the
+# same bits as computing them in the call)
+DERIVED = ("half_pitch_volume_m3", "hose_blasius_coefficient")
+
+
+def _derived(params: JointParams, gas: Gas) -> tuple[float, ...]:
+    # in the order of DERIVED
+    return (
+        half_pitch_volume(params.stator_radius_m, params.rotor_radius_m, params.vane_length_m, params.n_vanes),
+        blasius_coefficient(params.hose_length_m, params.hose_diameter_m, gas.mu_pa_s),
+    )
+
+
 def params_row(params: JointParams, gas: Gas = AIR) -> np.ndarray:
-    """The flat float64 row the compiled kernels read: the joint's fields, then the gas's."""
-    return np.array(tuple(params) + tuple(gas), dtype=np.float64)
+    """The flat float64 row the compiled kernels read: the joint's fields, then the gas's, then
+    the DERIVED numbers (the row is built only here, so they always match the fields)."""
+    return np.array(tuple(params) + tuple(gas) + _derived(params, gas), dtype=np.float64)
 
 
 # column of each field in `params_row` (compile-time constants for the kernels)
-_COLUMNS = {name: i for i, name in enumerate(JointParams._fields + tuple("gas_" + f for f in Gas._fields))}
+_COLUMNS = {name: i for i, name in enumerate(JointParams._fields + tuple("gas_" + f for f in Gas._fields) + DERIVED)}
 # each column named by its field (no positional slices: a field added anywhere moves nothing)
 STATOR = _COLUMNS["stator_radius_m"]
 ROTOR = _COLUMNS["rotor_radius_m"]
@@ -297,4 +314,6 @@ GAS_K = _COLUMNS["gas_k"]
 GAS_T = _COLUMNS["gas_t_supply_k"]
 GAS_P_ATM = _COLUMNS["gas_p_atm_pa"]
 GAS_MU = _COLUMNS["gas_mu_pa_s"]
+HALF_PITCH_V = _COLUMNS["half_pitch_volume_m3"]
+HOSE_BLASIUS = _COLUMNS["hose_blasius_coefficient"]
 N_COLUMNS = len(_COLUMNS)
