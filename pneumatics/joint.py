@@ -40,7 +40,7 @@ from pneumatics.gas import isentropic_temperature
 from pneumatics.hose import hose_mass_flow_with, hose_volume
 from pneumatics.integrators import heun_increment, rk4_increment
 from pneumatics.motor import chamber_geometry, vane_torque
-from pneumatics.orifice import orifice_mass_flow
+from pneumatics.orifice import orifice_mass_flow_with
 from pneumatics.reducer import (
     damping,
     inertia_split,
@@ -110,7 +110,7 @@ def effective_supply(
         return supply_pa
     area = p[P.A_IN] * p[P.COND_SCALE] * opening
     upstream = regulated_pressure(supply_pa, valve_gauge_pa, p[P.GAS_P_ATM])
-    draw = max(0.0, orifice_mass_flow(upstream, p_node_pa, area, p[P.GAS_T], p[P.GAS_R], p[P.GAS_K]))
+    draw = max(0.0, orifice_mass_flow_with(upstream, p_node_pa, area, p[P.CHOKED_FLUX], p[P.GAS_K]))
     return max(p[P.GAS_P_ATM], supply_pa - p[P.DROOP] * draw)
 
 
@@ -118,11 +118,11 @@ def effective_supply(
 def _port_valve_flow(p_node: float, supplied: bool, supply_pa: float, inlet_area: float, p: np.ndarray) -> float:
     # mass flow into a port's valve node from the supply (through the proportional valve) or
     # from the atmosphere (through the exhaust throttle; negative when exhausting)
-    r = p[P.GAS_R]
+    flux = p[P.CHOKED_FLUX]  # the air at both ends is taken at supply temperature
     k = p[P.GAS_K]
     if supplied:
-        return orifice_mass_flow(supply_pa, p_node, inlet_area, p[P.GAS_T], r, k)
-    return orifice_mass_flow(p[P.GAS_P_ATM], p_node, p[P.A_EX] * p[P.COND_SCALE], p[P.GAS_T], r, k)
+        return orifice_mass_flow_with(supply_pa, p_node, inlet_area, flux, k)
+    return orifice_mass_flow_with(p[P.GAS_P_ATM], p_node, p[P.A_EX] * p[P.COND_SCALE], flux, k)
 
 
 @njit(inline="always")
@@ -135,7 +135,7 @@ def _hose_flow(p_valve: float, p_motor: float, supply_pa: float, p: np.ndarray) 
     if p_motor > p_valve and p_motor < supply_pa:
         t_mean = 0.5 * (isentropic_temperature(p_motor, supply_pa, t_s, p[P.POLY_N]) + t_s)
     return hose_mass_flow_with(
-        p_valve, p_motor, t_mean, p[P.HOSE_L], p[P.HOSE_D], p[P.GAS_R], p[P.GAS_MU], p[P.HOSE_BLASIUS]
+        p_valve, p_motor, t_mean, p[P.GAS_R], p[P.HOSE_K_LAMINAR], p[P.HOSE_LAMINAR_LIMIT], p[P.HOSE_K_BLASIUS]
     )
 
 
@@ -176,9 +176,11 @@ def pressure_rates(
         phi_motor, p[P.STATOR], p[P.ROTOR], p[P.VANE_L], p[P.N_VANES], p[P.DEAD_V], p[P.HALF_PITCH_V]
     )
     dv_a = slope * omega_motor
-    m_leak = orifice_mass_flow(pa_motor, pb_motor, p[P.LEAK_A], t_s, r, p[P.GAS_K])  # A -> B past the vanes
+    m_leak = orifice_mass_flow_with(
+        pa_motor, pb_motor, p[P.LEAK_A], p[P.CHOKED_FLUX], p[P.GAS_K]
+    )  # A -> B past the vanes
     # a leak in port A's hose (a fault) vents at the hose's valve end
-    m_a_valve -= orifice_mass_flow(pa_valve, p[P.GAS_P_ATM], p[P.HOSE_LEAK_A], t_s, r, p[P.GAS_K])
+    m_a_valve -= orifice_mass_flow_with(pa_valve, p[P.GAS_P_ATM], p[P.HOSE_LEAK_A], p[P.CHOKED_FLUX], p[P.GAS_K])
     half_hose = 0.5 * hose_volume(p[P.HOSE_L], p[P.HOSE_D])
 
     if p[P.HOSE_LOSS] == 0.0:

@@ -22,8 +22,9 @@ from pydantic_core import PydanticCustomError
 
 from pneumatics.fields import MISSING, TABLE, TEXT, Problem, first_problem, number, number_check, read_toml
 from pneumatics.gas import AIR, Gas
-from pneumatics.hose import blasius_coefficient
+from pneumatics.hose import hose_constants
 from pneumatics.motor import half_pitch_volume
+from pneumatics.orifice import choked_flux
 
 
 class ParameterError(ValueError):
@@ -251,14 +252,21 @@ def load_joint_params(path: str | Path) -> JointParams:
 # numbers the kernels need at every call that depend on the parameters alone, kept in the row
 # after the gas's fields (computed once by the laws' own functions: the same operations, the
 # same bits as computing them in the call)
-DERIVED = ("half_pitch_volume_m3", "hose_blasius_coefficient")
+DERIVED = (
+    "half_pitch_volume_m3",
+    "hose_k_laminar",
+    "hose_laminar_limit_kg_s",
+    "hose_k_blasius",
+    "choked_flux_s_m",
+)
 
 
 def _derived(params: JointParams, gas: Gas) -> tuple[float, ...]:
     # in the order of DERIVED
     return (
         half_pitch_volume(params.stator_radius_m, params.rotor_radius_m, params.vane_length_m, params.n_vanes),
-        blasius_coefficient(params.hose_length_m, params.hose_diameter_m, gas.mu_pa_s),
+        *hose_constants(params.hose_length_m, params.hose_diameter_m, gas.mu_pa_s),
+        choked_flux(gas.t_supply_k, gas.r_j_per_kg_k, gas.k),
     )
 
 
@@ -315,5 +323,8 @@ GAS_T = _COLUMNS["gas_t_supply_k"]
 GAS_P_ATM = _COLUMNS["gas_p_atm_pa"]
 GAS_MU = _COLUMNS["gas_mu_pa_s"]
 HALF_PITCH_V = _COLUMNS["half_pitch_volume_m3"]
-HOSE_BLASIUS = _COLUMNS["hose_blasius_coefficient"]
+HOSE_K_LAMINAR = _COLUMNS["hose_k_laminar"]
+HOSE_LAMINAR_LIMIT = _COLUMNS["hose_laminar_limit_kg_s"]
+HOSE_K_BLASIUS = _COLUMNS["hose_k_blasius"]
+CHOKED_FLUX = _COLUMNS["choked_flux_s_m"]
 N_COLUMNS = len(_COLUMNS)
