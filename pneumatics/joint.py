@@ -140,7 +140,7 @@ def _hose_flow(p_valve: float, p_motor: float, supply_pa: float, p: np.ndarray) 
 
 
 @njit(inline="always")
-def pressure_rates(
+def _pressure_rates_and_slope(
     pa_valve: float,
     pa_motor: float,
     pb_valve: float,
@@ -151,13 +151,8 @@ def pressure_rates(
     valve_gauge_pa: float,
     supply_pa: float,
     p: np.ndarray,
-) -> tuple[float, float, float, float]:
-    """Rates (Pa/s) of the four node pressures, paper eq. 7 rows 3-4 with the hose on both ports.
-
-    `direction` +1 pressurises port A (motor turns positive), -1 port B, 0 exhausts both.
-    `valve_gauge_pa` is the proportional valve's output pressure P_v: the pressure it delivers
-    (capped by the absolute `supply_pa`) and, through u = k_u P_v, its opening (paper Sec. IV).
-    """
+) -> tuple[float, float, float, float, float]:
+    # `pressure_rates` and the motor's volume slope dV_A/dphi at phi_motor (m^3/rad), which it computes anyway
     r = p[P.GAS_R]
     t_s = p[P.GAS_T]
     n = p[P.POLY_N]
@@ -187,7 +182,7 @@ def pressure_rates(
         # one node per port: motor chamber + porting + the whole hose
         da = chamber_pressure_rate(pa_motor, v_a + 2.0 * half_hose, dv_a, m_a_valve - m_leak, t_s, r, n)
         db = chamber_pressure_rate(pb_motor, v_b + 2.0 * half_hose, -dv_a, m_b_valve + m_leak, t_s, r, n)
-        return da, da, db, db
+        return da, da, db, db, slope
 
     m_a_hose = _hose_flow(pa_valve, pa_motor, p_s, p)
     m_b_hose = _hose_flow(pb_valve, pb_motor, p_s, p)
@@ -196,7 +191,33 @@ def pressure_rates(
         chamber_pressure_rate(pa_motor, v_a + half_hose, dv_a, m_a_hose - m_leak, t_s, r, n),
         chamber_pressure_rate(pb_valve, half_hose, 0.0, m_b_valve - m_b_hose, t_s, r, n),
         chamber_pressure_rate(pb_motor, v_b + half_hose, -dv_a, m_b_hose + m_leak, t_s, r, n),
+        slope,
     )
+
+
+@njit(inline="always")
+def pressure_rates(
+    pa_valve: float,
+    pa_motor: float,
+    pb_valve: float,
+    pb_motor: float,
+    phi_motor: float,
+    omega_motor: float,
+    direction: float,
+    valve_gauge_pa: float,
+    supply_pa: float,
+    p: np.ndarray,
+) -> tuple[float, float, float, float]:
+    """Rates (Pa/s) of the four node pressures, paper eq. 7 rows 3-4 with the hose on both ports.
+
+    `direction` +1 pressurises port A (motor turns positive), -1 port B, 0 exhausts both.
+    `valve_gauge_pa` is the proportional valve's output pressure P_v: the pressure it delivers
+    (capped by the absolute `supply_pa`) and, through u = k_u P_v, its opening (paper Sec. IV).
+    """
+    r = _pressure_rates_and_slope(
+        pa_valve, pa_motor, pb_valve, pb_motor, phi_motor, omega_motor, direction, valve_gauge_pa, supply_pa, p
+    )
+    return r[0], r[1], r[2], r[3]
 
 
 @njit
@@ -211,6 +232,12 @@ def joint_torque(pa_motor: float, pb_motor: float, phi_motor: float, omega_joint
     (an effect outside the paper's model, used by the gap bench).
     """
     t_motor = vane_torque(pa_motor, pb_motor, phi_motor, p[P.STATOR], p[P.ROTOR], p[P.VANE_L], p[P.N_VANES])
+    return _through_reducer(t_motor, phi_motor, omega_joint, p)
+
+
+@njit(inline="always")
+def _through_reducer(t_motor: float, phi_motor: float, omega_joint: float, p: np.ndarray) -> float:
+    # the rest of `joint_torque` from the vane torque: the ripple, the reducer
     if p[P.RIPPLE] != 0.0:
         t_motor *= 1.0 + p[P.RIPPLE] * math.cos(p[P.N_VANES] * phi_motor)
     return reducer_output_torque(t_motor, omega_joint, p[P.RATIO], p[P.ETA_F], p[P.ETA_B])
@@ -315,28 +342,33 @@ def advance_pressures(
     dt_s: float,
     substeps: int,
     p: np.ndarray,
-) -> None:
+) -> float:
     """Integrate the four node pressures over dt with the joint moving at constant speed, in place,
     the proportional valve's output held at `valve_gauge_pa` (its mean over the step, from
-    `advance_discrete`).
+    `advance_discrete`); return `joint_torque` at the step's start (the pressures in x on entry,
+    the angle `theta`, the speed `omega`), from the motor's geometry the first stage computes.
 
     Heun's method (explicit trapezoid) in `substeps` sub-steps; the motor angle advances with
     the joint inside the step so that the quarter-turn chamber switching is resolved.
     """
+    ratio = p[P.RATIO]
     if at_rest(x, omega, p):
-        return
+        return joint_torque(x[S_PA_MOTOR], x[S_PB_MOTOR], ratio * theta, omega, p)
     valve = valve_gauge_pa
     direction = x[S_DIR]
-    ratio = p[P.RATIO]
     h = dt_s / substeps
     w_m = ratio * omega
     a_v = x[S_PA_VALVE]
     a_m = x[S_PA_MOTOR]
     b_v = x[S_PB_VALVE]
     b_m = x[S_PB_MOTOR]
+    t_motor = 0.0
     for i in range(substeps):
+        # for i = 0 phi0 is ratio * theta to the bit (or its zero of the other sign: the same slope)
         phi0 = ratio * (theta + omega * i * h)
-        k1 = pressure_rates(a_v, a_m, b_v, b_m, phi0, w_m, direction, valve, supply_pa, p)
+        k1 = _pressure_rates_and_slope(a_v, a_m, b_v, b_m, phi0, w_m, direction, valve, supply_pa, p)
+        if i == 0 and a_m != b_m:
+            t_motor = (a_m - b_m) * k1[4]  # `vane_torque`: the pressure difference times dV_A/dphi
         k2 = pressure_rates(
             a_v + h * k1[0],
             a_m + h * k1[1],
@@ -357,6 +389,7 @@ def advance_pressures(
     x[S_PA_MOTOR] = a_m
     x[S_PB_VALVE] = b_v
     x[S_PB_MOTOR] = b_m
+    return _through_reducer(t_motor, ratio * theta, omega, p)
 
 
 @njit
