@@ -243,6 +243,12 @@ def _through_reducer(t_motor: float, phi_motor: float, omega_joint: float, p: np
     return reducer_output_torque(t_motor, omega_joint, p[P.RATIO], p[P.ETA_F], p[P.ETA_B])
 
 
+@njit(inline="always")
+def _kept(p: np.ndarray, column: int, dt_s: float) -> float:
+    # a lag factor the row keeps for steps of dt_s (`params_row`), or -1: the lag computes it
+    return p[column] if p[P.LAG_DT] == dt_s else -1.0
+
+
 @njit
 def advance_discrete(x: np.ndarray, command: np.ndarray, supply_pa: float, dt_s: float, p: np.ndarray) -> float:
     """Advance the valves of one joint over dt, in place (exact for held inputs); return the
@@ -261,8 +267,8 @@ def advance_discrete(x: np.ndarray, command: np.ndarray, supply_pa: float, dt_s:
         )
         set_point = x[S_PV_SET]
     target = proportional_valve_target(set_point, supply_gauge)
-    mean = lag_mean(x[S_PV], target, dt_s, p[P.VALVE_TAU])
-    x[S_PV] = lag_toward(x[S_PV], target, dt_s, p[P.VALVE_TAU])
+    mean = lag_mean(x[S_PV], target, dt_s, p[P.VALVE_TAU], _kept(p, P.VALVE_MEAN_GAIN, dt_s))
+    x[S_PV] = lag_toward(x[S_PV], target, dt_s, p[P.VALVE_TAU], _kept(p, P.VALVE_DECAY, dt_s))
     return mean
 
 
@@ -289,7 +295,15 @@ def brake_over_step(
     step's start: what a step that holds the brake's friction constant should hold (the springs
     engage in ~20 ms, so the value at the step's start would brake a 1 ms step late)."""
     engage = _brake_target_now(command, supply_pa, pa_motor_pa, pb_motor_pa, p)
-    return brake_mean(x[S_BRAKE], engage, p[P.BRAKE_TAU_ON], p[P.BRAKE_TAU_OFF], dt_s)
+    return brake_mean(
+        x[S_BRAKE],
+        engage,
+        p[P.BRAKE_TAU_ON],
+        p[P.BRAKE_TAU_OFF],
+        dt_s,
+        _kept(p, P.BRAKE_ON_MEAN_GAIN, dt_s),
+        _kept(p, P.BRAKE_OFF_MEAN_GAIN, dt_s),
+    )
 
 
 @njit
@@ -314,7 +328,15 @@ def advance_brake(
     """
     start = _brake_target_now(command, supply_pa, pa_start_pa, pb_start_pa, p)
     end = _brake_target_now(command, supply_pa, pa_end_pa, pb_end_pa, p)
-    x[S_BRAKE] = brake_step(x[S_BRAKE], 0.5 * (start + end), p[P.BRAKE_TAU_ON], p[P.BRAKE_TAU_OFF], dt_s)
+    x[S_BRAKE] = brake_step(
+        x[S_BRAKE],
+        0.5 * (start + end),
+        p[P.BRAKE_TAU_ON],
+        p[P.BRAKE_TAU_OFF],
+        dt_s,
+        _kept(p, P.BRAKE_ON_DECAY, dt_s),
+        _kept(p, P.BRAKE_OFF_DECAY, dt_s),
+    )
 
 
 @njit

@@ -12,6 +12,7 @@ says where it comes from.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from pathlib import Path
 from typing import NamedTuple
@@ -25,6 +26,7 @@ from pneumatics.gas import AIR, Gas
 from pneumatics.hose import hose_constants
 from pneumatics.motor import half_pitch_volume
 from pneumatics.orifice import choked_flux
+from pneumatics.valves import lag_factors
 
 
 class ParameterError(ValueError):
@@ -258,22 +260,43 @@ DERIVED = (
     "hose_laminar_limit_kg_s",
     "hose_k_blasius",
     "choked_flux_s_m",
+    # the lags' factors for steps of lag_dt_s (`valves.lag_factors`; NaN: a row for no one step)
+    "lag_dt_s",
+    "valve_decay",
+    "valve_mean_gain",
+    "brake_engage_decay",
+    "brake_engage_mean_gain",
+    "brake_release_decay",
+    "brake_release_mean_gain",
 )
 
 
-def _derived(params: JointParams, gas: Gas) -> tuple[float, ...]:
+def _derived(params: JointParams, gas: Gas, dt_s: float) -> tuple[float, ...]:
     # in the order of DERIVED
+    lags: tuple[float, ...] = (math.nan,) * 6
+    if math.isfinite(dt_s):
+        lags = (
+            *lag_factors(dt_s, params.valve_time_constant_s),
+            *lag_factors(dt_s, params.brake_engage_time_constant_s),
+            *lag_factors(dt_s, params.brake_release_time_constant_s),
+        )
     return (
         half_pitch_volume(params.stator_radius_m, params.rotor_radius_m, params.vane_length_m, params.n_vanes),
         *hose_constants(params.hose_length_m, params.hose_diameter_m, gas.mu_pa_s),
         choked_flux(gas.t_supply_k, gas.r_j_per_kg_k, gas.k),
+        dt_s,
+        *lags,
     )
 
 
-def params_row(params: JointParams, gas: Gas = AIR) -> np.ndarray:
+def params_row(params: JointParams, gas: Gas = AIR, dt_s: float = math.nan) -> np.ndarray:
     """The flat float64 row the compiled kernels read: the joint's fields, then the gas's, then
-    the DERIVED numbers (the row is built only here, so they always match the fields)."""
-    return np.array(tuple(params) + tuple(gas) + _derived(params, gas), dtype=np.float64)
+    the DERIVED numbers (the row is built only here, so they always match the fields).
+
+    `dt_s`: the step its user takes (the plant's physics step, the predictor's tick), for which
+    the row keeps the valve's and the brake's lag factors; a kernel stepping by another dt
+    computes them itself (`pneumatics.joint.advance_discrete`), to the same bits."""
+    return np.array(tuple(params) + tuple(gas) + _derived(params, gas, dt_s), dtype=np.float64)
 
 
 # column of each field in `params_row` (compile-time constants for the kernels)
@@ -327,4 +350,11 @@ HOSE_K_LAMINAR = _COLUMNS["hose_k_laminar"]
 HOSE_LAMINAR_LIMIT = _COLUMNS["hose_laminar_limit_kg_s"]
 HOSE_K_BLASIUS = _COLUMNS["hose_k_blasius"]
 CHOKED_FLUX = _COLUMNS["choked_flux_s_m"]
+LAG_DT = _COLUMNS["lag_dt_s"]
+VALVE_DECAY = _COLUMNS["valve_decay"]
+VALVE_MEAN_GAIN = _COLUMNS["valve_mean_gain"]
+BRAKE_ON_DECAY = _COLUMNS["brake_engage_decay"]
+BRAKE_ON_MEAN_GAIN = _COLUMNS["brake_engage_mean_gain"]
+BRAKE_OFF_DECAY = _COLUMNS["brake_release_decay"]
+BRAKE_OFF_MEAN_GAIN = _COLUMNS["brake_release_mean_gain"]
 N_COLUMNS = len(_COLUMNS)
