@@ -48,22 +48,38 @@ def brake_target(release_command: float, feed_gauge_pa: float, start_gauge_pa: f
 
 
 @njit
-def _time_constant(engagement: float, target: float, engage_tau_s: float, release_tau_s: float) -> float:
-    # the springs engage it; the air releases it
-    return engage_tau_s if target > engagement else release_tau_s
+def brake_step(
+    engagement: float,
+    target: float,
+    engage_tau_s: float,
+    release_tau_s: float,
+    dt_s: float,
+    engage_decay: float = -1.0,
+    release_decay: float = -1.0,
+) -> float:
+    """Engagement after dt, moving toward `target` (`brake_target`). The decays, if given, are
+    `lag_factors(dt_s, tau)[0]` of the two time constants (`lag_toward`)."""
+    if target > engagement:  # the springs engage it; the air releases it
+        return lag_toward(engagement, target, dt_s, engage_tau_s, engage_decay)
+    return lag_toward(engagement, target, dt_s, release_tau_s, release_decay)
 
 
 @njit
-def brake_step(engagement: float, target: float, engage_tau_s: float, release_tau_s: float, dt_s: float) -> float:
-    """Engagement after dt, moving toward `target` (`brake_target`)."""
-    return lag_toward(engagement, target, dt_s, _time_constant(engagement, target, engage_tau_s, release_tau_s))
-
-
-@njit
-def brake_mean(engagement: float, target: float, engage_tau_s: float, release_tau_s: float, dt_s: float) -> float:
+def brake_mean(
+    engagement: float,
+    target: float,
+    engage_tau_s: float,
+    release_tau_s: float,
+    dt_s: float,
+    engage_gain: float = -1.0,
+    release_gain: float = -1.0,
+) -> float:
     """Engagement averaged over the coming dt while it moves toward `target` (what a step that
-    holds the brake's friction constant should hold)."""
-    return lag_mean(engagement, target, dt_s, _time_constant(engagement, target, engage_tau_s, release_tau_s))
+    holds the brake's friction constant should hold). The gains, if given, are
+    `lag_factors(dt_s, tau)[1]` of the two time constants (`lag_mean`)."""
+    if target > engagement:  # the springs engage it; the air releases it
+        return lag_mean(engagement, target, dt_s, engage_tau_s, engage_gain)
+    return lag_mean(engagement, target, dt_s, release_tau_s, release_gain)
 
 
 @njit

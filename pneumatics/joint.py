@@ -37,10 +37,10 @@ from pneumatics.brake import brake_feed_gauge_pa, brake_holding_torque, brake_me
 from pneumatics.chamber import chamber_pressure_rate
 from pneumatics.friction import coulomb_viscous_torque, reducer_output_torque, stribeck_excess_torque
 from pneumatics.gas import isentropic_temperature
-from pneumatics.hose import hose_mass_flow, hose_volume
+from pneumatics.hose import hose_mass_flow_with, hose_volume
 from pneumatics.integrators import heun_increment, rk4_increment
 from pneumatics.motor import chamber_geometry, vane_torque
-from pneumatics.orifice import orifice_mass_flow
+from pneumatics.orifice import orifice_mass_flow_with
 from pneumatics.reducer import (
     damping,
     inertia_split,
@@ -110,7 +110,7 @@ def effective_supply(
         return supply_pa
     area = p[P.A_IN] * p[P.COND_SCALE] * opening
     upstream = regulated_pressure(supply_pa, valve_gauge_pa, p[P.GAS_P_ATM])
-    draw = max(0.0, orifice_mass_flow(upstream, p_node_pa, area, p[P.GAS_T], p[P.GAS_R], p[P.GAS_K]))
+    draw = max(0.0, orifice_mass_flow_with(upstream, p_node_pa, area, p[P.CHOKED_FLUX], p[P.GAS_K]))
     return max(p[P.GAS_P_ATM], supply_pa - p[P.DROOP] * draw)
 
 
@@ -118,11 +118,11 @@ def effective_supply(
 def _port_valve_flow(p_node: float, supplied: bool, supply_pa: float, inlet_area: float, p: np.ndarray) -> float:
     # mass flow into a port's valve node from the supply (through the proportional valve) or
     # from the atmosphere (through the exhaust throttle; negative when exhausting)
-    r = p[P.GAS_R]
+    flux = p[P.CHOKED_FLUX]  # the air at both ends is taken at supply temperature
     k = p[P.GAS_K]
     if supplied:
-        return orifice_mass_flow(supply_pa, p_node, inlet_area, p[P.GAS_T], r, k)
-    return orifice_mass_flow(p[P.GAS_P_ATM], p_node, p[P.A_EX] * p[P.COND_SCALE], p[P.GAS_T], r, k)
+        return orifice_mass_flow_with(supply_pa, p_node, inlet_area, flux, k)
+    return orifice_mass_flow_with(p[P.GAS_P_ATM], p_node, p[P.A_EX] * p[P.COND_SCALE], flux, k)
 
 
 @njit(inline="always")
@@ -134,7 +134,65 @@ def _hose_flow(p_valve: float, p_motor: float, supply_pa: float, p: np.ndarray) 
     t_mean = t_s
     if p_motor > p_valve and p_motor < supply_pa:
         t_mean = 0.5 * (isentropic_temperature(p_motor, supply_pa, t_s, p[P.POLY_N]) + t_s)
-    return hose_mass_flow(p_valve, p_motor, t_mean, p[P.HOSE_L], p[P.HOSE_D], p[P.GAS_R], p[P.GAS_MU])
+    return hose_mass_flow_with(
+        p_valve, p_motor, t_mean, p[P.GAS_R], p[P.HOSE_K_LAMINAR], p[P.HOSE_LAMINAR_LIMIT], p[P.HOSE_K_BLASIUS]
+    )
+
+
+@njit(inline="always")
+def _pressure_rates_and_slope(
+    pa_valve: float,
+    pa_motor: float,
+    pb_valve: float,
+    pb_motor: float,
+    phi_motor: float,
+    omega_motor: float,
+    direction: float,
+    valve_gauge_pa: float,
+    supply_pa: float,
+    p: np.ndarray,
+) -> tuple[float, float, float, float, float]:
+    # `pressure_rates` and the motor's volume slope dV_A/dphi at phi_motor (m^3/rad), which it computes anyway
+    r = p[P.GAS_R]
+    t_s = p[P.GAS_T]
+    n = p[P.POLY_N]
+    opening = valve_opening(valve_gauge_pa, p[P.K_U], p[P.DEAD_ZONE])
+    supplied_node = pa_valve if direction > 0.0 else pb_valve
+    p_s = regulated_pressure(
+        effective_supply(supply_pa, valve_gauge_pa, opening, direction, supplied_node, p),
+        valve_gauge_pa,
+        p[P.GAS_P_ATM],
+    )
+    inlet_area = p[P.A_IN] * p[P.COND_SCALE] * opening
+    m_a_valve = _port_valve_flow(pa_valve, direction > 0.0, p_s, inlet_area, p)
+    m_b_valve = _port_valve_flow(pb_valve, direction < 0.0, p_s, inlet_area, p)
+
+    v_a, v_b, slope = chamber_geometry(
+        phi_motor, p[P.STATOR], p[P.ROTOR], p[P.VANE_L], p[P.N_VANES], p[P.DEAD_V], p[P.HALF_PITCH_V]
+    )
+    dv_a = slope * omega_motor
+    m_leak = orifice_mass_flow_with(
+        pa_motor, pb_motor, p[P.LEAK_A], p[P.CHOKED_FLUX], p[P.GAS_K]
+    )  # A -> B past the vanes
+    # a leak in port A's hose (a fault) vents at the hose's valve end
+    m_a_valve -= orifice_mass_flow_with(pa_valve, p[P.GAS_P_ATM], p[P.HOSE_LEAK_A], p[P.CHOKED_FLUX], p[P.GAS_K])
+    half_hose = 0.5 * hose_volume(p[P.HOSE_L], p[P.HOSE_D])
+
+    if p[P.HOSE_LOSS] == 0.0:
+        # one node per port: motor chamber + porting + the whole hose
+        da = chamber_pressure_rate(pa_motor, v_a + 2.0 * half_hose, dv_a, m_a_valve - m_leak, t_s, r, n)
+        db = chamber_pressure_rate(pb_motor, v_b + 2.0 * half_hose, -dv_a, m_b_valve + m_leak, t_s, r, n)
+        return da, da, db, db, slope
+
+    m_a_hose = _hose_flow(pa_valve, pa_motor, p_s, p)
+    m_b_hose = _hose_flow(pb_valve, pb_motor, p_s, p)
+    return (
+        chamber_pressure_rate(pa_valve, half_hose, 0.0, m_a_valve - m_a_hose, t_s, r, n),
+        chamber_pressure_rate(pa_motor, v_a + half_hose, dv_a, m_a_hose - m_leak, t_s, r, n),
+        chamber_pressure_rate(pb_valve, half_hose, 0.0, m_b_valve - m_b_hose, t_s, r, n),
+        chamber_pressure_rate(pb_motor, v_b + half_hose, -dv_a, m_b_hose + m_leak, t_s, r, n),
+        slope,
+    )
 
 
 @njit(inline="always")
@@ -156,41 +214,10 @@ def pressure_rates(
     `valve_gauge_pa` is the proportional valve's output pressure P_v: the pressure it delivers
     (capped by the absolute `supply_pa`) and, through u = k_u P_v, its opening (paper Sec. IV).
     """
-    r = p[P.GAS_R]
-    t_s = p[P.GAS_T]
-    n = p[P.POLY_N]
-    opening = valve_opening(valve_gauge_pa, p[P.K_U], p[P.DEAD_ZONE])
-    supplied_node = pa_valve if direction > 0.0 else pb_valve
-    p_s = regulated_pressure(
-        effective_supply(supply_pa, valve_gauge_pa, opening, direction, supplied_node, p),
-        valve_gauge_pa,
-        p[P.GAS_P_ATM],
+    r = _pressure_rates_and_slope(
+        pa_valve, pa_motor, pb_valve, pb_motor, phi_motor, omega_motor, direction, valve_gauge_pa, supply_pa, p
     )
-    inlet_area = p[P.A_IN] * p[P.COND_SCALE] * opening
-    m_a_valve = _port_valve_flow(pa_valve, direction > 0.0, p_s, inlet_area, p)
-    m_b_valve = _port_valve_flow(pb_valve, direction < 0.0, p_s, inlet_area, p)
-
-    v_a, v_b, slope = chamber_geometry(phi_motor, p[P.STATOR], p[P.ROTOR], p[P.VANE_L], p[P.N_VANES], p[P.DEAD_V])
-    dv_a = slope * omega_motor
-    m_leak = orifice_mass_flow(pa_motor, pb_motor, p[P.LEAK_A], t_s, r, p[P.GAS_K])  # A -> B past the vanes
-    # a leak in port A's hose (a fault) vents at the hose's valve end
-    m_a_valve -= orifice_mass_flow(pa_valve, p[P.GAS_P_ATM], p[P.HOSE_LEAK_A], t_s, r, p[P.GAS_K])
-    half_hose = 0.5 * hose_volume(p[P.HOSE_L], p[P.HOSE_D])
-
-    if p[P.HOSE_LOSS] == 0.0:
-        # one node per port: motor chamber + porting + the whole hose
-        da = chamber_pressure_rate(pa_motor, v_a + 2.0 * half_hose, dv_a, m_a_valve - m_leak, t_s, r, n)
-        db = chamber_pressure_rate(pb_motor, v_b + 2.0 * half_hose, -dv_a, m_b_valve + m_leak, t_s, r, n)
-        return da, da, db, db
-
-    m_a_hose = _hose_flow(pa_valve, pa_motor, p_s, p)
-    m_b_hose = _hose_flow(pb_valve, pb_motor, p_s, p)
-    return (
-        chamber_pressure_rate(pa_valve, half_hose, 0.0, m_a_valve - m_a_hose, t_s, r, n),
-        chamber_pressure_rate(pa_motor, v_a + half_hose, dv_a, m_a_hose - m_leak, t_s, r, n),
-        chamber_pressure_rate(pb_valve, half_hose, 0.0, m_b_valve - m_b_hose, t_s, r, n),
-        chamber_pressure_rate(pb_motor, v_b + half_hose, -dv_a, m_b_hose + m_leak, t_s, r, n),
-    )
+    return r[0], r[1], r[2], r[3]
 
 
 @njit
@@ -205,9 +232,21 @@ def joint_torque(pa_motor: float, pb_motor: float, phi_motor: float, omega_joint
     (an effect outside the paper's model, used by the gap bench).
     """
     t_motor = vane_torque(pa_motor, pb_motor, phi_motor, p[P.STATOR], p[P.ROTOR], p[P.VANE_L], p[P.N_VANES])
+    return _through_reducer(t_motor, phi_motor, omega_joint, p)
+
+
+@njit(inline="always")
+def _through_reducer(t_motor: float, phi_motor: float, omega_joint: float, p: np.ndarray) -> float:
+    # the rest of `joint_torque` from the vane torque: the ripple, the reducer
     if p[P.RIPPLE] != 0.0:
         t_motor *= 1.0 + p[P.RIPPLE] * math.cos(p[P.N_VANES] * phi_motor)
     return reducer_output_torque(t_motor, omega_joint, p[P.RATIO], p[P.ETA_F], p[P.ETA_B])
+
+
+@njit(inline="always")
+def _kept(p: np.ndarray, column: int, dt_s: float) -> float:
+    # a lag factor the row keeps for steps of dt_s (`params_row`), or -1: the lag computes it
+    return p[column] if p[P.LAG_DT] == dt_s else -1.0
 
 
 @njit
@@ -228,8 +267,8 @@ def advance_discrete(x: np.ndarray, command: np.ndarray, supply_pa: float, dt_s:
         )
         set_point = x[S_PV_SET]
     target = proportional_valve_target(set_point, supply_gauge)
-    mean = lag_mean(x[S_PV], target, dt_s, p[P.VALVE_TAU])
-    x[S_PV] = lag_toward(x[S_PV], target, dt_s, p[P.VALVE_TAU])
+    mean = lag_mean(x[S_PV], target, dt_s, p[P.VALVE_TAU], _kept(p, P.VALVE_MEAN_GAIN, dt_s))
+    x[S_PV] = lag_toward(x[S_PV], target, dt_s, p[P.VALVE_TAU], _kept(p, P.VALVE_DECAY, dt_s))
     return mean
 
 
@@ -256,7 +295,15 @@ def brake_over_step(
     step's start: what a step that holds the brake's friction constant should hold (the springs
     engage in ~20 ms, so the value at the step's start would brake a 1 ms step late)."""
     engage = _brake_target_now(command, supply_pa, pa_motor_pa, pb_motor_pa, p)
-    return brake_mean(x[S_BRAKE], engage, p[P.BRAKE_TAU_ON], p[P.BRAKE_TAU_OFF], dt_s)
+    return brake_mean(
+        x[S_BRAKE],
+        engage,
+        p[P.BRAKE_TAU_ON],
+        p[P.BRAKE_TAU_OFF],
+        dt_s,
+        _kept(p, P.BRAKE_ON_MEAN_GAIN, dt_s),
+        _kept(p, P.BRAKE_OFF_MEAN_GAIN, dt_s),
+    )
 
 
 @njit
@@ -281,7 +328,15 @@ def advance_brake(
     """
     start = _brake_target_now(command, supply_pa, pa_start_pa, pb_start_pa, p)
     end = _brake_target_now(command, supply_pa, pa_end_pa, pb_end_pa, p)
-    x[S_BRAKE] = brake_step(x[S_BRAKE], 0.5 * (start + end), p[P.BRAKE_TAU_ON], p[P.BRAKE_TAU_OFF], dt_s)
+    x[S_BRAKE] = brake_step(
+        x[S_BRAKE],
+        0.5 * (start + end),
+        p[P.BRAKE_TAU_ON],
+        p[P.BRAKE_TAU_OFF],
+        dt_s,
+        _kept(p, P.BRAKE_ON_DECAY, dt_s),
+        _kept(p, P.BRAKE_OFF_DECAY, dt_s),
+    )
 
 
 @njit
@@ -309,28 +364,33 @@ def advance_pressures(
     dt_s: float,
     substeps: int,
     p: np.ndarray,
-) -> None:
+) -> float:
     """Integrate the four node pressures over dt with the joint moving at constant speed, in place,
     the proportional valve's output held at `valve_gauge_pa` (its mean over the step, from
-    `advance_discrete`).
+    `advance_discrete`); return `joint_torque` at the step's start (the pressures in x on entry,
+    the angle `theta`, the speed `omega`), from the motor's geometry the first stage computes.
 
     Heun's method (explicit trapezoid) in `substeps` sub-steps; the motor angle advances with
     the joint inside the step so that the quarter-turn chamber switching is resolved.
     """
+    ratio = p[P.RATIO]
     if at_rest(x, omega, p):
-        return
+        return joint_torque(x[S_PA_MOTOR], x[S_PB_MOTOR], ratio * theta, omega, p)
     valve = valve_gauge_pa
     direction = x[S_DIR]
-    ratio = p[P.RATIO]
     h = dt_s / substeps
     w_m = ratio * omega
     a_v = x[S_PA_VALVE]
     a_m = x[S_PA_MOTOR]
     b_v = x[S_PB_VALVE]
     b_m = x[S_PB_MOTOR]
+    t_motor = 0.0
     for i in range(substeps):
+        # for i = 0 phi0 is ratio * theta to the bit (or its zero of the other sign: the same slope)
         phi0 = ratio * (theta + omega * i * h)
-        k1 = pressure_rates(a_v, a_m, b_v, b_m, phi0, w_m, direction, valve, supply_pa, p)
+        k1 = _pressure_rates_and_slope(a_v, a_m, b_v, b_m, phi0, w_m, direction, valve, supply_pa, p)
+        if i == 0 and a_m != b_m:
+            t_motor = (a_m - b_m) * k1[4]  # `vane_torque`: the pressure difference times dV_A/dphi
         k2 = pressure_rates(
             a_v + h * k1[0],
             a_m + h * k1[1],
@@ -351,6 +411,7 @@ def advance_pressures(
     x[S_PA_MOTOR] = a_m
     x[S_PB_VALVE] = b_v
     x[S_PB_MOTOR] = b_m
+    return _through_reducer(t_motor, ratio * theta, omega, p)
 
 
 @njit

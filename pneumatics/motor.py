@@ -30,6 +30,21 @@ def wrap_motor_angle(phi_rad: float, n_vanes: float) -> float:
 
 
 @njit
+def half_pitch_volume(stator_radius_m: float, rotor_radius_m: float, vane_length_m: float, n_vanes: float) -> float:
+    """Half the volume one vane pitch sweeps, in m^3: the antiderivative of dV_A/dphi (odd, 0 at
+    phi = 0) at the pitch's end, pi/n. A number of the motor alone: the kernels read it from the
+    parameter row (`params_row`) rather than take two sines every call."""
+    b = stator_radius_m
+    r = rotor_radius_m
+    e = b - r
+    half_l = 0.5 * vane_length_m
+    half_pitch = math.pi / n_vanes
+    return half_l * (
+        (b * b - r * r) * half_pitch + 2.0 * e * b * math.sin(half_pitch) + 0.5 * e * e * math.sin(2.0 * half_pitch)
+    )
+
+
+@njit
 def chamber_geometry(
     phi_rad: float,
     stator_radius_m: float,
@@ -37,12 +52,14 @@ def chamber_geometry(
     vane_length_m: float,
     n_vanes: float,
     dead_volume_m3: float,
+    half_pitch_volume_m3: float,
 ) -> tuple[float, float, float]:
     """(V_A, V_B, dV_A/dphi) at motor angle phi, in m^3 and m^3/rad.
 
     dV_A/dphi = (L/2)(rho^2 - r^2); V_A is its integral from the start of the vane pitch
     (-pi/n), where V_A equals the dead volume; V_B is the integral to the pitch's end, so
-    V_A + V_B is the same at every angle.
+    V_A + V_B is the same at every angle. `half_pitch_volume_m3` is `half_pitch_volume` of the
+    same motor (passed in: it depends on the dimensions only).
     """
     b = stator_radius_m
     r = rotor_radius_m
@@ -54,10 +71,7 @@ def chamber_geometry(
     # rho^2 - r^2 with cos(2w) = 2cos^2(w) - 1, and its antiderivative with sin(2w) = 2 sin(w) cos(w)
     slope = half_l * (b * b + 2.0 * e * b * c1 + e * e * (2.0 * c1 * c1 - 1.0) - r * r)
     mid = half_l * ((b * b - r * r) * w + 2.0 * e * b * s1 + e * e * s1 * c1)
-    half_pitch = math.pi / n_vanes
-    hi = half_l * (
-        (b * b - r * r) * half_pitch + 2.0 * e * b * math.sin(half_pitch) + 0.5 * e * e * math.sin(2.0 * half_pitch)
-    )
+    hi = half_pitch_volume_m3
     # the antiderivative is odd, so its value at -pi/n is -hi
     return dead_volume_m3 + (mid + hi), dead_volume_m3 + (hi - mid), slope
 
@@ -67,7 +81,8 @@ def swept_area(
     phi_rad: float, stator_radius_m: float, rotor_radius_m: float, vane_length_m: float, n_vanes: float
 ) -> float:
     """dV_A/dphi in m^3/rad = (L/2)(rho^2 - r^2) at the wrapped motor angle."""
-    return chamber_geometry(phi_rad, stator_radius_m, rotor_radius_m, vane_length_m, n_vanes, 0.0)[2]
+    # the slope is the same whatever the volumes' constants (dead volume, half-pitch volume)
+    return chamber_geometry(phi_rad, stator_radius_m, rotor_radius_m, vane_length_m, n_vanes, 0.0, 0.0)[2]
 
 
 @njit
@@ -84,7 +99,8 @@ def chamber_volumes(
     V_A grows from `dead_volume_m3` at the start of a vane pitch while V_B shrinks; V_A + V_B is
     the same at every angle. The rates are +-`swept_area` times the motor speed.
     """
-    v_a, v_b, _ = chamber_geometry(phi_rad, stator_radius_m, rotor_radius_m, vane_length_m, n_vanes, dead_volume_m3)
+    hi = half_pitch_volume(stator_radius_m, rotor_radius_m, vane_length_m, n_vanes)
+    v_a, v_b, _ = chamber_geometry(phi_rad, stator_radius_m, rotor_radius_m, vane_length_m, n_vanes, dead_volume_m3, hi)
     return v_a, v_b
 
 

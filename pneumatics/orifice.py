@@ -67,6 +67,14 @@ def flow_function(pressure_ratio: float, k: float) -> float:
 
 
 @njit
+def choked_flux(t_up_k: float, r: float, k: float) -> float:
+    """C1 / sqrt(R T_u) in s/m: choked mass flow per unit area and per Pa of upstream pressure
+    (0.0404 s·K^0.5/m / sqrt(T_u) for air). A number of the gas alone at the supply temperature:
+    the kernels keep it in the parameter row (`params_row`)."""
+    return _constants(k)[0] / math.sqrt(r * t_up_k)
+
+
+@njit
 def orifice_mass_flow(p_up_pa: float, p_down_pa: float, area_m2: float, t_up_k: float, r: float, k: float) -> float:
     """Signed mass flow in kg/s from the `up` side to the `down` side of an orifice.
 
@@ -74,6 +82,12 @@ def orifice_mass_flow(p_up_pa: float, p_down_pa: float, area_m2: float, t_up_k: 
     per unit area, 0.0404 s·K^0.5/m for air when R is folded in). `area_m2` is the effective area
     (discharge coefficient times geometric area). Negative when p_down > p_up.
     """
+    return orifice_mass_flow_with(p_up_pa, p_down_pa, area_m2, choked_flux(t_up_k, r, k), k)
+
+
+@njit
+def orifice_mass_flow_with(p_up_pa: float, p_down_pa: float, area_m2: float, choked_flux_s_m: float, k: float) -> float:
+    """`orifice_mass_flow` with the upstream gas's `choked_flux` passed in (the kernels keep it)."""
     if area_m2 <= 0.0:
         return 0.0
     if p_up_pa >= p_down_pa:
@@ -84,4 +98,4 @@ def orifice_mass_flow(p_up_pa: float, p_down_pa: float, area_m2: float, t_up_k: 
         sign = -1.0
         pu = p_down_pa
         pd = p_up_pa
-    return sign * area_m2 * pu * _constants(k)[0] / math.sqrt(r * t_up_k) * flow_function(pd / pu, k)
+    return sign * area_m2 * pu * choked_flux_s_m * flow_function(pd / pu, k)

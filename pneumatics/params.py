@@ -12,6 +12,7 @@ says where it comes from.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from pathlib import Path
 from typing import NamedTuple
@@ -22,6 +23,10 @@ from pydantic_core import PydanticCustomError
 
 from pneumatics.fields import MISSING, TABLE, TEXT, Problem, first_problem, number, number_check, read_toml
 from pneumatics.gas import AIR, Gas
+from pneumatics.hose import hose_constants
+from pneumatics.motor import half_pitch_volume
+from pneumatics.orifice import choked_flux
+from pneumatics.valves import lag_factors
 
 
 class ParameterError(ValueError):
@@ -246,13 +251,56 @@ def load_joint_params(path: str | Path) -> JointParams:
     return _related(params, str(path))
 
 
-def params_row(params: JointParams, gas: Gas = AIR) -> np.ndarray:
-    """The flat float64 row the compiled kernels read: the joint's fields, then the gas's."""
-    return np.array(tuple(params) + tuple(gas), dtype=np.float64)
+# numbers the kernels need at every call that depend on the parameters alone, kept in the row
+# after the gas's fields (computed once by the laws' own functions: the same operations, the
+# same bits as computing them in the call)
+DERIVED = (
+    "half_pitch_volume_m3",
+    "hose_k_laminar",
+    "hose_laminar_limit_kg_s",
+    "hose_k_blasius",
+    "choked_flux_s_m",
+    # the lags' factors for steps of lag_dt_s (`valves.lag_factors`; NaN: a row for no one step)
+    "lag_dt_s",
+    "valve_decay",
+    "valve_mean_gain",
+    "brake_engage_decay",
+    "brake_engage_mean_gain",
+    "brake_release_decay",
+    "brake_release_mean_gain",
+)
+
+
+def _derived(params: JointParams, gas: Gas, dt_s: float) -> tuple[float, ...]:
+    # in the order of DERIVED
+    lags: tuple[float, ...] = (math.nan,) * 6
+    if math.isfinite(dt_s):
+        lags = (
+            *lag_factors(dt_s, params.valve_time_constant_s),
+            *lag_factors(dt_s, params.brake_engage_time_constant_s),
+            *lag_factors(dt_s, params.brake_release_time_constant_s),
+        )
+    return (
+        half_pitch_volume(params.stator_radius_m, params.rotor_radius_m, params.vane_length_m, params.n_vanes),
+        *hose_constants(params.hose_length_m, params.hose_diameter_m, gas.mu_pa_s),
+        choked_flux(gas.t_supply_k, gas.r_j_per_kg_k, gas.k),
+        dt_s,
+        *lags,
+    )
+
+
+def params_row(params: JointParams, gas: Gas = AIR, dt_s: float = math.nan) -> np.ndarray:
+    """The flat float64 row the compiled kernels read: the joint's fields, then the gas's, then
+    the DERIVED numbers (the row is built only here, so they always match the fields).
+
+    `dt_s`: the step its user takes (the plant's physics step, the predictor's tick), for which
+    the row keeps the valve's and the brake's lag factors; a kernel stepping by another dt
+    computes them itself (`pneumatics.joint.advance_discrete`), to the same bits."""
+    return np.array(tuple(params) + tuple(gas) + _derived(params, gas, dt_s), dtype=np.float64)
 
 
 # column of each field in `params_row` (compile-time constants for the kernels)
-_COLUMNS = {name: i for i, name in enumerate(JointParams._fields + tuple("gas_" + f for f in Gas._fields))}
+_COLUMNS = {name: i for i, name in enumerate(JointParams._fields + tuple("gas_" + f for f in Gas._fields) + DERIVED)}
 # each column named by its field (no positional slices: a field added anywhere moves nothing)
 STATOR = _COLUMNS["stator_radius_m"]
 ROTOR = _COLUMNS["rotor_radius_m"]
@@ -297,4 +345,16 @@ GAS_K = _COLUMNS["gas_k"]
 GAS_T = _COLUMNS["gas_t_supply_k"]
 GAS_P_ATM = _COLUMNS["gas_p_atm_pa"]
 GAS_MU = _COLUMNS["gas_mu_pa_s"]
+HALF_PITCH_V = _COLUMNS["half_pitch_volume_m3"]
+HOSE_K_LAMINAR = _COLUMNS["hose_k_laminar"]
+HOSE_LAMINAR_LIMIT = _COLUMNS["hose_laminar_limit_kg_s"]
+HOSE_K_BLASIUS = _COLUMNS["hose_k_blasius"]
+CHOKED_FLUX = _COLUMNS["choked_flux_s_m"]
+LAG_DT = _COLUMNS["lag_dt_s"]
+VALVE_DECAY = _COLUMNS["valve_decay"]
+VALVE_MEAN_GAIN = _COLUMNS["valve_mean_gain"]
+BRAKE_ON_DECAY = _COLUMNS["brake_engage_decay"]
+BRAKE_ON_MEAN_GAIN = _COLUMNS["brake_engage_mean_gain"]
+BRAKE_OFF_DECAY = _COLUMNS["brake_release_decay"]
+BRAKE_OFF_MEAN_GAIN = _COLUMNS["brake_release_mean_gain"]
 N_COLUMNS = len(_COLUMNS)

@@ -25,25 +25,43 @@ from pneumatics._jit import njit
 
 
 @njit
-def lag_toward(value: float, target: float, dt_s: float, time_constant_s: float) -> float:
-    """Exact step of a first-order lag dv/dt = (target - v)/tau over dt (for a constant target)."""
+def lag_factors(dt_s: float, time_constant_s: float) -> tuple[float, float]:
+    """(exp(-dt/tau), -expm1(-dt/tau)): what `lag_toward` and `lag_mean` take from dt and tau, for a
+    caller that steps by the same dt many times to compute once and pass in (the same bits).
+    (0, 1) for tau <= 0 (neither function reads them then)."""
+    if time_constant_s <= 0.0:
+        return 0.0, 1.0
+    return math.exp(-dt_s / time_constant_s), -math.expm1(-dt_s / time_constant_s)
+
+
+@njit
+def lag_toward(value: float, target: float, dt_s: float, time_constant_s: float, decay: float = -1.0) -> float:
+    """Exact step of a first-order lag dv/dt = (target - v)/tau over dt (for a constant target).
+
+    `decay`, if given (>= 0), is `lag_factors(dt_s, time_constant_s)[0]`, computed before."""
     if time_constant_s <= 0.0:
         return target
     if value == target:
         # settled (an idle valve or brake, every step): the formula below gives exactly this, + 0.0
         # included (it turns a -0.0 into 0.0 as the formula does), without its exp
         return target + 0.0
-    return target + (value - target) * math.exp(-dt_s / time_constant_s)
+    if decay < 0.0:
+        decay = math.exp(-dt_s / time_constant_s)
+    return target + (value - target) * decay
 
 
 @njit
-def lag_mean(value: float, target: float, dt_s: float, time_constant_s: float) -> float:
+def lag_mean(value: float, target: float, dt_s: float, time_constant_s: float, gain: float = -1.0) -> float:
     """Mean over dt of the first-order lag that starts at `value` (exact for a constant target):
     target + (value - target) tau/dt (1 - exp(-dt/tau)). What a step that holds the lagging
-    quantity constant should hold it at."""
+    quantity constant should hold it at.
+
+    `gain`, if given (>= 0), is `lag_factors(dt_s, time_constant_s)[1]`, computed before."""
     if time_constant_s <= 0.0 or value == target:
         return target + 0.0
-    return target + (value - target) * time_constant_s / dt_s * -math.expm1(-dt_s / time_constant_s)
+    if gain < 0.0:
+        gain = -math.expm1(-dt_s / time_constant_s)
+    return target + (value - target) * time_constant_s / dt_s * gain
 
 
 @njit

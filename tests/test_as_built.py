@@ -76,12 +76,12 @@ def test_reality_is_the_as_built_arm_by_default_and_the_predictor_stays_nominal(
     real = load_as_built(nominal, assets.as_built_path("wrist_pitch"))
     plant = build_plant(s)
     assert s.reality.arm == "as_built"
-    np.testing.assert_array_equal(plant.params[0], params_row(real))
+    np.testing.assert_array_equal(plant.params[0], params_row(real, dt_s=plant.dt))  # rows keep lag factors for dt
     controller, refusal = controllers.build(
         s, plant, joint_params_for({"wrist_pitch": nominal}, s.predictor), [{"wrist_pitch": 0.5}]
     )
     assert not refusal
-    np.testing.assert_array_equal(controller.params[0], params_row(nominal))
+    np.testing.assert_array_equal(controller.params[0], params_row(nominal, dt_s=controller.dt))
     assert not np.array_equal(plant.params[0], controller.params[0])
 
 

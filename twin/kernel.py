@@ -26,7 +26,6 @@ from pneumatics.joint import (
     advance_pressures,
     brake_over_step,
     dry_friction_limit,
-    joint_torque,
 )
 from pneumatics.reducer import is_rigid
 
@@ -78,9 +77,9 @@ def pneumatic_step(
         )
         if is_rigid(p):
             # the torque MuJoCo holds over the step, from the pressures at its start (explicit, like
-            # MuJoCo's own semi-implicit Euler; a mid-step torque was tried and was no closer to LSODA)
-            torque = joint_torque(pa_start, pb_start, p[P.RATIO] * theta, omega, p)
-            advance_pressures(x[j], theta, omega, valve, supply_pa, dt_s, substeps, p)
+            # MuJoCo's own semi-implicit Euler; a mid-step torque was tried and was no closer to LSODA):
+            # `joint_torque` at theta, which advance_pressures returns (it has the geometry there)
+            torque = advance_pressures(x[j], theta, omega, valve, supply_pa, dt_s, substeps, p)
         else:
             torque = advance_motor_side(x[j], theta, omega, valve, supply_pa, dt_s, substeps, p)
         ctrl[actuator_ids[j]] = torque + stribeck_excess_torque(

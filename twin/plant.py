@@ -83,7 +83,10 @@ class Plant:
                 joint_params[j] = load_joint_params(assets.joint_param_path(j))
         self.joint_params = {j: joint_params[j] for j in joints}
         self.gas = gas
-        self.params = np.vstack([params_row(self.joint_params[j], gas) for j in joints])
+        self.dt = m.opt.timestep
+        # rows keep the valves' and brakes' lag factors for this step (a step set later is still right:
+        # the kernel then computes them)
+        self.params = np.vstack([params_row(self.joint_params[j], gas, self.dt) for j in joints])
         self.tendon_ids = ids(m, mujoco.mjtObj.mjOBJ_TENDON, [assets.drive_tendon(j) for j in joints])
         self.actuator_ids = ids(m, mujoco.mjtObj.mjOBJ_ACTUATOR, joints)
         self.joint_ids = ids(m, mujoco.mjtObj.mjOBJ_JOINT, joints)
@@ -94,7 +97,6 @@ class Plant:
         self._drive_coefficients = self.drive_map[:, :, 2].copy()
         self._qpos, self._qvel = self.data.qpos, self.data.qvel  # views (each attribute access builds one)
         self._geom_ids: dict[str, int] = {}
-        self.dt = m.opt.timestep
         for i in range(len(joints)):
             self._set_drive_tendon(i)
         self.air = np.vstack([J.initial_state(gas.p_atm_pa) for _ in joints])
@@ -147,7 +149,7 @@ class Plant:
         i = self.joints.index(joint)
         was_rigid = is_rigid(self.params[i])
         self.joint_params[joint] = params
-        self.params[i] = params_row(params, self.gas)
+        self.params[i] = params_row(params, self.gas, self.dt)
         self._set_drive_tendon(i)
         if was_rigid and not is_rigid(self.params[i]):
             self.align_motors([joint])  # the motor side starts where its joint is
