@@ -238,7 +238,7 @@ def joint_torque(pa_motor: float, pb_motor: float, phi_motor: float, omega_joint
 @njit(inline="always")
 def _through_reducer(t_motor: float, phi_motor: float, omega_joint: float, p: np.ndarray) -> float:
     # the rest of `joint_torque` from the vane torque: the ripple, the reducer
-    if p[P.RIPPLE] != 0.0:
+    if p[P.RIPPLE] != 0.0 and t_motor != 0.0:  # (zero stays zero: an idle motor, every step, without the cos)
         t_motor *= 1.0 + p[P.RIPPLE] * math.cos(p[P.N_VANES] * phi_motor)
     return reducer_output_torque(t_motor, omega_joint, p[P.RATIO], p[P.ETA_F], p[P.ETA_B])
 
