@@ -236,11 +236,31 @@ def joint_torque(pa_motor: float, pb_motor: float, phi_motor: float, omega_joint
 
 
 @njit(inline="always")
-def _through_reducer(t_motor: float, phi_motor: float, omega_joint: float, p: np.ndarray) -> float:
-    # the rest of `joint_torque` from the vane torque: the ripple, the reducer
+def _vane_torque_at(pa_motor: float, pb_motor: float, slope: float) -> float:
+    # `vane_torque` from the volume slope dV_A/dphi at its angle (`_pressure_rates_and_slope` has it)
+    if pa_motor == pb_motor:
+        return 0.0
+    return (pa_motor - pb_motor) * slope
+
+
+@njit(inline="always")
+def _rippled(t_motor: float, phi_motor: float, p: np.ndarray) -> float:
+    # the vane torque with its ripple at the vane-passing frequency
     if p[P.RIPPLE] != 0.0 and t_motor != 0.0:  # (zero stays zero: an idle motor, every step, without the cos)
         t_motor *= 1.0 + p[P.RIPPLE] * math.cos(p[P.N_VANES] * phi_motor)
-    return reducer_output_torque(t_motor, omega_joint, p[P.RATIO], p[P.ETA_F], p[P.ETA_B])
+    return t_motor
+
+
+@njit(inline="always")
+def _through_gear(t_rippled: float, omega_joint: float, p: np.ndarray) -> float:
+    # the reducer's part of `joint_torque`: the rippled vane torque on the joint side
+    return reducer_output_torque(t_rippled, omega_joint, p[P.RATIO], p[P.ETA_F], p[P.ETA_B])
+
+
+@njit(inline="always")
+def _through_reducer(t_motor: float, phi_motor: float, omega_joint: float, p: np.ndarray) -> float:
+    # the rest of `joint_torque` from the vane torque: the ripple, the reducer
+    return _through_gear(_rippled(t_motor, phi_motor, p), omega_joint, p)
 
 
 @njit(inline="always")
@@ -389,8 +409,8 @@ def advance_pressures(
         # for i = 0 phi0 is ratio * theta to the bit (or its zero of the other sign: the same slope)
         phi0 = ratio * (theta + omega * i * h)
         k1 = _pressure_rates_and_slope(a_v, a_m, b_v, b_m, phi0, w_m, direction, valve, supply_pa, p)
-        if i == 0 and a_m != b_m:
-            t_motor = (a_m - b_m) * k1[4]  # `vane_torque`: the pressure difference times dV_A/dphi
+        if i == 0:
+            t_motor = _vane_torque_at(a_m, b_m, k1[4])
         k2 = pressure_rates(
             a_v + h * k1[0],
             a_m + h * k1[1],
@@ -427,14 +447,24 @@ def motor_side_drive(
     or, with `slide_m` 0, at the motor's speed w_m; below the stick speed the motor stays put while
     the spring's torque tau_t lies between what the gear passes forward and back-driven.
     """
+    t_motor = vane_torque(pa_motor, pb_motor, phi_motor, p[P.STATOR], p[P.ROTOR], p[P.VANE_L], p[P.N_VANES])
+    return _motor_side_drive_of(_rippled(t_motor, phi_motor, p), w_m, slide_m, tau_t, p)
+
+
+@njit(inline="always")
+def _motor_side_drive_of(
+    t_rippled: float, w_m: float, slide_m: float, tau_t: float, p: np.ndarray
+) -> tuple[float, bool]:
+    # `motor_side_drive` from the motor's rippled vane torque (one geometry and one ripple for the
+    # up to three efficiencies tried)
     if slide_m != 0.0:
-        return joint_torque(pa_motor, pb_motor, phi_motor, slide_m, p), False
+        return _through_gear(t_rippled, slide_m, p), False
     if abs(w_m) >= p[P.STICK_SPEED]:
-        return joint_torque(pa_motor, pb_motor, phi_motor, w_m, p), False
-    forward = joint_torque(pa_motor, pb_motor, phi_motor, 1.0, p)
+        return _through_gear(t_rippled, w_m, p), False
+    forward = _through_gear(t_rippled, 1.0, p)
     if forward > tau_t:
         return forward, False
-    backward = joint_torque(pa_motor, pb_motor, phi_motor, -1.0, p)
+    backward = _through_gear(t_rippled, -1.0, p)
     if backward < tau_t:
         return backward, False
     return tau_t, True
@@ -486,8 +516,9 @@ def _motor_side_rates(
     ratio = p[P.RATIO]
     phi = ratio * q_m
     tau_t = transmitted_torque(q_m - theta, w_m - omega, half_gap, k, c)
-    drive, held = motor_side_drive(a_m, b_m, phi, w_m, slide_m, tau_t, p)
-    r = pressure_rates(a_v, a_m, b_v, b_m, phi, ratio * w_m, direction, valve, supply_pa, p)
+    r = _pressure_rates_and_slope(a_v, a_m, b_v, b_m, phi, ratio * w_m, direction, valve, supply_pa, p)
+    # `motor_side_drive`, from the geometry the rates took at the same angle
+    drive, held = _motor_side_drive_of(_rippled(_vane_torque_at(a_m, b_m, r[4]), phi, p), w_m, slide_m, tau_t, p)
     if held:
         return r[0], r[1], r[2], r[3], 0.0, 0.0, tau_t
     return r[0], r[1], r[2], r[3], w_m, (drive - tau_t) / j_motor, tau_t
@@ -660,17 +691,35 @@ def _rates(
     omega = y[R_OMEGA]
     ratio = p[P.RATIO]
     rigid = is_rigid(p)
+    j_m, j_j = inertia_kg_m2, inertia_kg_m2
+    tau_t = 0.0
     if rigid:
-        j_j = inertia_kg_m2
         phi = ratio * theta
-        # a joint held sliding keeps its gear's efficiency (forward or back-driven) with its friction
-        drive = joint_torque(y[R_PA_MOTOR], y[R_PB_MOTOR], phi, slide if slide != 0.0 else omega, p)
+        w_motor = ratio * omega
     else:
         j_m, j_j = inertia_split(inertia_kg_m2, ratio * ratio * p[P.ROTOR_J])
         k = stiffness(p[P.BACKLASH], p[P.COMPLIANCE])
         phi = ratio * y[R_QM]
         tau_t = transmitted_torque(y[R_QM] - theta, y[R_OMEGA_M] - omega, 0.5 * p[P.BACKLASH], k, damping(k, j_m))
-        drive = tau_t
+        w_motor = ratio * y[R_OMEGA_M]
+    rates = _pressure_rates_and_slope(
+        y[R_PA_VALVE],
+        y[R_PA_MOTOR],
+        y[R_PB_VALVE],
+        y[R_PB_MOTOR],
+        phi,
+        w_motor,
+        direction,
+        valve_gauge_pa,
+        supply_pa,
+        p,
+    )
+    # the motor's vane torque from the geometry the rates took at the same angle (`joint_torque`)
+    t_rippled = _rippled(_vane_torque_at(y[R_PA_MOTOR], y[R_PB_MOTOR], rates[4]), phi, p)
+    drive = tau_t  # a non-rigid gear's transmitted torque
+    if rigid:
+        # a joint held sliding keeps its gear's efficiency (forward or back-driven) with its friction
+        drive = _through_gear(t_rippled, slide if slide != 0.0 else omega, p)
     drive += (
         stribeck_excess_torque(omega, p[P.STRIBECK_EXCESS], p[P.STRIBECK_SPEED], 0.5 * p[P.STRIBECK_SPEED])
         - load_torque_nm
@@ -691,28 +740,14 @@ def _rates(
     if rigid:
         out[R_QM] = out[R_THETA]  # the rigid reducer's motor is the joint
         out[R_OMEGA_M] = out[R_OMEGA]
-        w_motor = ratio * omega
     else:
-        motor_drive, motor_held = motor_side_drive(y[R_PA_MOTOR], y[R_PB_MOTOR], phi, y[R_OMEGA_M], slide_m, tau_t, p)
+        motor_drive, motor_held = _motor_side_drive_of(t_rippled, y[R_OMEGA_M], slide_m, tau_t, p)
         if motor_held:
             out[R_QM] = 0.0
             out[R_OMEGA_M] = 0.0
         else:
             out[R_QM] = y[R_OMEGA_M]
             out[R_OMEGA_M] = (motor_drive - tau_t) / j_m
-        w_motor = ratio * y[R_OMEGA_M]
-    rates = pressure_rates(
-        y[R_PA_VALVE],
-        y[R_PA_MOTOR],
-        y[R_PB_VALVE],
-        y[R_PB_MOTOR],
-        phi,
-        w_motor,
-        direction,
-        valve_gauge_pa,
-        supply_pa,
-        p,
-    )
     out[R_PA_VALVE] = rates[0]
     out[R_PA_MOTOR] = rates[1]
     out[R_PB_VALVE] = rates[2]
