@@ -202,9 +202,11 @@ class TaskController:
                 self.reached[self.k] = False
                 return
         if self._backing_out:
-            # out of the press to touching distance: now the plan's back-off
+            # out of the press to touching distance: now the plan's back-off, out of the rim first too
+            # (2 cm off it, joints turning one after another swung the brush back onto disc 1's rim
+            # at 153 N under a slightly different integration of the air, as-built, 0.6 MPa)
             self._backing_out = False
-            self._issue(self.k, dwell_s=0.0)
+            self._issue(self.k, dwell_s=0.0, pressed=True)
             self.reached[self.k] = False
             return
         if self.k >= 0 and self.operator is not None and self._is_standoff(self.k):
@@ -255,7 +257,8 @@ class TaskController:
             self._issue(self.k, self.scenario.targets[self.k].dwell_s, pressed=self._backing_out)
 
     def _issue(self, k: int, dwell_s: float, pressed: bool = False) -> None:
-        """Send target k; `pressed`: the brush is in a press now (see `_out_of_the_rim_first`)."""
+        """Send target k; `pressed`: the brush is in a press or at touching distance from the rim now
+        (see `_out_of_the_rim_first`)."""
         target = self._aimed(k)
         self.issued[k] = target
         self.controller.expect_press(*self._expected_surface(k))
@@ -273,12 +276,12 @@ class TaskController:
                 self.operator.take_back()
 
     def _out_of_the_rim_first(self, target: dict[str, float]) -> list[dict[str, float]]:
-        """A move that starts with the brush pressed into a rim, in two steps: first the joints whose
-        own turn draws the brush out of the rim (along its normal), then the others. Turning
-        together, the faster joint leads: out of disc 1's press the elbow's turn, which alone
-        pushes the brush in, pushed the head to 35 mm (51 N) and, in a 1 cm shallower press, to 47
-        mm (47 N) before the shoulder drew it out (as-built, 0.52 MPa). The brush then goes no
-        deeper than where it starts or ends."""
+        """A move that starts with the brush pressed into a rim (or at touching distance from it), in
+        two steps: first the joints whose own turn draws the brush out of the rim (along its
+        normal), then the others. Turning together, the faster joint leads: out of disc 1's press
+        the elbow's turn, which alone pushes the brush in, pushed the head to 35 mm (51 N) and, in a
+        1 cm shallower press, to 47 mm (47 N) before the shoulder drew it out (as-built, 0.52 MPa).
+        The brush then goes no deeper than where it starts or ends."""
         here = dict(zip(self.controller.joints, self.controller.predicted_angles().tolist(), strict=True))
         start = self._tip_m(here) @ RIM_NORMAL
         out = {j: q for j, q in target.items() if self._tip_m({**here, j: q}) @ RIM_NORMAL > start}

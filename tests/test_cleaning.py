@@ -385,3 +385,28 @@ def test_a_press_reaches_its_depth_when_the_platform_knows_the_springs_reaction(
     for k in (1, 2):
         assert discs[k]["cleaned"] is True, discs[k]
         assert 18.0 < discs[k]["peak_force_n"] < 45.0, discs[k]
+
+
+def test_the_back_off_from_touching_distance_draws_the_brush_out_of_the_rim_first(monkeypatch):
+    """After a press the operator backs out to 2 cm, then takes the plan's back-off: from 2 cm the
+    joints turning one after another swung the brush back onto disc 1's rim (153 N) under a
+    slightly different integration of the air. The back-off is sent in two steps, first the joints
+    whose own turn draws the brush out of the rim, then the rest (`_out_of_the_rim_first`)."""
+    from control.controller import ArmController
+    from scenarios.runner import run_scenario
+    from scenarios.schema import load
+
+    plans = []
+    set_targets = ArmController.set_targets
+
+    def recorded(self, targets, sequence="one_after_another", dwell_s=0.0):
+        plans.append(([dict(t) for t in targets] if isinstance(targets, list) else [dict(targets)], self.time_s))
+        return set_targets(self, targets, sequence, dwell_s)
+
+    monkeypatch.setattr(ArmController, "set_targets", recorded)
+    result = run_scenario(load(ROOT / "scenarios" / "insulator_cleaning.toml"), duration_s=17.0)
+    out_at = next(
+        float(e.split("t = ")[1].split(" s")[0]) for e in result.events if "disc_1: operator backs out to 2 cm" in e
+    )
+    back_off = next(steps for steps, t in plans if t > out_at)  # the plan's, once out to 2 cm
+    assert len(back_off) == 2 and set(back_off[0]) < set(back_off[1]), back_off
