@@ -112,14 +112,13 @@ class ArmController:
         self.x = np.vstack([initial_state(atm, True) for _ in start])
         self.commands = np.zeros((n, N_COMMAND))
         self._make_tables(start)
-        self.load_update_rad = float(load_update_rad)
         # the load's tangent between Pinocchio's looks (control/predicted_load.py)
         self._load_base = np.zeros(n)
         self._load_slope = np.zeros((n, n))
         self._c_inv = np.ascontiguousarray(self.arm.C_inv)
         self._load_bound = np.zeros(N_BOUND)
-        self._load_bound[B_RADIUS] = self.load_update_rad
         self._load_bound[B_REACH] = self.arm.reach_m
+        self.load_update_rad = load_update_rad
         self._press: tuple[np.ndarray, np.ndarray] | None = None  # the surface the brush is expected to press
         self._set_load(start)
         self.inertia = self.arm.drive_inertias(start) + self.rotor_inertia
@@ -339,6 +338,15 @@ class ArmController:
         arrays = (self._modes, self._moves, self._drives, self.y, self.x, self.params, self._g, self.commands)
         load = (self._load_base, self._load_slope, self._c_inv, self._load_bound)
         return (flow, self._step_joints, *arrays, self.load, self.inertia, *load)
+
+    @property
+    def load_update_rad(self) -> float:
+        """How far (rad) a predicted drive angle may move before the load is looked up again."""
+        return float(self._load_bound[B_RADIUS])
+
+    @load_update_rad.setter
+    def load_update_rad(self, radius_rad: float) -> None:
+        self._load_bound[B_RADIUS] = float(radius_rad)
 
     def update_load(self) -> None:
         """The load torques from Pinocchio at the predicted angles (a stale load, mid-tick)."""
