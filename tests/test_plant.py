@@ -144,16 +144,17 @@ def test_rig_matches_lsoda_on_the_same_equations(substeps: int, reference, monke
     t, theta, pressures = run_rig(rig_sliding_from_rest(), SLIDE_S)
     e = errors_against(reference, t, theta, pressures)
     print(f"\nSUBSTEPS={substeps}: {e}")
-    # measured (0.5 ms step, drive angle read from qpos): 0.34 deg max and at 0.5 s, 4.9 kPa (1.3 %),
-    # for 1, 2 and 4 sub-steps alike (0.064 deg with a brake fed from the supply). The angle error is
-    # the first-order explicit coupling of torque, brake and motion: the brake, fed by the filling
-    # port, drags with 100 N·m per bar below its full release, and MuJoCo holds its friction over a
-    # step. It halves with the step (next test); sub-steps of the air do not help.
+    # measured (0.5 ms step, drive angle read from qpos; stop 16): 0.078 deg max, 0.019 deg at 0.5 s,
+    # 1.05 kPa (0.31 %), for 1, 2 and 4 sub-steps alike (0.34 deg and 4.9 kPa were measured on an
+    # earlier model; cc77d6a gives today's). The angle error is the first-order explicit coupling of
+    # torque, brake and motion: the brake, fed by the filling port, drags with 100 N·m per bar below
+    # its full release, and MuJoCo holds its friction over a step. It halves with the step (next
+    # test); sub-steps of the air do not help. Bounds: about twice the measured.
     assert e["final_angle_deg"] > 20.0  # it really slid
-    assert e["max_angle_error_deg"] < 0.4
-    assert e["final_angle_error_deg"] < 0.4
-    assert e["max_pressure_error_rel"] < 0.015
-    assert e["max_pressure_error_pa"] < 6e3
+    assert e["max_angle_error_deg"] < 0.16
+    assert e["final_angle_error_deg"] < 0.045
+    assert e["max_pressure_error_rel"] < 0.0065
+    assert e["max_pressure_error_pa"] < 2.2e3
 
 
 def test_rig_error_is_first_order_in_the_time_step(reference) -> None:
