@@ -266,12 +266,17 @@ class ArmModel:
         is not all revolute)."""
         if self.head_spring is None:
             return np.inf
+        return self._clearance(self.C_inv.dot(drive_angles), surface_m, normal) - CLEAR_MARGIN_M
+
+    def _clearance(self, q: np.ndarray, surface_m: np.ndarray, normal: np.ndarray) -> float:
+        # how far (m) the tool frame is certainly in front of this surface at joint angles q: the
+        # clearance the last look found, less the chain's reach times the joints' turn since; -inf
+        # where no bound is known (no look clear of this surface, a chain not all revolute)
         clear = self._clear_at
         if clear is None or clear[0] is not surface_m or clear[1] is not normal or not np.isfinite(self._reach_m):
             return -np.inf
-        q = self.C_inv.dot(drive_angles)
-        turn = sum([abs(a - b) for a, b in zip(q.tolist(), clear[2], strict=True)])
-        return clear[3] - self._reach_m * turn - CLEAR_MARGIN_M
+        # (a list's sum: numpy's costs more than the kinematics it would spare)
+        return clear[3] - self._reach_m * sum([abs(a - b) for a, b in zip(q.tolist(), clear[2], strict=True)])
 
     @property
     def reach_m(self) -> float:
@@ -291,15 +296,7 @@ class ArmModel:
         # per tick while a move is on a disc: ~5 us clear of it (forward kinematics of one frame), none
         # while the joints have turned too little since the last look to bring the frame to the surface
         q = self.C_inv.dot(drive_angles)
-        clear = self._clear_at
-        if (
-            clear is not None
-            and clear[0] is surface_m
-            and clear[1] is normal
-            # (a list's sum: numpy's costs more than the kinematics it would spare)
-            and clear[3] - self._reach_m * sum([abs(a - b) for a, b in zip(q.tolist(), clear[2], strict=True)])
-            > CLEAR_MARGIN_M
-        ):
+        if self._clearance(q, surface_m, normal) > CLEAR_MARGIN_M:
             return self._no_press  # what the kinematics below would give: no force
         m, d = self.model, self.data
         pin.forwardKinematics(m, d, q)

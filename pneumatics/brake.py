@@ -47,6 +47,21 @@ def brake_target(release_command: float, feed_gauge_pa: float, start_gauge_pa: f
     return (full_gauge_pa - feed_gauge_pa) / (full_gauge_pa - start_gauge_pa)
 
 
+@njit(inline="always")
+def _lag_of(
+    engagement: float,
+    target: float,
+    engage_tau_s: float,
+    release_tau_s: float,
+    engage_factor: float,
+    release_factor: float,
+) -> tuple[float, float]:
+    # the time constant toward `target` and its lag factor: the springs engage it; the air releases it
+    if target > engagement:
+        return engage_tau_s, engage_factor
+    return release_tau_s, release_factor
+
+
 @njit
 def brake_step(
     engagement: float,
@@ -59,9 +74,8 @@ def brake_step(
 ) -> float:
     """Engagement after dt, moving toward `target` (`brake_target`). The decays, if given, are
     `lag_factors(dt_s, tau)[0]` of the two time constants (`lag_toward`)."""
-    if target > engagement:  # the springs engage it; the air releases it
-        return lag_toward(engagement, target, dt_s, engage_tau_s, engage_decay)
-    return lag_toward(engagement, target, dt_s, release_tau_s, release_decay)
+    tau, decay = _lag_of(engagement, target, engage_tau_s, release_tau_s, engage_decay, release_decay)
+    return lag_toward(engagement, target, dt_s, tau, decay)
 
 
 @njit
@@ -77,9 +91,8 @@ def brake_mean(
     """Engagement averaged over the coming dt while it moves toward `target` (what a step that
     holds the brake's friction constant should hold). The gains, if given, are
     `lag_factors(dt_s, tau)[1]` of the two time constants (`lag_mean`)."""
-    if target > engagement:  # the springs engage it; the air releases it
-        return lag_mean(engagement, target, dt_s, engage_tau_s, engage_gain)
-    return lag_mean(engagement, target, dt_s, release_tau_s, release_gain)
+    tau, gain = _lag_of(engagement, target, engage_tau_s, release_tau_s, engage_gain, release_gain)
+    return lag_mean(engagement, target, dt_s, tau, gain)
 
 
 @njit

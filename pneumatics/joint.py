@@ -691,9 +691,9 @@ def _rates(
     omega = y[R_OMEGA]
     ratio = p[P.RATIO]
     rigid = is_rigid(p)
-    j_m, j_j = inertia_kg_m2, inertia_kg_m2
     tau_t = 0.0
     if rigid:
+        j_j = inertia_kg_m2
         phi = ratio * theta
         w_motor = ratio * omega
     else:
