@@ -9,8 +9,11 @@ nothing rests on an end stop. Measurements alternate plant/baseline over several
 figure is the median over the rounds with its min-max, the ratio taken within each round.
 The goal (DESIGN) is ratio >= 0.8.
 
-Also reported: the air kernel alone (`pneumatic_step` over all joints, without mj_step), so
-that a poor ratio can be traced to the air or to the coupling.
+Also reported, so that a poor ratio can be traced to the air or to MuJoCo: the air kernel alone
+(`pneumatic_step` over all joints, without mj_step) fed the joint motion and commands the plant
+recorded in a measured run, so it meets the same flows, branches and pressures; and MuJoCo alone
+replaying that run's recorded torques and friction (`replay_steps`: the same trajectory, so the
+same constraint work as inside the plant).
 
 With --as-built the same two cases also run with the as-built arm's parameters (the plant of
 scenarios and `twin paper`: reducer compliance, leakage, ... from assets/as_built/), so the cost of
@@ -24,6 +27,7 @@ from __future__ import annotations
 import argparse
 import json
 import time
+from typing import NamedTuple
 
 import mujoco
 import numpy as np
@@ -33,7 +37,7 @@ from benchmarks.stats import spread
 from pneumatics import load_joint_params
 from pneumatics._jit import borrowed, njit
 from pneumatics.as_built import load_as_built
-from twin.kernel import pneumatic_step
+from twin.kernel import pneumatic_step, replay_steps
 from twin.plant import SUBSTEPS, Plant
 
 SUPPLY_PA = 101_325.0 + 0.5e6  # the paper's 0.5 MPa gauge
@@ -88,18 +92,64 @@ def _time_bare(
     return time.perf_counter() - t0, n_chunks * chunk
 
 
+class _Recording(NamedTuple):
+    """What one measured run of the plant met, physics step by physics step."""
+
+    qpos: np.ndarray  # (steps, nq) at the step's start
+    qvel: np.ndarray
+    commands: np.ndarray  # (steps, n_joints, N_COMMAND)
+    ctrl: np.ndarray  # (steps, n_joints) the joints' torques MuJoCo held over the step
+    frictionloss: np.ndarray  # (steps, n_joints) their dry friction
+
+
+def _record(plant: Plant, start, moving, seconds: float) -> _Recording:
+    # the motion `_time_plant` times, one step at a time
+    plant.restore_state(start)
+    d, m = plant.data, plant.model
+    chunk = int(round(REVERSE_S / plant.dt))
+    rows: dict[str, list] = {name: [] for name in _Recording._fields}
+    for c in range(max(1, int(round(seconds / REVERSE_S)))):
+        _drive(plant, moving, +1 if c % 2 == 0 else -1)
+        for _ in range(chunk):
+            rows["qpos"].append(d.qpos.copy())
+            rows["qvel"].append(d.qvel.copy())
+            rows["commands"].append(plant.commands.copy())
+            plant.step(1, check_warnings=False)
+            rows["ctrl"].append(d.ctrl[plant.actuator_ids].copy())
+            rows["frictionloss"].append(m.tendon_frictionloss[plant.tendon_ids].copy())
+    return _Recording(*(np.array(rows[name]) for name in _Recording._fields))
+
+
 @njit(cache=False)
 def _kernel_only(
-    n, x, commands, params, drive_map, tendon_ids, actuator_ids, qpos, qvel, ctrl, frictionloss, supply_pa, dt, substeps
+    x,
+    commands,
+    params,
+    drive_map,
+    tendon_ids,
+    actuator_ids,
+    qpos,
+    qvel,
+    ctrl,
+    frictionloss,
+    supply_pa,
+    dt,
+    substeps,
+    q,
+    v,
 ):
-    # as twin/kernel.py's plant_steps runs it: the arrays borrowed, without reference counting
+    # as twin/kernel.py's plant_steps runs it (the arrays borrowed, without reference counting),
+    # each step at the recorded joint motion and commands instead of after an mj_step
     x, commands, params, drive_map = borrowed(x), borrowed(commands), borrowed(params), borrowed(drive_map)
     tendon_ids, actuator_ids = borrowed(tendon_ids), borrowed(actuator_ids)
     qpos, qvel, ctrl, frictionloss = borrowed(qpos), borrowed(qvel), borrowed(ctrl), borrowed(frictionloss)
-    for _ in range(n):
+    q, v = borrowed(q), borrowed(v)
+    for i in range(q.shape[0]):
+        qpos[:] = q[i]
+        qvel[:] = v[i]
         pneumatic_step(
             x,
-            commands,
+            commands[i],
             params,
             drive_map,
             tendon_ids,
@@ -114,28 +164,42 @@ def _kernel_only(
         )
 
 
-def _time_kernel(plant: Plant, n: int) -> float:
-    x = plant.air.copy()
+def _time_kernel(plant: Plant, start, rec: _Recording) -> float:
     qpos, qvel, ctrl, frictionloss = (a.copy() for a in plant._mujoco_arrays)
-    args = (
-        x,
-        plant.commands,
-        plant.params,
-        plant.drive_map,
-        plant.tendon_ids,
-        plant.actuator_ids,
-        qpos,
-        qvel,
-        ctrl,
-        frictionloss,
-        plant.supply_pa,
-        plant.dt,
-        SUBSTEPS,
-    )
-    _kernel_only(10, *args)  # compile
+
+    def run(n: int) -> float:
+        x = start.air.copy()
+        args = (x, rec.commands[:n], plant.params, plant.drive_map, plant.tendon_ids, plant.actuator_ids)
+        t0 = time.perf_counter()
+        _kernel_only(
+            *args, qpos, qvel, ctrl, frictionloss, plant.supply_pa, plant.dt, SUBSTEPS, rec.qpos[:n], rec.qvel[:n]
+        )
+        return time.perf_counter() - t0
+
+    run(10)  # compile
+    return run(len(rec.qpos)) / len(rec.qpos)
+
+
+def _time_replay(plant: Plant, start, rec: _Recording) -> float:
+    # MuJoCo alone on the plant's trajectory: its recorded torques and friction, from the same state
+    m = plant.model
+    d = mujoco.MjData(m)
+    mujoco.mj_setState(m, d, start.mujoco_state, mujoco.mjtState.mjSTATE_INTEGRATION)
+    saved_frictionloss = m.tendon_frictionloss.copy()
     t0 = time.perf_counter()
-    _kernel_only(n, *args)
-    return (time.perf_counter() - t0) / n
+    replay_steps(
+        m._address,
+        d._address,
+        d.ctrl,
+        m.tendon_frictionloss,
+        plant.actuator_ids,
+        plant.tendon_ids,
+        rec.ctrl,
+        rec.frictionloss,
+    )
+    elapsed = time.perf_counter() - t0
+    m.tendon_frictionloss[:] = saved_frictionloss
+    return elapsed / len(rec.ctrl)
 
 
 def bench_plant(seconds: float = 2.0, rounds: int = 5, as_built: bool = False) -> dict:
@@ -159,23 +223,28 @@ def bench_plant(seconds: float = 2.0, rounds: int = 5, as_built: bool = False) -
         bare_start = np.empty(mujoco.mj_stateSize(m, mujoco.mjtState.mjSTATE_INTEGRATION))
         mujoco.mj_getState(m, d, bare_start, mujoco.mjtState.mjSTATE_INTEGRATION)
         _time_plant(plant, start, moving, REVERSE_S)  # warm-up (compilation)
-        plant_s, bare_s = [], []
+        rec = _record(plant, start, moving, seconds)
+        _time_replay(plant, start, rec), _time_kernel(plant, start, rec)  # warm-up
+        plant_s, bare_s, replay_s, kernel_s = [], [], [], []
         steps = 0
         for _ in range(rounds):
             dt_plant, steps = _time_plant(plant, start, moving, seconds)
             saved_frictionloss = m.tendon_frictionloss.copy()
             dt_bare, _ = _time_bare(m, d, bare_start, ctrl, seconds)
             m.tendon_frictionloss[:] = saved_frictionloss
-            plant_s.append(dt_plant)
-            bare_s.append(dt_bare)
-        kernel_s = _time_kernel(plant, 20_000)
+            plant_s.append(dt_plant / steps)
+            bare_s.append(dt_bare / steps)
+            replay_s.append(_time_replay(plant, start, rec))
+            kernel_s.append(_time_kernel(plant, start, rec))
         out[label] = {
             "moving_joints": list(moving),
             "steps": steps,
             "ratio": spread([b / p for p, b in zip(plant_s, bare_s, strict=True)]),
-            "plant_us_per_step": spread([1e6 * t / steps for t in plant_s]),
-            "bare_us_per_step": spread([1e6 * t / steps for t in bare_s]),
-            "air_kernel_us_per_step": round(1e6 * kernel_s, 3),
+            "plant_us_per_step": spread([1e6 * t for t in plant_s]),
+            "bare_us_per_step": spread([1e6 * t for t in bare_s]),
+            # where the plant's step goes: MuJoCo on the plant's own trajectory, and the air
+            "mujoco_on_plant_motion_us_per_step": spread([1e6 * t for t in replay_s]),
+            "air_kernel_us_per_step": spread([1e6 * t for t in kernel_s]),
         }
     return out
 
