@@ -22,16 +22,17 @@ from dataclasses import dataclass
 import numpy as np
 
 # rms difference replay - plant per protocol over 0.5-0.8 MPa, nominal wrist, in angle (deg) and
-# chamber pressures (kPa); measured by `python -m gap.protocols` (the README's gap section says at
-# which commit)
+# chamber pressures (kPa), rounded up; measured by `python -m gap.protocols` on the plant and replay
+# of stop 17 (the joint stops' fix, the plant's air kernel of stop 16). tests/test_gap.py measures
+# them again and fails when the physics has moved them: re-run the command and copy its figures.
 TOLERANCE_DEG = {
-    "paper_60": 0.057,
-    "staircase": 0.023,
-    "back_and_forth": 0.135,
-    "stop_and_go": 0.179,
-    "reversal": 0.050,
+    "paper_60": 0.046,
+    "staircase": 0.033,
+    "back_and_forth": 0.043,
+    "stop_and_go": 0.151,
+    "reversal": 0.108,
 }
-TOLERANCE_KPA = {"paper_60": 0.54, "staircase": 0.17, "back_and_forth": 1.18, "stop_and_go": 0.89, "reversal": 0.61}
+TOLERANCE_KPA = {"paper_60": 0.33, "staircase": 0.49, "back_and_forth": 0.35, "stop_and_go": 0.88, "reversal": 0.68}
 TOLERANCE_FACTOR = 2.0  # the tolerance is twice the measured rms (room for what the campaigns vary)
 
 

@@ -264,6 +264,19 @@ def test_mcap_runs_from_the_plant_are_diagnosed(tmp_path):
     assert rms[False] > 1.5 * rms[True]
 
 
+def test_the_model_tolerance_is_what_the_replay_misses_on_each_protocol_today():
+    """The diagnosis's tolerance stands on gap.protocols' per-protocol figures: each must cover the
+    replay's disagreement with the plant measured afresh (or the twin calls its own error an
+    effect), and none may be stale by more than its rounding (or real gaps hide under it)."""
+    from gap import protocols
+
+    measured = protocols.measure_tolerance()
+    assert set(measured) == set(protocols.TOLERANCE_DEG) == set(protocols.TOLERANCE_KPA)
+    for name, m in measured.items():
+        assert m["rms_deg"] <= protocols.TOLERANCE_DEG[name] <= m["rms_deg"] + 0.001 + 1e-9, name
+        assert m["pressure_rms_kpa"] <= protocols.TOLERANCE_KPA[name] <= m["pressure_rms_kpa"] + 0.01 + 1e-9, name
+
+
 # --- the reference instrument, the noise floor, the verdict rules, the new families ----------
 def test_repeat_noise_uses_only_samples_both_repeats_have_and_tells_drift_from_noise():
     """Two repeats of a stop-and-go motion (2.6 rad/s moves, braked stops every 0.3 s) read by a
