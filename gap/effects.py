@@ -71,6 +71,20 @@ CATALOGUE: tuple[Effect, ...] = (
         family="leakage",
         equation="orifice A->B past the vanes, area fitted (m^2)",
     ),
+    # a leak to atmosphere in port A's hose (a cut hose, a loose fitting: the scenarios' hose_leak
+    # fault), venting at the hose's valve end (pneumatics/joint.py): air lost on one side only,
+    # unlike the vane leakage. Up to 2e-6 m^2 (a 1.6 mm hole); the model has port A's hose, so a
+    # leak in port B's shows as its mirror image (the moves' directions swapped)
+    Effect(
+        "hose_leak",
+        "hose leak (port A, to atmosphere)",
+        "hose_leak_area_m2",
+        0.0,
+        2.0e-6,
+        log=True,
+        family="leakage",
+        equation="orifice from port A's hose to atmosphere at its valve end, area fitted (m^2)",
+    ),
     Effect(
         "coulomb_friction",
         "Coulomb friction",

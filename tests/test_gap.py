@@ -465,6 +465,22 @@ def test_hidden_angle_load_is_found_and_located_by_angle(tmp_path):
     assert by_angle["+30..+60"].rms_deg > 2 * by_angle["+0..+30"].rms_deg
 
 
+def test_hidden_hose_leak_is_found_and_told_from_the_vane_leak(tmp_path):
+    """A 0.3 mm^2 leak to atmosphere in port A's hose (the scenarios' hose_leak fault) hidden in the
+    plant: air lost on one side only, so the catalogue's hose leak explains it and the vane leak
+    (A -> B), the same family, does not stand in for it; the area is recovered."""
+    folder = synth.make_campaign(
+        tmp_path / "hose_leak",
+        synth.wrist_params()._replace(hose_leak_area_m2=3e-7),
+        seed=14,
+        pressures_mpa=(0.5, 0.6, 0.8),
+    )
+    d = diagnose(load_campaign(folder), catalogue=FAST + _by_name("hose_leak"), progress=False)
+    w = d.which
+    assert w.verdict == "explained" and w.top.name == "hose_leak", (w.verdict, w.top.name, w.rivals)
+    assert w.top.fitted_values[0] == pytest.approx(3e-7, rel=0.15)
+
+
 def test_hidden_incomplete_brake_release_is_given_to_the_brake(tmp_path):
     """The brake clears only at 6 bar (nominal 4.0): at 0.5 MPa it drags through every move. Three
     supplies: with two, each fold trains on one, and at 0.5 MPa every release pressure above ~5.7
