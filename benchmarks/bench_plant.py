@@ -240,6 +240,9 @@ def bench_plant(seconds: float = 2.0, rounds: int = 5, as_built: bool = False) -
             "moving_joints": list(moving),
             "steps": steps,
             "ratio": spread([b / p for p, b in zip(plant_s, bare_s, strict=True)]),
+            # the same against MuJoCo on the plant's own trajectory (bench_twin's kind of baseline):
+            # the plant's motion costs MuJoCo more constraint work than the baseline's constant torque
+            "ratio_to_mujoco_on_plant_motion": spread([r / p for p, r in zip(plant_s, replay_s, strict=True)]),
             "plant_us_per_step": spread([1e6 * t for t in plant_s]),
             "bare_us_per_step": spread([1e6 * t for t in bare_s]),
             # where the plant's step goes: MuJoCo on the plant's own trajectory, and the air
