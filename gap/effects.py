@@ -204,6 +204,18 @@ CATALOGUE: tuple[Effect, ...] = (
         family="brake",
         equation="engagement (p_full - p_feed)/(p_full - p_start) while released (Pa)",
     ),
+    # the brake's piston fills slowly (a restricted or long brake line, a sticking piston): the lining
+    # lets go late at every start. Its release time constant, nominal 50 ms, up to 1 s (log)
+    Effect(
+        "brake_slow_release",
+        "brake slow release (release time constant)",
+        "brake_release_time_constant_s",
+        0.0,
+        1.0,
+        log=True,
+        family="brake",
+        equation="engagement lags its target with time constant tau while releasing (s)",
+    ),
     # a worn lining holds and stops with less torque (nominal 100 N·m): a longer slide at every stop
     Effect(
         "brake_holding",

@@ -481,6 +481,23 @@ def test_hidden_hose_leak_is_found_and_told_from_the_vane_leak(tmp_path):
     assert w.top.fitted_values[0] == pytest.approx(3e-7, rel=0.15)
 
 
+def test_hidden_slow_brake_release_is_found_and_told_from_a_late_valve(tmp_path):
+    """The brake's piston fills in 0.4 s (nominal 0.05 s): the lining lets go late at every start.
+    A late proportional valve delays the starts too, but it also delays the stops and the pressure
+    rise; the catalogue's slow release explains the gap and recovers the time constant."""
+    folder = synth.make_campaign(
+        tmp_path / "slow_brake",
+        synth.wrist_params()._replace(brake_release_time_constant_s=0.4),
+        seed=16,
+        pressures_mpa=(0.5, 0.6, 0.8),
+    )
+    catalogue = FAST + _by_name("brake_slow_release", "valve_set_dead_time", "valve_dead_time")
+    d = diagnose(load_campaign(folder), catalogue=catalogue, progress=False)
+    w = d.which
+    assert w.verdict == "explained" and w.top.name == "brake_slow_release", (w.verdict, w.top.name, w.rivals)
+    assert w.top.fitted_values[0] == pytest.approx(0.4, rel=0.15)
+
+
 def test_hidden_incomplete_brake_release_is_given_to_the_brake(tmp_path):
     """The brake clears only at 6 bar (nominal 4.0): at 0.5 MPa it drags through every move. Three
     supplies: with two, each fold trains on one, and at 0.5 MPa every release pressure above ~5.7
