@@ -309,12 +309,20 @@ def _trend_words(trend: dict) -> str:
     )
 
 
+def _rotations_line(angles: list) -> str:
+    every_degree = list(angles) == list(range(angles[0], angles[-1] + 1))
+    return f"{len(angles)} rotations, {angles[0]}-{angles[-1]} deg" + (
+        " in 1 deg steps, as the paper; the table shows every 10 deg, the plot and paper.json all."
+        if every_degree
+        else " (the paper's protocol: every 1 deg)."
+    )
+
+
 def _closed_vs_open_lines(co: dict) -> list[str]:
     lines = [
         "## Closed against open loop at 0.5 MPa, Fig. 23 (|final error|, deg)",
         "",
-        f"Every rotation of {co['angles_deg'][0]}-{co['angles_deg'][-1]} deg in 1 deg steps, as the paper; "
-        "the table shows every 10 deg, the plot and results.json all.",
+        _rotations_line(co["angles_deg"]),
         "",
         "| rotation deg | closed loop | open loop |",
         "|---|---|---|",
