@@ -30,11 +30,13 @@ Steps (each a plain function of the campaign):
 from __future__ import annotations
 
 import contextlib
+import functools
 import math
 import sys
 import time
 from dataclasses import dataclass, field
 
+import mujoco
 import numpy as np
 from joblib import Parallel, delayed, parallel_config
 from scipy.optimize import minimize
@@ -61,6 +63,7 @@ from gap.result import (
 )
 from gap.stats import bootstrap_ci, normalised_rms, rms_ci_deg, rms_deg, rms_kpa
 from pneumatics import JointParams, load_joint_params, params_row
+from twin.model import load_model
 
 # The angle's model tolerance (below it a residual is no gap): twice the worst replay-vs-plant rms
 # over the protocol library (gap.protocols, measured per protocol), not one motion's.
@@ -100,6 +103,17 @@ def nominal_params(campaign: Campaign) -> JointParams:
     return p
 
 
+@functools.cache
+def joint_stops(joint: str) -> tuple[float, float]:
+    """(low, high) end stops of the campaign's joint in rad: its range in the arm's MJCF
+    (assets/arm.xml; the wrist rig's is the same), or none (-inf, inf) for a joint without one."""
+    m = load_model(assets.ARM_XML)
+    j = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, joint)
+    if j < 0 or not m.jnt_limited[j]:
+        return -math.inf, math.inf
+    return float(m.jnt_range[j, 0]), float(m.jnt_range[j, 1])
+
+
 def nominal_inertia(rig_inertia_kg_m2: float, p: JointParams) -> float:
     """Rig inertia + ratio^2 x rotor inertia (assets/wrist_rig.xml comment)."""
     return rig_inertia_kg_m2 + p.ratio**2 * p.rotor_inertia_kg_m2
@@ -137,6 +151,7 @@ class Twin:
         self.latencies = self.nuisance.latencies_s
         self.params = nominal_params(campaign)
         self.inertia = nominal_inertia(campaign.rig_inertia_kg_m2, self.params)
+        self.stops = joint_stops(campaign.joint)
         self.runs = [prepare(r, self.params, self.nuisance.offset_rad) for r in campaign.runs]
         # runs with identical commands, start and inertia (repeats) share one replay of the twin
         groups: dict[tuple, list[int]] = {}
@@ -181,6 +196,7 @@ class Twin:
             self.t_end[g] + DT_S,
             DT_S,
             rig.load_spring_nm_per_rad,
+            *self.stops,
         )
 
     def _each_run(self, effects, ks):

@@ -498,6 +498,23 @@ def test_hidden_slow_brake_release_is_found_and_told_from_a_late_valve(tmp_path)
     assert w.top.fitted_values[0] == pytest.approx(0.4, rel=0.15)
 
 
+def test_a_run_that_homes_against_the_end_stop_is_no_gap(tmp_path):
+    """No hidden effect; each run drives the wrist wide open into its +90 deg end stop, holds it
+    there, brakes, and drives back (a rig homing against its stop). The replay stops the joint
+    where the plant's stop does (gap.replay), so the twin's own motion is no gap; before, the
+    replay turned on past the stop and the campaign was a 37 deg "outside the catalogue"."""
+    from gap.protocols import Protocol, Segment
+
+    homing = Protocol("homing", (Segment(1.6, +1), Segment(0.3, 0, None, False), Segment(0.8, -1)))
+    folder = synth.make_campaign(
+        tmp_path / "homing", synth.wrist_params(), seed=21, pressures_mpa=(0.5, 0.8), motion=homing
+    )
+    campaign = load_campaign(folder)
+    assert max(np.nanmax(r.angle_rad) for r in campaign.runs) > np.deg2rad(89.5)  # the runs reach the stop
+    d = diagnose(campaign, catalogue=FAST, progress=False)
+    assert d.which.verdict == "no significant gap", (d.which.verdict, d.before_rms_deg)
+
+
 def test_hidden_incomplete_brake_release_is_given_to_the_brake(tmp_path):
     """The brake clears only at 6 bar (nominal 4.0): at 0.5 MPa it drags through every move. Three
     supplies: with two, each fold trains on one, and at 0.5 MPa every release pressure above ~5.7
