@@ -63,7 +63,7 @@ from gap.result import (
 )
 from gap.stats import bootstrap_ci, normalised_rms, rms_ci_deg, rms_deg, rms_kpa
 from pneumatics import JointParams, load_joint_params, params_row
-from twin.model import load_model
+from twin.model import drive_map, load_model
 
 # The angle's model tolerance (below it a residual is no gap): twice the worst replay-vs-plant rms
 # over the protocol library (gap.protocols, measured per protocol), not one motion's.
@@ -105,11 +105,17 @@ def nominal_params(campaign: Campaign) -> JointParams:
 
 @functools.cache
 def joint_stops(joint: str) -> tuple[float, float]:
-    """(low, high) end stops of the campaign's joint in rad: its range in the arm's MJCF
-    (assets/arm.xml; the wrist rig's is the same), or none (-inf, inf) for a joint without one."""
+    """(low, high) end stops of the campaign's drive angle in rad: its joint's range in the arm's MJCF
+    (assets/arm.xml; the wrist rig's is the same) where the drive is that joint alone, else none
+    (-inf, inf): a joint without a range, or a drive that sums joints (the elbow's, shoulder + elbow:
+    where it stops depends on the shoulder, which the one-joint replay does not have)."""
     m = load_model(assets.ARM_XML)
     j = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, joint)
-    if j < 0 or not m.jnt_limited[j]:
+    t = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_TENDON, assets.drive_tendon(joint))
+    if j < 0 or t < 0 or not m.jnt_limited[j]:
+        return -math.inf, math.inf
+    terms = drive_map(m, [t])[0]
+    if terms.shape[0] != 1 or terms[0, 0] != m.jnt_qposadr[j] or terms[0, 2] != 1.0:
         return -math.inf, math.inf
     return float(m.jnt_range[j, 0]), float(m.jnt_range[j, 1])
 
