@@ -68,15 +68,23 @@ def _drive(plant: Plant, moving: tuple[str, ...], direction: int) -> None:
         plant.command(j, direction, 0.5e6, True)
 
 
+def _stretches(plant: Plant, moving, seconds: float):
+    """The benchmark's motion: the moving joints driven one way, then the other, every REVERSE_S;
+    yields the physics steps of each stretch once its commands are set."""
+    chunk = int(round(REVERSE_S / plant.dt))
+    for c in range(max(1, int(round(seconds / REVERSE_S)))):
+        _drive(plant, moving, +1 if c % 2 == 0 else -1)
+        yield chunk
+
+
 def _time_plant(plant: Plant, start, moving, seconds: float) -> tuple[float, int]:
     plant.restore_state(start)
-    chunk = int(round(REVERSE_S / plant.dt))
-    n_chunks = max(1, int(round(seconds / REVERSE_S)))
+    steps = 0
     t0 = time.perf_counter()
-    for c in range(n_chunks):
-        _drive(plant, moving, +1 if c % 2 == 0 else -1)
+    for chunk in _stretches(plant, moving, seconds):
         plant.step(chunk)
-    return time.perf_counter() - t0, n_chunks * chunk
+        steps += chunk
+    return time.perf_counter() - t0, steps
 
 
 def _time_bare(
@@ -106,10 +114,8 @@ def _record(plant: Plant, start, moving, seconds: float) -> _Recording:
     # the motion `_time_plant` times, one step at a time
     plant.restore_state(start)
     d, m = plant.data, plant.model
-    chunk = int(round(REVERSE_S / plant.dt))
     rows: dict[str, list] = {name: [] for name in _Recording._fields}
-    for c in range(max(1, int(round(seconds / REVERSE_S)))):
-        _drive(plant, moving, +1 if c % 2 == 0 else -1)
+    for chunk in _stretches(plant, moving, seconds):
         for _ in range(chunk):
             rows["qpos"].append(d.qpos.copy())
             rows["qvel"].append(d.qvel.copy())
