@@ -93,6 +93,13 @@ def other_form_cases() -> list[Case]:
         # a clogged exhaust silencer (half the exhaust area), the inlet as it was: conductance_error
         # scales both, the dead zone neither
         Case("exhaust_throttle", "form", {"exhaust_area_m2": 0.4e-6}, ("conductance_error",)),
+        # the brake's springs engage slowly (0.1 s against 0.02 s: a restricted brake exhaust): every
+        # stop slides further, as a weak lining's does, but the lining holds once it bites
+        Case("slow_brake_engage", "form", {"brake_engage_time_constant_s": 0.1}, ("brake_holding",)),
+        # the gear loses more than its datasheet says (forward efficiency 0.5 against 0.7: a worn or
+        # cold strain-wave gear): torque lost in the gear's teeth, in proportion to what it carries;
+        # the reducer's part, and friction's
+        Case("gear_efficiency", "form", {"efficiency_forward": 0.5}, ("reducer_compliance", "coulomb_friction")),
     ]
 
 
@@ -324,8 +331,8 @@ def summarise(results: list[dict], quick: bool, chamber_pressures: bool | None, 
             "family level: the call (the families of the top candidate's effects if explained/ambiguous, else the "
             "diagnosis's nearest family) is the withheld form's family "
             "(Stribeck -> friction, valve lag -> valve timing; the forms built apart from the catalogue's laws: "
-            "narrow hose -> hose, hose leak -> leakage or hose, slow brake release and brake fed by the supply -> "
-            "brake, clogged exhaust -> valve)"
+            "narrow hose -> hose, brake fed by the supply and its springs engaging slowly -> brake, clogged "
+            "exhaust -> valve, a lossy gear -> reducer or friction)"
         ),
         "false_alarm_by_instrument": {
             i.name: _rate_of([r["verdict"] != "no significant gap" for r in none if r["instrument"] == i.name])
