@@ -231,6 +231,18 @@ class ArmModel:
         self.joint_lower = np.array(lo, dtype=float)
         self.joint_upper = np.array(hi, dtype=float)
 
+    def drive_stops(self) -> np.ndarray:
+        """(n, 2): the end stops (low, high) of each drive angle in rad, for the one-joint model
+        (`pneumatics.params.params_row`'s stops): its joint's range where the drive is that joint
+        alone, else none (-inf, inf): a joint without a range, or a drive that sums joints (the
+        elbow's, shoulder + elbow, stops where the shoulder puts it)."""
+        out = np.tile([-np.inf, np.inf], (len(self.joints), 1))
+        for i, row in enumerate(self.C):
+            (terms,) = np.nonzero(row)
+            if len(terms) == 1 and row[terms[0]] == 1.0:  # (Pinocchio's range of an unlimited joint is +-inf)
+                out[i] = self.joint_lower[terms[0]], self.joint_upper[terms[0]]
+        return out
+
     def joint_positions(self, drive_angles: np.ndarray) -> np.ndarray:
         """Pinocchio q (rad) from the drive angles (rad)."""
         return self.C_inv @ np.asarray(drive_angles, dtype=float)

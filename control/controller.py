@@ -92,8 +92,15 @@ class ArmController:
             if j not in params:
                 params[j] = load_joint_params(assets.joint_param_path(j))
         self.joint_params = {j: params[j] for j in self.joints}
-        # the rows keep the valves' and brakes' lag factors for the predictor's step, the control period
-        self.params = np.vstack([params_row(self.joint_params[j], gas, float(control_period_s)) for j in self.joints])
+        # the rows keep the valves' and brakes' lag factors for the predictor's step, the control period,
+        # and each drive's end stops: a prediction stops where the joint does
+        stops = self.arm.drive_stops()
+        self.params = np.vstack(
+            [
+                params_row(self.joint_params[j], gas, float(control_period_s), tuple(stops[i]))
+                for i, j in enumerate(self.joints)
+            ]
+        )
         self.gas = gas
         self.mode_name = mode
         self.gains = gains

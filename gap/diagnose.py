@@ -36,13 +36,13 @@ import sys
 import time
 from dataclasses import dataclass, field
 
-import mujoco
 import numpy as np
 from joblib import Parallel, delayed, parallel_config
 from scipy.optimize import minimize
 from tqdm import tqdm
 
 import assets
+from control.arm_model import ArmModel
 from gap import instrument, verdict, where
 from gap.campaign import Campaign, GapError, Run
 from gap.effects import BY_NAME, CATALOGUE, Effect, Rig
@@ -63,7 +63,6 @@ from gap.result import (
 )
 from gap.stats import bootstrap_ci, normalised_rms, rms_ci_deg, rms_deg, rms_kpa
 from pneumatics import JointParams, load_joint_params, params_row
-from twin.model import drive_map, load_model
 
 # The angle's model tolerance (below it a residual is no gap): twice the worst replay-vs-plant rms
 # over the protocol library (gap.protocols, measured per protocol), not one motion's.
@@ -105,19 +104,15 @@ def nominal_params(campaign: Campaign) -> JointParams:
 
 @functools.cache
 def joint_stops(joint: str) -> tuple[float, float]:
-    """(low, high) end stops of the campaign's drive angle in rad: its joint's range in the arm's MJCF
-    (assets/arm.xml; the wrist rig's is the same) where the drive is that joint alone, else none
-    (-inf, inf): a joint without a range, or a drive that sums joints (the elbow's, shoulder + elbow:
-    where it stops depends on the shoulder, which the one-joint replay does not have)."""
-    m = load_model(assets.ARM_XML)
-    j = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, joint)
-    t = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_TENDON, assets.drive_tendon(joint))
-    if j < 0 or t < 0 or not m.jnt_limited[j]:
+    """(low, high) end stops of the campaign's drive angle in rad, as the predictor has them: its
+    joint's range in the arm's MJCF (assets/arm.xml; the wrist rig's is the same) where the drive is
+    that joint alone, else none (`control.arm_model.ArmModel.drive_stops`; the elbow's drive sums
+    shoulder and elbow, and the one-joint replay does not have the shoulder)."""
+    arm = ArmModel(assets.ARM_XML)
+    if joint not in arm.joints:
         return -math.inf, math.inf
-    terms = drive_map(m, [t])[0]
-    if terms.shape[0] != 1 or terms[0, 0] != m.jnt_qposadr[j] or terms[0, 2] != 1.0:
-        return -math.inf, math.inf
-    return float(m.jnt_range[j, 0]), float(m.jnt_range[j, 1])
+    low, high = arm.drive_stops()[arm.joints.index(joint)]
+    return float(low), float(high)
 
 
 def nominal_inertia(rig_inertia_kg_m2: float, p: JointParams) -> float:
@@ -194,7 +189,7 @@ class Twin:
         rep = self.runs[self.groups[g][0]]
         self.n_replays += 1  # for the report's cost line (threads may miss a count: it is a statistic)
         return replay_run(
-            params_row(params),
+            params_row(params, stops=self.stops),
             *rep.args,
             rep.run.start_rad,
             rep.inertia * rig.inertia_scale,
@@ -202,7 +197,6 @@ class Twin:
             self.t_end[g] + DT_S,
             DT_S,
             rig.load_spring_nm_per_rad,
-            *self.stops,
         )
 
     def _each_run(self, effects, ks):

@@ -7,9 +7,10 @@ non-rigid reducer) and the four node pressures take one RK4 step and the brake f
 The whole run is one @njit call, so a run of a few seconds replays in a few ms
 and the effect search can afford thousands of replays.
 
-The joint's end stops (its MJCF range, stiff there: assets/wrist_rig.xml) end a step that carries
-the joint past one on it, with its speed into the stop gone: a run that homes against a stop is
-replayed as the plant and the rig run it, not as a joint turning on past it.
+The joint's end stops are the parameter row's (`params_row(..., stops=...)`: its MJCF range, stiff
+there, assets/wrist_rig.xml): the one-joint model ends a step that carries the joint past one on it
+(`pneumatics.joint.at_the_stops`), so a run that homes against a stop is replayed as the plant and
+the rig run it, not as a joint turning on past it; the predictor does the same.
 """
 
 from __future__ import annotations
@@ -47,17 +48,6 @@ def _interpolated(times: np.ndarray, values: np.ndarray, t: float, row: int) -> 
         w = (t - times[row]) / (times[row + 1] - times[row])
         return (1.0 - w) * values[row] + w * values[row + 1]
     return values[row]
-
-
-@njit(inline="always")
-def _at_the_stops(y: np.ndarray, theta_min_rad: float, theta_max_rad: float) -> None:
-    # an inelastic end stop: the joint ends the step on it, its speed into the stop gone
-    if y[R_THETA] > theta_max_rad:
-        y[R_THETA] = theta_max_rad
-        y[R_OMEGA] = min(y[R_OMEGA], 0.0)
-    elif y[R_THETA] < theta_min_rad:
-        y[R_THETA] = theta_min_rad
-        y[R_OMEGA] = max(y[R_OMEGA], 0.0)
 
 
 @njit(inline="always")
@@ -111,8 +101,6 @@ def replay_run(
     t_end_s: float,
     dt_s: float,
     load_spring_nm_per_rad: float = 0.0,
-    theta_min_rad: float = -np.inf,
-    theta_max_rad: float = np.inf,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Twin angle, speed and motor-chamber pressures on a grid t_k = k dt, k = 0..floor(t_end/dt);
     returns (t, theta, omega, p_a, p_b) with the pressures absolute at the motor end of each hose.
@@ -131,7 +119,7 @@ def replay_run(
     (the one-joint model takes its load as a constant per step; over 1 ms the joint turns at most
     ~3 mrad, a 0.3 % change of the load at 1 rad).
 
-    `theta_min_rad`, `theta_max_rad`: the joint's end stops (`_at_the_stops`; none by default).
+    The joint stops at the row's end stops (`pneumatics.joint.at_the_stops`; none by default).
     """
     n_steps = int(t_end_s / dt_s + 1e-9)
     atm = p[P.GAS_P_ATM]
@@ -149,7 +137,6 @@ def replay_run(
         if valve_is_output:
             valve = _logged_valve(x, cmd_time_s, valve_gauge_pa, t, dt_s, row)
         single_joint_step(y, x, cmd, valve, s, load_nm, inertia_kg_m2, dt_s, p)
-        _at_the_stops(y, theta_min_rad, theta_max_rad)
         t_out[k + 1] = (k + 1) * dt_s
         th_out[k + 1] = y[R_THETA]
         om_out[k + 1] = y[R_OMEGA]

@@ -916,10 +916,25 @@ def single_joint_step(
 ) -> None:
     """The one-joint model over dt after its valves have advanced (`advance_discrete`): the rigid
     body and the air by RK4 (`single_joint_rk4`) with the brake at its mean over the step
-    (`brake_over_step`), then the brake along what its air gave over the step (`advance_brake`).
-    In place on y and x."""
+    (`brake_over_step`), the joint's end stops (`at_the_stops`), then the brake along what its air
+    gave over the step (`advance_brake`). In place on y and x."""
     pa = y[R_PA_MOTOR]
     pb = y[R_PB_MOTOR]
     brake = brake_over_step(x, command, supply_pa, pa, pb, dt_s, p)
     single_joint_rk4(y, x[S_DIR], valve_gauge_pa, supply_pa, load_torque_nm, inertia_kg_m2, brake, dt_s, p)
+    at_the_stops(y, p)
     advance_brake(x, command, supply_pa, pa, pb, y[R_PA_MOTOR], y[R_PB_MOTOR], dt_s, p)
+
+
+@njit(inline="always")
+def at_the_stops(y: np.ndarray, p: np.ndarray) -> None:
+    """An inelastic end stop (the row's STOP_LOW/STOP_HIGH): a step that carried the joint past one
+    ends on it, its speed into the stop gone. The plant's stiff joint limits do the same (MuJoCo's
+    limit constraint, `solreflimit` 0.001 s: assets/wrist_rig.xml), so a joint driven home against
+    its stop is predicted and replayed there, not turning on past it."""
+    if y[R_THETA] > p[P.STOP_HIGH]:
+        y[R_THETA] = p[P.STOP_HIGH]
+        y[R_OMEGA] = min(y[R_OMEGA], 0.0)
+    elif y[R_THETA] < p[P.STOP_LOW]:
+        y[R_THETA] = p[P.STOP_LOW]
+        y[R_OMEGA] = max(y[R_OMEGA], 0.0)

@@ -289,18 +289,37 @@ def _derived(params: JointParams, gas: Gas, dt_s: float) -> tuple[float, ...]:
     )
 
 
-def params_row(params: JointParams, gas: Gas = AIR, dt_s: float = math.nan) -> np.ndarray:
+# where the joint stops: its drive angle's end stops (rad), a property of the arm, not of the air
+# (the MJCF's joint range, `control.arm_model.ArmModel.drive_stops`): the one-joint model ends a
+# step that carries it past one on it (`pneumatics.joint.at_the_stops`). None: -inf, inf
+STOPS = ("stop_low_rad", "stop_high_rad")
+
+
+def params_row(
+    params: JointParams,
+    gas: Gas = AIR,
+    dt_s: float = math.nan,
+    stops: tuple[float, float] = (-math.inf, math.inf),
+) -> np.ndarray:
     """The flat float64 row the compiled kernels read: the joint's fields, then the gas's, then
-    the DERIVED numbers (the row is built only here, so they always match the fields).
+    the DERIVED numbers (the row is built only here, so they always match the fields), then the
+    drive's end STOPS.
 
     `dt_s`: the step its user takes (the plant's physics step, the predictor's tick), for which
     the row keeps the valve's and the brake's lag factors; a kernel stepping by another dt
-    computes them itself (`pneumatics.joint.advance_discrete`), to the same bits."""
-    return np.array(tuple(params) + tuple(gas) + _derived(params, gas, dt_s), dtype=np.float64)
+    computes them itself (`pneumatics.joint.advance_discrete`), to the same bits.
+    `stops`: (low, high) of the drive angle in rad, for the one-joint model (the predictor, the gap
+    replay); the plant's joints stop at MuJoCo's joint limits instead."""
+    low, high = stops
+    if not low < high:
+        raise ValueError(f"end stops {stops!r}: the low stop must be below the high one")
+    return np.array(tuple(params) + tuple(gas) + _derived(params, gas, dt_s) + (low, high), dtype=np.float64)
 
 
 # column of each field in `params_row` (compile-time constants for the kernels)
-_COLUMNS = {name: i for i, name in enumerate(JointParams._fields + tuple("gas_" + f for f in Gas._fields) + DERIVED)}
+_COLUMNS = {
+    name: i for i, name in enumerate(JointParams._fields + tuple("gas_" + f for f in Gas._fields) + DERIVED + STOPS)
+}
 # each column named by its field (no positional slices: a field added anywhere moves nothing)
 STATOR = _COLUMNS["stator_radius_m"]
 ROTOR = _COLUMNS["rotor_radius_m"]
@@ -357,4 +376,6 @@ BRAKE_ON_DECAY = _COLUMNS["brake_engage_decay"]
 BRAKE_ON_MEAN_GAIN = _COLUMNS["brake_engage_mean_gain"]
 BRAKE_OFF_DECAY = _COLUMNS["brake_release_decay"]
 BRAKE_OFF_MEAN_GAIN = _COLUMNS["brake_release_mean_gain"]
+STOP_LOW = _COLUMNS["stop_low_rad"]
+STOP_HIGH = _COLUMNS["stop_high_rad"]
 N_COLUMNS = len(_COLUMNS)

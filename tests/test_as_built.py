@@ -81,7 +81,8 @@ def test_reality_is_the_as_built_arm_by_default_and_the_predictor_stays_nominal(
         s, plant, joint_params_for({"wrist_pitch": nominal}, s.predictor), [{"wrist_pitch": 0.5}]
     )
     assert not refusal
-    np.testing.assert_array_equal(controller.params[0], params_row(nominal, dt_s=controller.dt))
+    stops = tuple(controller.arm.drive_stops()[0])  # the rig's +-90 deg: where a prediction stops
+    np.testing.assert_array_equal(controller.params[0], params_row(nominal, dt_s=controller.dt, stops=stops))
     assert not np.array_equal(plant.params[0], controller.params[0])
 
 

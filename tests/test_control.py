@@ -191,6 +191,30 @@ def test_closed_loop_beats_open_loop_20_to_90_deg():
         assert closed < 2.5, (angle, closed)
 
 
+@pytest.mark.parametrize("supply_gauge_pa", [0.5e6, 0.8e6])
+def test_a_prediction_stops_at_the_joint_s_end_stop_as_the_joint_does(supply_gauge_pa):
+    """An open-loop move to the rig's +90 deg end stop, the predictor's own model as reality: the
+    joint coasts into the stop and rests on it (MuJoCo's stiff joint limit, assets/wrist_rig.xml),
+    and the prediction, the same one-joint model, stops there too (`pneumatics.joint.at_the_stops`
+    at the MJCF's range, `ArmModel.drive_stops`). Without its stop it ran on 0.40 and 0.50 deg past."""
+    true, predicted = run_move(90.0, "open_loop", rig_plant(NOMINAL), NOMINAL, supply_gauge_pa)
+    assert true == pytest.approx(90.0, abs=0.01)
+    assert predicted == pytest.approx(true, abs=0.05)
+
+
+def test_the_elbow_s_drive_has_no_stop_of_its_own_and_the_others_have_their_joint_s_range():
+    """The elbow's drive angle is shoulder + elbow (the parallelogram's tendon): where it stops
+    depends on the shoulder, so its drive has no stop; every other drive is its joint alone."""
+    arm = ArmModel()
+    stops = arm.drive_stops()
+    for i, j in enumerate(arm.joints):
+        if j == "elbow_pitch":
+            assert stops[i].tolist() == [-math.inf, math.inf]
+        else:
+            assert stops[i].tolist() == [arm.joint_lower[i], arm.joint_upper[i]]
+            assert np.all(np.isfinite(stops[i]))
+
+
 def test_a_real_brake_stiffer_than_predicted_does_not_steer_the_closed_loop():
     """The wrist's brake is fed by the motor's port; the loop floors its set point a margin above the
     predicted brake's full release, so a real brake whose spring is 0.1 bar stiffer than predicted
