@@ -929,9 +929,11 @@ def single_joint_step(
 @njit(inline="always")
 def at_the_stops(y: np.ndarray, p: np.ndarray) -> None:
     """An inelastic end stop (the row's STOP_LOW/STOP_HIGH): a step that carried the joint past one
-    ends on it, its speed into the stop gone. The plant's stiff joint limits do the same (MuJoCo's
+    ends on it, its speed into the stop gone. The rig's stiff joint limits do the same (MuJoCo's
     limit constraint, `solreflimit` 0.001 s: assets/wrist_rig.xml), so a joint driven home against
-    its stop is predicted and replayed there, not turning on past it."""
+    its stop is predicted and replayed there, not turning on past it. (The arm's MJCF keeps
+    MuJoCo's soft limits, a 20 ms bumper: its joints rest a little past the range under the motor's
+    stall torque; README, "End stops".)"""
     if y[R_THETA] > p[P.STOP_HIGH]:
         y[R_THETA] = p[P.STOP_HIGH]
         y[R_OMEGA] = min(y[R_OMEGA], 0.0)
