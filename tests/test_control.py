@@ -191,14 +191,15 @@ def test_closed_loop_beats_open_loop_20_to_90_deg():
         assert closed < 2.5, (angle, closed)
 
 
-@pytest.mark.parametrize("supply_gauge_pa", [0.5e6, 0.8e6])
-def test_a_prediction_stops_at_the_joint_s_end_stop_as_the_joint_does(supply_gauge_pa):
-    """An open-loop move to the rig's +90 deg end stop, the predictor's own model as reality: the
-    joint coasts into the stop and rests on it (MuJoCo's stiff joint limit, assets/wrist_rig.xml),
-    and the prediction, the same one-joint model, stops there too (`pneumatics.joint.at_the_stops`
-    at the MJCF's range, `ArmModel.drive_stops`). Without its stop it ran on 0.40 and 0.50 deg past."""
-    true, predicted = run_move(90.0, "open_loop", rig_plant(NOMINAL), NOMINAL, supply_gauge_pa)
-    assert true == pytest.approx(90.0, abs=0.01)
+@pytest.mark.parametrize("stop_deg, supply_gauge_pa", [(90.0, 0.5e6), (90.0, 0.8e6), (-90.0, 0.8e6)])
+def test_a_prediction_stops_at_the_joint_s_end_stop_as_the_joint_does(stop_deg, supply_gauge_pa):
+    """An open-loop move to one of the rig's +-90 deg end stops, the predictor's own model as
+    reality: the joint coasts into the stop and rests on it (MuJoCo's stiff joint limit,
+    assets/wrist_rig.xml), and the prediction, the same one-joint model, stops there too
+    (`pneumatics.joint.at_the_stops` at the MJCF's range, `ArmModel.drive_stops`). Without its
+    stop it ran on 0.40 and 0.50 deg past +90 deg at 0.5 and 0.8 MPa."""
+    true, predicted = run_move(stop_deg, "open_loop", rig_plant(NOMINAL), NOMINAL, supply_gauge_pa)
+    assert true == pytest.approx(stop_deg, abs=0.01)
     assert predicted == pytest.approx(true, abs=0.05)
 
 
