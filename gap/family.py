@@ -34,12 +34,13 @@ ENERGY = 0.999  # shapes kept until they carry this fraction of the corrections'
 @dataclass(frozen=True)
 class FamilyFit:
     """A family's fit: the gap left on each withheld sample after its own corrections (`heldout`, a
-    residual vector's layout; the gap itself where a sample is never withheld), their SSE, the
-    number of shapes describing it and the fraction of the gap's where-profile they leave
-    unexplained (`profile_misfit`)."""
+    residual vector's layout; the gap itself where a sample is never withheld), their SSE (and its
+    part on the angle samples), the number of shapes describing it and the fraction of the gap's
+    where-profile they leave unexplained (`profile_misfit`)."""
 
     heldout: np.ndarray
     heldout_sse: float
+    heldout_sse_angle: float  # the part of heldout_sse on angle samples (the rest: chamber pressures)
     shapes: int
     where_misfit: float
 
@@ -104,7 +105,8 @@ def fit(
     where_misfit = profile_misfit(basis[:, angle], gap[angle], profile)
     left = member_fit(members, gap, folds) if members else gap.copy()
     sse = float(sum(np.sum(left[te] ** 2) for _, te in folds))
-    return FamilyFit(left, sse, len(basis), where_misfit)
+    sse_angle = float(sum(np.sum(left[te & angle] ** 2) for _, te in folds))
+    return FamilyFit(left, sse, sse_angle, len(basis), where_misfit)
 
 
 def family_fits(

@@ -212,18 +212,29 @@ def _verdict(diag: Diagnosis) -> list[str]:
 
 
 def _families(diag: Diagnosis) -> list[str]:
+    # with chamber pressures, the held-out shrink per channel too: which one the family's corrections fit
+    channels = diag.pressure.measured
+    head = "| family | held-out shrink |" + (" angle | pressures |" if channels else "")
     return [
-        "## Families (the fit of each family's own corrections on withheld runs, its where-pattern match; "
-        "its best member)",
+        "## Families (the fit of each family's own corrections on withheld runs"
+        + (", in all and per channel" if channels else "")
+        + "; its where-pattern match; its best member)",
         "",
-        "| family | held-out shrink | where match | best member | misfit in floors | shrink |",
-        "|---|---|---|---|---|---|",
+        head + " where match | best member | misfit in floors | shrink |",
+        "|---" * (head.count("|") + 3) + "|",
         *(
-            f"| {x.family} | {x.heldout_shrink:.3f} | {x.where_match:.2f} | {x.best} "
-            f"| {_or_dash(x.score_in_floors, 2)} | {_or_dash(x.shrink, 3)} |"
+            f"| {x.family} | {x.heldout_shrink:.3f} |"
+            + (_per_channel(x) if channels else "")
+            + f" {x.where_match:.2f} | {x.best} | {_or_dash(x.score_in_floors, 2)} | {_or_dash(x.shrink, 3)} |"
             for x in diag.which.families
         ),
     ]
+
+
+def _per_channel(x) -> str:
+    """A family's held-out shrink on the angle and on the pressures, as two table cells."""
+    cells = (x.heldout_shrink_angle, x.heldout_shrink_pressure)
+    return "".join(f" {'—' if v is None else _or_dash(v, 3)} |" for v in cells)
 
 
 def _where(diag: Diagnosis) -> list[str]:

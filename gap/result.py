@@ -12,11 +12,10 @@ from pathlib import Path
 import numpy as np
 
 from gap.instrument import InstrumentFacts
-from gap.verdict import FamilyCall, FamilyEvidence, Refusal
+from gap.verdict import OMIT_NONE, FamilyCall, FamilyEvidence, Refusal
 from gap.where import Breakdown
 
 PRIVATE = {"private": True}  # kept in memory for the plots, not written to diagnosis.json
-OMIT_NONE = {"omit_none": True}  # left out of diagnosis.json when None
 
 
 @dataclass(frozen=True)

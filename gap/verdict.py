@@ -25,7 +25,7 @@ Rules:
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -34,6 +34,7 @@ from gap.effects import BY_NAME
 from gap.stats import mean_lower_bound, rms_deg, rms_kpa, run_ms
 from pneumatics import JointParams
 
+OMIT_NONE = {"omit_none": True}  # a field left out of diagnosis.json when None (gap.result.to_json)
 EXPLAIN_SHRINK = 0.1
 PAIR_MARGIN = 0.8  # a pair must bring the misfit (in floors) under 0.8 x the best single's
 OFF_NOMINAL = 0.03  # an effect is off its nominal value beyond 3 % of its range (log range for log effects)
@@ -95,6 +96,10 @@ class FamilyEvidence:
     shrink: float  # held-out rms / the nominal twin's
     where_match: float  # the part of the gap's where-profile its shapes explain (1 - gap.family.profile_misfit)
     heldout_shrink: float  # held-out rms of the gap after the family's own corrections / before (gap.family)
+    # the same per channel where chamber pressures are measured (None where not): which channel the
+    # family's corrections fit, the angle's or the pressures'
+    heldout_shrink_angle: float | None = field(default=None, metadata=OMIT_NONE)
+    heldout_shrink_pressure: float | None = field(default=None, metadata=OMIT_NONE)
 
 
 @dataclass(frozen=True)
@@ -197,11 +202,12 @@ class Judge:
         run_masks = [twin.sample_mask([k]) for k in range(len(twin.runs))]
         per_run = {f: np.array([np.sum(ft.heldout[m] ** 2) for m in run_masks]) for f, ft in fits.items()}
         nominal = sum(float(np.sum(gap[te] ** 2)) for _, te in masks)
+        nominal_angle = sum(float(np.sum(gap[te & angle] ** 2)) for _, te in masks)
         best_of: dict[str, object] = {}
         for c in singles:  # singles come sorted by score: the first of a family is its best
             best_of.setdefault(BY_NAME[c.name].family, c)
         evidence = sorted(
-            (self._evidence(f, best_of.get(f), fit, nominal) for f, fit in fits.items()),
+            (self._evidence(f, best_of.get(f), fit, nominal, nominal_angle) for f, fit in fits.items()),
             key=lambda x: x.heldout_shrink,
         )
         lead = evidence[0].family
@@ -213,14 +219,27 @@ class Judge:
         chosen = max(tied, key=lambda x: x.where_match)  # the first of the most where-like: stable order
         return FamilyCall(chosen.family, chosen.where_match, [x.family for x in tied if x is not chosen], evidence)
 
-    def _evidence(self, f: str, best, fit, nominal: float) -> FamilyEvidence:
+    def _evidence(self, f: str, best, fit, nominal: float, nominal_angle: float) -> FamilyEvidence:
         """Family f's line of evidence: its best single member (None: only a member already in the
-        twin), the fit of its own corrections (gap.family.FamilyFit)."""
+        twin), the fit of its own corrections (gap.family.FamilyFit), in all and, where chamber
+        pressures are measured, per channel (`nominal`, `nominal_angle`: the gap's withheld SSE)."""
+        per_channel = {}
+        if self.twin.has_pressure:
+            per_channel = {
+                "heldout_shrink_angle": _shrink(fit.heldout_sse_angle, nominal_angle),
+                "heldout_shrink_pressure": _shrink(fit.heldout_sse - fit.heldout_sse_angle, nominal - nominal_angle),
+            }
         return FamilyEvidence(
             f,
             best.name if best is not None else "(in the twin)",
             self.score(best) if best is not None else math.nan,
             rms_deg(best.heldout) / self.before_rms if best is not None and self.before_rms > 0 else math.nan,
             1.0 - fit.where_misfit,
-            math.sqrt(fit.heldout_sse / nominal) if nominal > 0 else math.nan,
+            _shrink(fit.heldout_sse, nominal),
+            **per_channel,
         )
+
+
+def _shrink(sse: float, nominal_sse: float) -> float:
+    """Held-out rms after / before, from their SSEs (NaN without a gap)."""
+    return math.sqrt(sse / nominal_sse) if nominal_sse > 0 else math.nan

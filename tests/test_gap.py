@@ -120,6 +120,11 @@ def test_a_form_outside_the_catalogue_is_called_so_and_given_its_family(hidden, 
     assert w.verdict == "outside the catalogue"
     assert w.nearest.family == family
     assert all(c.heldout_pressure_rms_kpa is not None for c in w.ranking)
+    # each family's held-out shrink per channel: the whole's is their mean (in squares, weighted by
+    # the gap's energy in each), so it lies between them
+    for x in w.families:
+        a, p = x.heldout_shrink_angle, x.heldout_shrink_pressure
+        assert min(a, p) - 1e-12 <= x.heldout_shrink <= max(a, p) + 1e-12, x
 
 
 def test_a_run_may_carry_its_own_load(campaigns, tmp_path):
@@ -211,6 +216,9 @@ def test_cli_gap_diagnose_writes_json_report_and_plots(campaigns, tmp_path, caps
         "hose_loss"
     }  # hose loss is already in this twin
     assert (out / "report.md").read_text().startswith("# Sim-to-real gap diagnosis")
+    # a family's held-out shrink per channel only where chamber pressures are measured
+    measured = d["pressure"]["measured"]
+    assert d["which"]["families"] and all(("heldout_shrink_angle" in f) == measured for f in d["which"]["families"])
     for png in ("residual.png", "where.png", "ranking.png", "how_far.png"):
         assert (out / png).read_bytes()[:4] == b"\x89PNG"
     # a user error is one line and exit status 2
