@@ -214,14 +214,15 @@ def _verdict(diag: Diagnosis) -> list[str]:
 def _families(diag: Diagnosis) -> list[str]:
     # with chamber pressures, the held-out shrink per channel too: which one the family's corrections fit
     channels = diag.pressure.measured
-    head = "| family | held-out shrink |" + (" angle | pressures |" if channels else "")
+    columns = ["family", "held-out shrink", *(["angle", "pressures"] if channels else [])]
+    columns += ["where match", "best member", "misfit in floors", "shrink"]
     return [
         "## Families (the fit of each family's own corrections on withheld runs"
         + (", in all and per channel" if channels else "")
         + "; its where-pattern match; its best member)",
         "",
-        head + " where match | best member | misfit in floors | shrink |",
-        "|---" * (head.count("|") + 3) + "|",
+        "| " + " | ".join(columns) + " |",
+        "|---" * len(columns) + "|",
         *(
             f"| {x.family} | {x.heldout_shrink:.3f} |"
             + (_per_channel(x) if channels else "")
