@@ -233,9 +233,9 @@ def _families(diag: Diagnosis) -> list[str]:
 
 
 def _per_channel(x) -> str:
-    """A family's held-out shrink on the angle and on the pressures, as two table cells."""
-    cells = (x.heldout_shrink_angle, x.heldout_shrink_pressure)
-    return "".join(f" {'—' if v is None else _or_dash(v, 3)} |" for v in cells)
+    """A family's held-out shrink on the angle and on the pressures, as two table cells (set wherever
+    chamber pressures are measured: `gap.verdict.Judge._evidence`)."""
+    return "".join(f" {_or_dash(v, 3)} |" for v in (x.heldout_shrink_angle, x.heldout_shrink_pressure))
 
 
 def _where(diag: Diagnosis) -> list[str]:
