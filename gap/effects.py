@@ -216,6 +216,19 @@ CATALOGUE: tuple[Effect, ...] = (
         family="brake",
         equation="engagement lags its target with time constant tau while releasing (s)",
     ),
+    # the brake's springs engage slowly (a restricted brake exhaust, a sticking piston): the lining
+    # bites late at every stop, so the joint slides on. Its engagement time constant, nominal 20 ms,
+    # up to 1 s (log)
+    Effect(
+        "brake_slow_engage",
+        "brake slow engagement (engagement time constant)",
+        "brake_engage_time_constant_s",
+        0.0,
+        1.0,
+        log=True,
+        family="brake",
+        equation="engagement lags its target with time constant tau while engaging (s)",
+    ),
     # a worn lining holds and stops with less torque (nominal 100 N·m): a longer slide at every stop
     Effect(
         "brake_holding",

@@ -506,6 +506,27 @@ def test_hidden_slow_brake_release_is_found_and_told_from_a_late_valve(tmp_path)
     assert w.top.fitted_values[0] == pytest.approx(0.4, rel=0.15)
 
 
+def test_hidden_slow_brake_engagement_is_found_and_told_from_a_weak_lining(tmp_path):
+    """The brake's springs engage in 0.1 s (nominal 0.02 s): every braked stop of a stop-and-go run
+    slides on before the lining bites. A weaker lining slides further too, and a late valve stops
+    late; the catalogue's slow engagement explains the gap and recovers the time constant."""
+    from gap import protocols
+
+    pressures = (0.5, 0.6, 0.8)
+    folder = synth.make_campaign(
+        tmp_path / "slow_engage",
+        synth.wrist_params()._replace(brake_engage_time_constant_s=0.1),
+        seed=19,
+        pressures_mpa=pressures,
+        motion={q: protocols.library(q)["stop_and_go"] for q in pressures},
+    )
+    catalogue = FAST + _by_name("brake_slow_engage", "brake_holding", "valve_dead_time", "valve_set_dead_time")
+    d = diagnose(load_campaign(folder), catalogue=catalogue, progress=False)
+    w = d.which
+    assert w.verdict == "explained" and w.top.name == "brake_slow_engage", (w.verdict, w.top.name, w.rivals)
+    assert w.top.fitted_values[0] == pytest.approx(0.1, rel=0.15)
+
+
 def test_a_run_that_homes_against_the_end_stop_is_no_gap(tmp_path):
     """No hidden effect; each run drives the wrist wide open into its +90 deg end stop, holds it
     there, brakes, and drives back (a rig homing against its stop). The replay stops the joint
