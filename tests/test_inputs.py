@@ -381,6 +381,23 @@ def test_outputs_must_differ_from_inputs_and_each_other_and_be_writable(tmp_path
     assert s.read_text() == RIG and afile.read_text() == "x"
 
 
+def test_the_sweep_table_beside_out_is_checked_before_the_work(tmp_path, capsys):
+    """`twin sweep --out X.json` also writes X.csv: that place is checked first too, so a
+    scenario named X.csv is not overwritten by the table, nor a folder X.csv found after the runs."""
+    s = tmp_path / "scn.csv"  # a scenario file under a .csv name
+    s.write_text(RIG)
+    (tmp_path / "d.csv").mkdir()
+    cases = [
+        (tmp_path / "scn.json", ["--out's table", "scn.csv: is an input"]),
+        (tmp_path / "d.json", ["--out's table", "d.csv: is a folder"]),
+    ]
+    for out, needles in cases:
+        assert main(["sweep", str(s), "--workers", "1", "--out", str(out)]) == 2
+        one_line_error(capsys, *needles)
+        assert not out.exists()
+    assert s.read_text() == RIG
+
+
 def test_a_result_whose_place_fails_after_the_work_is_saved_elsewhere(tmp_path, monkeypatch, capsys):
     """`twin sweep --out` checked fine, then the folder turned into a file while the runs went:
     the summaries go beside it and the user is told where."""

@@ -183,17 +183,19 @@ def cmd_sweep(args) -> int:
     from scenarios.sweep import parse_grid, sweep, table_path, write_csv
 
     scenario = load(args.scenario)
+    table = None if args.out is None else table_path(args.out)
     if args.out is not None:
         check_output(args.out, "--out", inputs=[Path(scenario.path)])
-    with OutputLock([args.out]):
+        check_output(table, "--out's table", inputs=[Path(scenario.path)], others={"--out": args.out})
+    with OutputLock([args.out, table]):
         results = sweep(scenario, parse_grid(args.set), args.monte_carlo, args.workers, args.scheduler, args.duration)
         passed = sum(r["passed"] for r in results)
         if args.out:
             saved = keep_result(
                 args.out, lambda place: write_atomic(place, json.dumps(results, indent=2)), "the sweep's summaries"
             )
-            table = keep_result(table_path(saved), lambda place: write_csv(results, place), "the sweep's table")
-            print(f"{len(results)} runs, {passed} passed; summaries in {saved}, one row per run in {table}")
+            rows = keep_result(table_path(saved), lambda place: write_csv(results, place), "the sweep's table")
+            print(f"{len(results)} runs, {passed} passed; summaries in {saved}, one row per run in {rows}")
         else:
             json.dump(results, sys.stdout, indent=2)
             print()
