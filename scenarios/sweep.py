@@ -52,6 +52,12 @@ def child_seeds(seed: int, n: int) -> list[int]:
 
 def sweep_points(scenario: Scenario, grid: dict[str, list], monte_carlo: int) -> list[dict]:
     """Overrides for each run: the grid, each point repeated over `monte_carlo` child seeds."""
+    if monte_carlo and "seed" in grid:  # the child seeds would replace the grid's, all points alike
+        raise ScenarioError(
+            f"{scenario.path}: the seed is swept twice, by the grid (seed = {grid['seed']}) and by "
+            f"monte_carlo = {monte_carlo} (child seeds of the scenario's seed, {scenario.seed}); "
+            "allowed: one of them (--set seed=... or --monte-carlo N)"
+        )
     points = grid_points(grid) if grid else [{}]
     if monte_carlo:
         seeds = child_seeds(scenario.seed, monte_carlo)
@@ -151,18 +157,25 @@ def _on_dask(scheduler: str, jobs: Iterable, n_points: int, progress: bool) -> l
 
 def parse_grid(items: list[str], where: str = "--set") -> dict[str, list]:
     """`field=v1,v2,...` strings into a grid; values are read as TOML scalars (numbers, true, "text")."""
-    grid = {}
+    grid, given = {}, {}
     for item in items:
         if "=" not in item:
             raise ScenarioError(f"{where} {item!r}: expected FIELD=VALUE[,VALUE...], e.g. supply.pressure_mpa=0.5,0.6")
         key, _, values = item.partition("=")
+        key = key.strip()
+        if key in grid:  # a second --set of one field would silently replace the first's values
+            raise ScenarioError(
+                f"{where} {item!r}: {key} is given twice; allowed: each field once, with all its values "
+                f"({key}={given[key]},{values.strip()})"
+            )
+        given[key] = values.strip()
         parsed = []
         for v in values.split(","):
             try:
                 parsed.append(tomllib.loads(f"v = {v.strip()}")["v"])
             except tomllib.TOMLDecodeError:
                 parsed.append(v.strip())
-        grid[key.strip()] = parsed
+        grid[key] = parsed
     return grid
 
 

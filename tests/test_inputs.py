@@ -105,6 +105,25 @@ def test_an_unreachable_scheduler_is_refused_before_any_run(tmp_path, monkeypatc
     assert not ran
 
 
+def test_a_sweep_grid_that_would_lose_points_is_refused(tmp_path, capsys):
+    """A field given twice kept only the last values (one run for two); a grid of seeds with
+    --monte-carlo ran every point on the same child seeds: both refused, naming what to give."""
+    f = tmp_path / "s.toml"
+    f.write_text(RIG)
+    out = tmp_path / "sw.json"
+    cases = [
+        (
+            ["--set", "supply.pressure_mpa=0.5", "--set", "supply.pressure_mpa=0.6"],
+            ["supply.pressure_mpa is given twice", "allowed", "supply.pressure_mpa=0.5,0.6"],
+        ),
+        (["--set", "seed=1,2", "--monte-carlo", "1"], ["seed = [1, 2]", "monte_carlo = 1", "allowed: one of them"]),
+    ]
+    for flags, needles in cases:
+        assert main(["sweep", str(f), *flags, "--workers", "1", "--out", str(out)]) == 2
+        one_line_error(capsys, *needles)
+        assert not out.exists()
+
+
 def test_every_argument_has_help_and_there_is_a_version(capsys):
     def walk(parser, where):
         for action in parser._actions:
