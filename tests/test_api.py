@@ -82,7 +82,29 @@ def test_twin_plot_draws_the_angles_of_a_log(wrist, tmp_path, capsys):
     before = (tmp / "wrist.mcap").read_bytes()
     assert twin_main(["plot", str(tmp / "wrist.mcap"), "--out", str(tmp / "wrist.mcap")]) == 2
     assert (tmp / "wrist.mcap").read_bytes() == before
-    assert "is the log itself" in capsys.readouterr().err
+    assert "--out" in capsys.readouterr().err
+
+
+def test_twin_plot_checks_out_before_the_work_and_says_where_it_wrote(wrist, tmp_path, capsys):
+    """A suffix that is no picture format, a folder, a path under a file: one line each, before
+    the log is read; a name without a suffix gets .png, and the path printed is the one written."""
+    tmp, _ = wrist
+    (tmp_path / "folder").mkdir()
+    (tmp_path / "afile").write_text("x")
+    cases = [
+        ("p.txt", ["--out", "p.txt", ".txt is not a picture format", "allowed:", ".png", ".svg"]),
+        ("folder", ["--out", "folder: is a folder"]),
+        ("afile/x.png", ["--out", "afile is a file, not a folder"]),
+    ]
+    for out, needles in cases:
+        assert twin_main(["plot", str(tmp / "wrist.mcap"), "--out", str(tmp_path / out)]) == 2
+        err = capsys.readouterr().err.strip()
+        assert len(err.splitlines()) == 1 and all(n in err for n in needles), err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["afile", "folder"]
+    assert twin_main(["plot", str(tmp / "wrist.mcap"), "--out", str(tmp_path / "pnoext")]) == 0
+    written = tmp_path / "pnoext.png"
+    assert capsys.readouterr().out.startswith(f"{written}: ")
+    assert written.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
 def test_scenario_by_name_path_or_refused():

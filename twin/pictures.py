@@ -4,12 +4,13 @@ render_arm_png(path): the arm in the substation seen from the scene's `global_vi
 MuJoCo's offscreen renderer (MUJOCO_GL=egl or osmesa; DESIGN "Headless pictures"), or, when no GL
 backend works, a matplotlib 3D drawing of the bodies' geoms. It returns which one was used.
 plot_angles_png(arrays, path): true, predicted and target angles per joint from a run's arrays
-(Telemetry.arrays() or twin.mcap_log.read_mcap()); plot_run_angles(mcap, path) the same from a log
-(`twin plot`).
+(Telemetry.arrays() or twin.mcap_log.read_mcap()); run_angles_figure(mcap) the same figure from a
+log (`twin plot`), and picture_bytes(figure, format) its file.
 """
 
 from __future__ import annotations
 
+import io
 import os
 import subprocess
 import sys
@@ -18,6 +19,7 @@ from pathlib import Path
 
 import mujoco
 import numpy as np
+from matplotlib.backend_bases import FigureCanvasBase
 from matplotlib.figure import Figure
 from matplotlib.image import imsave
 
@@ -136,9 +138,22 @@ def _draw_geoms_matplotlib(model: mujoco.MjModel, data: mujoco.MjData, path: Pat
     fig.savefig(path, dpi=120)
 
 
+ANGLES_DPI = 110
+# what Figure.savefig writes here, by suffix: matplotlib's formats but pgf, which needs a LaTeX install
+PICTURE_FORMATS = tuple(sorted(set(FigureCanvasBase.get_supported_filetypes()) - {"pgf"}))
+
+
 def plot_angles_png(arrays: dict, path, joints: tuple[str, ...] = assets.JOINTS, only_moving: bool = True) -> Path:
     """Plot true, predicted and target angles (deg) against time, one panel per joint; with
     `only_moving`, joints whose true angle stays within 0.01° are left out."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    angles_figure(arrays, joints, only_moving).savefig(path, dpi=ANGLES_DPI)
+    return path
+
+
+def angles_figure(arrays: dict, joints: tuple[str, ...] = assets.JOINTS, only_moving: bool = True) -> Figure:
+    """The figure of `plot_angles_png`, not yet written anywhere."""
     t = arrays["time_s"]
     true = np.degrees(arrays["true_angle_rad"])
     pred = np.degrees(arrays["predicted_angle_rad"])
@@ -157,15 +172,19 @@ def plot_angles_png(arrays: dict, path, joints: tuple[str, ...] = assets.JOINTS,
         ax.legend(loc="best", fontsize=8)
     axes[-1, 0].set_xlabel("simulated time (s)")
     fig.tight_layout()
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=110)
-    return path
+    return fig
 
 
-def plot_run_angles(mcap_path, path, until_s: float | None = None, only_moving: bool = True) -> tuple[Path, dict]:
+def picture_bytes(fig: Figure, fmt: str, dpi: float = ANGLES_DPI) -> bytes:
+    """`fig` as a file of format `fmt` (one of PICTURE_FORMATS), e.g. for twin.outputs.write_atomic."""
+    buffer = io.BytesIO()
+    fig.savefig(buffer, format=fmt, dpi=dpi)
+    return buffer.getvalue()
+
+
+def run_angles_figure(mcap_path, until_s: float | None = None, only_moving: bool = True) -> tuple[Figure, dict]:
     """The angles figure of a run logged as MCAP (cut short or whole; the first `until_s`
-    simulated seconds if given); returns the PNG's path and the reader's recovery report.
+    simulated seconds if given), and the reader's recovery report.
     Raises twin.mcap_log.LogError on a file that is not a readable log."""
     arrays, meta = read_mcap(mcap_path)
     if meta["recovery"]["samples"] == 0:
@@ -173,4 +192,4 @@ def plot_run_angles(mcap_path, path, until_s: float | None = None, only_moving: 
     if until_s is not None:
         keep = arrays["time_s"] <= until_s
         arrays = {k: v[keep] for k, v in arrays.items()}
-    return plot_angles_png(arrays, path, joints=tuple(meta["joints"]), only_moving=only_moving), meta["recovery"]
+    return angles_figure(arrays, joints=tuple(meta["joints"]), only_moving=only_moving), meta["recovery"]
