@@ -374,6 +374,26 @@ def test_a_cut_short_mcap_run_is_refused(tmp_path):
         load_campaign(folder)
 
 
+def test_replay_model_is_checked_before_mujoco_reads_it(tmp_path, capsys):
+    """`twin replay --model` given a scenario, a folder, a missing file: one line each, before
+    MuJoCo (whose refusals run over several lines; a folder made it warn of a file over 2 GB)."""
+    fake_log(tmp_path / "r.mcap")
+    (tmp_path / "s.toml").write_text(RIG)
+    (tmp_path / "folder").mkdir()
+    (tmp_path / "bad.xml").write_text("<mujoco><bad")
+    cases = [
+        ("s.toml", "not an .xml file"),
+        ("folder", "is not a file"),
+        ("nope.xml", "no such file"),
+        ("bad.xml", "cannot load the MJCF model"),  # MuJoCo's own words, on one line
+    ]
+    for model, needle in cases:
+        argv = ["replay", str(tmp_path / "r.mcap"), "--rrd", str(tmp_path / "r.rrd"), "--model", str(tmp_path / model)]
+        assert main(argv) == 2, model
+        one_line_error(capsys, model, needle)
+    assert not (tmp_path / "r.rrd").exists()
+
+
 # --- output places -----------------------------------------------------------------------------
 def test_outputs_must_differ_from_inputs_and_each_other_and_be_writable(tmp_path, capsys):
     s = tmp_path / "s.toml"

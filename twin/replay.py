@@ -50,7 +50,8 @@ def _load(path: Path) -> tuple[mujoco.MjModel, tuple[str, ...]]:
     try:
         model = mujoco.MjModel.from_xml_path(str(path))
     except ValueError as e:
-        raise LogError(f"{path}: cannot load the MJCF model for the geometry: {e}") from e
+        message = " ".join(str(e).split())  # MuJoCo's parser errors run over several lines
+        raise LogError(f"{path}: cannot load the MJCF model for the geometry: {message}") from e
     return model, tuple(body_name(model, b) for b in range(1, model.nbody))
 
 

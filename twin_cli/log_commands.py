@@ -45,6 +45,18 @@ def check_rrd(path: Path) -> None:
         raise UserError(f"{path}: not a readable rerun recording ({type(e).__name__}: {e})") from e
 
 
+def check_model(path: Path) -> None:
+    """Raise UserError unless `path` is a file named .xml: what --model hands to MuJoCo, whose
+    own refusals run over several lines (and a folder makes it warn of a file over 2 GB)."""
+    allowed = "allowed: the MJCF (.xml) file the run used"
+    if not path.exists():
+        raise UserError(f"--model {path}: no such file; {allowed}")
+    if not path.is_file():
+        raise UserError(f"--model {path}: is not a file; {allowed}")
+    if path.suffix.lower() != ".xml":
+        raise UserError(f"--model {path}: not an .xml file; {allowed}")
+
+
 def viewer_command(path: Path) -> list[str]:
     exe = shutil.which("rerun") or str(Path(sys.executable).with_name("rerun"))
     if Path(exe).exists():
@@ -81,6 +93,8 @@ def cmd_replay(args) -> int:
     # on use: at the top, the libraries take `twin --help` from 0.45 to 2.2 s
     from twin.replay import replay
 
+    if args.model is not None:
+        check_model(args.model)
     check_output(args.rrd, "--rrd", inputs=[args.file, args.model])
     with OutputLock([args.rrd]):
         report = replay(args.file, args.rrd, args.model)
