@@ -394,6 +394,20 @@ def test_replay_model_is_checked_before_mujoco_reads_it(tmp_path, capsys):
     assert not (tmp_path / "r.rrd").exists()
 
 
+def test_mujoco_says_its_warnings_but_leaves_no_log_file(tmp_path, monkeypatch, capfd):
+    """MuJoCo appends each warning and error to MUJOCO_LOG.TXT in the working folder unless told
+    not to: the twin keeps the message on the console and no file where the user stands."""
+    from twin.model import load_model
+
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "folder").mkdir()
+    with pytest.raises(ValueError):
+        load_model(tmp_path / "folder")  # a folder: MuJoCo warns, then refuses it
+    captured = capfd.readouterr()
+    assert "WARNING" in captured.out + captured.err
+    assert list(tmp_path.iterdir()) == [tmp_path / "folder"]
+
+
 # --- output places -----------------------------------------------------------------------------
 def test_outputs_must_differ_from_inputs_and_each_other_and_be_writable(tmp_path, capsys):
     s = tmp_path / "s.toml"

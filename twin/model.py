@@ -9,6 +9,18 @@ import mujoco
 import numpy as np
 
 
+def keep_mujoco_log_off_disk() -> None:
+    """MuJoCo's default log handler prints each warning and error and also appends it to
+    MUJOCO_LOG.TXT in the working folder; the twin reports both itself (a refusal, a
+    SimulationError), so only the print is kept: no stray file where the user happens to be."""
+    config = mujoco.MjLogConfig.get()
+    config.logto_file = False
+    config.set()
+
+
+keep_mujoco_log_off_disk()  # at import: every process that loads a model through twin (workers too)
+
+
 class SimulationError(RuntimeError):
     """MuJoCo warned during a run (divergence, constraint overflow, ...): the run cannot be trusted."""
 
