@@ -25,10 +25,16 @@ def open_recorders(
 ) -> list:
     """The log writers a run asked for, told what they need to know about the scenario;
     `start_time` ("now" or ISO 8601) starts the MCAP's clock there (twin.mcap_log.start_time)."""
+    start = {} if start_time is None else start_meta(start_time)  # refused when bad, with or without a log
+    if start and not mcap:
+        raise UserError(
+            f"--start-time {start_time}: sets the MCAP log's start, and no --mcap is asked for; "
+            "allowed: --start-time with --mcap"
+        )
     recorders = []
     if not (rrd or mcap):
         return recorders
-    meta = run_metadata(scenario) | (start_meta(start_time) if start_time else {})
+    meta = run_metadata(scenario) | start
     plant = build_plant(scenario)
     frames = None
     if rrd and mcap and camera_fps > 0:  # one camera process renders each frame for both logs

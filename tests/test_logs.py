@@ -763,6 +763,21 @@ def test_mcap_start_time_given_or_refused(tmp_path, capsys):
         assert "--start-time" in capsys.readouterr().err and not (tmp_path / "u.mcap").exists()
 
 
+def test_start_time_without_mcap_is_refused(tmp_path, capsys):
+    """`--start-time` sets only the MCAP's clock: without --mcap a bad one is refused as with it,
+    and a good one is refused too (it would do nothing), before the run."""
+    wrist = str(ROOT / "scenarios" / "wrist_closed_loop_60deg.toml")
+    cases = [
+        (["--start-time", "garbage"], "expected 'now' or an ISO 8601 time"),
+        (["--start-time", "now", "--rrd", str(tmp_path / "r.rrd")], "no --mcap is asked for"),
+    ]
+    for flags, needle in cases:
+        assert twin_main(["run", wrist, "--duration", "0.1", *flags]) == 2
+        err = capsys.readouterr().err.strip()
+        assert len(err.splitlines()) == 1 and "--start-time" in err and needle in err, err
+    assert not (tmp_path / "r.rrd").exists()
+
+
 def test_replay_carries_the_camera_frames_of_a_log(tmp_path):
     """Frames in an MCAP log come back in the recording `twin replay` makes, at their times."""
     rec = run_with_camera(McapRecorder, tmp_path / "cam.mcap")

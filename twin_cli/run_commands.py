@@ -36,7 +36,7 @@ def _add_run(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--start-time",
         metavar="ISO|now",
-        help="the MCAP log's start (default 2000-01-01T00:00:00Z, deterministic; 'now': the wall clock)",
+        help="the MCAP log's start, with --mcap (default 2000-01-01T00:00:00Z, deterministic; 'now': the wall clock)",
     )
     p.set_defaults(func=cmd_run)
 
