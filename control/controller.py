@@ -130,6 +130,9 @@ class ArmController:
         self._set_load(start)
         self.inertia = self.arm.drive_inertias(start) + self.rotor_inertia
         self._plan: list[tuple[np.ndarray, float]] = []  # (targets with NaN = stays, dwell_s)
+        # which target of the last set_targets each of its steps serves, and how many steps were begun
+        self._step_targets: list[int] = []
+        self._steps_begun = 0
         self._step_joints = np.zeros(n, dtype=bool)
         self._stepping = False  # == self._step_joints.any(), kept as a bool for the tick's speed
         self._step_index: list[int] = []  # == np.flatnonzero(self._step_joints).tolist(), likewise
@@ -201,14 +204,17 @@ class ArmController:
             targets = [targets]
         dwells = [float(dwell_s)] * len(targets) if np.isscalar(dwell_s) else [float(d) for d in dwell_s]
         self._stop_all()
+        self._step_targets, self._steps_begun = [], 0
         try:
             plan = self._validated_plan(targets, dwells, sequence)
         except MotionRefused as e:
             self.events.append(f"t = {self.time_s:.3f} s: refused: {e}")
             raise
-        self._plan = plan
+        self._plan = [(step, dwell) for step, dwell, _ in plan]
+        self._step_targets = [k for _, _, k in plan]
 
-    def _validated_plan(self, targets, dwells, sequence) -> list[tuple[np.ndarray, float]]:
+    def _validated_plan(self, targets, dwells, sequence) -> list[tuple[np.ndarray, float, int]]:
+        """The plan's steps: (drive angles, NaN where a joint stays; dwell_s; the target it serves)."""
         here = self.y[:, R_THETA].copy()
         plan = []
         lo, hi = self.arm.joint_lower, self.arm.joint_upper
@@ -243,15 +249,15 @@ class ArmController:
                 )
             moving = np.abs(delta) > tol
             if sequence == "together":
-                plan.append((np.where(moving, full, np.nan), dwell))
+                plan.append((np.where(moving, full, np.nan), dwell, k))
             else:
                 idx = np.flatnonzero(moving)
                 for m, i in enumerate(idx):
                     step = np.full(len(self.joints), np.nan)
                     step[i] = full[i]
-                    plan.append((step, dwell if m == len(idx) - 1 else 0.0))
+                    plan.append((step, dwell if m == len(idx) - 1 else 0.0, k))
                 if len(idx) == 0:
-                    plan.append((np.full(len(self.joints), np.nan), dwell))
+                    plan.append((np.full(len(self.joints), np.nan), dwell, k))
             here = full
         return plan
 
@@ -420,6 +426,7 @@ class ArmController:
         if not self._plan:
             return
         step, dwell = self._plan.pop(0)
+        self._steps_begun += 1
         self._dwell_left = dwell
         moving = ~np.isnan(step)
         if not moving.any():
@@ -459,6 +466,23 @@ class ArmController:
         i = self.joints.index(joint)
         self.y[i, R_THETA] = float(angle_rad)
         self.y[i, R_OMEGA] = float(speed_rad_s)
+
+    def targets_finished(self) -> list[bool]:
+        """Per target of the last `set_targets`, whether it was finished: every step of it begun, its
+        joints arrived and its dwell over (a fault leaves the step under way and the rest unfinished)."""
+        open_step = self._stepping or self._dwell_left > 0.0  # the last step begun is still under way
+        finished = self._steps_begun - open_step
+        last_step = {k: i for i, k in enumerate(self._step_targets)}
+        return [k in last_step and last_step[k] < finished for k in range(max(self._step_targets, default=-1) + 1)]
+
+    def target_in_force(self, targets: Sequence[Mapping[str, float]]) -> dict[str, float]:
+        """Per joint, the target in force now (drive angle, rad): the latest of `targets` (those of the
+        last `set_targets`) whose steps were begun that names it; {} before the first step."""
+        begun = self._step_targets[self._steps_begun - 1] if self._steps_begun else -1
+        out: dict[str, float] = {}
+        for target in targets[: begun + 1]:
+            out.update(target)
+        return out
 
     # -- what the controller believes (Controller protocol) ------------------------------------
     def predicted_angles(self) -> np.ndarray:

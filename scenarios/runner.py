@@ -14,6 +14,7 @@ import mujoco
 import numpy as np
 
 import assets
+from control import ArmController
 from pneumatics import load_joint_params
 from pneumatics.as_built import load_as_built
 from scenarios import controllers
@@ -195,7 +196,11 @@ def run_scenario(
     except SimulationError as e:  # a divergence: keep what was logged, report it as a failed run
         error = str(e)
     cut_short = duration < scenario.duration_s
-    reached = list(task.reached) if task and cut_short else None
+    reached, active = None, None
+    if task:
+        reached, active = (list(task.reached) if cut_short else None), task.active_target()
+    elif cut_short and not refusal and isinstance(controller, ArmController):  # the rig: the plan as a whole
+        reached, active = controller.targets_finished(), controller.target_in_force(targets)
     arrays = telemetry.arrays()
     verdicts = (
         judge(scenario, arrays, plant.joints, telemetry.bodies, plant.model, targets, reached) if len(telemetry) else []
@@ -213,7 +218,7 @@ def run_scenario(
         error,
         refusal,
         events,
-        task.active_target() if task else None,
+        active,
         reached,
         discs,
         finished,

@@ -158,3 +158,24 @@ def test_every_scenario_passes_its_criteria(path):
     assert result.passed, (result.error, failed)
     assert result.verdicts, "a scenario without criteria checks nothing"
     assert all(math.isfinite(v.value) for v in result.verdicts)
+
+
+def test_a_rig_run_cut_short_is_judged_on_the_target_in_force(capsys, tmp_path):
+    """`twin run --duration` on the rig (no task controller, the plan fed whole): the target in force
+    at the cut, the targets not finished listed, and the final error not judged (as on the arm)."""
+    path = tmp_path / "rig.toml"
+    path.write_text(load("wrist_random_supply").text)  # 45 deg reached at 1.08 s, held 2 s; then 0 deg
+    assert twin_main(["run", str(path), "--json", "--duration", "3"]) == 0
+    summary = json.loads(capsys.readouterr().out)
+    assert summary["joints"]["wrist_pitch"]["target_deg"] == 45.0
+    assert summary["not_reached"] == ["target 1", "target 2", "target 3", "target 4"]
+    assert [(c["kind"], c["judged"], c["passed"]) for c in summary["criteria"]] == [("final_error_deg", False, False)]
+    assert twin_main(["run", str(path), "--json", "--duration", "4.5"]) == 0
+    summary = json.loads(capsys.readouterr().out)
+    assert summary["joints"]["wrist_pitch"]["target_deg"] == 0.0 and summary["not_reached"][0] == "target 2"
+    path.write_text(load("wrist_closed_loop_60deg").text)  # arrives at 1.25 s
+    assert twin_main(["run", str(path), "--duration", "1"]) == 0
+    assert "[----] final_error_deg" in capsys.readouterr().out
+    assert twin_main(["run", str(path), "--json", "--duration", "2"]) == 0  # arrived: judged
+    summary = json.loads(capsys.readouterr().out)
+    assert summary["not_reached"] == [] and summary["criteria"][0]["judged"] is True
