@@ -13,6 +13,7 @@ says where it comes from.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import NamedTuple
@@ -206,20 +207,28 @@ def validated(params: JointParams, source: str = "<parameters>") -> JointParams:
     """Check every field of `params` and the relations between them."""
     for field, value in zip(JointParams._fields, params, strict=True):
         check_value(source, field, value)
-    return _related(params, source)
+    return check_related(params, in_file(source))
 
 
-def _related(params: JointParams, source: str) -> JointParams:
+def in_file(source: str) -> Callable[[str], str]:
+    """Where a field is written in a parameter file, for a message: `<file>: [motor] rotor_radius_m`."""
+    return lambda field: f"{source}: [{SPEC[field].section}] {field}"
+
+
+def check_related(params: JointParams, field_at: Callable[[str], str]) -> JointParams:
     """Check what the fields must hold together: a rotor inside its stator, a brake that lifts
-    before it is clear, a body for the motor side of a non-rigid reducer, switches that are 0 or 1."""
+    before it is clear, a body for the motor side of a non-rigid reducer, switches that are 0 or 1.
+
+    `field_at(field)`: where the field is written, for the message (`in_file` for a parameter file;
+    a scenario's effects table names its own place). ParameterError on the first that fails."""
     if params.rotor_radius_m >= params.stator_radius_m:
         raise ParameterError(
-            f"{source}: [motor] rotor_radius_m = {params.rotor_radius_m:g} must be smaller than "
+            f"{field_at('rotor_radius_m')} = {params.rotor_radius_m:g} must be smaller than "
             f"stator_radius_m = {params.stator_radius_m:g}"
         )
     if params.brake_release_start_gauge_pa > params.brake_release_gauge_pa:
         raise ParameterError(
-            f"{source}: [brake] brake_release_start_gauge_pa = {params.brake_release_start_gauge_pa:g} "
+            f"{field_at('brake_release_start_gauge_pa')} = {params.brake_release_start_gauge_pa:g} "
             f"must not exceed brake_release_gauge_pa = {params.brake_release_gauge_pa:g} "
             "(the lining lifts before it is clear)"
         )
@@ -227,15 +236,15 @@ def _related(params: JointParams, source: str) -> JointParams:
         params.reducer_backlash_rad > 0.0 or params.reducer_compliance_rad_per_nm > 0.0
     ) and params.rotor_inertia_kg_m2 == 0.0:
         raise ParameterError(
-            f"{source}: [motor] rotor_inertia_kg_m2 = 0 with a non-rigid reducer "
+            f"{field_at('rotor_inertia_kg_m2')} = 0 with a non-rigid reducer "
             f"(reducer_backlash_rad = {params.reducer_backlash_rad:g}, "
             f"reducer_compliance_rad_per_nm = {params.reducer_compliance_rad_per_nm:g}); "
             "allowed: a rotor inertia > 0 (the motor side is a body of its own)"
         )
-    for section, field in (("hose", "hose_loss"), ("brake", "brake_fed_by_motor")):
+    for field in ("hose_loss", "brake_fed_by_motor"):
         value = getattr(params, field)
         if value not in (0.0, 1.0):
-            raise ParameterError(f"{source}: [{section}] {field} = {value:g}; allowed: 0 or 1")
+            raise ParameterError(f"{field_at(field)} = {value:g}; allowed: 0 or 1")
     return params
 
 
@@ -248,7 +257,7 @@ def load_joint_params(path: str | Path) -> JointParams:
     except ValidationError as e:
         raise ParameterError(_message(str(path), first_problem(e, ParameterFile))) from None
     params = JointParams(**{name: getattr(getattr(tables, spec.section), name) for name, spec in SPEC.items()})
-    return _related(params, str(path))
+    return check_related(params, in_file(str(path)))
 
 
 # numbers the kernels need at every call that depend on the parameters alone, kept in the row

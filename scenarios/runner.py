@@ -15,14 +15,12 @@ import numpy as np
 
 import assets
 from control import ArmController
-from pneumatics import load_joint_params
-from pneumatics.as_built import load_as_built
 from scenarios import controllers
 from scenarios.cleaning import DiscContact, disc_contacts
 from scenarios.criteria import DISC_KINDS, Verdict, as_dicts, judge
 from scenarios.faults import fault_events
 from scenarios.ik import disc_drive_angles
-from scenarios.schema import Scenario, joint_params_for, load
+from scenarios.schema import Scenario, joint_params_for, load, nominal_params, reality_params
 from scenarios.supply import supply_profile
 from scenarios.task import TaskController
 from twin.checks import DURATION_S, SEED, check_number
@@ -122,15 +120,6 @@ def model_path(scenario: Scenario) -> Path:
     return assets.WRIST_RIG_XML if scenario.model == "wrist_rig" else assets.SCENE_XML
 
 
-def reality_params(scenario: Scenario) -> dict:
-    """Reality's base parameters per joint: the as-built arm (nominal + assets/as_built/), or with
-    `[reality] arm = "nominal"` the predictor's own nominal model (a self-check)."""
-    base = {j: load_joint_params(assets.joint_param_path(j)) for j in scenario.joints}
-    if scenario.reality.arm == "nominal":
-        return base
-    return {j: load_as_built(p, assets.as_built_path(j)) for j, p in base.items()}
-
-
 def build_plant(scenario: Scenario) -> Plant:
     """Reality: the model, the start pose, the payload, and the effects the plant has."""
     base = reality_params(scenario)
@@ -175,8 +164,8 @@ def run_scenario(
     rng = np.random.default_rng(scenario.seed)
     plant = build_plant(scenario)
     targets = resolve_targets(scenario, plant)
-    base = {j: load_joint_params(assets.joint_param_path(j)) for j in scenario.joints}
-    controller, refusal = controllers.build(scenario, plant, joint_params_for(base, scenario.predictor), targets)
+    predictor = joint_params_for(nominal_params(scenario.joints), scenario.predictor)
+    controller, refusal = controllers.build(scenario, plant, predictor, targets)
     task = None
     if scenario.model == "arm" and scenario.control.mode != "none" and not refusal:
         controller.set_targets([])  # the plan was checked whole; the task feeds it one target at a time

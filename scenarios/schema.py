@@ -36,6 +36,7 @@ from pydantic.dataclasses import dataclass
 import assets
 from assets import JOINTS
 from pneumatics import JointParams, load_joint_params
+from pneumatics.as_built import load_as_built
 from pneumatics.fields import (
     FLAG,
     MISSING,
@@ -52,7 +53,7 @@ from pneumatics.fields import (
     refuse,
     whole,
 )
-from pneumatics.params import JointParamsSubset
+from pneumatics.params import JointParamsSubset, ParameterError, check_related
 from scenarios.ik import disc_drive_angles, drive_to_qpos, qpos_to_drive
 from twin.errors import UserError
 
@@ -325,6 +326,7 @@ def check_consistency(s: Scenario, doc: dict) -> None:
     """What the fields must hold together: the model's joints, a plan for the strategy, targets
     and faults and criteria as their kinds need them (ScenarioError on the first that does not)."""
     _check_joint_names(s)
+    _check_effects(s)
     if s.supply.kind == "steps" and not s.supply.steps:
         raise _fail(s.path, "supply.steps", [], "at least one [time_s, pressure_mpa] pair when kind = 'steps'")
     if s.control.strategy != "sensorless" and s.model != "arm":
@@ -351,6 +353,26 @@ def _check_joint_names(s: Scenario) -> None:
         for joint in table:
             if joint not in s.joints:
                 raise _fail(s.path, f"{where}.{joint}", None, ", ".join(s.joints), "is not a known field")
+
+
+def _check_effects(s: Scenario) -> None:
+    """Each joint's parameters with the effects on it hold together as a parameter file's must
+    (pneumatics.params.check_related: a rotor inside its stator, ...), on the base they apply to."""
+    for table, model in (("reality", s.reality), ("predictor", s.predictor)):
+        joints = tuple(model.effects)
+        if not joints:
+            continue
+        base = reality_params(s, joints) if table == "reality" else nominal_params(joints)
+        for joint, params in joint_params_for(base, model).items():
+            try:
+                check_related(params, _effect_at(s.path, f"{table}.effects.{joint}"))
+            except ParameterError as e:
+                raise ScenarioError(str(e)) from None
+
+
+def _effect_at(path: str, table: str):
+    """Where an effect is written in a scenario file, for a message: `<file>: <table>.<field>`."""
+    return lambda field: f"{path}: {table}.{field}"
 
 
 def _check_target(s: Scenario, i: int, t: Target, standoff_given: bool) -> None:
@@ -545,6 +567,21 @@ def load(path: str | Path) -> Scenario:
     path = find(path)
     doc, text = read_toml(path, ScenarioError, "scenario file")
     return parse_doc(doc, str(path), text)
+
+
+def nominal_params(joints: tuple[str, ...]) -> dict[str, JointParams]:
+    """The joints' parameter files (assets/joints/): the predictor's base, always nominal."""
+    return {j: load_joint_params(assets.joint_param_path(j)) for j in joints}
+
+
+def reality_params(scenario: Scenario, joints: tuple[str, ...] | None = None) -> dict[str, JointParams]:
+    """Reality's base parameters per joint (every joint of the scenario's model, or `joints`): the
+    as-built arm (nominal + assets/as_built/), or with `[reality] arm = "nominal"` the predictor's
+    own nominal model (a self-check)."""
+    base = nominal_params(scenario.joints if joints is None else joints)
+    if scenario.reality.arm == "nominal":
+        return base
+    return {j: load_as_built(p, assets.as_built_path(j)) for j, p in base.items()}
 
 
 def joint_params_for(base: dict[str, JointParams], model: Model) -> dict[str, JointParams]:

@@ -214,6 +214,39 @@ def test_scenarios_inconsistent_with_the_model_or_themselves_are_refused(text, f
     assert field in message and value in message and "allowed" in message, message
 
 
+@pytest.mark.parametrize(
+    "table, fields, needles",
+    [
+        ("reality", "rotor_radius_m = 0.02", ["rotor_radius_m = 0.02", "smaller than stator_radius_m = 0.011"]),
+        ("predictor", "rotor_radius_m = 0.02", ["rotor_radius_m = 0.02", "smaller than stator_radius_m"]),
+        (
+            "reality",
+            "brake_release_start_gauge_pa = 9e5",
+            ["brake_release_start_gauge_pa = 900000", "must not exceed brake_release_gauge_pa = 400000"],
+        ),
+        ("reality", "hose_loss = 0.5", ["hose_loss = 0.5", "allowed: 0 or 1"]),
+        ("predictor", "brake_fed_by_motor = 0.5", ["brake_fed_by_motor = 0.5", "allowed: 0 or 1"]),
+        (
+            "reality",
+            "reducer_backlash_rad = 0.1\nrotor_inertia_kg_m2 = 0.0",
+            ["rotor_inertia_kg_m2 = 0 with a non-rigid reducer", "reducer_backlash_rad = 0.1", "rotor inertia > 0"],
+        ),
+    ],
+)
+def test_scenario_effects_must_hold_together_as_a_parameter_file(tmp_path, capsys, table, fields, needles):
+    """A scenario's effects on a joint are checked with the parameter file's own cross-field checks
+    (pneumatics.params.check_related), before the run, naming the scenario, the table and the field."""
+    path = tmp_path / "effects.toml"
+    path.write_text(
+        RIG + f"[[targets]]\nangles_deg = {{ wrist_pitch = 30.0 }}\n[{table}.effects.wrist_pitch]\n{fields}\n"
+    )
+    mcap = tmp_path / "run.mcap"
+    assert main(["run", str(path), "--mcap", str(mcap)]) == 2
+    field = needles[0].split(" =")[0]
+    one_line_error(capsys, f"{path}: {table}.effects.wrist_pitch.{field}", *needles)
+    assert not mcap.exists()  # refused before any work
+
+
 def test_a_plan_the_controller_refuses_cannot_pass_final_error(capsys):
     """A 10 deg move under a 20 deg minimum rotation is refused at run time (the arm stays
     braked): the error against the target asked for is 10 deg, and the criterion fails."""
