@@ -111,7 +111,11 @@ SPEC: dict[str, FieldSpec] = {
     "ratio": FieldSpec("reducer", 1.0, 10_000.0, "-"),
     "efficiency_forward": FieldSpec("reducer", 0.05, 1.0, "-"),
     "efficiency_backward": FieldSpec("reducer", 0.05, 1.0, "-"),
-    "hose_length_m": FieldSpec("hose", 0.01, 100.0, "m"),
+    # from 2 m: the model's air in a shorter hose moves faster than its steps follow. Measured on the
+    # wrist rig (0.5-1.0 MPa, 1.5 s of a 60 deg move, 1 ms control period): with 2-50 mm bores the
+    # predictor's integration goes to NaN below ~0.5 m and the plant's (MuJoCo's BADCTRL) below
+    # ~0.3 m; a 1 mm bore diverges at 1 m too and runs from 2 m. The arm's hoses are 8 m.
+    "hose_length_m": FieldSpec("hose", 2.0, 100.0, "m"),
     "hose_diameter_m": FieldSpec("hose", 1e-3, 0.05, "m"),
     "hose_loss": FieldSpec("hose", 0.0, 1.0, "0 or 1"),
     "inlet_area_m2": FieldSpec("valves", 1e-8, 1e-3, "m^2"),

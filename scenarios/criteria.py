@@ -122,7 +122,8 @@ def _judge_one(c: Criterion, scenario: Scenario, a: dict, joints, bodies, model,
         verdicts = []
         for joint in chosen:
             i = joints.index(joint)
-            value = float(np.nanmax(np.abs(_deg(a["true_angle_rad"][:, i] - pred[:, i]))))
+            # a sample that is not a number (a diverged predictor) makes the value NaN: the criterion fails
+            value = float(np.max(np.abs(_deg(a["true_angle_rad"][:, i] - pred[:, i])))) if len(t) else math.nan
             verdicts.append(Verdict(c.kind, joint, value, _limit(c), bool(np.isfinite(value) and _within(value, c))))
         return verdicts
     if c.kind in ("final_error_deg", "max_error_deg"):
@@ -145,7 +146,10 @@ def _judge_one(c: Criterion, scenario: Scenario, a: dict, joints, bodies, model,
                     float(_deg(abs(a["true_angle_rad"][-1, i] - targets[finite[-1], i]))) if finite.size else math.nan
                 )
             else:
-                value = float(np.nanmax(err)) if np.isfinite(err).any() else math.nan
+                # over the samples with a target (NaN before the first); a true angle that is not a
+                # number there makes the value NaN: the criterion fails
+                asked = np.isfinite(targets[:, i])
+                value = float(np.max(err[asked])) if asked.any() else math.nan
             verdicts.append(Verdict(c.kind, joint, value, _limit(c), bool(np.isfinite(value) and _within(value, c))))
         return verdicts
     if c.kind == "brush_on_disc":

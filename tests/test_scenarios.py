@@ -9,6 +9,7 @@ import math
 import numpy as np
 import pytest
 
+import assets
 from scenarios.runner import run_file, run_scenario, scenario_files
 from scenarios.schema import ScenarioError, load, parse, with_overrides
 from scenarios.supply import supply_profile
@@ -38,6 +39,12 @@ mode = "none"
         ("[reality.effects.wrist_pitch]\nleak_area_m2 = -1.0", "reality.effects.wrist_pitch.leak_area_m2", "-1.0"),
         ("[reality.effects.wrist_pitch]\nmagic = 1.0", "reality.effects.wrist_pitch.magic", "not a known field"),
         ("[operator]\nlatency_s = -1.0", "operator.latency_s", "-1.0"),
+        # the model's air in a hose this short diverges (pneumatics/params.py SPEC)
+        (
+            "[predictor.effects.wrist_pitch]\nhose_length_m = 0.01",
+            "predictor.effects.wrist_pitch.hose_length_m",
+            "2..100",
+        ),
     ],
 )
 def test_bad_fields_are_refused_with_path_field_value_and_allowed(extra, field, value):
@@ -179,3 +186,31 @@ def test_a_rig_run_cut_short_is_judged_on_the_target_in_force(capsys, tmp_path):
     assert twin_main(["run", str(path), "--json", "--duration", "2"]) == 0  # arrived: judged
     summary = json.loads(capsys.readouterr().out)
     assert summary["not_reached"] == [] and summary["criteria"][0]["judged"] is True
+
+
+def test_a_diverged_predictor_stops_the_run_and_fails_its_criterion():
+    """A predictor whose integration goes to NaN (a 1 cm hose, below the files' range: built through
+    the Python API) stops the run like a MuJoCo divergence, and prediction_error_deg, computed on
+    NaN from then on, fails (NaN is no pass)."""
+    from pneumatics import load_joint_params
+    from scenarios import controllers
+    from scenarios.criteria import judge
+    from scenarios.runner import build_plant, resolve_targets
+    from twin.model import SimulationError
+    from twin.sim import body_names, run
+    from twin.telemetry import Telemetry
+
+    s = parse(
+        load("wrist_closed_loop_60deg").text + "[[criteria]]\nkind = 'prediction_error_deg'\nmax = 5.0\n", "nan.toml"
+    )
+    plant = build_plant(s)
+    targets = resolve_targets(s, plant)
+    nominal = load_joint_params(assets.joint_param_path("wrist_pitch"))
+    controller, _ = controllers.build(s, plant, {"wrist_pitch": nominal._replace(hose_length_m=0.01)}, targets)
+    telemetry = Telemetry(plant.joints, body_names(plant))
+    with pytest.raises(SimulationError, match=r"the predictor diverged \(non-finite predicted angle of wrist_pitch\)"):
+        run(plant, controller, 1.0, telemetry=telemetry)
+    assert 0 < len(telemetry) < 50  # stopped at the first sample that lost it, that sample kept
+    a = telemetry.arrays()
+    verdict = judge(s, a, plant.joints, telemetry.bodies, plant.model, targets)[-1]
+    assert verdict.kind == "prediction_error_deg" and math.isnan(verdict.value) and not verdict.passed

@@ -22,6 +22,7 @@ import numpy as np
 from control.loop import run_ticks
 from pneumatics import joint as J
 from twin.compiled_loop import compiled_ticks
+from twin.model import SimulationError
 from twin.plant import Plant, Sensors
 from twin.sample_row import ROW_SIGNALS
 from twin.telemetry import Telemetry
@@ -164,6 +165,7 @@ def run(
         )
         plant.check_warnings()
         telemetry.append(plant.time, sample(plant, controller))
+        recording.check_prediction(plant.time)
     finally:
         recording.flush()
     return telemetry
@@ -181,6 +183,8 @@ class _Recording:
         assert tuple(telemetry.layout) == ROW_SIGNALS, "twin/sample_row.py writes another layout"
         self.row = np.zeros(telemetry.width)
         self._brush = [telemetry.layout[s] for s in ("brush_force_n", "brush_contact_m", "brush_push_n")]
+        # the joints the controller predicts (a number from the start; a command schedule has none)
+        self._predicted = np.isfinite(controller.predicted_angles())
 
     def on_tick(self, k: int, t: float, row: np.ndarray | None = None) -> None:
         """The run's work at tick k (time t): a sample on a log tick (`row`: taken already by the
@@ -194,8 +198,17 @@ class _Recording:
                     for sl, value in zip(self._brush, brush_contact(self.plant), strict=True):
                         row[sl] = value
                 self.telemetry.append_row(row)
+            self.check_prediction(t)
         if k % self.ticks_per_flush == self.ticks_per_flush - 1:
             self.flush()
+
+    def check_prediction(self, t: float) -> None:
+        """SimulationError when the latest sample's predicted angle of a joint the controller
+        predicts is no longer a number (its integration diverged): the run's belief is lost."""
+        lost = self._predicted & ~np.isfinite(self.telemetry.last("predicted_angle_rad"))
+        if lost.any():
+            joints = ", ".join(j for j, bad in zip(self.telemetry.joints, lost, strict=True) if bad)
+            raise SimulationError(f"the predictor diverged (non-finite predicted angle of {joints}) at t = {t:.4f} s")
 
     def next_tick(self, k: int) -> int:
         """The first tick from k on where `on_tick` has work."""
