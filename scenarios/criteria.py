@@ -11,8 +11,9 @@
     disc_brushed_m   the length of the disc's rim the brush's face covered lies in min..max m
 
 A run cut short (`twin run --duration`) judges a disc only if every press target on it was
-finished in time, the final errors only if the plan's last target was, and the brush's overall
-force once some disc was; the rest are listed as not judged.
+finished in time, the final errors only if the plan's last target was and every fault has struck,
+the brush's overall force once some disc was, and what is measured after the first fault only if
+it struck before the cut; the rest are listed as not judged.
     max_drop_m       after the first fault, the payload never fell more than `max` m below where it was
     max_travel_deg   after the first fault, `joint` turned no more than `max` deg
     prediction_error_deg  |true - predicted| of `joint` (every predicted joint) over the run <= max
@@ -27,7 +28,7 @@ import mujoco
 import numpy as np
 
 from scenarios.cleaning import DiscContact, disc_contacts
-from scenarios.schema import Criterion, Scenario
+from scenarios.schema import Criterion, Fault, Scenario
 
 
 @dataclass(frozen=True)
@@ -41,6 +42,7 @@ class Verdict:
 
 
 DISC_KINDS = ("disc_contact_s", "disc_force_n", "disc_brushed_m")
+AFTER_FAULT_KINDS = ("max_drop_m", "max_travel_deg")  # measured from the first fault on
 
 
 def _deg(x):
@@ -55,12 +57,16 @@ def judge(
     model: mujoco.MjModel,
     requested: list[dict[str, float]] | None = None,
     reached: list[bool] | None = None,
+    pending: tuple[Fault, ...] = (),
 ) -> list[Verdict]:
     """One verdict per criterion of the scenario (per joint or disc where it names none; at least one
     each: a criterion with nothing to judge fails). `requested`: the scenario's targets in rad;
     final_error_deg is measured against the last one asked of each joint, so a plan the controller
     refused cannot pass it. `reached`: per scenario target, whether it was finished; None: the run
-    was not cut short, and everything is judged (a disc the plan never got to fails)."""
+    was not cut short, and everything is judged (a disc the plan never got to fails). `pending`: the
+    faults a run cut short stopped before; the final errors are then not judged, nor, if the first
+    fault is among them, what is measured after it."""
+    first_fault_pending = bool(pending) and min(f.at_s for f in pending) <= min(f.at_s for f in scenario.faults)
     out = []
     contacts = disc_contacts(model, arrays) if any(c.kind in DISC_KINDS for c in scenario.criteria) else []
     for c in scenario.criteria:
@@ -70,6 +76,8 @@ def judge(
             verdicts = _judge_one(c, scenario, arrays, joints, bodies, model, requested)
             if reached is not None and c.kind == "final_error_deg" and not (reached and reached[-1]):
                 verdicts = [replace(v, passed=False, judged=False) for v in verdicts]
+            if (pending and c.kind == "final_error_deg") or (first_fault_pending and c.kind in AFTER_FAULT_KINDS):
+                verdicts = [replace(v, passed=False, judged=False) for v in verdicts]  # the fault is still to come
             if (
                 reached is not None
                 and c.kind == "contact_force_n"

@@ -18,7 +18,8 @@ from twin.plant import Plant
 
 
 def fault_events(faults: tuple[Fault, ...]) -> tuple[Callable[[Plant, float], None], Callable[[float], bool]]:
-    """(events(plant, t) applying each fault once its time has come, supply_lost(t))."""
+    """(events(plant, t) applying each fault once its time has come, supply_lost(t)); `events.pending`
+    lists the faults it has not applied yet."""
     pending = sorted(faults, key=lambda f: f.at_s)
     supply_lost_at = min((f.at_s for f in faults if f.kind == "supply_lost"), default=float("inf"))
 
@@ -35,6 +36,7 @@ def fault_events(faults: tuple[Fault, ...]) -> tuple[Callable[[Plant, float], No
         return min(pending[0].at_s if pending else math.inf, supply_lost_at if t < supply_lost_at else math.inf)
 
     events.due_s = due_s  # the run loop may skip calling `events` until then (twin/compiled_loop.py)
+    events.pending = pending  # the faults not applied yet, in time order (after a run: those it never reached)
     return events, lambda t: t >= supply_lost_at
 
 

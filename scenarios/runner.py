@@ -20,7 +20,7 @@ from scenarios.cleaning import DiscContact, disc_contacts
 from scenarios.criteria import DISC_KINDS, Verdict, as_dicts, judge
 from scenarios.faults import fault_events
 from scenarios.ik import disc_drive_angles
-from scenarios.schema import Scenario, joint_params_for, load, nominal_params, reality_params
+from scenarios.schema import Fault, Scenario, joint_params_for, load, nominal_params, reality_params
 from scenarios.supply import supply_profile
 from scenarios.task import TaskController
 from twin.checks import DURATION_S, SEED, check_number
@@ -45,6 +45,7 @@ class Result:
     reached: list[bool] | None = None  # per scenario target, finished in time (None: the run was not cut short)
     discs: list[DiscContact] = field(default_factory=list)  # what the brush did to each disc (arm runs)
     finished_s: float = math.nan  # when the plan's last target was finished (NaN: it was not)
+    pending_faults: tuple[Fault, ...] = ()  # the faults a run cut short stopped before
 
     @property
     def passed(self) -> bool:
@@ -85,6 +86,9 @@ class Result:
             "not_reached": self._not_reached(),
             "finished_s": None if not math.isfinite(self.finished_s) else round(self.finished_s, 3),
             "discs": [_disc_row(d, self.verdicts) for d in self.discs],
+            "faults_not_applied": [
+                f"{f.kind}{' ' + f.joint if f.joint else ''} at {f.at_s:g} s" for f in self.pending_faults
+            ],
         }
 
     def _not_reached(self) -> list[str]:
@@ -174,14 +178,14 @@ def run_scenario(
         )  # a stream of its own: the supply's draws stay as they were
     duration = scenario.duration_s if duration_s is None else min(duration_s, scenario.duration_s)
     supply = supply_profile(scenario.supply, duration, rng)
-    events, _ = fault_events(scenario.faults)
+    faults, _ = fault_events(scenario.faults)
     error = ""
     telemetry = Telemetry(
         plant.joints,
         tuple(mujoco.mj_id2name(plant.model, mujoco.mjtObj.mjOBJ_BODY, i) for i in range(1, plant.model.nbody)),
     )
     try:
-        run(plant, controller, duration, supply_pa_at=supply, events=events, recorders=recorders, telemetry=telemetry)
+        run(plant, controller, duration, supply_pa_at=supply, events=faults, recorders=recorders, telemetry=telemetry)
     except SimulationError as e:  # a divergence: keep what was logged, report it as a failed run
         error = str(e)
     cut_short = duration < scenario.duration_s
@@ -190,9 +194,12 @@ def run_scenario(
         reached, active = (list(task.reached) if cut_short else None), task.active_target()
     elif cut_short and not refusal and isinstance(controller, ArmController):  # the rig: the plan as a whole
         reached, active = controller.targets_finished(), controller.target_in_force(targets)
+    pending = tuple(faults.pending) if cut_short else ()
     arrays = telemetry.arrays()
     verdicts = (
-        judge(scenario, arrays, plant.joints, telemetry.bodies, plant.model, targets, reached) if len(telemetry) else []
+        judge(scenario, arrays, plant.joints, telemetry.bodies, plant.model, targets, reached, pending)
+        if len(telemetry)
+        else []
     )
     if refusal:  # the arm stayed braked: no error against a target the controller never took counts as met
         verdicts = [replace(v, passed=False) if v.kind == "max_error_deg" else v for v in verdicts]
@@ -211,6 +218,7 @@ def run_scenario(
         reached,
         discs,
         finished,
+        pending,
     )
 
 

@@ -214,3 +214,22 @@ def test_a_diverged_predictor_stops_the_run_and_fails_its_criterion():
     a = telemetry.arrays()
     verdict = judge(s, a, plant.joints, telemetry.bodies, plant.model, targets)[-1]
     assert verdict.kind == "prediction_error_deg" and math.isnan(verdict.value) and not verdict.passed
+
+
+def test_a_fault_after_the_cut_is_said_and_what_depends_on_it_not_judged(capsys, tmp_path):
+    """`twin run --duration` stopping before a fault strikes: the summary says the fault was not
+    applied, and the final error (the run's end is after the fault) and what is measured after
+    the first fault are not judged, rather than passed or failed on a run without the fault."""
+    path = tmp_path / "late_fault.toml"
+    path.write_text(
+        load("wrist_closed_loop_60deg").text  # 60 deg reached at 1.25 s
+        + "[[faults]]\nkind = 'brake_fails'\nat_s = 5.0\njoint = 'wrist_pitch'\n"
+        + "[[criteria]]\nkind = 'max_travel_deg'\njoint = 'wrist_pitch'\nmax = 1.0\n"
+    )
+    assert twin_main(["run", str(path), "--duration", "2"]) == 0
+    out = capsys.readouterr().out
+    assert "not applied (after the cut, what depends on it not judged): brake_fails wrist_pitch at 5 s" in out
+    assert "[----] final_error_deg" in out and "[----] max_travel_deg" in out
+    assert twin_main(["run", str(path), "--json", "--duration", "5.5"]) == 0  # struck: judged (no load to move it)
+    summary = json.loads(capsys.readouterr().out)
+    assert summary["faults_not_applied"] == [] and all(c["judged"] for c in summary["criteria"])

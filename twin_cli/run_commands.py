@@ -165,6 +165,9 @@ def print_summary(summary: dict) -> None:
             continue  # in the disc table above
         mark = "ok  " if c["passed"] else "FAIL" if c.get("judged", True) else "----"
         print(f"  [{mark}] {c['kind']} {c['subject']}: {c['value']:.4g} (allowed {c['limit']})")
+    if summary.get("faults_not_applied"):
+        late = ", ".join(summary["faults_not_applied"])
+        print(f"  not applied (after the cut, what depends on it not judged): {late}")
     if summary.get("not_reached"):
         left = summary["not_reached"]
         discs = sorted({t.split("(")[1].rstrip(")") for t in left if "(" in t}, key=lambda d: int(d.split("_")[1]))
