@@ -94,6 +94,12 @@ CRITERIA = (
 # controller fed the plant's true angles
 STRATEGIES = ("sensorless", "rereference", "operator", "true_angle")
 ARMS = ("as_built", "nominal")
+# the [supply] fields each kind reads (`scenarios.supply.supply_profile`); steps start from pressure_mpa
+SUPPLY_FIELDS = {
+    "constant": ("pressure_mpa",),
+    "steps": ("steps", "pressure_mpa"),
+    "random": ("mean_mpa", "variance_pa2", "hold_s"),
+}
 ANGLE_DEG = number(-360.0, 360.0, "deg")  # a joint angle; the joint's own range is checked against the MJCF
 
 
@@ -327,6 +333,7 @@ def check_consistency(s: Scenario, doc: dict) -> None:
     and faults and criteria as their kinds need them (ScenarioError on the first that does not)."""
     _check_joint_names(s)
     _check_effects(s)
+    _check_read(s, doc)
     if s.supply.kind == "steps" and not s.supply.steps:
         raise _fail(s.path, "supply.steps", [], "at least one [time_s, pressure_mpa] pair when kind = 'steps'")
     if s.control.strategy != "sensorless" and s.model != "arm":
@@ -353,6 +360,18 @@ def _check_joint_names(s: Scenario) -> None:
         for joint in table:
             if joint not in s.joints:
                 raise _fail(s.path, f"{where}.{joint}", None, ", ".join(s.joints), "is not a known field")
+
+
+def _check_read(s: Scenario, doc: dict) -> None:
+    """Refuse a field the run would not read: the payload on the rig, a [supply] field its kind ignores."""
+    if s.model != "arm" and "payload" in doc:
+        for key, value in doc["payload"].items():
+            raise _fail(s.path, f"payload.{key}", value, "no [payload] with model = 'wrist_rig' (the rig carries none)")
+    for key, value in doc.get("supply", {}).items():
+        read = SUPPLY_FIELDS[s.supply.kind]
+        if key != "kind" and key not in read:
+            allowed = f"the fields kind = {s.supply.kind!r} reads ({', '.join(read)}); it does not read {key}"
+            raise _fail(s.path, f"supply.{key}", value, allowed)
 
 
 def _check_effects(s: Scenario) -> None:

@@ -204,6 +204,12 @@ def test_every_argument_has_help_and_there_is_a_version(capsys):
             "3.0",
         ),
         (RIG + "duration = 3.0", "duration", "not a known field"),
+        # fields the run would not read
+        (RIG + "[payload]\nmass_kg = 40.0", "payload.mass_kg", "40.0"),
+        (RIG + "[supply]\nsteps = [[0.0, 0.1]]", "supply.steps", "[[0.0, 0.1]]"),
+        (RIG + "[supply]\nkind = 'constant'\nmean_mpa = 0.1", "supply.mean_mpa", "0.1"),
+        (RIG + "[supply]\nkind = 'random'\npressure_mpa = 0.5", "supply.pressure_mpa", "0.5"),
+        (RIG + "[supply]\nkind = 'steps'\nsteps = [[0.0, 0.5]]\nhold_s = 1.0", "supply.hold_s", "1.0"),
     ],
 )
 def test_scenarios_inconsistent_with_the_model_or_themselves_are_refused(text, field, value):
