@@ -51,14 +51,15 @@ def open_recorders(
     return recorders
 
 
-def close_all(recorders) -> list[str]:
+def close_all(recorders) -> dict[Path, str]:
     """Close every recorder, also when one fails (a full disk, a vanished folder) or a signal
-    arrives: the others still finish their files. Returns what failed, for after the summary."""
-    errors = []
+    arrives: the others still finish their files. Returns what failed (the log's path: why), for
+    after the summary."""
+    errors = {}
     with shielded():  # Ctrl-C or SIGTERM now would cut the very files it asks to keep
         for r in recorders:
             try:
                 r.close()
             except (UserError, OSError) as e:
-                errors.append(str(e))
+                errors[r.path] = str(e)
     return errors

@@ -538,8 +538,11 @@ def test_a_log_that_fails_at_the_end_costs_neither_the_summary_nor_the_other_log
     import scenarios.recording
 
     closed = []
+    mcap, rrd = tmp_path / "out.mcap", tmp_path / "out.rrd"
 
     class Full:
+        path = mcap
+
         def write(self, telemetry, start):
             pass
 
@@ -547,16 +550,26 @@ def test_a_log_that_fails_at_the_end_costs_neither_the_summary_nor_the_other_log
             raise LogError("out.mcap: the MCAP writer failed: OSError: [Errno 28] No space left on device")
 
     class Fine(Full):
+        path = rrd
+
         def close(self):
             closed.append(True)
 
     monkeypatch.setattr(scenarios.recording, "open_recorders", lambda *a: [Full(), Fine()])
     s = tmp_path / "s.toml"
     s.write_text(RIG)
-    assert main(["run", str(s), "--json"]) == 2
+    assert main(["run", str(s), "--json", "--mcap", str(mcap), "--rrd", str(rrd)]) == 2
     out, err = capsys.readouterr()
     assert json.loads(out)["scenario"] == "t" and closed == [True]
     assert err.strip().endswith("No space left on device")
+    assert f"MCAP log: {mcap} NOT written" in err and f"rerun recording: {rrd}\n" in err  # the failed one is said
+
+
+def test_a_bad_start_time_is_refused_without_a_log_too(tmp_path, capsys):
+    s = tmp_path / "s.toml"
+    s.write_text(RIG)
+    assert main(["run", str(s), "--start-time", "garbage"]) == 2
+    one_line_error(capsys, "--start-time 'garbage'", "ISO 8601")
 
 
 def current_umask() -> int:

@@ -185,6 +185,7 @@ def test_a_rig_run_cut_short_is_judged_on_the_target_in_force(capsys, tmp_path):
     assert "[----] final_error_deg" in capsys.readouterr().out
     assert twin_main(["run", str(path), "--json", "--duration", "2"]) == 0  # arrived: judged
     summary = json.loads(capsys.readouterr().out)
+    assert summary["duration_s"] == 2.0  # not the plant clock's sum of steps, 1.9999999999998352
     assert summary["not_reached"] == [] and summary["criteria"][0]["judged"] is True
 
 

@@ -108,7 +108,10 @@ def cmd_run(args) -> int:
     from scenarios.recording import close_all, open_recorders
     from scenarios.runner import run_scenario
     from scenarios.schema import load, with_overrides
+    from twin.mcap_log import start_time
 
+    if args.start_time is not None:
+        start_time(args.start_time)  # a bad --start-time is refused before any work, with a log or without
     scenario = load(args.scenario)
     if args.seed is not None:
         scenario = with_overrides(scenario, {"seed": args.seed})
@@ -132,8 +135,9 @@ def cmd_run(args) -> int:
         print_summary(summary)
     for label, path in (("rerun recording", args.rrd), ("MCAP log", args.mcap)):
         if path:
-            print(f"{label}: {path}", file=sys.stderr if args.json else sys.stdout)
-    for e in log_errors:  # the summary above is the run's result; a log that failed is said after it
+            state = " NOT written (the error below)" if Path(path) in log_errors else ""
+            print(f"{label}: {path}{state}", file=sys.stderr if args.json else sys.stdout)
+    for e in log_errors.values():  # the summary above is the run's result; a log that failed is said after it
         print(f"twin: error: {e}", file=sys.stderr)
     return 2 if log_errors else 0 if result.passed else 1
 
