@@ -108,10 +108,7 @@ def cmd_run(args) -> int:
     from scenarios.recording import close_all, open_recorders
     from scenarios.runner import run_scenario
     from scenarios.schema import load, with_overrides
-    from twin.mcap_log import start_time
 
-    if args.start_time is not None:
-        start_time(args.start_time)  # a bad --start-time is refused before any work, with a log or without
     scenario = load(args.scenario)
     if args.seed is not None:
         scenario = with_overrides(scenario, {"seed": args.seed})
