@@ -534,6 +534,41 @@ def test_a_folder_of_results_arrives_whole_or_is_kept_beside(tmp_path, capsys):
     assert str(kept) in capsys.readouterr().err
 
 
+def test_results_never_replace_a_folder_or_file_this_command_did_not_write(tmp_path, capsys):
+    """`twin gap bench --out DIR` writes DIR/campaigns and DIR/bench.json: a DIR that holds the
+    user's own of either is refused before any work, and nothing of it is touched. publish_folder
+    replaces a subfolder an earlier publish put there, never one the user made."""
+    out = tmp_path / "proj"
+    (out / "campaigns" / "my_real_rig").mkdir(parents=True)
+    (out / "campaigns" / "my_real_rig" / "run1.csv").write_text("precious")
+    assert main(["gap", "bench", "--out", str(out), "--only", "none_0", "--jobs", "1"]) == 2
+    one_line_error(capsys, f"--out {out}", "campaigns", "allowed: an empty or new folder")
+    assert (out / "campaigns" / "my_real_rig" / "run1.csv").read_text() == "precious"
+    assert [p.name for p in tmp_path.iterdir()] == ["proj"]  # no staging folder: refused before the work
+    other = tmp_path / "other"
+    other.mkdir()
+    (other / "bench.json").write_text("mine")
+    assert main(["gap", "bench", "--out", str(other), "--only", "none_0", "--jobs", "1"]) == 2
+    one_line_error(capsys, "bench.json", "allowed")
+    assert (other / "bench.json").read_text() == "mine"
+
+    def work(folder: Path) -> str:
+        (folder / "campaigns" / "new").mkdir(parents=True)
+        return "done"
+
+    ours = tmp_path / "ours"
+    assert publish_folder(ours, work, "results", replaces=["campaigns"]) == ("done", ours)
+    (ours / "campaigns" / "old").mkdir()
+    assert publish_folder(ours, work, "results", replaces=["campaigns"]) == ("done", ours)  # an earlier run's
+    assert [p.name for p in (ours / "campaigns").iterdir()] == ["new"]
+    with pytest.raises(UserError, match="campaigns"):
+        publish_folder(out, work, "results", replaces=["campaigns"])
+    result, kept = publish_folder(out, work, "results")  # not named beforehand: kept beside, not replaced
+    assert result == "done" and kept != out and (kept / "campaigns" / "new").is_dir()
+    assert (out / "campaigns" / "my_real_rig" / "run1.csv").read_text() == "precious"
+    assert str(kept) in capsys.readouterr().err
+
+
 def test_a_log_that_fails_at_the_end_costs_neither_the_summary_nor_the_other_log(tmp_path, monkeypatch, capsys):
     import scenarios.recording
 

@@ -197,12 +197,41 @@ class OutputLock:
         self.release()
 
 
-def publish_folder(out: Path, work: Callable[[Path], object], what: str):
-    """Run `work(folder)`, which computes and writes its files into `folder`, in a fresh folder
-    beside `out`; then move each file into `out` (os.replace: each arrives whole). If `out`
-    cannot take them after the work, the fresh folder is kept under a visible name and the user
-    told where. Returns (work's result, the folder the files are in)."""
+PUBLISHED = ".twin-published"  # in a folder publish_folder filled: the names it moved in, one a line
+
+
+def published(out: Path) -> set[str]:
+    """The names in folder `out` that publish_folder moved there (its record, PUBLISHED)."""
+    try:
+        return set((Path(out) / PUBLISHED).read_text().splitlines()) - {""}
+    except (OSError, UnicodeDecodeError):
+        return set()
+
+
+def check_replaceable(out: Path, flag: str, names: Iterable[str]) -> None:
+    """Before any work: refuse (UserError) if folder `out` holds one of `names` that no earlier
+    publish_folder put there: the user's own file or folder, which the results would replace."""
     out = Path(out)
+    ours = published(out)
+    for name in names:
+        target = out / name
+        if (target.exists() or target.is_symlink()) and name not in ours:
+            kind = "folder" if target.is_dir() else "file"
+            raise UserError(
+                f"{flag} {out}: holds a {kind} {name} that no earlier run of this command wrote, and this run "
+                f"would replace it; allowed: an empty or new folder, or the --out of an earlier run"
+            )
+
+
+def publish_folder(out: Path, work: Callable[[Path], object], what: str, replaces: Iterable[str] = ()):
+    """Run `work(folder)`, which computes and writes its files into `folder`, in a fresh folder
+    beside `out`; then move each file into `out` (os.replace: each arrives whole). A subfolder of
+    `out` is replaced only if an earlier publish_folder put it there (PUBLISHED records what it
+    moved in): never the user's own. `replaces`: the names the work will write, checked before the
+    work (check_replaceable). If `out` cannot take them after the work, the fresh folder is kept
+    under a visible name and the user told where. Returns (work's result, the folder the files are in)."""
+    out = Path(out)
+    check_replaceable(out, "--out", replaces)
     out.parent.mkdir(parents=True, exist_ok=True)
     staging = Path(tempfile.mkdtemp(prefix=f".{out.name}.partial-", dir=out.parent))
     staging.chmod(0o777 & ~_umask())  # a folder like any other once it is kept
@@ -213,11 +242,17 @@ def publish_folder(out: Path, work: Callable[[Path], object], what: str):
         raise
     try:
         out.mkdir(parents=True, exist_ok=True)
-        for entry in sorted(staging.iterdir()):
+        ours = published(out)
+        entries = sorted(staging.iterdir())
+        for entry in entries:
             target = out / entry.name
-            if entry.is_dir() and target.is_dir():
-                shutil.rmtree(target)  # a subfolder this command wrote before (e.g. gap bench's campaigns)
+            if entry.is_dir() and target.is_dir() and not target.is_symlink():
+                if entry.name not in ours:
+                    raise OSError(errno.EEXIST, f"{target} is a folder this command did not write")
+                shutil.rmtree(target)  # a subfolder an earlier run of this command wrote (gap bench's campaigns)
             os.replace(entry, target)
+            ours.add(entry.name)
+            write_atomic(out / PUBLISHED, "".join(f"{name}\n" for name in sorted(ours)))
         staging.rmdir()
         return result, out
     except OSError as e:

@@ -8,6 +8,8 @@ from twin.checks import JOBS, MODEL_TOLERANCE_DEG
 from twin.outputs import OutputLock, check_output, publish_folder
 from twin_cli.args import number
 
+BENCH_OUTPUTS = ("campaigns", "bench.json")  # what `gap bench` writes into DIR, replacing an earlier bench's
+
 
 def register(subparsers) -> None:
     p = subparsers.add_parser("gap", help="sim-to-real gap diagnosis")
@@ -90,6 +92,6 @@ def cmd_bench(args) -> int:
         )
 
     with OutputLock([Path(args.out)]):
-        summary, _ = publish_folder(Path(args.out), bench_into, "the bench's results")
+        summary, _ = publish_folder(Path(args.out), bench_into, "the bench's results", replaces=BENCH_OUTPUTS)
     print({k: v for k, v in summary.items() if k != "cases"})
     return 0
