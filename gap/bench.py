@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import json
 import math
+import shutil
 import sys
 import time
 from dataclasses import dataclass, field, replace
@@ -26,6 +27,7 @@ from gap.campaign import load_campaign
 from gap.diagnose import diagnose
 from gap.effects import BY_NAME, CATALOGUE
 from gap.result import Diagnosis
+from twin.outputs import write_atomic
 
 
 @dataclass
@@ -234,41 +236,52 @@ def run_bench(
     for i, case in enumerate(tqdm(cases(), desc="gap bench", file=sys.stderr)):
         if not selected(case, quick, only):
             continue  # the case keeps its index: its protocol, instrument and seeds do not depend on the selection
-        proto, inst, with_p = setting(i, case, np.random.default_rng(1000 + i))
-        with_p = with_p if chamber_pressures is None else chamber_pressures
-        folder = synth.make_campaign(
-            out / "campaigns" / case.name,
-            synth.wrist_params()._replace(**case.reality),
-            seed=100 + i,
-            pressures_mpa=pressures,
-            twin_hose_loss=case.twin_hose_loss,
-            motion={q: protocols.library(q)[proto] for q in pressures},
-            instrument=inst,
-            description=f"(hidden: {case.name}; {proto}; {inst.name})",
-            chamber_pressures=with_p,
-            rig_spring_nm_per_rad=case.rig_spring_nm_per_rad,
-        )
-        catalogue = tuple(e for e in CATALOGUE if e.name not in case.exclude)
-        t_diag = time.perf_counter()
-        diag = diagnose(load_campaign(folder), catalogue=catalogue, n_jobs=jobs, progress=False)
-        t_diag = time.perf_counter() - t_diag
-        r = {
-            "case": case.name,
-            "kind": case.kind,
-            "protocol": proto,
-            "instrument": inst.name,
-            "latency_s": inst.latency_s,
-            "latency_found_s": diag.instrument.latency_s,
-            "chamber_pressures": with_p,
-            "diagnose_s": t_diag,
-            **scores(case, diag),
-        }
+        folder = out / "campaigns" / case.name
+        try:
+            r = run_case(case, i, folder, pressures, chamber_pressures, jobs)
+        except BaseException:
+            shutil.rmtree(folder, ignore_errors=True)  # unfinished, as bench.json says: what a stopped bench keeps
+            raise
         results.append(r)
         summary = summarise(results, quick, chamber_pressures, time.perf_counter() - t0)
-        (out / "bench.json").write_text(
-            json.dumps(summary, indent=1, default=lambda x: None if isinstance(x, float) and math.isnan(x) else str(x))
-        )  # after every case: a long run killed keeps what it did
+        write_atomic(
+            out / "bench.json",
+            json.dumps(summary, indent=1, default=lambda x: None if isinstance(x, float) and math.isnan(x) else str(x)),
+        )  # after every case, whole: a long run killed keeps what it did
     return summarise(results, quick, chamber_pressures, time.perf_counter() - t0)
+
+
+def run_case(case: Case, i: int, folder: Path, pressures: tuple, chamber_pressures: bool | None, jobs: int) -> dict:
+    """The i-th case's campaign made in `folder` and diagnosed blind: its setting and scores."""
+    proto, inst, with_p = setting(i, case, np.random.default_rng(1000 + i))
+    with_p = with_p if chamber_pressures is None else chamber_pressures
+    folder = synth.make_campaign(
+        folder,
+        synth.wrist_params()._replace(**case.reality),
+        seed=100 + i,
+        pressures_mpa=pressures,
+        twin_hose_loss=case.twin_hose_loss,
+        motion={q: protocols.library(q)[proto] for q in pressures},
+        instrument=inst,
+        description=f"(hidden: {case.name}; {proto}; {inst.name})",
+        chamber_pressures=with_p,
+        rig_spring_nm_per_rad=case.rig_spring_nm_per_rad,
+    )
+    catalogue = tuple(e for e in CATALOGUE if e.name not in case.exclude)
+    t_diag = time.perf_counter()
+    diag = diagnose(load_campaign(folder), catalogue=catalogue, n_jobs=jobs, progress=False)
+    t_diag = time.perf_counter() - t_diag
+    return {
+        "case": case.name,
+        "kind": case.kind,
+        "protocol": proto,
+        "instrument": inst.name,
+        "latency_s": inst.latency_s,
+        "latency_found_s": diag.instrument.latency_s,
+        "chamber_pressures": with_p,
+        "diagnose_s": t_diag,
+        **scores(case, diag),
+    }
 
 
 def selected(case: Case, quick: bool, only: str | None) -> bool:

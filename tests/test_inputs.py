@@ -730,6 +730,54 @@ def test_sigterm_finishes_the_logs_like_ctrl_c_and_a_second_writer_is_refused(tm
     assert math.isfinite(mcap_end)
 
 
+def test_a_signal_met_by_compiled_code_is_still_a_stop():
+    """A signal handled as an @njit function boxes its result (numba calls back into Python there)
+    comes out as a SystemError chained to the stop: stop_behind finds the stop, which the command
+    line turns into exit 143 or 130."""
+    import threading
+
+    from gap import synth
+    from gap.replay import DT_S, replay_run
+    from pneumatics import params_row
+    from twin.errors import Terminated
+    from twin.signals import stop_behind, stop_on_sigterm
+
+    p, n = params_row(synth.wrist_params()), 3
+    commands = (np.arange(n) * 1.0, np.zeros(n), np.zeros(n), np.zeros(n), np.full(n, 6e5), False, 0.0, 0.02, 0.0)
+    replay_run(p, *commands, 0.01, DT_S)  # compiled before the timer starts
+    with stop_on_sigterm():
+        threading.Timer(0.05, os.kill, (os.getpid(), signal.SIGTERM)).start()
+        with pytest.raises(BaseException) as e:
+            replay_run(p, *commands, 600.0, DT_S)  # ~0.3 s in compiled code
+    assert isinstance(e.value, SystemError) and isinstance(stop_behind(e.value), Terminated), repr(e.value)
+    assert stop_behind(SystemError("no stop behind it")) is None and stop_behind(ValueError()) is None
+
+
+def test_sigterm_stops_gap_bench_and_keeps_the_cases_it_finished(tmp_path):
+    """`twin gap bench` sent SIGTERM after its first case exits 143 without a traceback, and DIR
+    holds that case: its campaign and bench.json (the case stopped midway is not kept)."""
+    out = tmp_path / "bench"
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    command = [sys.executable, "-m", "twin_cli.cli", "gap", "bench", "--out", str(out), "--quick", "--jobs", "1"]
+    proc = subprocess.Popen(command, cwd=tmp_path, env=env, stderr=subprocess.PIPE, stdout=subprocess.DEVNULL)
+    try:
+        deadline = time.monotonic() + 120
+        while not list(tmp_path.glob(".bench.partial-*/bench.json")) and proc.poll() is None:
+            assert time.monotonic() < deadline, "the first case did not finish"
+            time.sleep(0.05)
+        proc.send_signal(signal.SIGTERM)
+        _, err = proc.communicate(timeout=60)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    err = err.decode()
+    assert proc.returncode == 143 and "Traceback" not in err, err
+    assert f"finished so far are in {out}" in err and "terminated (SIGTERM)" in err
+    assert [c["case"] for c in json.loads((out / "bench.json").read_text())["cases"]] == ["vane_leakage"]
+    assert [p.name for p in (out / "campaigns").iterdir()] == ["vane_leakage"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["bench"]  # no staging folder left
+
+
 def test_the_python_api_checks_its_numbers_too(tmp_path):
     from gap.run import run_diagnose
     from scenarios.runner import run_scenario

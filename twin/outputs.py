@@ -21,6 +21,7 @@ from collections.abc import Callable, Iterable
 from pathlib import Path
 
 from twin.errors import UserError
+from twin.signals import shielded, stop_behind
 
 
 def _nearest_existing(path: Path) -> Path:
@@ -223,13 +224,17 @@ def check_replaceable(out: Path, flag: str, names: Iterable[str]) -> None:
             )
 
 
-def publish_folder(out: Path, work: Callable[[Path], object], what: str, replaces: Iterable[str] = ()):
+def publish_folder(
+    out: Path, work: Callable[[Path], object], what: str, replaces: Iterable[str] = (), keep_on_stop: bool = False
+):
     """Run `work(folder)`, which computes and writes its files into `folder`, in a fresh folder
     beside `out`; then move each file into `out` (os.replace: each arrives whole). A subfolder of
     `out` is replaced only if an earlier publish_folder put it there (PUBLISHED records what it
     moved in): never the user's own. `replaces`: the names the work will write, checked before the
     work (check_replaceable). If `out` cannot take them after the work, the fresh folder is kept
-    under a visible name and the user told where. Returns (work's result, the folder the files are in)."""
+    under a visible name and the user told where. `keep_on_stop`: a work stopped by Ctrl-C or
+    SIGTERM has its files so far moved in too (a work whose every file is whole when written, such
+    as gap bench's cases), then the stop goes on. Returns (work's result, the folder the files are in)."""
     out = Path(out)
     check_replaceable(out, "--out", replaces)
     out.parent.mkdir(parents=True, exist_ok=True)
@@ -237,14 +242,24 @@ def publish_folder(out: Path, work: Callable[[Path], object], what: str, replace
     staging.chmod(0o777 & ~_umask())  # a folder like any other once it is kept
     try:
         result = work(staging)
-    except BaseException:  # the work failed or was stopped: nothing finished to keep
-        shutil.rmtree(staging, ignore_errors=True)
+    except BaseException as e:
+        if keep_on_stop and stop_behind(e) is not None and any(p.is_file() for p in staging.rglob("*")):
+            with shielded():  # a second signal does not cut the move short
+                folder = _move_in(staging, out, what)
+            print(f"twin: stopped; {what} finished so far are in {folder}", file=sys.stderr)
+        else:  # the work failed or was stopped: nothing finished to keep
+            shutil.rmtree(staging, ignore_errors=True)
         raise
+    return result, _move_in(staging, out, what)
+
+
+def _move_in(staging: Path, out: Path, what: str) -> Path:
+    """Move the entries of `staging` into `out`; where they are in the end (`out`, or staging kept
+    under a visible name beside it if `out` cannot take them)."""
     try:
         out.mkdir(parents=True, exist_ok=True)
         ours = published(out)
-        entries = sorted(staging.iterdir())
-        for entry in entries:
+        for entry in sorted(staging.iterdir()):
             target = out / entry.name
             if entry.is_dir() and target.is_dir() and not target.is_symlink():
                 if entry.name not in ours:
@@ -254,7 +269,7 @@ def publish_folder(out: Path, work: Callable[[Path], object], what: str, replace
             ours.add(entry.name)
             write_atomic(out / PUBLISHED, "".join(f"{name}\n" for name in sorted(ours)))
         staging.rmdir()
-        return result, out
+        return out
     except OSError as e:
         kept = staging.with_name(f"{out.name}-saved-{time.strftime('%Y%m%d-%H%M%S')}-{os.getpid()}")
         try:
@@ -262,4 +277,4 @@ def publish_folder(out: Path, work: Callable[[Path], object], what: str, replace
         except OSError:
             kept = staging
         print(f"twin: could not write {what} to {out} ({e.strerror or e}); they are in {kept}", file=sys.stderr)
-        return result, kept
+        return kept

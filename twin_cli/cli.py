@@ -21,7 +21,7 @@ from importlib import metadata
 
 from pneumatics import ParameterError
 from twin.errors import Terminated, UserError
-from twin.signals import stop_on_sigterm
+from twin.signals import stop_behind, stop_on_sigterm
 from twin_cli import gap_commands, log_commands, plot_command, run_commands, study_commands
 
 # each defines `register(subparsers)`; the order is that of `twin --help`
@@ -65,10 +65,13 @@ def main(argv: list[str] | None = None) -> int:
     except (UserError, ParameterError) as e:
         print(f"twin: error: {e}", file=sys.stderr)
         return 2
-    except Terminated:
-        print("twin: terminated (SIGTERM); the logs written so far are kept", file=sys.stderr)
-        return 128 + signal.SIGTERM
-    except KeyboardInterrupt:
+    except BaseException as e:  # noqa: BLE001 - re-raised unless it is a stop
+        stop = stop_behind(e)  # also a stop that compiled code turned into a SystemError
+        if stop is None:
+            raise
+        if isinstance(stop, Terminated):
+            print("twin: terminated (SIGTERM); the logs written so far are kept", file=sys.stderr)
+            return 128 + signal.SIGTERM
         print("twin: interrupted; the logs written so far are kept", file=sys.stderr)
         return 130
 

@@ -92,6 +92,8 @@ def cmd_bench(args) -> int:
         )
 
     with OutputLock([Path(args.out)]):
-        summary, _ = publish_folder(Path(args.out), bench_into, "the bench's results", replaces=BENCH_OUTPUTS)
+        summary, _ = publish_folder(
+            Path(args.out), bench_into, "the bench's results", replaces=BENCH_OUTPUTS, keep_on_stop=True
+        )
     print({k: v for k, v in summary.items() if k != "cases"})
     return 0
