@@ -45,6 +45,7 @@ import assets
 from pneumatics import load_joint_params
 from pneumatics.fields import FLAG, MISSING, REAL, TABLE, TEXT, Problem, choice, first_problem, number, read_toml
 from pneumatics.gas import AIR
+from pneumatics.params import SPEC
 from twin.errors import UserError
 from twin.mcap_log import read_mcap
 
@@ -158,7 +159,7 @@ class CampaignFile(BaseModel):
 
     joint: choice(*assets.JOINTS, why="is not a joint of the arm")
     payload_kg: PAYLOAD_KG = 0.0
-    hose_length_m: number(0.01, 100.0, "m")
+    hose_length_m: number(SPEC["hose_length_m"].low, SPEC["hose_length_m"].high, "m")  # the parameter file's range
     rig_inertia_kg_m2: RIG_INERTIA_KG_M2 = WRIST_RIG_INERTIA_KG_M2
     twin: TwinSwitches = TwinSwitches()
     instrument: Instrument = Instrument()

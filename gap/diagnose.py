@@ -659,6 +659,18 @@ def nominal_residuals(twin: Twin, latency_s: float) -> tuple[list[np.ndarray], l
     return [a for a, _ in res], [p for _, p in res]
 
 
+def check_finite(campaign: Campaign, angle: list[np.ndarray], pressure: list[np.ndarray]) -> None:
+    """Refuse (GapError) a campaign whose nominal twin's replay is not finite (its model values put
+    the replay where its 1 ms step diverges): never a verdict computed from NaN."""
+    for run, a, p in zip(campaign.runs, angle, pressure, strict=True):
+        if not (np.all(np.isfinite(a)) and np.all(np.isfinite(p))):
+            raise GapError(
+                f"{campaign.folder / 'campaign.toml'}: the nominal twin's replay of {run.path.name} is not finite "
+                f"(hose_length_m = {campaign.hose_length_m}, the run's rig_inertia_kg_m2 = {run.rig_inertia_kg_m2} "
+                f"and payload_kg = {run.payload_kg}); allowed: values whose replay stays finite"
+            )
+
+
 def diagnose(
     campaign: Campaign,
     catalogue: tuple[Effect, ...] = CATALOGUE,
@@ -679,6 +691,7 @@ def diagnose(
     twin.ref_latency_s = nominal_latency
     twin.gap_vector = twin.run_sses_and_residual([], list(range(len(twin.runs))))[1]
     before, before_p = nominal_residuals(twin, nominal_latency)
+    check_finite(campaign, before, before_p)
     before_rms, before_kpa = rms_deg(before), rms_kpa(before_p)
     significant = fl.above(before_rms, before_kpa)
     with _parallel(n_jobs, scheduler) as run_jobs:

@@ -5,6 +5,7 @@ pneumatics) with the effect hidden in its parameters, written to disk and read b
 from __future__ import annotations
 
 import json
+import re
 import shutil
 from types import SimpleNamespace
 
@@ -203,6 +204,35 @@ def test_malformed_campaigns_name_file_line_and_problem(campaigns, tmp_path):
         GapError, match=r"campaign\.toml:\d+ \(\[\[runs\]\] #4\): run file .*run_080_2\.csv does not exist"
     ):
         load_campaign(c)
+
+
+@pytest.mark.parametrize("hose_m", [0.01, 0.1])
+def test_a_hose_too_short_for_the_model_is_refused_with_the_parameter_files_range(campaigns, tmp_path, hose_m):
+    """campaign.toml's hose_length_m has the joint parameter file's range (pneumatics.params.SPEC:
+    from 2 m, where the 1 ms steps stop diverging): a shorter one is refused when the campaign is
+    read, naming the file, the field, the value and what is allowed."""
+    c = _copy(campaigns["none"], tmp_path / "c")
+    t = (c / "campaign.toml").read_text()
+    (c / "campaign.toml").write_text(re.sub(r"hose_length_m = [0-9.]+", f"hose_length_m = {hose_m}", t))
+    with pytest.raises(
+        GapError, match=rf"campaign\.toml:\d+: hose_length_m = {hose_m}; allowed: a number in 2\.\.100 m"
+    ):
+        load_campaign(c)
+
+
+def test_a_nominal_replay_that_is_not_finite_is_refused_not_called_no_gap(campaigns):
+    """Whatever puts the nominal twin's replay out of the numbers (a model value the ranges let
+    through), the diagnosis refuses the campaign by name rather than give a verdict from NaN."""
+    from gap.diagnose import check_finite
+
+    c = load_campaign(campaigns["none"])
+    finite = [np.zeros(3) for _ in c.runs]
+    check_finite(c, finite, finite)  # finite: no complaint
+    diverged = [np.array([0.0, np.nan, np.nan]), *finite[1:]]
+    with pytest.raises(
+        GapError, match=rf"campaign\.toml: the nominal twin's replay of {c.runs[0].path.name} is not finite"
+    ):
+        check_finite(c, diverged, finite)
 
 
 def test_cli_gap_diagnose_writes_json_report_and_plots(campaigns, tmp_path, capsys):
