@@ -63,6 +63,7 @@ from gap.result import (
 )
 from gap.stats import bootstrap_ci, normalised_rms, rms_ci_deg, rms_deg, rms_kpa
 from pneumatics import JointParams, load_joint_params, params_row
+from twin.cluster import dask_client
 
 # The angle's model tolerance (below it a residual is no gap): twice the worst replay-vs-plant rms
 # over the protocol library (gap.protocols, measured per protocol), not one motion's.
@@ -608,16 +609,12 @@ def _parallel(n_jobs: int, scheduler: str | None):
     if not scheduler:
         yield lambda jobs: Parallel(n_jobs=n_jobs, backend="threading")(jobs)
         return
-    try:  # an optional dependency (the [cluster] extra): imported only when asked for
-        from dask.distributed import Client
-    except ImportError:
-        raise GapError("--scheduler needs Dask: pip install 'pneumatic-arm-twin[cluster]'") from None
 
     def run(jobs):
         with parallel_config(backend="dask"):
             return Parallel()(jobs)
 
-    with Client(scheduler):
+    with dask_client(scheduler):
         yield run
 
 
@@ -682,19 +679,20 @@ def diagnose(
 ) -> Diagnosis:
     """The diagnosis of `campaign` (see the module docstring for its steps)."""
     tolerance = MODEL_TOLERANCE_DEG if model_tolerance_deg is None else model_tolerance_deg
-    twin = Twin(campaign)
-    rng = np.random.default_rng(seed)
-    fl = floors_of(twin, tolerance)
-    if twin.has_pressure:  # each channel counts in units of its own floor
-        twin.pressure_weight = (math.radians(fl.floor_deg) / (fl.floor_kpa * 1e3)) ** 2
-    nominal_latency = twin.latency_of([], range(len(twin.runs)))
-    twin.ref_latency_s = nominal_latency
-    twin.gap_vector = twin.run_sses_and_residual([], list(range(len(twin.runs))))[1]
-    before, before_p = nominal_residuals(twin, nominal_latency)
-    check_finite(campaign, before, before_p)
-    before_rms, before_kpa = rms_deg(before), rms_kpa(before_p)
-    significant = fl.above(before_rms, before_kpa)
+    # the cluster first: a scheduler that does not answer is refused before any work
     with _parallel(n_jobs, scheduler) as run_jobs:
+        twin = Twin(campaign)
+        rng = np.random.default_rng(seed)
+        fl = floors_of(twin, tolerance)
+        if twin.has_pressure:  # each channel counts in units of its own floor
+            twin.pressure_weight = (math.radians(fl.floor_deg) / (fl.floor_kpa * 1e3)) ** 2
+        nominal_latency = twin.latency_of([], range(len(twin.runs)))
+        twin.ref_latency_s = nominal_latency
+        twin.gap_vector = twin.run_sses_and_residual([], list(range(len(twin.runs))))[1]
+        before, before_p = nominal_residuals(twin, nominal_latency)
+        check_finite(campaign, before, before_p)
+        before_rms, before_kpa = rms_deg(before), rms_kpa(before_p)
+        significant = fl.above(before_rms, before_kpa)
         fits = fit_candidates(twin, catalogue, fl, significant, run_jobs, progress)
 
     judge = verdict.Judge(twin, fl, before_rms, fl.score, rng, before_kpa)

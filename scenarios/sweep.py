@@ -34,9 +34,8 @@ from tqdm import tqdm
 from scenarios.runner import run_scenario
 from scenarios.schema import Scenario, ScenarioError, with_overrides
 from twin.checks import DURATION_S, MONTE_CARLO, WORKERS, check_number
+from twin.cluster import SCHEDULER_TIMEOUT_S, dask_client
 from twin.outputs import write_atomic
-
-SCHEDULER_TIMEOUT_S = 10.0  # a scheduler that has not answered by then is taken as unreachable
 
 
 def grid_points(grid: dict[str, list]) -> list[dict]:
@@ -136,17 +135,7 @@ def _on_forked_workers(n_jobs: int, scenario: Scenario, points: list[dict], dura
 
 def _on_dask(scheduler: str, jobs: Iterable, n_points: int, progress: bool) -> list[dict]:
     """The jobs on the Dask cluster at `scheduler`, through joblib's Dask backend."""
-    try:
-        from dask.distributed import Client  # optional (the [cluster] extra): imported where asked for
-    except ImportError:
-        raise ScenarioError("--scheduler needs Dask: pip install 'pneumatic-arm-twin[cluster]'") from None
-    try:
-        client = Client(scheduler, timeout=SCHEDULER_TIMEOUT_S)
-    except (OSError, TimeoutError, ValueError, TypeError) as e:
-        raise ScenarioError(
-            f"--scheduler {scheduler}: no Dask scheduler answers there ({type(e).__name__}: {e}); "
-            "allowed: the address of a running scheduler, e.g. tcp://host:8786"
-        ) from None
+    client = dask_client(scheduler, SCHEDULER_TIMEOUT_S)
     try:
         with joblib.parallel_config(backend="dask"):
             results = joblib.Parallel(return_as="generator")(jobs)

@@ -124,6 +124,19 @@ def test_a_sweep_grid_that_would_lose_points_is_refused(tmp_path, capsys):
         assert not out.exists()
 
 
+@pytest.mark.parametrize("address", ["garbage", "tcp://127.0.0.1:9"])
+def test_gap_diagnose_refuses_a_scheduler_that_does_not_answer_before_any_work(tmp_path, monkeypatch, capsys, address):
+    """`twin gap diagnose --scheduler` checks the address as `twin sweep --scheduler` does (one
+    line, exit 2), before the diagnosis starts, not with a traceback at its fits."""
+    import twin.cluster
+
+    monkeypatch.setattr(twin.cluster, "SCHEDULER_TIMEOUT_S", 1.0)
+    out = tmp_path / "out"
+    assert main(["gap", "diagnose", str(campaign(tmp_path / "c")), "--out", str(out), "--scheduler", address]) == 2
+    one_line_error(capsys, f"--scheduler {address}: no Dask scheduler answers there", "allowed")
+    assert not list(out.iterdir()) and sorted(p.name for p in tmp_path.iterdir()) == ["c", "out"]
+
+
 def test_every_argument_has_help_and_there_is_a_version(capsys):
     def walk(parser, where):
         for action in parser._actions:
