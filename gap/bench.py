@@ -27,13 +27,16 @@ from gap.campaign import load_campaign
 from gap.diagnose import diagnose
 from gap.effects import BY_NAME, CATALOGUE
 from gap.result import Diagnosis
+from twin.errors import UserError
 from twin.outputs import write_atomic
+
+KINDS = ("single", "form", "pair", "outside", "none")
 
 
 @dataclass
 class Case:
     name: str
-    kind: str  # single | form | pair | outside | none
+    kind: str  # one of KINDS
     reality: dict  # JointParams fields of the hidden effect
     expect: tuple[str, ...] = ()  # catalogue effects a correct call names
     exclude: tuple[str, ...] = ()  # catalogue entries withheld from the diagnosis (form cases)
@@ -228,6 +231,7 @@ def run_bench(
 ) -> dict:
     """Every case diagnosed blind; `chamber_pressures` None: as the case's setting cycles, else
     forced; `only`: the cases named in its comma-separated list (`none*`: every name that starts so)."""
+    check_only(only, quick)
     t0 = time.perf_counter()
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
@@ -284,12 +288,31 @@ def run_case(case: Case, i: int, folder: Path, pressures: tuple, chamber_pressur
     }
 
 
+def check_only(only: str | None, quick: bool = False) -> None:
+    """Refuse (UserError) an `only` with an item that names no case (a typo would run none, an empty
+    one all): each must be a case's name, a kind, or a start of a name followed by `*`; and one that
+    leaves no case of the quick slice."""
+    if only is None:
+        return
+    for o in only.split(","):
+        if not any(_names(case, o) for case in cases()):
+            names = ", ".join(c.name for c in cases())
+            raise UserError(
+                f"--only {only!r}: {o!r} names no case; allowed: comma-separated case names ({names}), kinds "
+                f"({', '.join(KINDS)}) or a name's start followed by * (none*)"
+            )
+    if quick and not any(selected(case, quick, only) for case in cases()):
+        raise UserError(f"--only {only!r} names no case of --quick's; allowed with --quick: {', '.join(QUICK)}")
+
+
+def _names(case: Case, o: str) -> bool:
+    return case.name == o or case.kind == o or (o.endswith("*") and case.name.startswith(o[:-1]))
+
+
 def selected(case: Case, quick: bool, only: str | None) -> bool:
     """Is `case` in the quick slice (with `quick`) and named by `only` (when given: names, a trailing
     `*` matching the start of a name, or a kind: single, form, pair, outside, none)?"""
-    named = not only or any(
-        case.name == o or case.kind == o or (o.endswith("*") and case.name.startswith(o[:-1])) for o in only.split(",")
-    )
+    named = only is None or any(_names(case, o) for o in only.split(","))
     return named and not (quick and case.name not in QUICK)
 
 

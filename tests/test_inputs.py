@@ -137,6 +137,21 @@ def test_gap_diagnose_refuses_a_scheduler_that_does_not_answer_before_any_work(t
     assert not list(out.iterdir()) and sorted(p.name for p in tmp_path.iterdir()) == ["c", "out"]
 
 
+@pytest.mark.parametrize(
+    "only, needle",
+    [("nnone_0", "'nnone_0' names no case"), ("", "'' names no case"), ("none_0,,", "'' names no case")],
+)
+def test_gap_bench_only_must_name_cases(tmp_path, capsys, only, needle):
+    """`twin gap bench --only` with a typo ran no case (exit 0, a summary of None) and an empty one
+    ran all: refused before any work, with the names and kinds allowed."""
+    out = tmp_path / "out"
+    assert main(["gap", "bench", "--out", str(out), "--only", only]) == 2
+    one_line_error(capsys, f"--only {only!r}", needle, "allowed", "none_0", "single, form, pair, outside, none")
+    assert main(["gap", "bench", "--out", str(out), "--quick", "--only", "coulomb"]) == 2
+    one_line_error(capsys, "allowed with --quick: vane_leakage, none_1")
+    assert not out.exists()
+
+
 def test_every_argument_has_help_and_there_is_a_version(capsys):
     def walk(parser, where):
         for action in parser._actions:

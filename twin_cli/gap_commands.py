@@ -78,8 +78,9 @@ def cmd_diagnose(args) -> int:
 
 def cmd_bench(args) -> int:
     # on use: at the top, the libraries take `twin --help` from 0.45 to 2.2 s
-    from gap.bench import run_bench
+    from gap.bench import check_only, run_bench
 
+    check_only(args.only, args.quick)
     check_output(Path(args.out), "--out", folder=True)
 
     def bench_into(staging: Path) -> dict:
