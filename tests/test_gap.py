@@ -256,6 +256,19 @@ def test_cli_gap_diagnose_writes_json_report_and_plots(campaigns, tmp_path, caps
     assert "no such campaign file" in capsys.readouterr().err
 
 
+def test_cli_gap_diagnose_says_when_the_declared_rate_is_not_the_files(campaigns, tmp_path, capsys):
+    """A declared rate_hz far from the rate the run files sample at was only in report.md and
+    diagnosis.json: the command says it too."""
+    from twin_cli.cli import main
+
+    c = _copy(campaigns["none"], tmp_path / "c")
+    (c / "campaign.toml").write_text((c / "campaign.toml").read_text() + "\n[instrument]\nrate_hz = 100000\n")
+    assert main(["gap", "diagnose", str(c), "--out", str(tmp_path / "out")]) == 0
+    out = capsys.readouterr().out
+    assert "campaign.toml declares rate_hz = 100000, the run files sample at 50.0 Hz: they do not match" in out
+    assert json.loads((tmp_path / "out" / "diagnosis.json").read_text())["instrument"]["rate_mismatch"]
+
+
 def test_mcap_runs_from_the_plant_are_diagnosed(tmp_path):
     # runs logged by the twin's own MCAP recorder (20 ms samples of commands, valve OUTPUT pressure
     # and true angle) from the plant with a hidden vane leak, put in a campaign folder

@@ -72,6 +72,11 @@ def cmd_diagnose(args) -> int:
         f"instrument: latency {inst.latency_s * 1e3:.0f} ms ({how}), zero offset {inst.offset_deg:.3f} deg, "
         f"{inst.observed_rate_hz:.1f} Hz, {inst.dropped_samples} samples missing"
     )
+    if inst.rate_mismatch:
+        print(
+            f"instrument: campaign.toml declares rate_hz = {inst.declared.rate_hz:g}, the run files sample at "
+            f"{inst.observed_rate_hz:.1f} Hz: they do not match (more than 5 % apart); check the declared rate"
+        )
     print(f"report: {diag.out / 'report.md'}")
     return 0
 
