@@ -31,6 +31,7 @@ from __future__ import annotations
 
 import csv
 import functools
+import io
 import math
 import re
 from dataclasses import dataclass, field
@@ -303,12 +304,19 @@ def _check_start(where: str, start: dict[str, float], joint: str) -> None:
 def load_campaign(folder: str | Path) -> Campaign:
     """A campaign folder (or its campaign.toml) read and checked, with every run file."""
     path, text, c = _campaign_file(folder)
-    runs = []
+    runs, files = [], {}
     for i, entry in enumerate(c.runs):
         where = f"{_at(path, _toml_line(text, '[[runs]]', i))} ([[runs]] #{i + 1})"
         _check_start(where, entry.start_deg, c.joint)
         start_rad = math.radians(entry.start_deg[c.joint])
-        run = read_run_file(_inside(path.parent, entry.file, where), entry.supply_mpa, start_rad, where, c.joint)
+        run_path = _inside(path.parent, entry.file, where)
+        first = files.setdefault(run_path.resolve(), i)
+        if first != i:  # one recording counted twice would pass for two repeats that agree exactly
+            raise GapError(
+                f"{where}: file = {entry.file!r} is also [[runs]] #{first + 1}'s; allowed: a file of its own for "
+                "each run (repeats are separate recordings)"
+            )
+        run = read_run_file(run_path, entry.supply_mpa, start_rad, where, c.joint)
         _check_run(run, where, c.joint)
         run.payload_kg = c.payload_kg if entry.payload_kg is None else entry.payload_kg
         run.rig_inertia_kg_m2 = c.rig_inertia_kg_m2 if entry.rig_inertia_kg_m2 is None else entry.rig_inertia_kg_m2
@@ -320,6 +328,8 @@ def load_campaign(folder: str | Path) -> Campaign:
 
 
 def read_run_file(path: Path, supply_mpa: float, start_rad: float, where: str = "", joint: str = "wrist_pitch") -> Run:
+    if path.is_dir():
+        raise GapError(f"{where}: run file {path} is a folder; allowed: a CSV or .mcap file")
     if not path.is_file():
         raise GapError(f"{where}: run file {path} does not exist")
     if path.suffix.lower() == ".mcap":
@@ -327,11 +337,23 @@ def read_run_file(path: Path, supply_mpa: float, start_rad: float, where: str = 
     return _read_csv_run(path, supply_mpa, start_rad, joint)
 
 
+def _csv_text(path: Path) -> str:
+    """The run file's text: UTF-8, a byte-order mark at its start allowed (a spreadsheet's export)."""
+    data = path.read_bytes()
+    try:
+        return data.decode("utf-8-sig")
+    except UnicodeDecodeError as e:
+        line = data.count(b"\n", 0, e.start) + 1
+        raise GapError(
+            f"{path}:{line}: byte 0x{data[e.start]:02x} is not UTF-8 text ({e.reason}); allowed: a UTF-8 (or ASCII) CSV"
+        ) from None
+
+
 def _read_csv_rows(path: Path) -> tuple[list[str], dict[str, tuple[str, ...]], list[int], str]:
     """The header, each column's texts up to the first row with a wrong number of fields, the rows'
     line numbers, and that row's refusal ("" if none). Blank lines are skipped, their lines counted."""
-    with open(path, newline="") as f:
-        reader = csv.reader(f)
+    reader = csv.reader(io.StringIO(_csv_text(path), newline=""))
+    try:
         header = next(reader, None)
         if header is None:
             raise GapError(f"{path}:1: empty run file; expected a header with {', '.join(REQUIRED_COLUMNS)}")
@@ -345,11 +367,18 @@ def _read_csv_rows(path: Path) -> tuple[list[str], dict[str, tuple[str, ...]], l
             if row:
                 rows.append(row)
                 lines.append(reader.line_num)
+    except csv.Error as e:  # e.g. a field over the csv module's limit (131072 characters), a NUL
+        raise GapError(
+            f"{path}:{reader.line_num}: not readable as CSV ({e}); allowed: comma-separated numbers, one row a line"
+        ) from None
     columns = dict(zip(header, zip(*rows, strict=True), strict=True)) if rows else dict.fromkeys(header, ())
     return header, columns, lines, cut
 
 
 def _check_header(path: Path, header: list[str]) -> None:
+    twice = sorted({c for c in header if header.count(c) > 1})
+    if twice:
+        raise GapError(f"{path}:1: column(s) {', '.join(twice)} appear more than once; allowed: each column once")
     missing = [c for c in REQUIRED_COLUMNS if c not in header]
     if missing:
         raise GapError(

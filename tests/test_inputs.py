@@ -401,6 +401,53 @@ def test_bad_campaigns_are_refused_with_file_field_value_and_allowed(tmp_path, t
         assert n in message, (n, message)
 
 
+CSV = "\n".join([HEADER, *ROWS]) + "\n"
+
+
+@pytest.mark.parametrize(
+    "data, needles",
+    [
+        (
+            CSV.replace("0.02,", "0.0\xe9,", 1).encode("latin-1"),
+            ["a.csv:3: byte 0xe9 is not UTF-8", "allowed: a UTF-8"],
+        ),
+        (CSV.replace("0.02,", "0.02" + "7" * 140_000 + ",", 1).encode(), ["a.csv:3: not readable as CSV", "allowed"]),
+        (
+            (HEADER.replace("angle_rad", "p_a_pa") + "\n").encode() + CSV.split("\n", 1)[1].encode(),
+            ["a.csv:1: column(s) p_a_pa appear more than once", "allowed"],
+        ),
+    ],
+)
+def test_run_files_that_are_no_readable_csv_are_refused_in_one_line(tmp_path, data, needles):
+    """A run file in another encoding, with a field beyond the csv module's limit or a column
+    twice is refused naming the file, the line and what is allowed (not a traceback; a column
+    twice was read silently)."""
+    folder = campaign(tmp_path / "c")
+    (folder / "a.csv").write_bytes(data)
+    with pytest.raises(GapError) as e:
+        load_campaign(folder)
+    assert "\n" not in str(e.value)
+    for n in needles:
+        assert n in str(e.value), (n, str(e.value))
+
+
+def test_run_files_a_bom_a_folder_and_a_file_listed_twice(tmp_path):
+    """A byte-order mark (a spreadsheet's UTF-8 export) is read; a run file that is a folder is
+    called one; the same file for two runs is refused (one recording would pass for two repeats)."""
+    folder = campaign(tmp_path / "c")
+    (folder / "a.csv").write_bytes(b"\xef\xbb\xbf" + CSV.encode())
+    assert len(load_campaign(folder).runs) == 2
+    (folder / "b.csv").unlink()
+    (folder / "b.csv").mkdir()
+    with pytest.raises(
+        GapError, match=r"\[\[runs\]\] #2\): run file .*b\.csv is a folder; allowed: a CSV or \.mcap file"
+    ):
+        load_campaign(folder)
+    (folder / "campaign.toml").write_text(TOML.replace('"b.csv"', '"./a.csv"'))
+    with pytest.raises(GapError, match=r"#2\): file = './a.csv' is also \[\[runs\]\] #1's; allowed: a file of its own"):
+        load_campaign(folder)
+
+
 @pytest.mark.parametrize("name", ["../outside.csv", "ABSOLUTE", "link.csv"])
 def test_a_campaign_reads_only_files_inside_its_folder(tmp_path, name):
     outside = tmp_path / "outside.csv"
