@@ -199,7 +199,7 @@ class Target:
 @dataclass(frozen=True, config=TABLE)
 class Fault:
     kind: choice(*FAULT_KINDS)
-    at_s: number(0.0, math.inf, "s")  # within the run: 0..duration_s
+    at_s: number(0.0, math.inf, "s")  # within the run: 0 <= at_s < duration_s
     joint: TEXT = ""  # every kind but supply_lost
     value: REAL = 0.0  # hose_leak: area m^2 up to the hose's bore; sensor_bias: Pa (FAULT_VALUES); not 0
 
@@ -421,8 +421,10 @@ def _check_fault(s: Scenario, i: int, f: Fault, value_given: bool) -> None:
         raise _fail(
             s.path, f"{where}.joint", f.joint, "no joint for kind = 'supply_lost' (the supply feeds every joint)"
         )
-    if f.at_s > s.duration_s:
-        raise _fail(s.path, f"{where}.at_s", f.at_s, f"a number in 0..{s.duration_s:g} s")
+    if f.at_s >= s.duration_s:  # a fault at the run's very end would never act
+        raise _fail(
+            s.path, f"{where}.at_s", f.at_s, f"a number from 0 up to, not at, {s.duration_s:g} s (the run's end)"
+        )
 
 
 def _check_fault_value(path: str, where: str, f: Fault, given: bool) -> None:

@@ -36,6 +36,8 @@ mode = "none"
         ("[supply]\nkind = 'sine'", "supply.kind", "'sine'"),
         ("[[targets]]\nangles_deg = { elbow_pitch = 10.0 }", "targets[0].angles_deg.elbow_pitch", "not a known field"),
         ("[[faults]]\nkind = 'supply_lost'\nat_s = 99.0", "faults[0].at_s", "99.0"),
+        # at the run's last instant a fault would never act
+        ("[[faults]]\nkind = 'supply_lost'\nat_s = 0.2", "faults[0].at_s", "0.2"),
         ("[reality.effects.wrist_pitch]\nleak_area_m2 = -1.0", "reality.effects.wrist_pitch.leak_area_m2", "-1.0"),
         ("[reality.effects.wrist_pitch]\nmagic = 1.0", "reality.effects.wrist_pitch.magic", "not a known field"),
         ("[operator]\nlatency_s = -1.0", "operator.latency_s", "-1.0"),
