@@ -165,7 +165,7 @@ def run(
         )
         plant.check_warnings()
         telemetry.append(plant.time, sample(plant, controller))
-        recording.check_prediction(plant.time)
+        recording.check_prediction()
     finally:
         recording.flush()
     return telemetry
@@ -185,12 +185,17 @@ class _Recording:
         self._brush = [telemetry.layout[s] for s in ("brush_force_n", "brush_contact_m", "brush_push_n")]
         # the joints the controller predicts (a number from the start; a command schedule has none)
         self._predicted = np.isfinite(controller.predicted_angles())
+        self.checked = len(telemetry)  # samples before this one were checked by `check_prediction`
 
     def on_tick(self, k: int, t: float, row: np.ndarray | None = None) -> None:
         """The run's work at tick k (time t): a sample on a log tick (`row`: taken already by the
         compiled ticks, but for the brush's contacts), the recorders' flush on a flush tick."""
         if k % self.ticks_per_log == 0:
-            self.plant.check_warnings()
+            try:
+                self.plant.check_warnings()
+            except SimulationError:  # a predictor gone to NaN commands NaN: say that first, if so
+                self.check_prediction()
+                raise
             if row is None:
                 self.telemetry.append(t, sample(self.plant, self.controller))
             else:
@@ -198,17 +203,23 @@ class _Recording:
                     for sl, value in zip(self._brush, brush_contact(self.plant), strict=True):
                         row[sl] = value
                 self.telemetry.append_row(row)
-            self.check_prediction(t)
         if k % self.ticks_per_flush == self.ticks_per_flush - 1:
             self.flush()
+            self.check_prediction()
 
-    def check_prediction(self, t: float) -> None:
-        """SimulationError when the latest sample's predicted angle of a joint the controller
-        predicts is no longer a number (its integration diverged): the run's belief is lost."""
-        lost = self._predicted & ~np.isfinite(self.telemetry.last("predicted_angle_rad"))
-        if lost.any():
-            joints = ", ".join(j for j, bad in zip(self.telemetry.joints, lost, strict=True) if bad)
+    def check_prediction(self) -> None:
+        """SimulationError when a sample since the last check has a non-finite predicted angle of a
+        joint the controller predicts (its integration diverged): the run's belief is lost. Checked
+        at each flush, not each sample: a check a sample cost the whole twin 4-6 % of its speed."""
+        predicted = self.telemetry.column("predicted_angle_rad", self.checked)
+        lost = self._predicted & ~np.isfinite(predicted)
+        first = np.flatnonzero(lost.any(axis=1))
+        if first.size:
+            i = self.checked + int(first[0])
+            joints = ", ".join(j for j, bad in zip(self.telemetry.joints, lost[first[0]], strict=True) if bad)
+            t = self.telemetry.time_at(i)
             raise SimulationError(f"the predictor diverged (non-finite predicted angle of {joints}) at t = {t:.4f} s")
+        self.checked = len(self.telemetry)
 
     def next_tick(self, k: int) -> int:
         """The first tick from k on where `on_tick` has work."""
