@@ -167,11 +167,13 @@ def _allowed_of(field: Any) -> str:
 def read_toml(path: Path, error: type[Exception], what: str) -> tuple[dict, str]:
     """The TOML document at `path` and its text; `error` (one line naming the path) if it is
     missing, unreadable or not TOML."""
+    if path.exists() and not path.is_file() and not path.is_dir():  # a FIFO would block, /dev/zero never end
+        raise error(f"{path}: is not a regular file (a pipe, a device or a socket); allowed: a {what} on disk")
     try:
         text = path.read_text(encoding="utf-8")
     except FileNotFoundError:
         raise error(f"{path}: no such {what}") from None
-    except (UnicodeDecodeError, IsADirectoryError) as e:
+    except (UnicodeDecodeError, IsADirectoryError, PermissionError) as e:
         raise error(f"{path}: cannot be read as a text file ({e})") from None
     return parse_toml(text, str(path), error), text
 

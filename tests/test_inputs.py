@@ -299,6 +299,16 @@ def test_a_plan_the_controller_refuses_cannot_pass_final_error(capsys):
     assert not worst.passed and not result.passed
 
 
+def test_a_scenario_that_is_no_regular_file_is_refused_at_once(tmp_path, capsys):
+    """A named pipe as the scenario blocked the command until killed (nobody writes to it), and
+    /dev/zero would never end: both are refused in one line before anything is read."""
+    fifo = tmp_path / "s.toml"
+    os.mkfifo(fifo)
+    for path in (fifo, Path("/dev/zero")):
+        assert main(["run", str(path)]) == 2
+        one_line_error(capsys, str(path), "is not a regular file", "allowed")
+
+
 def test_shipped_scenarios_are_found_by_name_from_any_folder(tmp_path, monkeypatch, capsys):
     monkeypatch.chdir(tmp_path)
     s = load("insulator_cleaning")
