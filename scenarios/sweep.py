@@ -34,7 +34,7 @@ from tqdm import tqdm
 from scenarios.runner import run_scenario
 from scenarios.schema import Scenario, ScenarioError, with_overrides
 from twin.checks import DURATION_S, MONTE_CARLO, WORKERS, check_number
-from twin.cluster import SCHEDULER_TIMEOUT_S, dask_client
+from twin.cluster import dask_client
 from twin.outputs import write_atomic
 
 
@@ -135,7 +135,7 @@ def _on_forked_workers(n_jobs: int, scenario: Scenario, points: list[dict], dura
 
 def _on_dask(scheduler: str, jobs: Iterable, n_points: int, progress: bool) -> list[dict]:
     """The jobs on the Dask cluster at `scheduler`, through joblib's Dask backend."""
-    client = dask_client(scheduler, SCHEDULER_TIMEOUT_S)
+    client = dask_client(scheduler)
     try:
         with joblib.parallel_config(backend="dask"):
             results = joblib.Parallel(return_as="generator")(jobs)

@@ -94,8 +94,9 @@ def test_every_numeric_flag_refuses_nan_inf_and_out_of_range(argv, flag, value, 
 
 def test_an_unreachable_scheduler_is_refused_before_any_run(tmp_path, monkeypatch, capsys):
     import scenarios.sweep
+    import twin.cluster
 
-    monkeypatch.setattr(scenarios.sweep, "SCHEDULER_TIMEOUT_S", 1.0)
+    monkeypatch.setattr(twin.cluster, "SCHEDULER_TIMEOUT_S", 1.0)
     f = tmp_path / "s.toml"
     f.write_text(RIG)
     ran = []

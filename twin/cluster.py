@@ -8,16 +8,15 @@ from twin.errors import UserError
 SCHEDULER_TIMEOUT_S = 10.0  # a scheduler that has not answered by then is taken as unreachable
 
 
-def dask_client(scheduler: str, timeout_s: float | None = None):
+def dask_client(scheduler: str):
     """A `dask.distributed.Client` of the scheduler at `scheduler` (close it after use); UserError
-    if Dask is not installed or no scheduler answers there within `timeout_s` (None:
-    SCHEDULER_TIMEOUT_S)."""
+    if Dask is not installed or no scheduler answers there within SCHEDULER_TIMEOUT_S."""
     try:
         from dask.distributed import Client  # optional (the [cluster] extra): imported where asked for
     except ImportError:
         raise UserError("--scheduler needs Dask: pip install 'pneumatic-arm-twin[cluster]'") from None
     try:
-        return Client(scheduler, timeout=SCHEDULER_TIMEOUT_S if timeout_s is None else timeout_s)
+        return Client(scheduler, timeout=SCHEDULER_TIMEOUT_S)
     except (OSError, TimeoutError, ValueError, TypeError) as e:
         raise UserError(
             f"--scheduler {scheduler}: no Dask scheduler answers there ({type(e).__name__}: {e}); "

@@ -81,12 +81,6 @@ class Telemetry:
     def __len__(self) -> int:
         return self._n
 
-    def last(self, name: str) -> np.ndarray:
-        """One signal of the latest sample (a view: read it before the next sample)."""
-        if not self._n:
-            raise IndexError("no telemetry sample yet")
-        return self._blocks[-1][name][(self._n - 1) % self._block]
-
     def time_at(self, i: int) -> float:
         """Time of sample `i` (negative counts from the end)."""
         k = i + self._n if i < 0 else i
