@@ -22,7 +22,9 @@ valve's effective position, pending position and time left until it switches, th
 side of a non-rigid reducer (pneumatics/reducer.py): its angle and speed on the joint side (motor
 angle / ratio, rad; rad/s; with the paper's rigid reducer the motor side is the joint and the
 plant does not use those two), and the effective, pending and time-left of the proportional
-valve's set point (used only with a set-point dead time, a gap effect).
+valve's set point (used only with a set-point dead time, a gap effect), and the air's step in
+progress (`advance_air_pair`): its stage (0 none, 1 or 2 physics steps taken), the direction and
+supply it began with, the four pressures at its start, its first stage and ROS2's matrices.
 """
 
 from __future__ import annotations
@@ -38,7 +40,7 @@ from pneumatics.chamber import chamber_pressure_rate
 from pneumatics.friction import coulomb_viscous_torque, reducer_output_torque, stribeck_excess_torque
 from pneumatics.gas import isentropic_temperature
 from pneumatics.hose import hose_mass_flow_with, hose_volume
-from pneumatics.integrators import heun_increment, rk4_increment
+from pneumatics.integrators import rk4_increment, ros2_increment, ros2_inverse, secant_slope
 from pneumatics.motor import chamber_geometry, vane_torque
 from pneumatics.orifice import orifice_mass_flow_with
 from pneumatics.reducer import (
@@ -75,8 +77,21 @@ from pneumatics.valves import (
     S_PV_SET,
     S_PV_SET_PENDING,
     S_PV_SET_REMAINING,
-) = range(14)
-N_STATE = 14
+    S_PAIR,
+    S_PAIR_DIR,
+    S_PAIR_SUPPLY,
+    S_PAIR_AV,
+    S_PAIR_AM,
+    S_PAIR_BV,
+    S_PAIR_BM,
+    S_PAIR_K_AV,
+    S_PAIR_K_AM,
+    S_PAIR_K_BV,
+    S_PAIR_K_BM,
+    S_PAIR_MA,  # ROS2's (I - g h W)^-1 for port A's (valve node, motor node), row-major: 4 columns
+) = range(26)
+S_PAIR_MB = S_PAIR_MA + 4  # the same for port B
+N_STATE = S_PAIR_MB + 4
 
 # commands the platform sends to a joint (a float64 row)
 C_DIRECTION, C_PV_SET_GAUGE_PA, C_BRAKE_RELEASE = range(3)
@@ -140,6 +155,91 @@ def _hose_flow(p_valve: float, p_motor: float, supply_pa: float, p: np.ndarray) 
 
 
 @njit(inline="always")
+def _pressure_rates_slope_and_w(
+    pa_valve: float,
+    pa_motor: float,
+    pb_valve: float,
+    pb_motor: float,
+    phi_motor: float,
+    omega_motor: float,
+    direction: float,
+    valve_gauge_pa: float,
+    supply_pa: float,
+    p: np.ndarray,
+) -> tuple[float, float, float, float, float, float, float, float, float, float, float, float, float]:
+    # `pressure_rates`, the motor's volume slope dV_A/dphi at phi_motor (m^3/rad), which it computes
+    # anyway, and the 2 x 2 blocks of ROS2's W (pneumatics/integrators.py) for port A's and port B's
+    # (valve node, motor node): the rates' slopes against those pressures, each flow's slope taken
+    # as its secant (`secant_slope`). What a caller does not use the compiler drops.
+    r = p[P.GAS_R]
+    t_s = p[P.GAS_T]
+    n = p[P.POLY_N]
+    atm = p[P.GAS_P_ATM]
+    opening = valve_opening(valve_gauge_pa, p[P.K_U], p[P.DEAD_ZONE])
+    supplied_node = pa_valve if direction > 0.0 else pb_valve
+    p_s = regulated_pressure(
+        effective_supply(supply_pa, valve_gauge_pa, opening, direction, supplied_node, p),
+        valve_gauge_pa,
+        p[P.GAS_P_ATM],
+    )
+    inlet_area = p[P.A_IN] * p[P.COND_SCALE] * opening
+    m_a_valve = _port_valve_flow(pa_valve, direction > 0.0, p_s, inlet_area, p)
+    m_b_valve = _port_valve_flow(pb_valve, direction < 0.0, p_s, inlet_area, p)
+    g_a_valve = secant_slope(m_a_valve, (p_s if direction > 0.0 else atm) - pa_valve)
+    g_b_valve = secant_slope(m_b_valve, (p_s if direction < 0.0 else atm) - pb_valve)
+
+    v_a, v_b, slope = chamber_geometry(
+        phi_motor, p[P.STATOR], p[P.ROTOR], p[P.VANE_L], p[P.N_VANES], p[P.DEAD_V], p[P.HALF_PITCH_V]
+    )
+    dv_a = slope * omega_motor
+    m_leak = orifice_mass_flow_with(
+        pa_motor, pb_motor, p[P.LEAK_A], p[P.CHOKED_FLUX], p[P.GAS_K]
+    )  # A -> B past the vanes
+    g_leak = secant_slope(m_leak, pa_motor - pb_motor)
+    # a leak in port A's hose (a fault) vents at the hose's valve end
+    m_hose_leak = orifice_mass_flow_with(pa_valve, atm, p[P.HOSE_LEAK_A], p[P.CHOKED_FLUX], p[P.GAS_K])
+    m_a_valve -= m_hose_leak
+    g_a_valve += secant_slope(m_hose_leak, pa_valve - atm)
+    half_hose = 0.5 * hose_volume(p[P.HOSE_L], p[P.HOSE_D])
+    rt = r * t_s
+
+    if p[P.HOSE_LOSS] == 0.0:
+        # one node per port: motor chamber + porting + the whole hose
+        v_a_node = v_a + 2.0 * half_hose
+        v_b_node = v_b + 2.0 * half_hose
+        da = chamber_pressure_rate(pa_motor, v_a_node, dv_a, m_a_valve - m_leak, t_s, r, n)
+        db = chamber_pressure_rate(pb_motor, v_b_node, -dv_a, m_b_valve + m_leak, t_s, r, n)
+        w_a = -n / v_a_node * (rt * (g_a_valve + g_leak) + dv_a)
+        w_b = -n / v_b_node * (rt * (g_b_valve + g_leak) - dv_a)
+        return da, da, db, db, slope, w_a, 0.0, 0.0, w_a, w_b, 0.0, 0.0, w_b
+
+    m_a_hose = _hose_flow(pa_valve, pa_motor, p_s, p)
+    m_b_hose = _hose_flow(pb_valve, pb_motor, p_s, p)
+    g_a_hose = secant_slope(m_a_hose, pa_valve - pa_motor)
+    g_b_hose = secant_slope(m_b_hose, pb_valve - pb_motor)
+    # a node's rate n/V (R T m_in - p dV/dt) with m_in = sum of g (p_other - p): its slope against its
+    # own pressure -n/V (R T sum g + dV/dt), against another's n/V R T g
+    n_rt_valve = n * rt / half_hose
+    n_a_motor = n / (v_a + half_hose)
+    n_b_motor = n / (v_b + half_hose)
+    return (
+        chamber_pressure_rate(pa_valve, half_hose, 0.0, m_a_valve - m_a_hose, t_s, r, n),
+        chamber_pressure_rate(pa_motor, v_a + half_hose, dv_a, m_a_hose - m_leak, t_s, r, n),
+        chamber_pressure_rate(pb_valve, half_hose, 0.0, m_b_valve - m_b_hose, t_s, r, n),
+        chamber_pressure_rate(pb_motor, v_b + half_hose, -dv_a, m_b_hose + m_leak, t_s, r, n),
+        slope,
+        -n_rt_valve * (g_a_valve + g_a_hose),
+        n_rt_valve * g_a_hose,
+        n_a_motor * rt * g_a_hose,
+        -n_a_motor * (rt * (g_a_hose + g_leak) + dv_a),
+        -n_rt_valve * (g_b_valve + g_b_hose),
+        n_rt_valve * g_b_hose,
+        n_b_motor * rt * g_b_hose,
+        -n_b_motor * (rt * (g_b_hose + g_leak) - dv_a),
+    )
+
+
+@njit(inline="always")
 def _pressure_rates_and_slope(
     pa_valve: float,
     pa_motor: float,
@@ -152,47 +252,11 @@ def _pressure_rates_and_slope(
     supply_pa: float,
     p: np.ndarray,
 ) -> tuple[float, float, float, float, float]:
-    # `pressure_rates` and the motor's volume slope dV_A/dphi at phi_motor (m^3/rad), which it computes anyway
-    r = p[P.GAS_R]
-    t_s = p[P.GAS_T]
-    n = p[P.POLY_N]
-    opening = valve_opening(valve_gauge_pa, p[P.K_U], p[P.DEAD_ZONE])
-    supplied_node = pa_valve if direction > 0.0 else pb_valve
-    p_s = regulated_pressure(
-        effective_supply(supply_pa, valve_gauge_pa, opening, direction, supplied_node, p),
-        valve_gauge_pa,
-        p[P.GAS_P_ATM],
+    # `pressure_rates` and the motor's volume slope dV_A/dphi at phi_motor (m^3/rad)
+    r = _pressure_rates_slope_and_w(
+        pa_valve, pa_motor, pb_valve, pb_motor, phi_motor, omega_motor, direction, valve_gauge_pa, supply_pa, p
     )
-    inlet_area = p[P.A_IN] * p[P.COND_SCALE] * opening
-    m_a_valve = _port_valve_flow(pa_valve, direction > 0.0, p_s, inlet_area, p)
-    m_b_valve = _port_valve_flow(pb_valve, direction < 0.0, p_s, inlet_area, p)
-
-    v_a, v_b, slope = chamber_geometry(
-        phi_motor, p[P.STATOR], p[P.ROTOR], p[P.VANE_L], p[P.N_VANES], p[P.DEAD_V], p[P.HALF_PITCH_V]
-    )
-    dv_a = slope * omega_motor
-    m_leak = orifice_mass_flow_with(
-        pa_motor, pb_motor, p[P.LEAK_A], p[P.CHOKED_FLUX], p[P.GAS_K]
-    )  # A -> B past the vanes
-    # a leak in port A's hose (a fault) vents at the hose's valve end
-    m_a_valve -= orifice_mass_flow_with(pa_valve, p[P.GAS_P_ATM], p[P.HOSE_LEAK_A], p[P.CHOKED_FLUX], p[P.GAS_K])
-    half_hose = 0.5 * hose_volume(p[P.HOSE_L], p[P.HOSE_D])
-
-    if p[P.HOSE_LOSS] == 0.0:
-        # one node per port: motor chamber + porting + the whole hose
-        da = chamber_pressure_rate(pa_motor, v_a + 2.0 * half_hose, dv_a, m_a_valve - m_leak, t_s, r, n)
-        db = chamber_pressure_rate(pb_motor, v_b + 2.0 * half_hose, -dv_a, m_b_valve + m_leak, t_s, r, n)
-        return da, da, db, db, slope
-
-    m_a_hose = _hose_flow(pa_valve, pa_motor, p_s, p)
-    m_b_hose = _hose_flow(pb_valve, pb_motor, p_s, p)
-    return (
-        chamber_pressure_rate(pa_valve, half_hose, 0.0, m_a_valve - m_a_hose, t_s, r, n),
-        chamber_pressure_rate(pa_motor, v_a + half_hose, dv_a, m_a_hose - m_leak, t_s, r, n),
-        chamber_pressure_rate(pb_valve, half_hose, 0.0, m_b_valve - m_b_hose, t_s, r, n),
-        chamber_pressure_rate(pb_motor, v_b + half_hose, -dv_a, m_b_hose + m_leak, t_s, r, n),
-        slope,
-    )
+    return r[0], r[1], r[2], r[3], r[4]
 
 
 @njit(inline="always")
@@ -375,63 +439,115 @@ def at_rest(x: np.ndarray, omega: float, p: np.ndarray) -> bool:
 
 
 @njit
-def advance_pressures(
+def advance_air_pair(
     x: np.ndarray,
     theta: float,
     omega: float,
     valve_gauge_pa: float,
     supply_pa: float,
     dt_s: float,
-    substeps: int,
     p: np.ndarray,
 ) -> float:
-    """Integrate the four node pressures over dt with the joint moving at constant speed, in place,
-    the proportional valve's output held at `valve_gauge_pa` (its mean over the step, from
-    `advance_discrete`); return `joint_torque` at the step's start (the pressures in x on entry,
-    the angle `theta`, the speed `omega`), from the motor's geometry the first stage computes.
+    """Advance the four node pressures over one physics step of dt, in place, as one half of a
+    ROS2 step over two (pneumatics/integrators.py); return the joint torque to hold over the step
+    (`joint_torque` at the angle `theta`, speed `omega`, from the pressures in x on entry).
 
-    Heun's method (explicit trapezoid) in `substeps` sub-steps; the motor angle advances with
-    the joint inside the step so that the quarter-turn chamber switching is resolved.
+    A step begins with ROS2's first stage at the pressures, angle and speed of its start, the
+    proportional valve's output at `valve_gauge_pa` (its mean over the physics step, from
+    `advance_discrete`), and leaves x at the first stage's estimate one physics step on. The
+    next physics step moves x on by the same estimate, and `finish_air_pair`, at the angle and
+    speed MuJoCo reached two physics steps from the start and the valve's output there, takes
+    the second stage and puts x at the step's result. The torque is explicit, from the pressures
+    in x at each physics step's start, like MuJoCo's own semi-implicit Euler. A step whose
+    second half meets another direction or supply (a valve switching, a supply step) ends there,
+    at the first stage's estimate, and a new one begins.
+
+    One rate evaluation a physics step, where Heun's method (used until stop 20) took two; the
+    pressures' W matrix (the flows' slopes) keeps a short or wide hose's fast modes damped, where
+    Heun's explicit stages rang (tests/test_plant.py holds both to LSODA).
     """
     ratio = p[P.RATIO]
+    direction = x[S_DIR]
+    if x[S_PAIR] == 1.0 and x[S_PAIR_DIR] == direction and x[S_PAIR_SUPPLY] == supply_pa:
+        # the second physics step: the first stage's estimate carried on to the step's end
+        torque = joint_torque(x[S_PA_MOTOR], x[S_PB_MOTOR], ratio * theta, omega, p)
+        x[S_PA_VALVE] += dt_s * x[S_PAIR_K_AV]
+        x[S_PA_MOTOR] += dt_s * x[S_PAIR_K_AM]
+        x[S_PB_VALVE] += dt_s * x[S_PAIR_K_BV]
+        x[S_PB_MOTOR] += dt_s * x[S_PAIR_K_BM]
+        x[S_PAIR] = 2.0
+        return torque
+    x[S_PAIR] = 0.0
     if at_rest(x, omega, p):
         return joint_torque(x[S_PA_MOTOR], x[S_PB_MOTOR], ratio * theta, omega, p)
-    valve = valve_gauge_pa
-    direction = x[S_DIR]
-    h = dt_s / substeps
-    w_m = ratio * omega
     a_v = x[S_PA_VALVE]
     a_m = x[S_PA_MOTOR]
     b_v = x[S_PB_VALVE]
     b_m = x[S_PB_MOTOR]
-    t_motor = 0.0
-    for i in range(substeps):
-        # for i = 0 phi0 is ratio * theta to the bit (or its zero of the other sign: the same slope)
-        phi0 = ratio * (theta + omega * i * h)
-        k1 = _pressure_rates_and_slope(a_v, a_m, b_v, b_m, phi0, w_m, direction, valve, supply_pa, p)
-        if i == 0:
-            t_motor = _vane_torque_at(a_m, b_m, k1[4])
-        k2 = pressure_rates(
-            a_v + h * k1[0],
-            a_m + h * k1[1],
-            b_v + h * k1[2],
-            b_m + h * k1[3],
-            phi0 + w_m * h,
-            w_m,
-            direction,
-            valve,
-            supply_pa,
-            p,
-        )
-        a_v += heun_increment(h, k1[0], k2[0])
-        a_m += heun_increment(h, k1[1], k2[1])
-        b_v += heun_increment(h, k1[2], k2[2])
-        b_m += heun_increment(h, k1[3], k2[3])
-    x[S_PA_VALVE] = a_v
-    x[S_PA_MOTOR] = a_m
-    x[S_PB_VALVE] = b_v
-    x[S_PB_MOTOR] = b_m
-    return _through_reducer(t_motor, ratio * theta, omega, p)
+    f = _pressure_rates_slope_and_w(
+        a_v, a_m, b_v, b_m, ratio * theta, ratio * omega, direction, valve_gauge_pa, supply_pa, p
+    )
+    h = 2.0 * dt_s
+    ma = ros2_inverse(f[5], f[6], f[7], f[8], h)
+    mb = ros2_inverse(f[9], f[10], f[11], f[12], h)
+    k_av = ma[0] * f[0] + ma[1] * f[1]
+    k_am = ma[2] * f[0] + ma[3] * f[1]
+    k_bv = mb[0] * f[2] + mb[1] * f[3]
+    k_bm = mb[2] * f[2] + mb[3] * f[3]
+    for c in range(4):
+        x[S_PAIR_MA + c] = ma[c]
+        x[S_PAIR_MB + c] = mb[c]
+    x[S_PAIR_AV] = a_v
+    x[S_PAIR_AM] = a_m
+    x[S_PAIR_BV] = b_v
+    x[S_PAIR_BM] = b_m
+    x[S_PAIR_K_AV] = k_av
+    x[S_PAIR_K_AM] = k_am
+    x[S_PAIR_K_BV] = k_bv
+    x[S_PAIR_K_BM] = k_bm
+    x[S_PAIR_DIR] = direction
+    x[S_PAIR_SUPPLY] = supply_pa
+    x[S_PAIR] = 1.0
+    x[S_PA_VALVE] = a_v + dt_s * k_av
+    x[S_PA_MOTOR] = a_m + dt_s * k_am
+    x[S_PB_VALVE] = b_v + dt_s * k_bv
+    x[S_PB_MOTOR] = b_m + dt_s * k_bm
+    return _through_reducer(_vane_torque_at(a_m, b_m, f[4]), ratio * theta, omega, p)
+
+
+@njit
+def finish_air_pair(x: np.ndarray, theta: float, omega: float, dt_s: float, p: np.ndarray) -> None:
+    """Complete the air's step that `advance_air_pair` took two physics steps ago, in place, at the
+    joint's angle and speed now and the proportional valve's output now (x[S_PV]): ROS2's second
+    stage. Nothing if no step waits for it; the same result whenever it is called before the next
+    physics step (the plant calls it at the end of its steps, the next step at its start)."""
+    if x[S_PAIR] != 2.0:
+        return
+    ratio = p[P.RATIO]
+    f = _pressure_rates_and_slope(
+        x[S_PA_VALVE],
+        x[S_PA_MOTOR],
+        x[S_PB_VALVE],
+        x[S_PB_MOTOR],
+        ratio * theta,
+        ratio * omega,
+        x[S_PAIR_DIR],
+        x[S_PV],
+        x[S_PAIR_SUPPLY],
+        p,
+    )
+    ra_v = f[0] - 2.0 * x[S_PAIR_K_AV]
+    ra_m = f[1] - 2.0 * x[S_PAIR_K_AM]
+    rb_v = f[2] - 2.0 * x[S_PAIR_K_BV]
+    rb_m = f[3] - 2.0 * x[S_PAIR_K_BM]
+    ma = S_PAIR_MA
+    mb = S_PAIR_MB
+    h = 2.0 * dt_s
+    x[S_PA_VALVE] = x[S_PAIR_AV] + ros2_increment(h, x[S_PAIR_K_AV], x[ma] * ra_v + x[ma + 1] * ra_m)
+    x[S_PA_MOTOR] = x[S_PAIR_AM] + ros2_increment(h, x[S_PAIR_K_AM], x[ma + 2] * ra_v + x[ma + 3] * ra_m)
+    x[S_PB_VALVE] = x[S_PAIR_BV] + ros2_increment(h, x[S_PAIR_K_BV], x[mb] * rb_v + x[mb + 1] * rb_m)
+    x[S_PB_MOTOR] = x[S_PAIR_BM] + ros2_increment(h, x[S_PAIR_K_BM], x[mb + 2] * rb_v + x[mb + 3] * rb_m)
+    x[S_PAIR] = 0.0
 
 
 @njit
@@ -576,7 +692,7 @@ def advance_motor_side(
 ) -> float:
     """Integrate a non-rigid reducer's motor side and the four node pressures over dt, in place,
     with the joint advancing linearly (theta + omega t) over the step and the valve's output held
-    at `valve_gauge_pa` (as in `advance_pressures`); return the torque the gear transmitted to the
+    at `valve_gauge_pa` (as in `advance_air_pair`); return the torque the gear transmitted to the
     joint, averaged over the step (N·m: its impulse / dt).
 
     The plant's path for a non-rigid reducer (pneumatics/reducer.py): MuJoCo moves the joint side,

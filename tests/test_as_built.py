@@ -20,7 +20,8 @@ from pneumatics.joint import (
     S_PB_MOTOR,
     S_PB_VALVE,
     S_PV,
-    advance_pressures,
+    advance_air_pair,
+    finish_air_pair,
     initial_state,
 )
 from scenarios import controllers
@@ -141,17 +142,21 @@ def test_vane_passing_vents_the_pockets_air_as_the_analytic_balance_says():
         m_out = -orifice_mass_flow(atm, x[S_PB_VALVE], p.exhaust_area_m2, t_s, r, AIR.k)
         return m_in, m_out
 
+    def step(theta):  # the air over dt as the plant advances it, the joint turning at omega
+        advance_air_pair(x, theta, omega, 0.6e6, supply, dt, row)
+        theta += omega * dt
+        finish_air_pair(x, theta, omega, dt, row)
+        return theta
+
     theta = 0.0
     for _ in range(int(1.0 / dt)):  # 1 s to a steady state
-        advance_pressures(x, theta, omega, 0.6e6, supply, dt, 1, row)
-        theta += omega * dt
+        theta = step(theta)
     m0 = stored(theta)
     mass_in = mass_out = vented = 0.0
     f0 = flows()
     for _ in range(int(0.5 / dt)):  # 40 passings
         pa, pb, before = x[S_PA_MOTOR], x[S_PB_MOTOR], math.floor(p.ratio * theta / pitch + 0.5)
-        advance_pressures(x, theta, omega, 0.6e6, supply, dt, 1, row)
-        theta += omega * dt
+        theta = step(theta)
         f1 = flows()
         mass_in += 0.5 * dt * (f0[0] + f1[0])
         mass_out += 0.5 * dt * (f0[1] + f1[1])

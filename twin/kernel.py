@@ -23,11 +23,37 @@ from pneumatics.joint import (
     advance_brake,
     advance_discrete,
     advance_motor_side,
-    advance_pressures,
+    advance_air_pair,
     brake_over_step,
     dry_friction_limit,
+    finish_air_pair,
 )
 from pneumatics.reducer import is_rigid
+
+
+@njit(inline="always")
+def _drive_coordinate(drive_map: np.ndarray, j: int, qpos: np.ndarray, qvel: np.ndarray) -> tuple[float, float]:
+    # joint j's drive angle and speed, summed from qpos/qvel through its fixed tendon's coefficients
+    theta = 0.0
+    omega = 0.0
+    for term in range(drive_map.shape[1]):
+        c = drive_map[j, term, 2]
+        if c != 0.0:
+            theta += c * qpos[int(drive_map[j, term, 0])]
+            omega += c * qvel[int(drive_map[j, term, 1])]
+    return theta, omega
+
+
+@njit
+def finish_air_pairs(
+    x: np.ndarray, params: np.ndarray, drive_map: np.ndarray, qpos: np.ndarray, qvel: np.ndarray, dt_s: float
+) -> None:
+    """Complete each rigid joint's air step that waits for it (`finish_air_pair`), at the motion
+    MuJoCo reached: the end of a run of plant steps leaves every pressure a result, not an estimate."""
+    for j in range(x.shape[0]):
+        if is_rigid(params[j]):
+            theta, omega = _drive_coordinate(drive_map, j, qpos, qvel)
+            finish_air_pair(x[j], theta, omega, dt_s, params[j])
 
 
 @njit
@@ -60,13 +86,10 @@ def pneumatic_step(
     for j in range(x.shape[0]):
         p = params[j]
         t = tendon_ids[j]
-        theta = 0.0
-        omega = 0.0
-        for term in range(drive_map.shape[1]):
-            c = drive_map[j, term, 2]
-            if c != 0.0:
-                theta += c * qpos[int(drive_map[j, term, 0])]
-                omega += c * qvel[int(drive_map[j, term, 1])]
+        theta, omega = _drive_coordinate(drive_map, j, qpos, qvel)
+        rigid = is_rigid(p)
+        if rigid:
+            finish_air_pair(x[j], theta, omega, dt_s, p)  # the air's step that ended with the last physics step
         pa_start = x[j, S_PA_MOTOR]
         pb_start = x[j, S_PB_MOTOR]
         valve = advance_discrete(x[j], commands[j], supply_pa, dt_s, p)
@@ -75,11 +98,10 @@ def pneumatic_step(
         tendon_frictionloss[t] = dry_friction_limit(
             brake_over_step(x[j], commands[j], supply_pa, pa_start, pb_start, dt_s, p), p
         )
-        if is_rigid(p):
+        if rigid:
             # the torque MuJoCo holds over the step, from the pressures at its start (explicit, like
-            # MuJoCo's own semi-implicit Euler; a mid-step torque was tried and was no closer to LSODA):
-            # `joint_torque` at theta, which advance_pressures returns (it has the geometry there)
-            torque = advance_pressures(x[j], theta, omega, valve, supply_pa, dt_s, substeps, p)
+            # MuJoCo's own semi-implicit Euler; a mid-step torque was tried and was no closer to LSODA)
+            torque = advance_air_pair(x[j], theta, omega, valve, supply_pa, dt_s, p)
         else:
             torque = advance_motor_side(x[j], theta, omega, valve, supply_pa, dt_s, substeps, p)
         ctrl[actuator_ids[j]] = torque + stribeck_excess_torque(
@@ -182,6 +204,7 @@ def _plant_steps(
             substeps,
         )
         _call_mj_step(mj_step_address, model_address, data_address)
+    finish_air_pairs(x, params, drive_map, qpos, qvel, dt_s)
 
 
 if MJ_STEP is not None and not NO_JIT:

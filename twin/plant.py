@@ -3,7 +3,8 @@
 Per physics step (0.5 ms, the MJCF's timestep): every joint's torque is computed from its chamber
 pressures and written into its actuator's ctrl, its brake and Coulomb friction into its drive
 tendon's frictionloss; the valves, brake and the four node pressures are advanced over the step
-(Heun sub-steps, the joint moving at the speed MuJoCo reports); then MuJoCo steps. The coupling
+(one half of a ROS2 step over two physics steps, the joint moving as MuJoCo reports:
+pneumatics/joint.py, `advance_air_pair`); then MuJoCo steps. The coupling
 is explicit in both directions, like MuJoCo's own semi-implicit Euler; tests hold it to scipy's
 LSODA on the same equations. A joint whose reducer is not rigid (pneumatics/reducer.py) has its
 motor side integrated by the air kernel, not by MuJoCo (twin/kernel.py).
@@ -26,15 +27,15 @@ from pneumatics import AIR, Gas, JointParams, ParameterError, load_joint_params,
 from pneumatics import joint as J
 from pneumatics import params as P
 from pneumatics.reducer import is_rigid, stiffness
-from twin.kernel import plant_steps, pneumatic_step
+from twin.kernel import finish_air_pairs, plant_steps, pneumatic_step
 from twin.model import drive_map, ids, load_model, raise_on_new_warnings, warning_counts
 
 # a non-rigid reducer's spring acts on MuJoCo's joint explicitly (twin/kernel.py): its mode on the
 # joint side, sqrt(k / J_joint), must stay under this many rad per physics step. Measured on the
 # wrist rig (J_joint = 0.02 kg·m^2, 0.5 ms): stable at 1.12 rad/step, unstable from 1.44.
 MAX_TRANSMISSION_PHASE_PER_STEP = 1.0
-# Heun sub-steps of the air per physics step; tests/test_plant.py shows 1 is enough at 0.5 ms: the
-# error is the coupling's, not the air's
+# least RK4 sub-steps per physics step of a non-rigid reducer's motor side (pneumatics/joint.py,
+# `advance_motor_side`, which takes more where the gear's mode needs them)
 SUBSTEPS = 1
 
 
@@ -150,6 +151,7 @@ class Plant:
         was_rigid = is_rigid(self.params[i])
         self.joint_params[joint] = params
         self.params[i] = params_row(params, self.gas, self.dt)
+        self.air[i, J.S_PAIR] = 0.0  # an air step begun with the old parameters ends at its estimate
         self._set_drive_tendon(i)
         if was_rigid and not is_rigid(self.params[i]):
             self.align_motors([joint])  # the motor side starts where its joint is
@@ -230,6 +232,7 @@ class Plant:
             for _ in range(n):
                 pneumatic_step(*args)
                 mujoco.mj_step(m, d)
+            finish_air_pairs(self.air, self.params, self.drive_map, d.qpos, d.qvel, self.dt)
         if check_warnings:
             self.check_warnings()
 
