@@ -43,9 +43,7 @@ def secant_slope(value: float, difference: float) -> float:
 
 
 @njit(inline="always")
-def ros2_inverse(
-    w00: float, w01: float, w10: float, w11: float, h: float
-) -> tuple[float, float, float, float]:
+def ros2_inverse(w00: float, w01: float, w10: float, w11: float, h: float) -> tuple[float, float, float, float]:
     """The inverse of ROS2's I - g h W for a 2 x 2 block of W (row-major), over a step h."""
     gh = ROS2_GAMMA * h
     m00 = 1.0 - gh * w00

@@ -80,16 +80,10 @@ from pneumatics.valves import (
     S_PAIR,
     S_PAIR_DIR,
     S_PAIR_SUPPLY,
-    S_PAIR_AV,
-    S_PAIR_AM,
-    S_PAIR_BV,
-    S_PAIR_BM,
-    S_PAIR_K_AV,
-    S_PAIR_K_AM,
-    S_PAIR_K_BV,
-    S_PAIR_K_BM,
-    S_PAIR_MA,  # ROS2's (I - g h W)^-1 for port A's (valve node, motor node), row-major: 4 columns
-) = range(26)
+    S_PAIR_START,  # the four node pressures at the air step's start (4 columns, in the S_PA_VALVE.. order)
+) = range(18)
+S_PAIR_K = S_PAIR_START + 4  # ROS2's first stage, the same four
+S_PAIR_MA = S_PAIR_K + 4  # ROS2's (I - g h W)^-1 for port A's (valve node, motor node), row-major: 4 columns
 S_PAIR_MB = S_PAIR_MA + 4  # the same for port B
 N_STATE = S_PAIR_MB + 4
 
@@ -240,26 +234,6 @@ def _pressure_rates_slope_and_w(
 
 
 @njit(inline="always")
-def _pressure_rates_and_slope(
-    pa_valve: float,
-    pa_motor: float,
-    pb_valve: float,
-    pb_motor: float,
-    phi_motor: float,
-    omega_motor: float,
-    direction: float,
-    valve_gauge_pa: float,
-    supply_pa: float,
-    p: np.ndarray,
-) -> tuple[float, float, float, float, float]:
-    # `pressure_rates` and the motor's volume slope dV_A/dphi at phi_motor (m^3/rad)
-    r = _pressure_rates_slope_and_w(
-        pa_valve, pa_motor, pb_valve, pb_motor, phi_motor, omega_motor, direction, valve_gauge_pa, supply_pa, p
-    )
-    return r[0], r[1], r[2], r[3], r[4]
-
-
-@njit(inline="always")
 def pressure_rates(
     pa_valve: float,
     pa_motor: float,
@@ -278,7 +252,7 @@ def pressure_rates(
     `valve_gauge_pa` is the proportional valve's output pressure P_v: the pressure it delivers
     (capped by the absolute `supply_pa`) and, through u = k_u P_v, its opening (paper Sec. IV).
     """
-    r = _pressure_rates_and_slope(
+    r = _pressure_rates_slope_and_w(
         pa_valve, pa_motor, pb_valve, pb_motor, phi_motor, omega_motor, direction, valve_gauge_pa, supply_pa, p
     )
     return r[0], r[1], r[2], r[3]
@@ -301,7 +275,7 @@ def joint_torque(pa_motor: float, pb_motor: float, phi_motor: float, omega_joint
 
 @njit(inline="always")
 def _vane_torque_at(pa_motor: float, pb_motor: float, slope: float) -> float:
-    # `vane_torque` from the volume slope dV_A/dphi at its angle (`_pressure_rates_and_slope` has it)
+    # `vane_torque` from the volume slope dV_A/dphi at its angle (`_pressure_rates_slope_and_w` has it)
     if pa_motor == pb_motor:
         return 0.0
     return (pa_motor - pb_motor) * slope
@@ -471,47 +445,35 @@ def advance_air_pair(
     if x[S_PAIR] == 1.0 and x[S_PAIR_DIR] == direction and x[S_PAIR_SUPPLY] == supply_pa:
         # the second physics step: the first stage's estimate carried on to the step's end
         torque = joint_torque(x[S_PA_MOTOR], x[S_PB_MOTOR], ratio * theta, omega, p)
-        x[S_PA_VALVE] += dt_s * x[S_PAIR_K_AV]
-        x[S_PA_MOTOR] += dt_s * x[S_PAIR_K_AM]
-        x[S_PB_VALVE] += dt_s * x[S_PAIR_K_BV]
-        x[S_PB_MOTOR] += dt_s * x[S_PAIR_K_BM]
+        for c in range(4):
+            x[S_PA_VALVE + c] += dt_s * x[S_PAIR_K + c]
         x[S_PAIR] = 2.0
         return torque
     x[S_PAIR] = 0.0
     if at_rest(x, omega, p):
         return joint_torque(x[S_PA_MOTOR], x[S_PB_MOTOR], ratio * theta, omega, p)
-    a_v = x[S_PA_VALVE]
     a_m = x[S_PA_MOTOR]
-    b_v = x[S_PB_VALVE]
     b_m = x[S_PB_MOTOR]
     f = _pressure_rates_slope_and_w(
-        a_v, a_m, b_v, b_m, ratio * theta, ratio * omega, direction, valve_gauge_pa, supply_pa, p
+        x[S_PA_VALVE], a_m, x[S_PB_VALVE], b_m, ratio * theta, ratio * omega, direction, valve_gauge_pa, supply_pa, p
     )
-    h = 2.0 * dt_s
-    ma = ros2_inverse(f[5], f[6], f[7], f[8], h)
-    mb = ros2_inverse(f[9], f[10], f[11], f[12], h)
-    k_av = ma[0] * f[0] + ma[1] * f[1]
-    k_am = ma[2] * f[0] + ma[3] * f[1]
-    k_bv = mb[0] * f[2] + mb[1] * f[3]
-    k_bm = mb[2] * f[2] + mb[3] * f[3]
+    ma = ros2_inverse(f[5], f[6], f[7], f[8], 2.0 * dt_s)
+    mb = ros2_inverse(f[9], f[10], f[11], f[12], 2.0 * dt_s)
+    k = (
+        ma[0] * f[0] + ma[1] * f[1],
+        ma[2] * f[0] + ma[3] * f[1],
+        mb[0] * f[2] + mb[1] * f[3],
+        mb[2] * f[2] + mb[3] * f[3],
+    )
     for c in range(4):
+        x[S_PAIR_START + c] = x[S_PA_VALVE + c]
+        x[S_PAIR_K + c] = k[c]
         x[S_PAIR_MA + c] = ma[c]
         x[S_PAIR_MB + c] = mb[c]
-    x[S_PAIR_AV] = a_v
-    x[S_PAIR_AM] = a_m
-    x[S_PAIR_BV] = b_v
-    x[S_PAIR_BM] = b_m
-    x[S_PAIR_K_AV] = k_av
-    x[S_PAIR_K_AM] = k_am
-    x[S_PAIR_K_BV] = k_bv
-    x[S_PAIR_K_BM] = k_bm
+        x[S_PA_VALVE + c] += dt_s * k[c]
     x[S_PAIR_DIR] = direction
     x[S_PAIR_SUPPLY] = supply_pa
     x[S_PAIR] = 1.0
-    x[S_PA_VALVE] = a_v + dt_s * k_av
-    x[S_PA_MOTOR] = a_m + dt_s * k_am
-    x[S_PB_VALVE] = b_v + dt_s * k_bv
-    x[S_PB_MOTOR] = b_m + dt_s * k_bm
     return _through_reducer(_vane_torque_at(a_m, b_m, f[4]), ratio * theta, omega, p)
 
 
@@ -524,7 +486,7 @@ def finish_air_pair(x: np.ndarray, theta: float, omega: float, dt_s: float, p: n
     if x[S_PAIR] != 2.0:
         return
     ratio = p[P.RATIO]
-    f = _pressure_rates_and_slope(
+    f = _pressure_rates_slope_and_w(
         x[S_PA_VALVE],
         x[S_PA_MOTOR],
         x[S_PB_VALVE],
@@ -536,17 +498,23 @@ def finish_air_pair(x: np.ndarray, theta: float, omega: float, dt_s: float, p: n
         x[S_PAIR_SUPPLY],
         p,
     )
-    ra_v = f[0] - 2.0 * x[S_PAIR_K_AV]
-    ra_m = f[1] - 2.0 * x[S_PAIR_K_AM]
-    rb_v = f[2] - 2.0 * x[S_PAIR_K_BV]
-    rb_m = f[3] - 2.0 * x[S_PAIR_K_BM]
+    # ROS2's second stage, (I - g h W) k2 = f - 2 k1, port by port with the first stage's matrices
+    r = (
+        f[0] - 2.0 * x[S_PAIR_K],
+        f[1] - 2.0 * x[S_PAIR_K + 1],
+        f[2] - 2.0 * x[S_PAIR_K + 2],
+        f[3] - 2.0 * x[S_PAIR_K + 3],
+    )
     ma = S_PAIR_MA
     mb = S_PAIR_MB
-    h = 2.0 * dt_s
-    x[S_PA_VALVE] = x[S_PAIR_AV] + ros2_increment(h, x[S_PAIR_K_AV], x[ma] * ra_v + x[ma + 1] * ra_m)
-    x[S_PA_MOTOR] = x[S_PAIR_AM] + ros2_increment(h, x[S_PAIR_K_AM], x[ma + 2] * ra_v + x[ma + 3] * ra_m)
-    x[S_PB_VALVE] = x[S_PAIR_BV] + ros2_increment(h, x[S_PAIR_K_BV], x[mb] * rb_v + x[mb + 1] * rb_m)
-    x[S_PB_MOTOR] = x[S_PAIR_BM] + ros2_increment(h, x[S_PAIR_K_BM], x[mb + 2] * rb_v + x[mb + 3] * rb_m)
+    k2 = (
+        x[ma] * r[0] + x[ma + 1] * r[1],
+        x[ma + 2] * r[0] + x[ma + 3] * r[1],
+        x[mb] * r[2] + x[mb + 1] * r[3],
+        x[mb + 2] * r[2] + x[mb + 3] * r[3],
+    )
+    for c in range(4):
+        x[S_PA_VALVE + c] = x[S_PAIR_START + c] + ros2_increment(2.0 * dt_s, x[S_PAIR_K + c], k2[c])
     x[S_PAIR] = 0.0
 
 
@@ -632,7 +600,7 @@ def _motor_side_rates(
     ratio = p[P.RATIO]
     phi = ratio * q_m
     tau_t = transmitted_torque(q_m - theta, w_m - omega, half_gap, k, c)
-    r = _pressure_rates_and_slope(a_v, a_m, b_v, b_m, phi, ratio * w_m, direction, valve, supply_pa, p)
+    r = _pressure_rates_slope_and_w(a_v, a_m, b_v, b_m, phi, ratio * w_m, direction, valve, supply_pa, p)
     # `motor_side_drive`, from the geometry the rates took at the same angle
     drive, held = _motor_side_drive_of(_rippled(_vane_torque_at(a_m, b_m, r[4]), phi, p), w_m, slide_m, tau_t, p)
     if held:
@@ -818,7 +786,7 @@ def _rates(
         phi = ratio * y[R_QM]
         tau_t = transmitted_torque(y[R_QM] - theta, y[R_OMEGA_M] - omega, 0.5 * p[P.BACKLASH], k, damping(k, j_m))
         w_motor = ratio * y[R_OMEGA_M]
-    rates = _pressure_rates_and_slope(
+    rates = _pressure_rates_slope_and_w(
         y[R_PA_VALVE],
         y[R_PA_MOTOR],
         y[R_PB_VALVE],

@@ -20,10 +20,10 @@ from pneumatics.friction import stribeck_excess_torque
 from pneumatics.joint import (
     S_PA_MOTOR,
     S_PB_MOTOR,
+    advance_air_pair,
     advance_brake,
     advance_discrete,
     advance_motor_side,
-    advance_air_pair,
     brake_over_step,
     dry_friction_limit,
     finish_air_pair,
