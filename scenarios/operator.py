@@ -38,7 +38,8 @@ the insulator string (paper Sec. II). This model sees only what that camera's pi
   (scenarios/ik.tip_drive_angles): he places the brush, not its tilt; an aim the platform refuses
   anyway he takes back. Pressed, he looks once more: the head's stroke (its face against its
   carrier, along the tool) is the spring's force; off the plan's by more than `tolerance_m`, he
-  moves the press along it by what he sees and presses again (MAX_PRESS_LOOKS a disc). Pressing
+  moves the press along it by what he sees, backs out to touching distance and presses again from
+  there (MAX_PRESS_LOOKS a disc; scenarios/task.py). Pressing
   blind, the press landed 25 +- 15 mm (the 2 cm placement's centimetre, the arrival band's
   half-degree on shoulder and elbow, the elbow's inexact small moves): 13 N at worst.
   A link 0.5 m long is ~80 px in the picture: a pixel at each end is ~0.7 deg of pitch.

@@ -8,7 +8,8 @@ finish noted, and a strategy that may act between them (scenario field `control.
                  upper discs), since the parallelogram keeps the forearm's pitch
     operator     the operator corrects the brush's aim by the global camera (scenarios/operator.py),
                  closes in to TOUCH_STANDOFF_M and looks again before each press, looks at the
-                 press (the head's stroke) and presses again where it is off, backs out to
+                 press (the head's stroke) and, where it is off, backs out to TOUCH_STANDOFF_M and
+                 presses again by what he saw, backs out to
                  TOUCH_STANDOFF_M (wrist held, out of the rim first) before the plan's back-off; he also
                  clears the platform's faults (a move not finished in time) and goes on
     true_angle   a bound, not a way to run the arm: the same controller handed the plant's true
@@ -94,6 +95,7 @@ class TaskController:
         self._review_from_s = math.nan
         self._closing_in = False  # the operator's extra stop at TOUCH_STANDOFF_M before a press is under way
         self._backing_out = False  # ... and after it, on the way out (the press's move reversed)
+        self._repressing = False  # ... and out of a press he saw off, before he presses again
         self._came_in_again: set[int] = set()  # discs on which he backed off from touching distance once
         self._skip_press = False  # the operator gave up the coming press
         self._stop: _StopDrive | None = None
@@ -166,6 +168,7 @@ class TaskController:
             k < 0
             or not self.reached[k]
             or self._backing_out
+            or self._repressing
             or self.operator is None
             or not (self._is_standoff(k) or self._is_press(k))
         ):
@@ -190,15 +193,31 @@ class TaskController:
             self.reached[self.k] = True
             self.finished_s[self.k] = t
             self._review_from_s = t
+        if self._repressing:
+            # out of the press to touching distance: the press again, by what he saw, as the first one
+            self._repressing = False
+            self._issue(self.k, self.scenario.targets[self.k].dwell_s)
+            self._review_from_s = math.inf  # set when this press is done
+            self.reached[self.k] = False
+            return
         if self.k >= 0 and self.operator is not None and self._is_press(self.k):
-            # he looks at the press as he looks at every standoff, and presses again if it is off
+            # he looks at the press as he looks at every standoff; if it is off, he backs out to
+            # touching distance (out of the rim first, wrist held) and presses again from there: the
+            # corrected press made from inside the first one (shoulder and elbow together, the brush
+            # on the rim) lifted the head off and swung its side onto disc 1's rim, 682 N (as-built,
+            # 0.5 MPa, the operator's seed 2021340933837429789)
             target = self.scenario.targets[self.k]
             verdict = self.operator.review_press(t, self._review_from_s, target.brush_at_disc, -target.standoff_m)
             if verdict is None:
                 return  # waiting to see the arm pressed
             if verdict:
-                self._issue(self.k, target.dwell_s, pressed=True)
-                self._review_from_s = math.inf  # set when this press is done
+                self._repressing = True
+                self._notes.append(
+                    f"t = {t:.3f} s: disc_{target.brush_at_disc}: operator backs out to "
+                    f"{TOUCH_STANDOFF_M * 100:.0f} cm to press again"
+                )
+                self._issue(self.k, dwell_s=0.0, pressed=True)
+                self._review_from_s = math.inf  # set when the press again is done
                 self.reached[self.k] = False
                 return
         if self._backing_out:
@@ -341,7 +360,9 @@ class TaskController:
 
     def _standoff_m(self, k: int) -> float:
         """Where target k holds the brush's face off its disc's rim (closer while closing in)."""
-        return TOUCH_STANDOFF_M if self._closing_in or self._backing_out else self.scenario.targets[k].standoff_m
+        if self._closing_in or self._backing_out or self._repressing:
+            return TOUCH_STANDOFF_M
+        return self.scenario.targets[k].standoff_m
 
     def _aimed(self, k: int) -> dict[str, float]:
         t = self.scenario.targets[k]

@@ -346,6 +346,26 @@ def test_a_run_cut_short_is_judged_on_the_targets_it_reached(capsys, tmp_path):
     assert summary["joints"]["shoulder_pitch"]["target_deg"] != 90.0  # not the plan's last target (home)
 
 
+def test_a_press_seen_off_is_made_again_from_touching_distance(capsys, tmp_path):
+    """The operator saw disc 1's press 1.5 cm short (0.5 MPa, as-built, his seed 2021340933837429789)
+    and pressed deeper from inside the press: shoulder and elbow turning together with the brush on
+    the rim lifted the head off and swung its side onto the rim at 682 N. He now backs out to
+    touching distance and presses again from there, as he pressed the first time: disc 1 is
+    pressed in the band."""
+    toml = (ROOT / "scenarios" / "insulator_cleaning.toml").read_text()
+    supply = "pressure_mpa = 0.6 "
+    path = tmp_path / "cleaning_05.toml"
+    path.write_text(toml.replace(supply, "pressure_mpa = 0.5 "))
+    argv = ["run", str(path), "--json", "--duration", "30", "--seed", "2021340933837429789"]
+    assert twin_main(argv) == 0
+    summary = json.loads(capsys.readouterr().out)
+    events = summary["controller_events"]
+    again = [e for e in events if "disc_1: operator backs out to 2 cm to press again" in e]
+    assert again, events
+    disc_1 = next(d for d in summary["discs"] if d["disc"] == 1)
+    assert disc_1["cleaned"] is True and 15.0 < disc_1["peak_force_n"] < 55.0, disc_1
+
+
 def test_at_half_a_megapascal_the_counterbalanced_wrist_reaches_its_targets(capsys, tmp_path):
     """Issue 13: at 0.5 MPa the paper's wrist pair (DESIGN "Sizing") stalled under the 20 kg
     payload 1 deg short of the first target above it (4.41 bar needed at its port on the mean
