@@ -368,7 +368,11 @@ class McapRecorder:
         return reply or f"the writer process ended with exit code {self._proc.returncode}"
 
     def write(self, telemetry, start: int) -> None:
-        """Send telemetry samples `start`.. to the writer (each batch is flushed to the file)."""
+        """Send telemetry samples `start`.. to the writer (each batch is flushed to the file). Nothing
+        once the writer has failed: its LogError was raised then, and the run's last flush (in a
+        `finally`) must still reach the other recorders."""
+        if self._closed:
+            return
         if self._camera is not None and len(telemetry) > start:
             self._camera.request(telemetry, start)
         if self._inline is not None:
