@@ -190,6 +190,37 @@ def test_a_short_or_wide_hose_fills_as_lsoda_says(hose, bound) -> None:
     assert e["max_pressure_error_rel"] < bound
 
 
+def test_at_the_largest_vane_leak_allowed_the_stalled_wrist_settles_where_its_flows_balance() -> None:
+    """SPEC's largest vane leak (pneumatics/params.py, 1e-5 m^2, twice the valve's inlet), the arm's
+    wrist driven into its end stop at 0.8 MPa for 1 s: its four node pressures against the state
+    where every node's rate is zero (scipy's fsolve on `pressure_rates` at the stalled angle: the
+    laws, no integrator), within 1 kPa (measured 0.3 kPa). At 3e-5 m^2 the plant settled 25 kPa
+    low, at 1e-4 300 kPa: the range stops where the integration holds."""
+    from scipy.optimize import fsolve
+
+    leak = P.SPEC["leak_area_m2"].high
+    wrist = load_joint_params(assets.joint_param_path("wrist_pitch"))._replace(leak_area_m2=leak)
+    plant = Plant(assets.SCENE_XML, {"wrist_pitch": wrist})
+    supply = P_ATM + 0.8e6
+    plant.set_supply(supply)
+    plant.command("wrist_pitch", +1, 0.8e6, True)
+    plant.step(2000)
+    i = plant.joints.index("wrist_pitch")
+    x, p = plant.air[i], plant.params[i]
+    assert abs(plant.drive_speeds()[i]) < 1e-3  # stalled at its stop
+    phi = p[P.RATIO] * plant.drive_angles()[i]
+
+    def rates(y):
+        return np.array(J.pressure_rates(*y, phi, 0.0, 1.0, x[J.S_PV], supply, p)) * 1e-6
+
+    state = x[[J.S_PA_VALVE, J.S_PA_MOTOR, J.S_PB_VALVE, J.S_PB_MOTOR]].copy()
+    balanced = fsolve(rates, state, xtol=1e-13)
+    assert np.abs(rates(balanced)).max() < 1e-6
+    print(f"\nleak {leak:g} m^2: plant {state / 1e3} kPa, balanced {balanced / 1e3} kPa")
+    assert balanced[1] - balanced[3] > 1e3  # the leak carries air: the chambers differ
+    assert np.abs(state - balanced).max() < 1e3
+
+
 # --- the wrist rig like the paper's Fig. 10-13 ----------------------------------------------------
 RIG_START_DEG = -85.0  # start near one end of the rig's +-90 deg range so that 1 s of travel fits
 
