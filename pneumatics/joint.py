@@ -40,7 +40,7 @@ from pneumatics.chamber import chamber_pressure_rate
 from pneumatics.friction import coulomb_viscous_torque, reducer_output_torque, stribeck_excess_torque
 from pneumatics.gas import isentropic_temperature
 from pneumatics.hose import hose_mass_flow_with, hose_volume
-from pneumatics.integrators import rk4_increment, ros2_increment, ros2_inverse, secant_slope
+from pneumatics.integrators import ROS2_GAMMA, rk4_increment, ros2_increment, ros2_inverse, secant_slope
 from pneumatics.motor import chamber_geometry, vane_torque
 from pneumatics.orifice import orifice_mass_flow_with
 from pneumatics.reducer import (
@@ -85,7 +85,8 @@ from pneumatics.valves import (
 S_PAIR_K = S_PAIR_START + 4  # ROS2's first stage, the same four
 S_PAIR_MA = S_PAIR_K + 4  # ROS2's (I - g h W)^-1 for port A's (valve node, motor node), row-major: 4 columns
 S_PAIR_MB = S_PAIR_MA + 4  # the same for port B
-N_STATE = S_PAIR_MB + 4
+S_PAIR_LEAK = S_PAIR_MB + 4  # g h times the vane leak's coupling of the motor nodes (A's on B, B's on A)
+N_STATE = S_PAIR_LEAK + 2
 
 # commands the platform sends to a joint (a float64 row)
 C_DIRECTION, C_PV_SET_GAUGE_PA, C_BRAKE_RELEASE = range(3)
@@ -160,11 +161,12 @@ def _pressure_rates_slope_and_w(
     valve_gauge_pa: float,
     supply_pa: float,
     p: np.ndarray,
-) -> tuple[float, float, float, float, float, float, float, float, float, float, float, float, float]:
+) -> tuple[float, float, float, float, float, float, float, float, float, float, float, float, float, float, float]:
     # `pressure_rates`, the motor's volume slope dV_A/dphi at phi_motor (m^3/rad), which it computes
-    # anyway, and the 2 x 2 blocks of ROS2's W (pneumatics/integrators.py) for port A's and port B's
-    # (valve node, motor node): the rates' slopes against those pressures, each flow's slope taken
-    # as its secant (`secant_slope`). What a caller does not use the compiler drops.
+    # anyway, and ROS2's W (pneumatics/integrators.py): the 2 x 2 blocks for port A's and port B's
+    # (valve node, motor node), then the vane leak's coupling of the two motor nodes (A's rate
+    # against B's pressure, B's against A's): the rates' slopes against the pressures, each flow's
+    # slope taken as its secant (`secant_slope`). What a caller does not use the compiler drops.
     r = p[P.GAS_R]
     t_s = p[P.GAS_T]
     n = p[P.POLY_N]
@@ -205,7 +207,8 @@ def _pressure_rates_slope_and_w(
         db = chamber_pressure_rate(pb_motor, v_b_node, -dv_a, m_b_valve + m_leak, t_s, r, n)
         w_a = -n / v_a_node * (rt * (g_a_valve + g_leak) + dv_a)
         w_b = -n / v_b_node * (rt * (g_b_valve + g_leak) - dv_a)
-        return da, da, db, db, slope, w_a, 0.0, 0.0, w_a, w_b, 0.0, 0.0, w_b
+        leak_a, leak_b = n / v_a_node * rt * g_leak, n / v_b_node * rt * g_leak
+        return da, da, db, db, slope, w_a, 0.0, 0.0, w_a, w_b, 0.0, 0.0, w_b, leak_a, leak_b
 
     m_a_hose = _hose_flow(pa_valve, pa_motor, p_s, p)
     m_b_hose = _hose_flow(pb_valve, pb_motor, p_s, p)
@@ -230,6 +233,8 @@ def _pressure_rates_slope_and_w(
         n_rt_valve * g_b_hose,
         n_b_motor * rt * g_b_hose,
         -n_b_motor * (rt * (g_b_hose + g_leak) - dv_a),
+        n_a_motor * rt * g_leak,
+        n_b_motor * rt * g_leak,
     )
 
 
@@ -412,6 +417,33 @@ def at_rest(x: np.ndarray, omega: float, p: np.ndarray) -> bool:
     )
 
 
+@njit(inline="always")
+def _ros2_solve(
+    ma: tuple[float, float, float, float],
+    mb: tuple[float, float, float, float],
+    leak: tuple[float, float],
+    r: tuple[float, float, float, float],
+    one_node_per_port: bool,
+) -> tuple[float, float, float, float]:
+    # (I - g h W) k = r for the four node pressures: ma, mb the inverses of port A's and port B's
+    # 2 x 2 blocks (`ros2_inverse`), `leak` g h times the vane leak's coupling of the motor nodes
+    # (A's rate against B's pressure, B's against A's). Each port solved alone, then the coupling
+    # eliminated: k_A = ma r_A + leak_A ma e_m k_Bm, and B the same way. Without the hose loss a
+    # port's valve and motor node are one node: both take the motor node's result.
+    ua = (ma[0] * r[0] + ma[1] * r[1], ma[2] * r[0] + ma[3] * r[1])
+    ub = (mb[0] * r[2] + mb[1] * r[3], mb[2] * r[2] + mb[3] * r[3])
+    if leak[0] == 0.0 and leak[1] == 0.0:  # no vane leak (the nominal joint): the ports apart
+        return ua[0], ua[1], ub[0], ub[1]
+    alpha = leak[0] * ma[3]
+    beta = leak[1] * mb[3]
+    inv = 1.0 / (1.0 - alpha * beta)
+    k_am = (ua[1] + alpha * ub[1]) * inv
+    k_bm = (ub[1] + beta * ua[1]) * inv
+    if one_node_per_port:
+        return k_am, k_am, k_bm, k_bm
+    return ua[0] + leak[0] * ma[1] * k_bm, k_am, ub[0] + leak[1] * mb[1] * k_am, k_bm
+
+
 @njit
 def advance_air_pair(
     x: np.ndarray,
@@ -459,18 +491,16 @@ def advance_air_pair(
     )
     ma = ros2_inverse(f[5], f[6], f[7], f[8], 2.0 * dt_s)
     mb = ros2_inverse(f[9], f[10], f[11], f[12], 2.0 * dt_s)
-    k = (
-        ma[0] * f[0] + ma[1] * f[1],
-        ma[2] * f[0] + ma[3] * f[1],
-        mb[0] * f[2] + mb[1] * f[3],
-        mb[2] * f[2] + mb[3] * f[3],
-    )
+    leak = (ROS2_GAMMA * 2.0 * dt_s * f[13], ROS2_GAMMA * 2.0 * dt_s * f[14])
+    k = _ros2_solve(ma, mb, leak, (f[0], f[1], f[2], f[3]), p[P.HOSE_LOSS] == 0.0)
     for c in range(4):
         x[S_PAIR_START + c] = x[S_PA_VALVE + c]
         x[S_PAIR_K + c] = k[c]
         x[S_PAIR_MA + c] = ma[c]
         x[S_PAIR_MB + c] = mb[c]
         x[S_PA_VALVE + c] += dt_s * k[c]
+    x[S_PAIR_LEAK] = leak[0]
+    x[S_PAIR_LEAK + 1] = leak[1]
     x[S_PAIR_DIR] = direction
     x[S_PAIR_SUPPLY] = supply_pa
     x[S_PAIR] = 1.0
@@ -498,21 +528,16 @@ def finish_air_pair(x: np.ndarray, theta: float, omega: float, dt_s: float, p: n
         x[S_PAIR_SUPPLY],
         p,
     )
-    # ROS2's second stage, (I - g h W) k2 = f - 2 k1, port by port with the first stage's matrices
+    # ROS2's second stage, (I - g h W) k2 = f - 2 k1, with the first stage's matrix
     r = (
         f[0] - 2.0 * x[S_PAIR_K],
         f[1] - 2.0 * x[S_PAIR_K + 1],
         f[2] - 2.0 * x[S_PAIR_K + 2],
         f[3] - 2.0 * x[S_PAIR_K + 3],
     )
-    ma = S_PAIR_MA
-    mb = S_PAIR_MB
-    k2 = (
-        x[ma] * r[0] + x[ma + 1] * r[1],
-        x[ma + 2] * r[0] + x[ma + 3] * r[1],
-        x[mb] * r[2] + x[mb + 1] * r[3],
-        x[mb + 2] * r[2] + x[mb + 3] * r[3],
-    )
+    ma = (x[S_PAIR_MA], x[S_PAIR_MA + 1], x[S_PAIR_MA + 2], x[S_PAIR_MA + 3])
+    mb = (x[S_PAIR_MB], x[S_PAIR_MB + 1], x[S_PAIR_MB + 2], x[S_PAIR_MB + 3])
+    k2 = _ros2_solve(ma, mb, (x[S_PAIR_LEAK], x[S_PAIR_LEAK + 1]), r, p[P.HOSE_LOSS] == 0.0)
     for c in range(4):
         x[S_PA_VALVE + c] = x[S_PAIR_START + c] + ros2_increment(2.0 * dt_s, x[S_PAIR_K + c], k2[c])
     x[S_PAIR] = 0.0

@@ -133,10 +133,10 @@ SPEC: dict[str, FieldSpec] = {
     "viscous_nm_s": FieldSpec("friction", 0.0, 1e4, "N·m·s/rad"),
     "stick_speed_rad_s": FieldSpec("friction", 1e-6, 1.0, "rad/s"),
     # to 1e-5 m^2 (twice the valve's inlet: a motor leaking more does not turn): above it the air
-    # leaking A -> B evens the two chambers out faster than the steps follow. Measured on the wrist
-    # at 0.8 MPa, 1 s, against the plant at 1/8 of its step: at 1e-5 the plant within 0.3 kPa and the
-    # predictor's 1 ms RK4 within 0.1 kPa; at 3e-5 the plant 25 kPa low, the predictor's B chamber
-    # 20 kPa; at 1e-4 the plant 300 kPa low (Heun's, until stop 20, 56 kPa high and 160 kPa low)
+    # leaking A -> B evens the two chambers out faster than the predictor's 1 ms RK4 follows.
+    # Measured on the wrist stalled at its stop at 0.8 MPa, 1 s: at 3e-5 its B chamber 20 kPa off the
+    # plant at 1/8 of its step. The plant (ROS2, the leak in its W) settles within 0.07 kPa of where
+    # the flows balance up to 1e-4 (tests/test_plant.py); its Heun, until stop 20, 160 kPa off at 1e-4
     "leak_area_m2": FieldSpec("effects", 0.0, 1e-5, "m^2"),
     "stribeck_excess_nm": FieldSpec("effects", 0.0, 1e4, "N·m"),
     "stribeck_speed_rad_s": FieldSpec("effects", 1e-4, 10.0, "rad/s"),
