@@ -386,8 +386,8 @@ def test_at_half_a_megapascal_the_counterbalanced_wrist_reaches_its_targets(caps
     torque, 5.1 at its worst vane angle, against a 5 bar supply), the platform faulted at 20.7 s and
     again every 15 s, and the operator cleaned 1-2 discs of 8. With the wrist's counterbalance spring
     (assets/arm.xml), known to the controller's load model, every move of the first 28 s arrives and
-    disc 1 is pressed in the band and left (at 22.6 s; at 16.3 s before stop 20's air integrator,
-    with fewer camera corrections)."""
+    disc 1 is pressed in the band and left (at 14.7 s; 16.3 s with Heun's air until stop 20, 22.6 s
+    with ROS2 before the vane leak's coupling joined its W: the camera's corrections vary)."""
     toml = (ROOT / "scenarios" / "insulator_cleaning.toml").read_text()
     supply = "pressure_mpa = 0.6 "
     assert supply in toml
