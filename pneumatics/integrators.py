@@ -35,8 +35,11 @@ def rk4_increment(h: float, k1: float, k2: float, k3: float, k4: float) -> float
 @njit(inline="always")
 def secant_slope(value: float, difference: float) -> float:
     """value / difference, 0 where the difference is 0: a flow's slope against the pressure
-    difference that drives it, as the W matrix takes it (the secant: exact for a linear flow law,
-    within a factor of two of the tangent for the orifice's and the hose's powers)."""
+    difference that drives it, as the W matrix takes it. The secant, not the tangent: the same for
+    a linear law (the laminar hose, the orifice's last 1 % of pressure ratio, where the air is
+    stiffest), 1.75 times the tangent on the hose's Blasius branch, above it where the orifice is
+    choked (the tangent there is 0) and below it on the orifice's subsonic branch. ROS2 stays
+    second order whatever W is (module docstring)."""
     if value == 0.0 or difference == 0.0:
         return 0.0
     return value / difference
