@@ -7,6 +7,7 @@ from pathlib import Path
 from twin.checks import JOBS, MODEL_TOLERANCE_DEG
 from twin.outputs import OutputLock, check_output, publish_folder
 from twin_cli.args import number
+from twin_cli.figures import figure_lines
 
 BENCH_OUTPUTS = ("campaigns", "bench.json")  # what `gap bench` writes into DIR, replacing an earlier bench's
 
@@ -101,5 +102,5 @@ def cmd_bench(args) -> int:
         summary, _ = publish_folder(
             Path(args.out), bench_into, "the bench's results", replaces=BENCH_OUTPUTS, keep_on_stop=True
         )
-    print({k: v for k, v in summary.items() if k != "cases"})
+    print("\n".join(figure_lines({k: v for k, v in summary.items() if k != "cases"})))
     return 0

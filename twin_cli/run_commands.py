@@ -12,6 +12,7 @@ from twin.checks import CAMERA_FPS as CAMERA_FPS_RANGE
 from twin.checks import DURATION_S, MONTE_CARLO, RECORDING_CAMERA_FPS, SEED
 from twin.outputs import OutputLock, check_output, keep_result, publish_folder, write_atomic
 from twin_cli.args import add_workers, number
+from twin_cli.figures import figure_lines
 
 
 def _add_run(sub: argparse._SubParsersAction) -> None:
@@ -230,15 +231,5 @@ def cmd_bench(args) -> int:
         json.dump(results, sys.stdout, indent=2)
         print()
     else:
-        for name, figures in results.items():
-            print(f"{name}:")
-            for k, v in figures.items():
-                print(f"  {k}: {_figure(v)}")
+        print("\n".join(figure_lines(results)))
     return 0
-
-
-def _figure(v) -> str:
-    """A repeated measurement as `median (min-max)`, anything else as it is."""
-    if isinstance(v, dict) and v.keys() == {"median", "min", "max"}:
-        return f"{v['median']:g} ({v['min']:g}-{v['max']:g})"
-    return str(v)
