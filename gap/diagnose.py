@@ -45,7 +45,7 @@ import assets
 from control.arm_model import ArmModel
 from gap import instrument, verdict, where
 from gap.campaign import Campaign, GapError, Run
-from gap.effects import BY_NAME, CATALOGUE, Effect, Rig
+from gap.effects import BY_NAME, CATALOGUE, IN_TWIN_VARIATIONS, Effect, Rig
 from gap.instrument import Nuisance
 from gap.noise import RepeatNoise, repeat_noise
 from gap.protocols import worst_tolerance_deg, worst_tolerance_kpa
@@ -711,13 +711,20 @@ def diagnose(
 def in_twin_corrections(twin: Twin, catalogue) -> dict[str, list[np.ndarray]]:
     """Per family, for each catalogue switch the nominal twin already has on (the hose loss): the
     correction of switching it off, and its opposite (more of it, to first order), so that a family
-    is in the family call even when none of its members is a candidate (a narrower hose)."""
+    is in the family call even when none of its members is a candidate (a narrower hose); and the
+    corrections of the part it switches at other values (gap.effects.IN_TWIN_VARIATIONS: the hose's
+    bore), more and less of it than the twin's, replayed."""
     out: dict[str, list[np.ndarray]] = {}
     every = list(range(len(twin.runs)))
     for e in catalogue:
         if e.discrete_value is not None and e.value_of(twin.params) == e.discrete_value:
             c = twin.gap_vector - twin.run_sses_and_residual([(e, e.low)], every)[1]
-            out.setdefault(e.family, []).append(np.vstack([c, -c]))
+            rows = [c, -c]
+            if e.name in IN_TWIN_VARIATIONS:  # one member: the part's values are not added to each other
+                for part, factors in IN_TWIN_VARIATIONS[e.name]:
+                    v = part.value_of(twin.params)
+                    rows += [twin.gap_vector - twin.run_sses_and_residual([(part, k * v)], every)[1] for k in factors]
+            out.setdefault(e.family, []).append(np.vstack(rows))
     return out
 
 

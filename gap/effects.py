@@ -263,6 +263,37 @@ CATALOGUE: tuple[Effect, ...] = (
         equation="torsional spring 1/k between motor and joint side (rad/N·m)",
     ),
 )
+# Parts the nominal twin already has, varied for the family call only (gap.diagnose.
+# in_twin_corrections), never candidates: the catalogue's switch for such a part (the hose loss,
+# on in the twin) gives its family only the correction of switching it off and its opposite, so a
+# hose that loses several times what the twin's does was called leakage (stop 20's bench: a 3 mm
+# bore for 4 mm). Keyed by the switch: while it is on, its family also gets the twin with the
+# part at these factors of the twin's value. The hose's bore: its loss at a given flow goes as
+# d^-4.75 on the Blasius branch (d^-4 laminar; pneumatics/hose.py, paper eq. 1-4), so 0.7-1.15
+# spans about 5.4 to 0.5 times the twin's. Not a candidate: a continuous hose member (its
+# resistance, stop 17; its length, stop 18) stood in for a valve lag and a slow brake release.
+HOSE_BORE = Effect(
+    "hose_bore",
+    "hose bore",
+    "hose_diameter_m",
+    1.0e-3,
+    0.05,
+    family="hose",
+    equation="both hoses' inner diameter (m): their loss and their volume",
+)
+HOSE_LENGTH = Effect(
+    "hose_length",
+    "hose length",
+    "hose_length_m",
+    2.0,
+    100.0,
+    family="hose",
+    equation="both hoses' length (m): their loss and their volume",
+)
+IN_TWIN_VARIATIONS: dict[str, tuple[tuple[Effect, tuple[float, ...]], ...]] = {
+    "hose_loss": ((HOSE_BORE, (0.7, 0.8, 0.9, 1.15)), (HOSE_LENGTH, (0.5, 1.5, 2.0, 3.0)))
+}
+
 NOT_IN_CATALOGUE = (
     "torque ripple with motor angle (ripple_fraction exists in pneumatics/ and the bench hides it, "
     "but it is deliberately left out of the catalogue as the bench's outside-catalogue effect)",

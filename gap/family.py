@@ -4,7 +4,8 @@ withheld runs, and how much of the gap's where-profile its shapes explain.
 A family's effects move the twin in characteristic ways: the corrections (twin with the effect at a
 value minus the nominal twin) that its members make at every value the single fits replayed
 (gap.diagnose.fit_single keeps them), and for a member the nominal twin already has (the hose loss)
-the correction of taking it out, and its opposite. A family's fit on withheld runs is its own
+the correction of taking it out, its opposite, and the part at other values (its bore and length:
+gap.effects.IN_TWIN_VARIATIONS, replayed). A family's fit on withheld runs is its own
 physics, not an extrapolation: per fold, the member correction, or the sum of two members'
 corrections, that fits the training runs best (a form the catalogue lacks is often close to two of
 its family's effects at once: Stribeck friction to more Coulomb and less viscous friction), scored

@@ -186,7 +186,7 @@ class Judge:
         ties told apart by the gap's where-profile (module docstring). `gap`: the nominal twin's
         residual vector (Twin.run_sses_and_residual); `folds`: (training, withheld) run lists;
         `in_twin`: per family, corrections of the members the nominal twin already has (taking
-        them out, and the opposite)."""
+        them out, the opposite, the part at other values: gap.diagnose.in_twin_corrections)."""
         twin = self.twin
         angle = twin.angle_mask()
         masks = [(twin.sample_mask(tr), twin.sample_mask(te)) for tr, te in folds]

@@ -80,31 +80,46 @@ def _by_name(*names):
 
 
 @pytest.mark.parametrize(
-    "hidden, catalogue, family",
+    "hidden, catalogue, family, declared_hose_m",
     [
         # a slow proportional valve (tau 0.2 s against 0.1 s), the catalogue without valve lag
         (
             {"valve_time_constant_s": 0.2},
             ("valve_dead_time", "valve_set_dead_time", "supply_droop", "coulomb_friction", "conductance_error"),
             "valve timing",
+            None,
         ),
         # Stribeck friction (40 N·m breakaway excess), the catalogue with Coulomb and viscous only
         (
             {"stribeck_excess_nm": 40.0, "stribeck_speed_rad_s": 0.2},
             ("coulomb_friction", "viscous_friction", "heat_exchange", "valve_dead_time", "supply_droop"),
             "friction",
+            None,
         ),
         # a narrower hose (3 mm bore against the 4 mm the twin is told): the twin already has the
-        # hose loss, so no candidate is of the hose family; taking it out gives the family its shape
+        # hose loss, so no candidate is of the hose family; its family call has the hose switched
+        # off and the part at other bores and lengths (gap.effects.IN_TWIN_VARIATIONS). Without
+        # them the hose leak, a candidate, took it (leakage)
         (
             {"hose_diameter_m": 0.003},
-            ("hose_loss", "coulomb_friction", "conductance_error", "valve_dead_time", "supply_droop"),
+            ("hose_loss", "hose_leak", "vane_leakage", "coulomb_friction", "conductance_error", "valve_dead_time"),
             "hose",
+            None,
+        ),
+        # hoses 13 m long where campaign.toml says 8: without the hose's variations the valve
+        # (conductance) took it, a longer hose fills the motor late as a smaller valve does
+        (
+            {"hose_length_m": 13.0},
+            ("hose_loss", "hose_leak", "vane_leakage", "coulomb_friction", "conductance_error", "valve_lag"),
+            "hose",
+            8.0,
         ),
     ],
-    ids=["valve_lag_as_dead_time", "stribeck_as_coulomb", "narrow_hose"],
+    ids=["valve_lag_as_dead_time", "stribeck_as_coulomb", "narrow_hose", "longer_hose_than_declared"],
 )
-def test_a_form_outside_the_catalogue_is_called_so_and_given_its_family(hidden, catalogue, family, tmp_path):
+def test_a_form_outside_the_catalogue_is_called_so_and_given_its_family(
+    hidden, catalogue, family, declared_hose_m, tmp_path
+):
     """Chamber pressures measured on both ports: the fit weighs them, and a form the catalogue lacks
     is called outside the catalogue with the family of the best candidate's leading effect."""
     folder = synth.make_campaign(
@@ -113,6 +128,7 @@ def test_a_form_outside_the_catalogue_is_called_so_and_given_its_family(hidden, 
         seed=7,
         pressures_mpa=(0.5, 0.6, 0.8),
         chamber_pressures=True,
+        declared_hose_length_m=declared_hose_m,
     )
     d = diagnose(load_campaign(folder), catalogue=_by_name(*catalogue), progress=False)
     assert d.pressure.measured
