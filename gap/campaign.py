@@ -44,7 +44,19 @@ from pydantic import BaseModel, ValidationError
 
 import assets
 from pneumatics import load_joint_params
-from pneumatics.fields import FLAG, MISSING, REAL, TABLE, TEXT, Problem, choice, first_problem, number, read_toml
+from pneumatics.fields import (
+    FLAG,
+    MISSING,
+    REAL,
+    TABLE,
+    TEXT,
+    Problem,
+    choice,
+    first_problem,
+    number,
+    path_problem,
+    read_toml,
+)
 from pneumatics.gas import AIR
 from pneumatics.params import SPEC
 from twin.errors import UserError
@@ -180,6 +192,9 @@ def _inside(folder: Path, name: str, where: str) -> Path:
     if Path(name).is_absolute() or ".." in Path(name).parts:
         raise GapError(f"{where}: file = {name!r} leaves the campaign folder; allowed: a file name inside {folder}")
     path = folder / name
+    problem = path_problem(path)
+    if problem:
+        raise GapError(f"{where}: file = {name!r} {problem}; allowed: a file inside {folder}")
     if not path.resolve().is_relative_to(folder.resolve()):
         raise GapError(
             f"{where}: file = {name!r} leads out of the campaign folder (to {path.resolve()}); "
@@ -263,6 +278,9 @@ def _refusal(path: Path, text: str, p: Problem) -> GapError:
 def _campaign_file(folder: str | Path) -> tuple[Path, str, CampaignFile]:
     """campaign.toml (in `folder`, or `folder` itself), its text and its checked contents."""
     folder = Path(folder)
+    problem = path_problem(folder)
+    if problem:
+        raise GapError(f"{folder}: {problem}; allowed: a campaign folder (campaign.toml and one file per run)")
     path = folder / "campaign.toml" if folder.is_dir() else folder
     if not path.is_file():
         raise GapError(
@@ -328,6 +346,9 @@ def load_campaign(folder: str | Path) -> Campaign:
 
 
 def read_run_file(path: Path, supply_mpa: float, start_rad: float, where: str = "", joint: str = "wrist_pitch") -> Run:
+    problem = path_problem(path)
+    if problem:
+        raise GapError(f"{where}: run file {path} {problem}; allowed: a CSV or .mcap file")
     if path.is_dir():
         raise GapError(f"{where}: run file {path} is a folder; allowed: a CSV or .mcap file")
     if not path.is_file():

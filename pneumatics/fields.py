@@ -11,7 +11,9 @@ tables, arrays and maps are plain pydantic.
 
 from __future__ import annotations
 
+import errno
 import math
+import os
 import tomllib
 import types
 from collections.abc import Callable
@@ -164,9 +166,33 @@ def _allowed_of(field: Any) -> str:
     return "a table" if _fields(_bare(field.annotation)) else str(field.annotation)
 
 
+def path_problem(path: Path) -> str | None:
+    """Why the file system cannot look `path` up at all (a loop of symbolic links, a name longer
+    than it takes, a file where the path needs a folder), or None: the path may exist or not."""
+    try:
+        os.stat(path)
+        Path(path).resolve()  # a loop above a dangling link: RuntimeError before Python 3.13, OSError since
+    except FileNotFoundError:
+        return None
+    except RuntimeError:
+        return "is a loop of symbolic links"
+    except OSError as e:
+        if e.errno == errno.ENOENT:
+            return None
+        return {
+            errno.ELOOP: "is a loop of symbolic links",
+            errno.ENAMETOOLONG: "has a name longer than the file system takes",
+            errno.ENOTDIR: "passes through a file as if it were a folder",
+        }.get(e.errno, f"cannot be looked up ({e.strerror})")
+    return None
+
+
 def read_toml(path: Path, error: type[Exception], what: str) -> tuple[dict, str]:
     """The TOML document at `path` and its text; `error` (one line naming the path) if it is
     missing, unreadable or not TOML."""
+    problem = path_problem(path)
+    if problem:
+        raise error(f"{path}: {problem}; allowed: a {what} on disk")
     if path.exists() and not path.is_file() and not path.is_dir():  # a FIFO would block, /dev/zero never end
         raise error(f"{path}: is not a regular file (a pipe, a device or a socket); allowed: a {what} on disk")
     try:
@@ -175,6 +201,8 @@ def read_toml(path: Path, error: type[Exception], what: str) -> tuple[dict, str]
         raise error(f"{path}: no such {what}") from None
     except (UnicodeDecodeError, IsADirectoryError, PermissionError) as e:
         raise error(f"{path}: cannot be read as a text file ({e})") from None
+    except OSError as e:
+        raise error(f"{path}: cannot be read ({e.strerror or e})") from None
     return parse_toml(text, str(path), error), text
 
 

@@ -49,6 +49,7 @@ from pneumatics.fields import (
     number,
     number_check,
     parse_toml,
+    path_problem,
     read_toml,
     refuse,
     whole,
@@ -572,6 +573,9 @@ def find(name_or_path: str | Path) -> Path:
     """A scenario file: the path as given, else the shipped scenario of that name
     (`insulator_cleaning` or `insulator_cleaning.toml`), wherever the package is installed."""
     path = Path(name_or_path)
+    problem = path_problem(path)
+    if problem:
+        raise ScenarioError(f"{path}: {problem}; allowed: a path to a scenario file or a shipped scenario's name")
     if path.exists() or len(path.parts) != 1 or path.suffix not in ("", ".toml"):
         return path
     shipped = SHIPPED_DIR / f"{path.stem}.toml"

@@ -559,6 +559,65 @@ def test_outputs_must_differ_from_inputs_and_each_other_and_be_writable(tmp_path
     assert s.read_text() == RIG and afile.read_text() == "x"
 
 
+def test_paths_the_file_system_cannot_look_up_are_refused_in_one_line(tmp_path, capsys):
+    """A loop of symbolic links, a name longer than the file system takes, a file used as a folder:
+    each ended in a traceback (OSError, or RuntimeError from Path.resolve) where a scenario, an
+    output or a campaign's run file was looked up."""
+    s = tmp_path / "s.toml"
+    s.write_text(RIG)
+    (tmp_path / "loop_a.toml").symlink_to("loop_b.toml")
+    (tmp_path / "loop_b.toml").symlink_to("loop_a.toml")
+    (tmp_path / "l1.rrd").symlink_to("l2.rrd")
+    (tmp_path / "l2.rrd").symlink_to("l1.rrd")
+    cases = [
+        (["run", str(tmp_path / "loop_a.toml")], ["loop_a.toml", "is a loop of symbolic links", "allowed"]),
+        (["run", str(tmp_path / ("x" * 300 + ".toml"))], ["has a name longer than the file system takes", "allowed"]),
+        (["run", str(s / "x.toml")], ["passes through a file as if it were a folder", "allowed"]),
+        (["run", str(s), "--rrd", str(tmp_path / "l1.rrd")], ["--rrd", "is a loop of symbolic links", "allowed"]),
+        (["run", str(s), "--mcap", str(tmp_path / ("k" * 300 + ".mcap"))], ["--mcap", "longer than", "allowed"]),
+    ]
+    for argv, needles in cases:
+        assert main(argv) == 2, argv
+        one_line_error(capsys, *needles)
+    folder = campaign(tmp_path / "c")
+    (folder / "b.csv").unlink()
+    (folder / "b.csv").symlink_to("x.csv")
+    (folder / "x.csv").symlink_to("b.csv")
+    with pytest.raises(GapError, match=r"#2\): file = 'b.csv' is a loop of symbolic links; allowed: a file inside"):
+        load_campaign(folder)
+
+
+def test_an_output_name_leaves_room_for_the_files_made_beside_it(tmp_path, capsys):
+    """A name the file system takes but the temporary and lock files beside it (its name and up to
+    32 bytes more) cannot have: the lock failed with a traceback before the run, and a sweep's temp
+    file and every fallback place after all its points had run, losing them."""
+    s = tmp_path / "s.toml"
+    s.write_text(RIG)
+    for argv in (
+        ["run", str(s), "--duration", "0.1", "--rrd", str(tmp_path / ("k" * 246 + ".rrd"))],
+        ["sweep", str(s), "--duration", "0.1", "--out", str(tmp_path / ("k" * 240 + ".json"))],
+        ["gap", "diagnose", str(campaign(tmp_path / "c")), "--out", str(tmp_path / ("r" * 240))],
+    ):
+        assert main(argv) == 2, argv
+        one_line_error(
+            capsys, "its name is", f"bytes long; allowed: at most {os.pathconf(tmp_path, 'PC_NAME_MAX') - 32}"
+        )
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["c", "s.toml"]  # nothing made, nothing run
+
+
+def test_an_output_replaced_whole_refuses_a_device_or_pipe(tmp_path, capsys):
+    """`twin sweep --out /dev/null` (as root) put a file where the device was: an output written by
+    replacing the file refuses a device or a pipe; a recording streamed into one keeps it."""
+    s = tmp_path / "s.toml"
+    s.write_text(RIG)
+    fifo = tmp_path / "pipe"
+    os.mkfifo(fifo)
+    assert main(["sweep", str(s), "--duration", "0.1", "--out", str(fifo)]) == 2
+    one_line_error(capsys, "--out", "is a device, a pipe or a socket", "allowed: a file")
+    assert main(["run", str(s), "--duration", "0.1", "--mcap", "/dev/null"]) == 0
+    assert fifo.is_fifo() and Path("/dev/null").is_char_device()
+
+
 def test_the_sweep_table_beside_out_is_checked_before_the_work(tmp_path, capsys):
     """`twin sweep --out X.json` also writes X.csv: that place is checked first too, so a
     scenario named X.csv is not overwritten by the table, nor a folder X.csv found after the runs."""
@@ -691,6 +750,10 @@ def test_a_bad_start_time_is_refused_without_a_log_too(tmp_path, capsys):
     s.write_text(RIG)
     assert main(["run", str(s), "--start-time", "garbage"]) == 2
     one_line_error(capsys, "--start-time 'garbage'", "ISO 8601")
+    # 1970 in its own zone but 1969 in UTC: the writer failed after the whole run ("argument out of range")
+    assert main(["run", str(s), "--mcap", str(tmp_path / "x.mcap"), "--start-time", "1970-01-01T00:00:00+01:00"]) == 2
+    one_line_error(capsys, "--start-time '1970-01-01T00:00:00+01:00'", "before 1970-01-01T00:00:00Z")
+    assert not (tmp_path / "x.mcap").exists()
 
 
 def current_umask() -> int:

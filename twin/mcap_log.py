@@ -253,9 +253,11 @@ def start_time(text: str, where: str = "--start-time") -> dict:
         when = dt.datetime.fromisoformat(text.replace("Z", "+00:00"))
     except ValueError:
         when = None
+    allowed = "'now' or an ISO 8601 time with its zone from 1970 (UTC) to 2200, e.g. 2026-11-23T13:00:00Z"
     if when is None or when.tzinfo is None or not 1970 <= when.year <= 2200:
-        allowed = "'now' or an ISO 8601 time with its zone between 1970 and 2200, e.g. 2026-11-23T13:00:00Z"
         raise LogError(f"{where} {text!r}: expected {allowed}")
+    if when.timestamp() < 0:  # 1970-01-01T00:30+01:00 is in 1969 in UTC, before the log's clock starts
+        raise LogError(f"{where} {text!r}: is before 1970-01-01T00:00:00Z; expected {allowed}")
     ns = int(when.timestamp()) * 1_000_000_000 + when.microsecond * 1000
     return {"start_time_ns": ns, "start_time_source": f"given: {text}"}
 

@@ -20,6 +20,7 @@ import time
 from collections.abc import Callable, Iterable
 from pathlib import Path
 
+from pneumatics.fields import path_problem
 from twin.errors import UserError
 from twin.signals import shielded, stop_behind
 
@@ -41,13 +42,49 @@ def _same(a: Path, b: Path) -> bool:
         return False
 
 
+# the most a name grows by in the places made beside an output: write_atomic's temp file
+# (.NAME.xxxxxxxx.tmp), OutputLock's .NAME.lock, publish_folder's .NAME.partial-xxxxxxxx and
+# fallback_places' NAME-saved-YYYYmmdd-HHMMSS-PID (a 7-digit pid)
+NAME_GROWTH = 32
+
+
+def _name_max(folder: Path) -> int:
+    try:
+        return os.pathconf(_nearest_existing(folder), "PC_NAME_MAX")
+    except (OSError, ValueError):
+        return 255
+
+
 def check_output(
-    path: Path, flag: str, *, folder: bool = False, inputs: Iterable[Path] = (), others: dict[str, Path] | None = None
+    path: Path,
+    flag: str,
+    *,
+    folder: bool = False,
+    streamed: bool = False,
+    inputs: Iterable[Path] = (),
+    others: dict[str, Path] | None = None,
 ) -> None:
     """Refuse an output place before any work: it must differ from every input and from the other
     outputs (`others`: flag -> path), be of the right kind (file or folder) and be writable, which
-    is tried by creating its folder and a scratch file in it. UserError names the flag and path."""
+    is tried by creating its folder and a scratch file in it; its name must leave room for the
+    places made beside it (NAME_GROWTH). A device or pipe takes only an output `streamed` into it
+    (a recording written as it goes): one replaced whole (write_atomic) would put a file where the
+    device was. UserError names the flag and path."""
     path = Path(path)
+    problem = path_problem(path)
+    if problem:
+        raise UserError(f"{flag} {path}: {problem}; allowed: a path in a writable folder")
+    longest = _name_max(path.parent) - NAME_GROWTH
+    if len(os.fsencode(path.name)) > longest:
+        raise UserError(
+            f"{flag} {path}: its name is {len(os.fsencode(path.name))} bytes long; allowed: at most {longest} "
+            f"(the file system's {longest + NAME_GROWTH}, less room for the temporary and lock files made beside it)"
+        )
+    if path.exists() and not path.is_file() and not path.is_dir() and (folder or not streamed):
+        raise UserError(
+            f"{flag} {path}: is a device, a pipe or a socket, which this output would replace with a file; "
+            f"allowed: a {'folder' if folder else 'file'} (existing or to be made)"
+        )
     for inp in inputs:
         if inp is not None and _same(path, inp):
             raise UserError(

@@ -95,7 +95,7 @@ def cmd_replay(args) -> int:
 
     if args.model is not None:
         check_model(args.model)
-    check_output(args.rrd, "--rrd", inputs=[args.file, args.model])
+    check_output(args.rrd, "--rrd", streamed=True, inputs=[args.file, args.model])
     with OutputLock([args.rrd]):
         report = replay(args.file, args.rrd, args.model)
     state = "whole file" if report["complete"] else f"file {report['stopped_by']}"

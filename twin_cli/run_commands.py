@@ -117,7 +117,11 @@ def cmd_run(args) -> int:
     for flag, path in outputs.items():
         if path is not None:
             check_output(
-                path, flag, inputs=[Path(scenario.path)], others={f: p for f, p in outputs.items() if f != flag}
+                path,
+                flag,
+                streamed=True,
+                inputs=[Path(scenario.path)],
+                others={f: p for f, p in outputs.items() if f != flag},
             )
     with OutputLock(outputs.values()):
         recorders = open_recorders(scenario, args.rrd, args.mcap, args.camera_fps, args.start_time)
