@@ -254,6 +254,11 @@ def check_related(params: JointParams, field_at: Callable[[str], str]) -> JointP
         value = getattr(params, field)
         if value not in (0.0, 1.0):
             raise ParameterError(f"{field_at(field)} = {value:g}; allowed: 0 or 1")
+    if params.n_vanes != round(params.n_vanes):
+        spec = SPEC["n_vanes"]
+        raise ParameterError(
+            f"{field_at('n_vanes')} = {params.n_vanes:g}; allowed: a whole number of vanes, {spec.low:g}..{spec.high:g}"
+        )
     return params
 
 

@@ -15,12 +15,21 @@ import numpy as np
 
 import assets
 from control import ArmController
+from pneumatics.params import ParameterError
 from scenarios import controllers
 from scenarios.cleaning import DiscContact, disc_contacts
 from scenarios.criteria import DISC_KINDS, Verdict, as_dicts, judge
 from scenarios.faults import fault_events
 from scenarios.ik import disc_drive_angles
-from scenarios.schema import Fault, Scenario, joint_params_for, load, nominal_params, reality_params
+from scenarios.schema import (
+    Fault,
+    Scenario,
+    ScenarioError,
+    joint_params_for,
+    load,
+    nominal_params,
+    reality_params,
+)
 from scenarios.supply import supply_profile
 from scenarios.task import TaskController
 from twin.checks import DURATION_S, SEED, check_number
@@ -128,12 +137,15 @@ def model_path(scenario: Scenario) -> Path:
 def build_plant(scenario: Scenario) -> Plant:
     """Reality: the model, the start pose, the payload, and the effects the plant has."""
     base = reality_params(scenario)
-    plant = Plant(
-        model_path(scenario),
-        joint_params=joint_params_for(base, scenario.reality),
-        joints=scenario.joints,
-        keyframe="home" if scenario.start_pose == "home" else None,
-    )
+    try:
+        plant = Plant(
+            model_path(scenario),
+            joint_params=joint_params_for(base, scenario.reality),
+            joints=scenario.joints,
+            keyframe="home" if scenario.start_pose == "home" else None,
+        )
+    except ParameterError as e:  # what only the plant can check (a gear too stiff for its step): the file says where
+        raise ScenarioError(f"{scenario.path}: [reality] {e}") from None
     m, d = plant.model, plant.data
     if scenario.model == "arm":
         m.body("payload").mass[0] = max(scenario.payload_kg, 1e-6)

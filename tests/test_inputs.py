@@ -266,6 +266,7 @@ def test_scenarios_inconsistent_with_the_model_or_themselves_are_refused(text, f
             "reducer_backlash_rad = 0.1\nrotor_inertia_kg_m2 = 0.0",
             ["rotor_inertia_kg_m2 = 0 with a non-rigid reducer", "reducer_backlash_rad = 0.1", "rotor inertia > 0"],
         ),
+        ("reality", "n_vanes = 2.5", ["n_vanes = 2.5", "allowed: a whole number of vanes, 2..12"]),
     ],
 )
 def test_scenario_effects_must_hold_together_as_a_parameter_file(tmp_path, capsys, table, fields, needles):
@@ -280,6 +281,18 @@ def test_scenario_effects_must_hold_together_as_a_parameter_file(tmp_path, capsy
     field = needles[0].split(" =")[0]
     one_line_error(capsys, f"{path}: {table}.effects.wrist_pitch.{field}", *needles)
     assert not mcap.exists()  # refused before any work
+
+
+def test_a_gear_too_stiff_for_the_plant_names_the_scenario(tmp_path, capsys):
+    """What only the plant can check (a gear too stiff for its physics step) named the joint alone:
+    the error now says which file and table set it."""
+    path = tmp_path / "stiff.toml"
+    path.write_text(
+        RIG + "[[targets]]\nangles_deg = { wrist_pitch = 30.0 }\n"
+        "[reality.effects.wrist_pitch]\nreducer_compliance_rad_per_nm = 1e-9\n"
+    )
+    assert main(["run", str(path), "--duration", "0.1"]) == 2
+    one_line_error(capsys, f"{path}: [reality] wrist_pitch", "reducer_compliance_rad_per_nm = 1e-09", "allowed")
 
 
 def test_a_plan_the_controller_refuses_cannot_pass_final_error(capsys):
