@@ -44,21 +44,10 @@ from pydantic import BaseModel, ValidationError
 
 import assets
 from pneumatics import load_joint_params
-from pneumatics.fields import (
-    FLAG,
-    MISSING,
-    REAL,
-    TABLE,
-    TEXT,
-    Problem,
-    choice,
-    first_problem,
-    number,
-    path_problem,
-    read_toml,
-)
+from pneumatics.fields import FLAG, MISSING, REAL, TABLE, TEXT, Problem, choice, first_problem, number, read_toml
 from pneumatics.gas import AIR
 from pneumatics.params import SPEC
+from pneumatics.paths import path_problem
 from twin.errors import UserError
 from twin.mcap_log import read_mcap
 

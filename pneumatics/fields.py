@@ -11,9 +11,7 @@ tables, arrays and maps are plain pydantic.
 
 from __future__ import annotations
 
-import errno
 import math
-import os
 import tomllib
 import types
 from collections.abc import Callable
@@ -22,6 +20,8 @@ from typing import Annotated, Any, Literal, NamedTuple, Union, get_args, get_ori
 
 from pydantic import BeforeValidator, ConfigDict, ValidationError
 from pydantic_core import PydanticCustomError
+
+from pneumatics.paths import path_problem
 
 MISSING = "<missing>"  # the value of a field the file does not give
 TABLE = ConfigDict(extra="forbid")  # every table refuses keys it does not know
@@ -164,27 +164,6 @@ def _allowed_of(field: Any) -> str:
         if isinstance(meta, Allowed):
             return meta.text
     return "a table" if _fields(_bare(field.annotation)) else str(field.annotation)
-
-
-def path_problem(path: Path) -> str | None:
-    """Why the file system cannot look `path` up at all (a loop of symbolic links, a name longer
-    than it takes, a file where the path needs a folder), or None: the path may exist or not."""
-    try:
-        os.stat(path)
-        Path(path).resolve()  # a loop above a dangling link: RuntimeError before Python 3.13, OSError since
-    except FileNotFoundError:
-        return None
-    except RuntimeError:
-        return "is a loop of symbolic links"
-    except OSError as e:
-        if e.errno == errno.ENOENT:
-            return None
-        return {
-            errno.ELOOP: "is a loop of symbolic links",
-            errno.ENAMETOOLONG: "has a name longer than the file system takes",
-            errno.ENOTDIR: "passes through a file as if it were a folder",
-        }.get(e.errno, f"cannot be looked up ({e.strerror})")
-    return None
 
 
 def read_toml(path: Path, error: type[Exception], what: str) -> tuple[dict, str]:

@@ -49,12 +49,12 @@ from pneumatics.fields import (
     number,
     number_check,
     parse_toml,
-    path_problem,
     read_toml,
     refuse,
     whole,
 )
 from pneumatics.params import JointParamsSubset, ParameterError, check_related
+from pneumatics.paths import path_problem
 from scenarios.ik import disc_drive_angles, drive_to_qpos, qpos_to_drive
 from twin.errors import UserError
 

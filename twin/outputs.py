@@ -20,7 +20,7 @@ import time
 from collections.abc import Callable, Iterable
 from pathlib import Path
 
-from pneumatics.fields import path_problem
+from pneumatics.paths import path_problem
 from twin.errors import UserError
 from twin.signals import shielded, stop_behind
 

@@ -1,0 +1,30 @@
+"""What the file system says of a path before it is read or written: every command looks its
+inputs and outputs up here first, so a path it cannot look up is a user's error in one line, not
+a traceback from deep in the reading."""
+
+from __future__ import annotations
+
+import errno
+import os
+from pathlib import Path
+
+
+def path_problem(path: Path) -> str | None:
+    """Why the file system cannot look `path` up at all (a loop of symbolic links, a name longer
+    than it takes, a file where the path needs a folder), or None: the path may exist or not."""
+    try:
+        os.stat(path)
+        Path(path).resolve()  # a loop above a dangling link: RuntimeError before Python 3.13, OSError since
+    except FileNotFoundError:
+        return None
+    except RuntimeError:
+        return "is a loop of symbolic links"
+    except OSError as e:
+        if e.errno == errno.ENOENT:
+            return None
+        return {
+            errno.ELOOP: "is a loop of symbolic links",
+            errno.ENAMETOOLONG: "has a name longer than the file system takes",
+            errno.ENOTDIR: "passes through a file as if it were a folder",
+        }.get(e.errno, f"cannot be looked up ({e.strerror})")
+    return None
