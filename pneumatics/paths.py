@@ -22,6 +22,10 @@ def path_problem(path: Path) -> str | None:
     except OSError as e:
         if e.errno == errno.ENOENT:
             return None
+        if e.errno == errno.ENOTDIR:
+            file = next((p for p in reversed(Path(path).parents) if p.is_file()), None)
+            if file is not None:
+                return f"passes through {file}, a file, as if it were a folder"
         return {
             errno.ELOOP: "is a loop of symbolic links",
             errno.ENAMETOOLONG: "has a name longer than the file system takes",

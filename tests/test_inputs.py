@@ -559,7 +559,7 @@ def test_outputs_must_differ_from_inputs_and_each_other_and_be_writable(tmp_path
         ),
         (["run", str(s), "--mcap", str(s)], ["--mcap", "is an input"]),
         (["run", str(s), "--rrd", str(tmp_path)], ["--rrd", "is a folder"]),
-        (["sweep", str(s), "--out", str(afile / "x.json")], ["--out", "afile is a file, not a folder"]),
+        (["sweep", str(s), "--out", str(afile / "x.json")], ["--out", "afile, a file, as if it were a folder"]),
         (["sweep", str(s), "--out", str(s)], ["--out", "is an input"]),
         (["replay", str(tmp_path / "in.mcap"), "--rrd", str(tmp_path / "in.mcap")], ["--rrd", "is an input"]),
         (["paper", "--out", str(afile)], ["--out", "is a file; allowed: a folder"]),
@@ -585,7 +585,7 @@ def test_paths_the_file_system_cannot_look_up_are_refused_in_one_line(tmp_path, 
     cases = [
         (["run", str(tmp_path / "loop_a.toml")], ["loop_a.toml", "is a loop of symbolic links", "allowed"]),
         (["run", str(tmp_path / ("x" * 300 + ".toml"))], ["has a name longer than the file system takes", "allowed"]),
-        (["run", str(s / "x.toml")], ["passes through a file as if it were a folder", "allowed"]),
+        (["run", str(s / "x.toml")], [f"passes through {s}, a file, as if it were a folder", "allowed"]),
         (["run", str(s), "--rrd", str(tmp_path / "l1.rrd")], ["--rrd", "is a loop of symbolic links", "allowed"]),
         (["run", str(s), "--mcap", str(tmp_path / ("k" * 300 + ".mcap"))], ["--mcap", "longer than", "allowed"]),
     ]
@@ -807,7 +807,7 @@ def test_two_writers_of_one_file_are_refused(tmp_path):
 def test_check_output_refuses_an_unwritable_place(tmp_path):
     afile = tmp_path / "afile"
     afile.write_text("")
-    with pytest.raises(UserError, match=r"--out .*afile is a file, not a folder"):
+    with pytest.raises(UserError, match=r"--out .*passes through .*afile, a file, as if it were a folder"):
         check_output(afile / "deeper" / "x.json", "--out")
     check_output(tmp_path / "new" / "x.json", "--out")  # a folder to be made is fine
     assert (tmp_path / "new").is_dir() and not list((tmp_path / "new").iterdir())

@@ -101,9 +101,6 @@ def check_output(
         if path.is_dir():
             raise UserError(f"{flag} {path}: is a folder; allowed: a file name")
         directory = path.parent
-    base = _nearest_existing(directory)
-    if not base.is_dir():
-        raise UserError(f"{flag} {path}: {base} is a file, not a folder; allowed: a path in a writable folder")
     try:
         directory.mkdir(parents=True, exist_ok=True)
         fd, probe = tempfile.mkstemp(prefix=".twin-probe-", dir=directory)
