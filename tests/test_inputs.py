@@ -92,6 +92,28 @@ def test_every_numeric_flag_refuses_nan_inf_and_out_of_range(argv, flag, value, 
     one_line_error(capsys, flag, repr(value), "allowed")
 
 
+@pytest.mark.parametrize(
+    "argv, flag",
+    [
+        (["run", "S"], "--rrd"),
+        (["run", "S"], "--mcap"),
+        (["sweep", "S"], "--out"),
+        (["paper"], "--out"),
+        (["gap", "diagnose", "C"], "--out"),
+        (["gap", "bench"], "--out"),
+        (["study", "cleaning"], "--out"),
+        (["replay", "X.mcap"], "--rrd"),
+        (["plot", "X.mcap"], "--out"),
+    ],
+)
+def test_an_empty_output_place_is_refused(argv, flag, capsys):
+    """`--out ''` was the working folder: gap diagnose wrote its report there without a word."""
+    with pytest.raises(SystemExit) as e:
+        main([*argv, flag, ""])
+    assert e.value.code == 2
+    one_line_error(capsys, flag, "'' is empty; allowed: a file or folder name")
+
+
 def test_an_unreachable_scheduler_is_refused_before_any_run(tmp_path, monkeypatch, capsys):
     import scenarios.sweep
     import twin.cluster

@@ -1,10 +1,11 @@
-"""Checked numbers on the command line: an argparse `type` that refuses NaN, infinities and values
-out of range with what is allowed (argparse adds the flag's name), by the ranges and words of
-twin.checks, which the Python API checks with."""
+"""Checked numbers and places on the command line: an argparse `type` that refuses NaN, infinities
+and values out of range with what is allowed (argparse adds the flag's name), by the ranges and
+words of twin.checks, which the Python API checks with; and one that refuses an empty place."""
 
 from __future__ import annotations
 
 import argparse
+from pathlib import Path
 
 from twin.checks import WORKERS, allowed, problem
 
@@ -24,6 +25,16 @@ def number(low: float, high: float, unit: str = "", *, above: bool = False, inte
 
     parse.__name__ = "number"  # argparse names the type in some messages
     return parse
+
+
+def place(text: str) -> Path:
+    """An argparse `type` for an output place: an empty one ('') would be the working folder."""
+    if not text.strip():
+        raise argparse.ArgumentTypeError(f"{text!r} is empty; allowed: a file or folder name")
+    return Path(text)
+
+
+place.__name__ = "place"
 
 
 def add_workers(parser: argparse.ArgumentParser) -> None:

@@ -6,7 +6,7 @@ from pathlib import Path
 
 from twin.checks import JOBS, MODEL_TOLERANCE_DEG
 from twin.outputs import OutputLock, check_output, publish_folder
-from twin_cli.args import number
+from twin_cli.args import number, place
 from twin_cli.figures import figure_lines
 
 BENCH_OUTPUTS = ("campaigns", "bench.json")  # what `gap bench` writes into DIR, replacing an earlier bench's
@@ -22,7 +22,11 @@ def register(subparsers) -> None:
     )
     d.add_argument("campaign", help="folder with campaign.toml and the run files")
     d.add_argument(
-        "--out", required=True, metavar="DIR", help="output folder (made if missing; not the campaign's own folder)"
+        "--out",
+        type=place,
+        required=True,
+        metavar="DIR",
+        help="output folder (made if missing; not the campaign's own folder)",
     )
     d.add_argument(
         "--model-tolerance-deg",
@@ -44,7 +48,9 @@ def register(subparsers) -> None:
     b = sub.add_parser(
         "bench", help="blind check on campaigns generated from the plant with hidden effects (DIR/bench.json)"
     )
-    b.add_argument("--out", required=True, metavar="DIR", help="output folder: the generated campaigns and bench.json")
+    b.add_argument(
+        "--out", type=place, required=True, metavar="DIR", help="output folder: the generated campaigns and bench.json"
+    )
     b.add_argument("--quick", action="store_true", help="a few cases only (for tests)")
     b.add_argument("--jobs", type=number(**JOBS), default=2, metavar="N", help="parallel fits (default 2)")
     b.add_argument(

@@ -12,6 +12,7 @@ from pathlib import Path
 
 from twin.errors import UserError
 from twin.outputs import OutputLock, check_output
+from twin_cli.args import place
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -21,7 +22,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 
     p = sub.add_parser("replay", help="make a rerun recording from an MCAP log")
     p.add_argument("file", type=Path, help="an MCAP log written by `twin run --mcap` (may be cut short)")
-    p.add_argument("--rrd", type=Path, required=True, help="write the recording here")
+    p.add_argument("--rrd", type=place, required=True, help="write the recording here")
     p.add_argument(
         "--model",
         type=Path,

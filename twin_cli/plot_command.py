@@ -8,6 +8,7 @@ from pathlib import Path
 
 from twin.errors import UserError
 from twin.outputs import OutputLock, check_output, keep_result, write_atomic
+from twin_cli.args import place
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -15,7 +16,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("file", type=Path, help="an MCAP log written by `twin run --mcap` (may be cut short)")
     p.add_argument(
         "--out",
-        type=Path,
+        type=place,
         help="the picture to write, its format from its suffix (default: beside the log, RUN.angles.png; none: .png)",
     )
     p.add_argument("--until", type=float, metavar="S", help="plot only the first S simulated seconds")

@@ -11,7 +11,7 @@ from pathlib import Path
 from twin.checks import CAMERA_FPS as CAMERA_FPS_RANGE
 from twin.checks import DURATION_S, MONTE_CARLO, RECORDING_CAMERA_FPS, SEED
 from twin.outputs import OutputLock, check_output, keep_result, publish_folder, write_atomic
-from twin_cli.args import add_workers, number
+from twin_cli.args import add_workers, number, place
 from twin_cli.figures import figure_lines
 
 
@@ -20,8 +20,8 @@ def _add_run(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("run", help="run a scenario file; exit 1 if a pass criterion broke")
     p.add_argument("scenario", help="scenario TOML file, or the name of a shipped one (e.g. insulator_cleaning)")
     p.add_argument("--json", action="store_true", help="print the summary as JSON on stdout")
-    p.add_argument("--rrd", type=Path, help="write a rerun recording here")
-    p.add_argument("--mcap", type=Path, help="write an MCAP log here")
+    p.add_argument("--rrd", type=place, help="write a rerun recording here")
+    p.add_argument("--mcap", type=place, help="write an MCAP log here")
     p.add_argument(
         "--camera-fps",
         type=number(**CAMERA_FPS_RANGE),
@@ -71,7 +71,7 @@ def _add_sweep(sub: argparse._SubParsersAction) -> None:
     )
     p.add_argument(
         "--out",
-        type=Path,
+        type=place,
         help=(
             "write all summaries to this JSON file, and a table (a row per run) beside it as .csv "
             "(default: print them on stdout)"
@@ -83,7 +83,7 @@ def _add_sweep(sub: argparse._SubParsersAction) -> None:
 def _add_paper(sub: argparse._SubParsersAction) -> None:
     """`twin paper --out DIR`: the paper's experiments reproduced."""
     p = sub.add_parser("paper", help="reproduce the paper's experiments into DIR (paper.json, PNG plots, report.md)")
-    p.add_argument("--out", type=Path, required=True, metavar="DIR", help="output folder (made if missing)")
+    p.add_argument("--out", type=place, required=True, metavar="DIR", help="output folder (made if missing)")
     p.add_argument("--quick", action="store_true", help="fewer angles and a shorter random-supply run")
     p.set_defaults(func=cmd_paper)
 

@@ -7,7 +7,7 @@ from pathlib import Path
 
 from twin.errors import UserError
 from twin.outputs import OutputLock, check_output, publish_folder
-from twin_cli.args import add_workers, number
+from twin_cli.args import add_workers, number, place
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -18,7 +18,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     )
     c.add_argument(
         "--out",
-        type=Path,
+        type=place,
         required=True,
         metavar="DIR",
         help="output folder (made if missing): study.json, study.md, study.png",
