@@ -114,6 +114,22 @@ def test_an_empty_output_place_is_refused(argv, flag, capsys):
     one_line_error(capsys, flag, "'' is empty; allowed: a file or folder name")
 
 
+@pytest.mark.parametrize(
+    "flag, value, needle",
+    [
+        ("--strategies", ",", "'' is not a strategy"),  # was every strategy: a whole study started
+        ("--strategies", "operator,operator", "'operator' is listed twice"),
+        ("--strategies", "pilot", "'pilot' is not a strategy"),
+        ("--supplies", "0.5,0.5", "'0.5' is listed twice"),
+        ("--supplies", "0.5,nan", "'nan'"),
+    ],
+)
+def test_a_study_refuses_empty_unknown_or_repeated_items(tmp_path, capsys, flag, value, needle):
+    assert main(["study", "cleaning", "--out", str(tmp_path / "o"), flag, value]) == 2
+    one_line_error(capsys, flag, needle, "allowed")
+    assert not (tmp_path / "o").exists()  # refused before any run
+
+
 def test_an_unreachable_scheduler_is_refused_before_any_run(tmp_path, monkeypatch, capsys):
     import scenarios.sweep
     import twin.cluster

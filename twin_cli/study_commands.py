@@ -25,7 +25,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     )
     c.add_argument(
         "--strategies",
-        default="",
+        default=None,
         help="comma-separated subset of sensorless,rereference,operator,true_angle (default: all)",
     )
     c.add_argument(
@@ -46,18 +46,20 @@ def _parse(args) -> tuple[list[str], list[float]]:
     # on use: at the top, the libraries take `twin --help` from 0.45 to 2.2 s
     from scenarios.schema import STRATEGIES
 
-    strategies = [s.strip() for s in args.strategies.split(",") if s.strip()] or list(STRATEGIES)
+    strategies = list(STRATEGIES) if args.strategies is None else [s.strip() for s in args.strategies.split(",")]
     for s in strategies:
-        if s not in STRATEGIES:
-            raise UserError(f"--strategies {s!r}: allowed: {', '.join(STRATEGIES)}")
+        if s not in STRATEGIES or strategies.count(s) > 1:
+            why = "is listed twice" if s in STRATEGIES else "is not a strategy"
+            raise UserError(f"--strategies {s!r} {why}; allowed: each of {', '.join(STRATEGIES)} at most once")
     supplies = []
+    allowed = "numbers in 0..1.0 MPa gauge, comma-separated, each once"
     for v in args.supplies.split(","):
         try:
             mpa = float(v)
         except ValueError:
-            raise UserError(f"--supplies {v!r}: allowed: numbers in 0..1.0 MPa gauge, comma-separated") from None
-        if not 0.0 <= mpa <= 1.0:
-            raise UserError(f"--supplies {v!r}: allowed: numbers in 0..1.0 MPa gauge, comma-separated")
+            raise UserError(f"--supplies {v!r}: allowed: {allowed}") from None
+        if not 0.0 <= mpa <= 1.0 or mpa in supplies:
+            raise UserError(f"--supplies {v!r}{' is listed twice' if mpa in supplies else ''}: allowed: {allowed}")
         supplies.append(mpa)
     return strategies, supplies
 
