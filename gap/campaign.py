@@ -341,7 +341,8 @@ def read_run_file(path: Path, supply_mpa: float, start_rad: float, where: str = 
     if path.is_dir():
         raise GapError(f"{where}: run file {path} is a folder; allowed: a CSV or .mcap file")
     if not path.is_file():
-        raise GapError(f"{where}: run file {path} does not exist")
+        why = "does not exist" if not path.exists() else "is not a regular file (a pipe, a device or a socket)"
+        raise GapError(f"{where}: run file {path} {why}; allowed: a CSV or .mcap file")
     if path.suffix.lower() == ".mcap":
         return _read_mcap_run(path, supply_mpa, start_rad, joint)
     return _read_csv_run(path, supply_mpa, start_rad, joint)

@@ -51,7 +51,8 @@ def refuse(why: str, allowed: str, value: object = MISSING) -> PydanticCustomErr
 
 def number_check(low: float, high: float, unit: str = "") -> tuple[Callable[[object], float], str]:
     """The check of a finite number in low..high (booleans are not numbers) and its allowed text."""
-    allowed = f"a number in {low:g}..{high:g}{' ' + unit if unit else ''}"
+    u = f" {unit}" if unit else ""
+    allowed = f"a finite number >= {low:g}{u}" if math.isinf(high) else f"a number in {low:g}..{high:g}{u}"
 
     def check(value: object) -> float:
         if isinstance(value, bool) or not isinstance(value, (int, float)):
@@ -175,7 +176,7 @@ def read_toml(path: Path, error: type[Exception], what: str) -> tuple[dict, str]
     if path.exists() and not path.is_file() and not path.is_dir():  # a FIFO would block, /dev/zero never end
         raise error(f"{path}: is not a regular file (a pipe, a device or a socket); allowed: a {what} on disk")
     try:
-        text = path.read_text(encoding="utf-8")
+        text = path.read_text(encoding="utf-8-sig")  # a byte-order mark at the start allowed (an editor's)
     except FileNotFoundError:
         raise error(f"{path}: no such {what}") from None
     except (UnicodeDecodeError, IsADirectoryError, PermissionError) as e:

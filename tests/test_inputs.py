@@ -510,6 +510,25 @@ def test_run_files_a_bom_a_folder_and_a_file_listed_twice(tmp_path):
         load_campaign(folder)
 
 
+def test_a_bom_a_pipe_and_an_open_range_say_what_they_are(tmp_path, capsys):
+    """A scenario an editor saved with a byte-order mark ("Invalid statement" before; run files
+    took one already), a run file that is a pipe ("does not exist" before), and a criterion's
+    unbounded max, whose allowed range read "0..inf"."""
+    s = tmp_path / "bom.toml"
+    s.write_bytes(b"\xef\xbb\xbf" + RIG.encode())
+    assert load(s) == parse(RIG, str(s))
+    folder = campaign(tmp_path / "c")
+    (folder / "b.csv").unlink()
+    os.mkfifo(folder / "b.csv")
+    with pytest.raises(GapError, match=r"run file .*b\.csv is not a regular file \(a pipe"):
+        load_campaign(folder)
+    inf = tmp_path / "inf.toml"
+    inf.write_text(RIG + '[[criteria]]\nkind = "max_travel_deg"\njoint = "wrist_pitch"\nmax = inf\n')
+    assert main(["run", str(inf)]) == 2
+    line = one_line_error(capsys, "max = inf", "allowed: a finite number >= 0")
+    assert "..inf" not in line
+
+
 @pytest.mark.parametrize("name", ["../outside.csv", "ABSOLUTE", "link.csv"])
 def test_a_campaign_reads_only_files_inside_its_folder(tmp_path, name):
     outside = tmp_path / "outside.csv"

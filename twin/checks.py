@@ -14,7 +14,10 @@ def allowed(low: float, high: float, unit: str, above: bool, integer: bool) -> s
     """What a range allows, in words: "a number in 0..45 deg", "a whole number > 0 and <= 256"."""
     kind = "a whole number" if integer else "a number"
     u = f" {unit}" if unit else ""
-    lo, hi = (str(int(low)), str(int(high))) if integer else (f"{low:g}", f"{high:g}")
+    lo = str(int(low)) if integer else f"{low:g}"
+    if math.isinf(high):
+        return f"a finite {kind[2:]} {'>' if above else '>='} {lo}{u}"
+    hi = str(int(high)) if integer else f"{high:g}"
     return f"{kind} > {lo}{u} and <= {hi}{u}" if above else f"{kind} in {lo}..{hi}{u}"
 
 
