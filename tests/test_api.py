@@ -94,7 +94,7 @@ def test_twin_plot_checks_out_before_the_work_and_says_where_it_wrote(wrist, tmp
     cases = [
         ("p.txt", ["--out", "p.txt", ".txt is not a picture format", "allowed:", ".png", ".svg"]),
         ("folder", ["--out", "folder: is a folder"]),
-        ("afile/x.png", ["--out", "afile is a file, not a folder"]),
+        ("afile/x.png", ["--out", "afile, a file, as if it were a folder"]),
     ]
     for out, needles in cases:
         assert twin_main(["plot", str(tmp / "wrist.mcap"), "--out", str(tmp_path / out)]) == 2
