@@ -713,7 +713,7 @@ def in_twin_corrections(twin: Twin, catalogue) -> dict[str, list[np.ndarray]]:
     correction of switching it off, and its opposite (more of it, to first order), so that a family
     is in the family call even when none of its members is a candidate (a narrower hose); and the
     corrections of the part it switches at other values (gap.effects.IN_TWIN_VARIATIONS: the hose's
-    bore), more and less of it than the twin's, replayed."""
+    bore and length), more and less of it than the twin's, replayed."""
     out: dict[str, list[np.ndarray]] = {}
     every = list(range(len(twin.runs)))
     for e in catalogue:
