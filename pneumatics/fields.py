@@ -49,10 +49,21 @@ def refuse(why: str, allowed: str, value: object = MISSING) -> PydanticCustomErr
     return PydanticCustomError("not_allowed", "{why}; allowed: {allowed}", ctx)
 
 
+def range_text(low: float, high: float, unit: str = "", above: bool = False, integer: bool = False) -> str:
+    """What a range allows, in words: "a number in 0..45 deg", "a whole number > 0 and <= 256",
+    "a finite number >= 0" (no upper bound)."""
+    kind = "a whole number" if integer else "a number"
+    u = f" {unit}" if unit else ""
+    lo = str(int(low)) if integer else f"{low:g}"
+    if math.isinf(high):
+        return f"a finite {kind[2:]} {'>' if above else '>='} {lo}{u}"
+    hi = str(int(high)) if integer else f"{high:g}"
+    return f"{kind} > {lo}{u} and <= {hi}{u}" if above else f"{kind} in {lo}..{hi}{u}"
+
+
 def number_check(low: float, high: float, unit: str = "") -> tuple[Callable[[object], float], str]:
     """The check of a finite number in low..high (booleans are not numbers) and its allowed text."""
-    u = f" {unit}" if unit else ""
-    allowed = f"a finite number >= {low:g}{u}" if math.isinf(high) else f"a number in {low:g}..{high:g}{u}"
+    allowed = range_text(low, high, unit)
 
     def check(value: object) -> float:
         if isinstance(value, bool) or not isinstance(value, (int, float)):

@@ -7,18 +7,8 @@ from __future__ import annotations
 import math
 import numbers
 
+from pneumatics.fields import range_text
 from twin.errors import UserError
-
-
-def allowed(low: float, high: float, unit: str, above: bool, integer: bool) -> str:
-    """What a range allows, in words: "a number in 0..45 deg", "a whole number > 0 and <= 256"."""
-    kind = "a whole number" if integer else "a number"
-    u = f" {unit}" if unit else ""
-    lo = str(int(low)) if integer else f"{low:g}"
-    if math.isinf(high):
-        return f"a finite {kind[2:]} {'>' if above else '>='} {lo}{u}"
-    hi = str(int(high)) if integer else f"{high:g}"
-    return f"{kind} > {lo}{u} and <= {hi}{u}" if above else f"{kind} in {lo}..{hi}{u}"
 
 
 def problem(value, low: float, high: float, above: bool, integer: bool) -> str | None:
@@ -36,7 +26,7 @@ def check_number(
     """`value` if it is a finite number in low..high (`above`: strictly above `low`), else UserError."""
     why = problem(value, low, high, above, integer)
     if why:
-        raise UserError(f"{name} = {value!r} {why}; allowed: {allowed(low, high, unit, above, integer)}")
+        raise UserError(f"{name} = {value!r} {why}; allowed: {range_text(low, high, unit, above, integer)}")
     return value
 
 

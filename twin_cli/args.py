@@ -7,7 +7,8 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from twin.checks import WORKERS, allowed, problem
+from pneumatics.fields import range_text
+from twin.checks import WORKERS, problem
 
 
 def number(low: float, high: float, unit: str = "", *, above: bool = False, integer: bool = False):
@@ -20,7 +21,7 @@ def number(low: float, high: float, unit: str = "", *, above: bool = False, inte
             value = text
         why = problem(value, low, high, above, integer)
         if why:
-            raise argparse.ArgumentTypeError(f"{text!r} {why}; allowed: {allowed(low, high, unit, above, integer)}")
+            raise argparse.ArgumentTypeError(f"{text!r} {why}; allowed: {range_text(low, high, unit, above, integer)}")
         return value
 
     parse.__name__ = "number"  # argparse names the type in some messages
