@@ -61,23 +61,28 @@ def range_text(low: float, high: float, unit: str = "", above: bool = False, int
     return f"{kind} > {lo}{u} and <= {hi}{u}" if above else f"{kind} in {lo}..{hi}{u}"
 
 
-def number_check(low: float, high: float, unit: str = "") -> tuple[Callable[[object], float], str]:
-    """The check of a finite number in low..high (booleans are not numbers) and its allowed text."""
-    allowed = range_text(low, high, unit)
+def number_check(
+    low: float, high: float, unit: str = "", integer: bool = False
+) -> tuple[Callable[[object], float], str]:
+    """The check of a finite number in low..high (booleans are not numbers; with `integer` a whole
+    one, 4 or 4.0) and its allowed text."""
+    allowed = range_text(low, high, unit, integer=integer)
 
     def check(value: object) -> float:
         if isinstance(value, bool) or not isinstance(value, (int, float)):
             raise refuse("is not a number", allowed)
         if not math.isfinite(value) or not low <= value <= high:
             raise refuse("is outside the allowed range", allowed)
+        if integer and value != round(value):
+            raise refuse("is not a whole number", allowed)
         return float(value)
 
     return check, allowed
 
 
-def number(low: float, high: float, unit: str = "") -> Any:
-    """A finite number in low..high, read as a float."""
-    check, allowed = number_check(low, high, unit)
+def number(low: float, high: float, unit: str = "", integer: bool = False) -> Any:
+    """A finite number in low..high (with `integer` a whole one), read as a float."""
+    check, allowed = number_check(low, high, unit, integer)
     return Annotated[float, BeforeValidator(check), Allowed(allowed)]
 
 

@@ -98,6 +98,7 @@ class FieldSpec:
     low: float
     high: float
     unit: str
+    whole: bool = False  # a count (4 or 4.0, not 2.5)
 
 
 # allowed ranges: physically possible values with room for every real motor of this class
@@ -105,7 +106,7 @@ SPEC: dict[str, FieldSpec] = {
     "stator_radius_m": FieldSpec("motor", 1e-3, 0.2, "m"),
     "rotor_radius_m": FieldSpec("motor", 1e-3, 0.2, "m"),
     "vane_length_m": FieldSpec("motor", 1e-3, 0.5, "m"),
-    "n_vanes": FieldSpec("motor", 2, 12, "vanes"),
+    "n_vanes": FieldSpec("motor", 2, 12, "vanes", whole=True),
     "dead_volume_m3": FieldSpec("motor", 1e-8, 1e-2, "m^3"),
     "rotor_inertia_kg_m2": FieldSpec("motor", 0.0, 1.0, "kg·m^2"),
     "ratio": FieldSpec("reducer", 1.0, 10_000.0, "-"),
@@ -157,14 +158,14 @@ assert list(SPEC) == list(JointParams._fields), "SPEC and JointParams must list 
 SECTIONS = ("motor", "reducer", "hose", "valves", "brake", "friction", "effects")
 # metadata keys a section may carry besides numbers (names of the parts, e.g. model = "1UP-NRV-3A")
 TEXT_KEYS = ("model", "note")
-_CHECKS = {name: number_check(spec.low, spec.high, spec.unit) for name, spec in SPEC.items()}
+_CHECKS = {name: number_check(spec.low, spec.high, spec.unit, spec.whole) for name, spec in SPEC.items()}
 
 
 def _section_table(section: str) -> type[BaseModel]:
     """The schema of one [section]: its JointParams fields (required unless JointParams gives a
     default, i.e. the [effects]) and the text keys."""
     numbers = {
-        name: (number(spec.low, spec.high, spec.unit), JointParams._field_defaults.get(name, ...))
+        name: (number(spec.low, spec.high, spec.unit, spec.whole), JointParams._field_defaults.get(name, ...))
         for name, spec in SPEC.items()
         if spec.section == section
     }
@@ -185,7 +186,7 @@ ParameterFile = create_model(
 JointParamsSubset = create_model(
     "JointParamsSubset",
     __config__=TABLE,
-    **{name: (number(spec.low, spec.high, spec.unit), None) for name, spec in SPEC.items()},
+    **{name: (number(spec.low, spec.high, spec.unit, spec.whole), None) for name, spec in SPEC.items()},
 )
 
 
@@ -254,11 +255,6 @@ def check_related(params: JointParams, field_at: Callable[[str], str]) -> JointP
         value = getattr(params, field)
         if value not in (0.0, 1.0):
             raise ParameterError(f"{field_at(field)} = {value:g}; allowed: 0 or 1")
-    if params.n_vanes != round(params.n_vanes):
-        spec = SPEC["n_vanes"]
-        raise ParameterError(
-            f"{field_at('n_vanes')} = {params.n_vanes:g}; allowed: a whole number of vanes, {spec.low:g}..{spec.high:g}"
-        )
     return params
 
 
