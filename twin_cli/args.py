@@ -1,6 +1,7 @@
 """Checked numbers and places on the command line: an argparse `type` that refuses NaN, infinities
-and values out of range with what is allowed (argparse adds the flag's name), by the ranges and
-words of twin.checks, which the Python API checks with; and one that refuses an empty place."""
+and values out of range with what is allowed (argparse adds the flag's name), by the ranges of
+twin.checks, which the Python API checks with, in the words of pneumatics.fields.range_text; and
+one that refuses an empty place."""
 
 from __future__ import annotations
 
@@ -33,9 +34,6 @@ def place(text: str) -> Path:
     if not text.strip():
         raise argparse.ArgumentTypeError(f"{text!r} is empty; allowed: a file or folder name")
     return Path(text)
-
-
-place.__name__ = "place"
 
 
 def add_workers(parser: argparse.ArgumentParser) -> None:

@@ -93,7 +93,7 @@ def cmd_bench(args) -> int:
     from gap.bench import check_only, run_bench
 
     check_only(args.only, args.quick)
-    check_output(Path(args.out), "--out", folder=True)
+    check_output(args.out, "--out", folder=True)
 
     def bench_into(staging: Path) -> dict:
         return run_bench(
@@ -104,9 +104,9 @@ def cmd_bench(args) -> int:
             only=args.only,
         )
 
-    with OutputLock([Path(args.out)]):
+    with OutputLock([args.out]):
         summary, _ = publish_folder(
-            Path(args.out), bench_into, "the bench's results", replaces=BENCH_OUTPUTS, keep_on_stop=True
+            args.out, bench_into, "the bench's results", replaces=BENCH_OUTPUTS, keep_on_stop=True
         )
     print("\n".join(figure_lines({k: v for k, v in summary.items() if k != "cases"})))
     return 0
