@@ -304,7 +304,6 @@ def test_scenarios_inconsistent_with_the_model_or_themselves_are_refused(text, f
             "reducer_backlash_rad = 0.1\nrotor_inertia_kg_m2 = 0.0",
             ["rotor_inertia_kg_m2 = 0 with a non-rigid reducer", "reducer_backlash_rad = 0.1", "rotor inertia > 0"],
         ),
-        ("reality", "n_vanes = 2.5", ["n_vanes = 2.5", "allowed: a whole number in 2..12 vanes"]),
     ],
 )
 def test_scenario_effects_must_hold_together_as_a_parameter_file(tmp_path, capsys, table, fields, needles):

@@ -51,6 +51,10 @@ BAD = {
     "non_number": (_set_line("ratio", 'ratio = "120"'), ["ratio", "'120'", "not a number", "1..10000"]),
     "boolean": (_set_line("hose_loss", "hose_loss = true"), ["hose_loss", "True", "not a number", "0..1"]),
     "nan": (_set_line("viscous_nm_s", "viscous_nm_s = nan"), ["viscous_nm_s", "nan", "0..10000"]),
+    "vanes_not_whole": (
+        _set_line("n_vanes", "n_vanes = 4.5"),
+        ["[motor] n_vanes", "4.5", "not a whole number", "a whole number in 2..12 vanes"],
+    ),
     "hose_loss_half": (_set_line("hose_loss", "hose_loss = 0.5"), ["hose_loss", "0.5", "0 or 1"]),
     "brake_fed_half": (
         _set_line("brake_fed_by_motor", "brake_fed_by_motor = 0.5"),

@@ -40,6 +40,12 @@ mode = "none"
         ("[[faults]]\nkind = 'supply_lost'\nat_s = 0.2", "faults[0].at_s", "0.2"),
         ("[reality.effects.wrist_pitch]\nleak_area_m2 = -1.0", "reality.effects.wrist_pitch.leak_area_m2", "-1.0"),
         ("[reality.effects.wrist_pitch]\nmagic = 1.0", "reality.effects.wrist_pitch.magic", "not a known field"),
+        # a count: 2.5 vanes ran until stop 21
+        (
+            "[reality.effects.wrist_pitch]\nn_vanes = 2.5",
+            "reality.effects.wrist_pitch.n_vanes",
+            "= 2.5 is not allowed; allowed: a whole number in 2..12 vanes",
+        ),
         ("[operator]\nlatency_s = -1.0", "operator.latency_s", "-1.0"),
         # the model's air in a hose this short diverges (pneumatics/params.py SPEC)
         (
