@@ -21,7 +21,7 @@ from typing import Annotated, Any, Literal, NamedTuple, Union, get_args, get_ori
 from pydantic import BeforeValidator, ConfigDict, ValidationError
 from pydantic_core import PydanticCustomError
 
-from pneumatics.paths import path_problem
+from pneumatics.paths import NOT_REGULAR, is_special, path_problem
 
 MISSING = "<missing>"  # the value of a field the file does not give
 TABLE = ConfigDict(extra="forbid")  # every table refuses keys it does not know
@@ -189,8 +189,8 @@ def read_toml(path: Path, error: type[Exception], what: str) -> tuple[dict, str]
     problem = path_problem(path)
     if problem:
         raise error(f"{path}: {problem}; allowed: a {what} on disk")
-    if path.exists() and not path.is_file() and not path.is_dir():  # a FIFO would block, /dev/zero never end
-        raise error(f"{path}: is not a regular file (a pipe, a device or a socket); allowed: a {what} on disk")
+    if is_special(path):
+        raise error(f"{path}: {NOT_REGULAR}; allowed: a {what} on disk")
     try:
         text = path.read_text(encoding="utf-8-sig")  # a byte-order mark at the start allowed (an editor's)
     except FileNotFoundError:

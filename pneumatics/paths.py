@@ -32,3 +32,13 @@ def path_problem(path: Path) -> str | None:
             errno.ENOTDIR: "passes through a file as if it were a folder",
         }.get(e.errno, f"cannot be looked up ({e.strerror})")
     return None
+
+
+NOT_REGULAR = "is not a regular file (a pipe, a device or a socket)"
+
+
+def is_special(path: Path) -> bool:
+    """Is something at `path` that is neither a file nor a folder (a pipe, a device, a socket)? A
+    pipe read would block and /dev/zero never end; one replaced whole would lose the device."""
+    path = Path(path)
+    return path.exists() and not path.is_file() and not path.is_dir()

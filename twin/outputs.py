@@ -20,7 +20,7 @@ import time
 from collections.abc import Callable, Iterable
 from pathlib import Path
 
-from pneumatics.paths import path_problem
+from pneumatics.paths import is_special, path_problem
 from twin.errors import UserError
 from twin.signals import shielded, stop_behind
 
@@ -75,12 +75,13 @@ def check_output(
     if problem:
         raise UserError(f"{flag} {path}: {problem}; allowed: a path in a writable folder")
     longest = _name_max(path.parent) - NAME_GROWTH
-    if len(os.fsencode(path.name)) > longest:
+    length = len(os.fsencode(path.name))
+    if length > longest:
         raise UserError(
-            f"{flag} {path}: its name is {len(os.fsencode(path.name))} bytes long; allowed: at most {longest} "
+            f"{flag} {path}: its name is {length} bytes long; allowed: at most {longest} "
             f"(the file system's {longest + NAME_GROWTH}, less room for the temporary and lock files made beside it)"
         )
-    if path.exists() and not path.is_file() and not path.is_dir() and (folder or not streamed):
+    if is_special(path) and (folder or not streamed):
         raise UserError(
             f"{flag} {path}: is a device, a pipe or a socket, which this output would replace with a file; "
             f"allowed: a {'folder' if folder else 'file'} (existing or to be made)"
