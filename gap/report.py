@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 from matplotlib.figure import Figure
 
-from gap.effects import NOT_IN_CATALOGUE
+from gap.effects import IN_TWIN_VARIATIONS, NOT_IN_CATALOGUE
 from gap.instrument import InstrumentFacts
 from gap.result import CandidateSummary, Diagnosis, PressureFloor, to_json
 
@@ -270,6 +270,13 @@ def _which(diag: Diagnosis) -> list[str]:
     ]
     if w.skipped_already_in_twin:
         lines += ["", f"Already in the nominal twin (not candidates): {', '.join(w.skipped_already_in_twin)}."]
+        varied = [
+            f"{part.label} x {'/'.join(f'{k:g}' for k in factors)}"
+            for name in w.skipped_already_in_twin
+            for part, factors in IN_TWIN_VARIATIONS.get(name, ())
+        ]
+        if varied:
+            lines[-1] += f' Its family\'s corrections ("in the twin" above) also replay {", ".join(varied)}.'
     return lines
 
 

@@ -261,7 +261,11 @@ def test_cli_gap_diagnose_writes_json_report_and_plots(campaigns, tmp_path, caps
     assert {c["name"] for c in d["which"]["ranking"]} == set(BY_NAME) - {
         "hose_loss"
     }  # hose loss is already in this twin
-    assert (out / "report.md").read_text().startswith("# Sim-to-real gap diagnosis")
+    report = (out / "report.md").read_text()
+    assert report.startswith("# Sim-to-real gap diagnosis")
+    # what the hose family's "(in the twin)" corrections are (gap.effects.IN_TWIN_VARIATIONS)
+    assert "Already in the nominal twin (not candidates): hose_loss. Its family's corrections" in report
+    assert "hose bore x 0.7/0.8/0.9/1.15, hose length x 0.5/1.5/2/3." in report
     # a family's held-out shrink per channel only where chamber pressures are measured
     measured = d["pressure"]["measured"]
     assert d["which"]["families"] and all(("heldout_shrink_angle" in f) == measured for f in d["which"]["families"])
