@@ -72,6 +72,18 @@ MODEL_TOLERANCE_DEG = worst_tolerance_deg()
 # The same for the motor-chamber pressures, where a campaign measured them.
 MODEL_TOLERANCE_KPA = worst_tolerance_kpa()
 SIGNIFICANCE = 2.0  # a gap is significant above SIGNIFICANCE x floor, floor = sqrt(noise^2 + drift^2/2 + tol^2)
+# The twin's own spread on a run (Twin.spread): how far its angle moves when the run starts this much
+# further or nearer along the joint, 6 degrees of the vane motor's turn at the wrist's ratio 120.
+# The twin takes the motor's angle as ratio x the joint's, so the phase of the vanes' torque ripple
+# is only known to the twin's own precision: the replay's disagreement with the plant on the
+# protocols, 0.016-0.15 deg rms (gap.protocols.TOLERANCE_DEG). On most runs the shift moves the
+# twin by about itself. On a run whose drive only just beats the friction (a stall, a breakaway,
+# a Stribeck fold) the moment the joint lets go, and all after it, hangs on a fraction of a N·m:
+# measured on a held-out back-and-forth campaign with Coulomb friction at 30 N·m (nominal 15),
+# the 0.6 MPa run moved 1.95 deg for this shift, the other supplies 0.05-0.35 deg, and the plant
+# stood 1.96 deg from the located-event reference there while the replay stood 0.013 deg from it
+# (the plant's stop 0.034 deg off, through the ripple, 0.85 N·m less breakaway torque)
+SPREAD_START_DEG = 0.05
 N_PAIRS_CV = 3  # pairs given the full cross-validated fit after the in-sample screen
 # pairs are formed from the best PAIR_POOL singles (28 pairs, not the 136 of all 17): a pair's
 # members each explain part of its gap, so each is expected to rank high alone; a pair of two
@@ -190,14 +202,15 @@ class Twin:
             [np.r_[np.ones(pr.ts.size, bool), np.zeros(pr.pmeas.size, bool)] for pr in self.runs] or [np.zeros(0, bool)]
         )
 
-    def replay(self, params: JointParams, rig: Rig, g: int) -> tuple[np.ndarray, ...]:
-        """(t, theta, omega, p_a, p_b) of the twin through group g's commands."""
+    def replay(self, params: JointParams, rig: Rig, g: int, start_shift_rad: float = 0.0) -> tuple[np.ndarray, ...]:
+        """(t, theta, omega, p_a, p_b) of the twin through group g's commands (from the runs' start
+        angle moved by `start_shift_rad`)."""
         rep = self.runs[self.groups[g][0]]
         self.n_replays += 1  # for the report's cost line (threads may miss a count: it is a statistic)
         return replay_run(
             params_row(params, stops=self.stops),
             *rep.args,
-            rep.run.start_rad,
+            rep.run.start_rad + start_shift_rad,
             rep.inertia * rig.inertia_scale,
             0.0,
             self.t_end[g] + DT_S,
@@ -210,6 +223,22 @@ class Twin:
         p, s = apply_effects(self.params, effects)
         traj = {g: self.replay(p, s, g) for g in dict.fromkeys(self.group_of[k] for k in ks)}
         return [(k, traj[self.group_of[k]]) for k in ks]
+
+    def spread(self, effects) -> np.ndarray:
+        """Per run, the twin's own spread with `effects` (rad): the rms over the run's angle samples
+        of how far the twin's angle moves, the shift itself taken off, when the run starts
+        SPREAD_START_DEG further or nearer along the joint (the larger of the two)."""
+        p, rig = apply_effects(self.params, effects)
+        shift = math.radians(SPREAD_START_DEG)
+        out = np.zeros(len(self.runs))
+        for g, ks in enumerate(self.groups):
+            t, th = self.replay(p, rig, g)[:2]
+            moved = [self.replay(p, rig, g, s)[1] - s for s in (shift, -shift)]
+            for k in ks:
+                ts = self.runs[k].ts
+                base = np.interp(ts, t, th)
+                out[k] = max(math.sqrt(np.mean((np.interp(ts, t, m) - base) ** 2)) if ts.size else 0.0 for m in moved)
+        return out
 
     def _pressure_residual(self, pr: Prepared, t, pa, pb) -> np.ndarray:
         return pr.pmeas - np.stack([np.interp(pr.tp, t, pa), np.interp(pr.tp, t, pb)])[pr.pmask]
@@ -315,6 +344,7 @@ class Candidate:
     grid_values: np.ndarray | None = None
     grid_residuals: np.ndarray | None = None
     full_residual: np.ndarray | None = None
+    spread: np.ndarray | None = None  # per run, the twin's own spread at the full values (Twin.spread; when asked)
 
 
 def fit_single(twin: Twin, e: Effect, folds) -> Candidate:
@@ -791,6 +821,7 @@ def summarise(c: Candidate, judge: verdict.Judge, before_rms: float, rng: np.ran
     lo, hi = rms_ci_deg(c.heldout, rng)
     effects = [BY_NAME[x] for x in c.effects]
     heldout_rms = rms_deg(c.heldout)
+    explains = judge.explains(c)  # first: it asks for the twin's spread where the rms alone is over the bar
     return CandidateSummary(
         name=c.name,
         effects=c.effects,
@@ -808,7 +839,8 @@ def summarise(c: Candidate, judge: verdict.Judge, before_rms: float, rng: np.ran
         score_in_floors=judge.score(c),
         heldout_rms_ci95_deg=(lo, hi),
         shrink=heldout_rms / before_rms if before_rms > 0 else math.nan,
-        explains=judge.explains(c),
+        explains=explains,
+        heldout_beyond_spread_deg=judge.beyond_spread_deg(c) if c.spread is not None else None,
     )
 
 

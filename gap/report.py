@@ -10,6 +10,7 @@ from pathlib import Path
 import numpy as np
 from matplotlib.figure import Figure
 
+from gap.diagnose import SPREAD_START_DEG
 from gap.effects import IN_TWIN_VARIATIONS, NOT_IN_CATALOGUE
 from gap.instrument import InstrumentFacts
 from gap.result import CandidateSummary, Diagnosis, PressureFloor, to_json
@@ -193,9 +194,15 @@ def _verdict(diag: Diagnosis) -> list[str]:
             f"{f} = {v:.4g} (nominal {n:.4g})" + (f" **on its catalogue bound ({b})**" if b else "")
             for f, v, n, b in zip(top.fields, top.fitted_values, top.nominal_values, top.at_bound, strict=True)
         )
+        spread = (
+            f" ({top.heldout_beyond_spread_deg:.2f} deg beyond the twin's own spread: how far its angle moves "
+            f"on each run when the run starts {SPREAD_START_DEG:g} deg further or nearer along the joint)"
+            if top.heldout_beyond_spread_deg is not None
+            else ""
+        )
         lines += [
             f"Best: **{top.name}** ({' + '.join(top.labels)}): {vals}; "
-            f"held-out rms {top.heldout_rms_deg:.2f} deg, shrink {top.shrink:.2f}.",
+            f"held-out rms {top.heldout_rms_deg:.2f} deg{spread}, shrink {top.shrink:.2f}.",
             "",
         ]
         if any(top.at_bound):

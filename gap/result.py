@@ -73,6 +73,9 @@ class CandidateSummary:
     heldout_rms_ci95_deg: tuple[float, float]
     shrink: float  # held-out rms / the nominal twin's
     explains: bool
+    # the held-out angle rms beyond the twin's own spread on each run (gap.verdict.Judge.beyond_spread_deg),
+    # where the rms alone was over the bar
+    heldout_beyond_spread_deg: float | None = field(default=None, metadata=OMIT_NONE)
 
 
 @dataclass(frozen=True)

@@ -16,6 +16,14 @@ def rms_deg(residuals: list[np.ndarray]) -> float:
     return float(np.rad2deg(math.sqrt(np.mean(np.concatenate(residuals) ** 2))))
 
 
+def rms_beyond_deg(residuals: list[np.ndarray], spread_rad: np.ndarray) -> float:
+    """What `residuals` (per run, rad) leave beyond each run's own spread (rad), as an rms in deg:
+    per run its mean square less the spread's square, not below 0, weighted by its samples."""
+    n = np.array([r.size for r in residuals], dtype=float)
+    ms = np.array([np.mean(r**2) if r.size else 0.0 for r in residuals])
+    return float(np.rad2deg(math.sqrt(np.sum(n * np.maximum(ms - spread_rad**2, 0.0)) / max(np.sum(n), 1.0))))
+
+
 def rms_kpa(residuals: list[np.ndarray]) -> float | None:
     """Pressure residual rms in kPa over the runs that measured it (None if none did)."""
     r = np.concatenate(residuals) if residuals else np.empty(0)

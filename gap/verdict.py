@@ -4,7 +4,8 @@ Rules:
 - a gap is significant above SIGNIFICANCE x floor in either channel, the angle or (where measured)
   the chamber pressures, each against its own floor (gap.diagnose.Floors.above);
 - a candidate explains it if, in every channel measured, its held-out rms is under the threshold,
-  or under EXPLAIN_SHRINK of the nominal twin's;
+  or under EXPLAIN_SHRINK of the nominal twin's; in the angle, what it leaves beyond the twin's own
+  spread on each run (gap.diagnose.Twin.spread) may count instead;
 - a pair counts only if both its effects moved off their nominal values (an effect left at its
   nominal value is no effect: the pair is its other member alone) and it beats the best single by
   a clear margin (score <= PAIR_MARGIN x the best single's);
@@ -31,7 +32,7 @@ import numpy as np
 
 from gap import family, where
 from gap.effects import BY_NAME
-from gap.stats import mean_lower_bound, rms_deg, rms_kpa, run_ms
+from gap.stats import mean_lower_bound, rms_beyond_deg, rms_deg, rms_kpa, run_ms
 from pneumatics import JointParams
 
 OMIT_NONE = {"omit_none": True}  # a field left out of diagnosis.json when None (gap.result.to_json)
@@ -128,12 +129,23 @@ class Judge:
         self.before_kpa = before_kpa
 
     def explains(self, c) -> bool:
-        """Held-out, every channel measured is under its threshold or shrunk to EXPLAIN_SHRINK."""
+        """Held-out, every channel measured is under its threshold or shrunk to EXPLAIN_SHRINK; in
+        the angle, what is left beyond the twin's own spread on each run (`beyond_spread_deg`)."""
         fl = self.floors
-        if rms_deg(c.heldout) > max(fl.threshold_deg, EXPLAIN_SHRINK * self.before_rms):
+        bar = max(fl.threshold_deg, EXPLAIN_SHRINK * self.before_rms)
+        if rms_deg(c.heldout) > bar and self.beyond_spread_deg(c) > bar:
             return False
         p = rms_kpa(c.heldout_p)
         return p is None or self.before_kpa is None or p <= max(fl.threshold_kpa, EXPLAIN_SHRINK * self.before_kpa)
+
+    def beyond_spread_deg(self, c) -> float:
+        """The held-out angle rms of candidate c beyond the twin's own spread with c on each run
+        (gap.diagnose.Twin.spread, replayed once per candidate when first asked): a run on a knife
+        edge, a drive that only just beats the friction, is not held to more than the twin itself
+        can say of it."""
+        if c.spread is None:
+            c.spread = self.twin.spread([(BY_NAME[n], v) for n, v in zip(c.effects, c.full_values, strict=True)])
+        return rms_beyond_deg(c.heldout, c.spread)
 
     def pair_counts(self, pair, best) -> str:
         """'' if the pair counts, else why not."""
