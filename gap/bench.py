@@ -47,6 +47,20 @@ class Case:
 
 
 PROTOCOLS = ("reversal", "stop_and_go", "staircase", "back_and_forth")
+
+
+@dataclass(frozen=True)
+class Variant:
+    """The bench under settings it does not use by default, for a check of how far its figures carry:
+    every case on one `protocol` of gap.protocols' library (None: each case's own), each case with
+    the setting (protocol, instrument, pressure transducers) of the case `shift` places along, and
+    its campaign's seed `seeds` further on."""
+
+    protocol: str | None = None
+    shift: int = 0
+    seeds: int = 0
+
+
 INSTRUMENTS = (synth.ENCODER, synth.CAMERA)
 
 
@@ -232,11 +246,18 @@ def setting(i: int, case: Case, rng: np.random.Generator) -> tuple[str, synth.Si
 
 
 def run_bench(
-    out: str | Path, quick: bool = False, jobs: int = 2, chamber_pressures: bool | None = None, only: str | None = None
+    out: str | Path,
+    quick: bool = False,
+    jobs: int = 2,
+    chamber_pressures: bool | None = None,
+    only: str | None = None,
+    variant: Variant = Variant(),
 ) -> dict:
     """Every case diagnosed blind; `chamber_pressures` None: as the case's setting cycles, else
-    forced; `only`: the cases named in its comma-separated list (`none*`: every name that starts so)."""
+    forced; `only`: the cases named in its comma-separated list (`none*`: every name that starts so);
+    `variant`: settings the bench does not use by default."""
     check_only(only, quick)
+    check_variant(variant)
     t0 = time.perf_counter()
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
@@ -247,27 +268,36 @@ def run_bench(
             continue  # the case keeps its index: its protocol, instrument and seeds do not depend on the selection
         folder = out / "campaigns" / case.name
         try:
-            r = run_case(case, i, folder, pressures, chamber_pressures, jobs)
+            r = run_case(case, i, folder, pressures, chamber_pressures, jobs, variant)
         except BaseException:
             shutil.rmtree(folder, ignore_errors=True)  # unfinished, as bench.json says: what a stopped bench keeps
             raise
         results.append(r)
-        summary = summarise(results, quick, chamber_pressures, time.perf_counter() - t0)
+        summary = summarise(results, quick, chamber_pressures, time.perf_counter() - t0, variant)
         write_atomic(
             out / "bench.json",
             json.dumps(summary, indent=1, default=lambda x: None if isinstance(x, float) and math.isnan(x) else str(x)),
         )  # after every case, whole: a long run killed keeps what it did
-    return summarise(results, quick, chamber_pressures, time.perf_counter() - t0)
+    return summarise(results, quick, chamber_pressures, time.perf_counter() - t0, variant)
 
 
-def run_case(case: Case, i: int, folder: Path, pressures: tuple, chamber_pressures: bool | None, jobs: int) -> dict:
+def run_case(
+    case: Case,
+    i: int,
+    folder: Path,
+    pressures: tuple,
+    chamber_pressures: bool | None,
+    jobs: int,
+    variant: Variant = Variant(),
+) -> dict:
     """The i-th case's campaign made in `folder` and diagnosed blind: its setting and scores."""
-    proto, inst, with_p = setting(i, case, np.random.default_rng(1000 + i))
+    proto, inst, with_p = setting(i + variant.shift, case, np.random.default_rng(1000 + i))
+    proto = variant.protocol or proto
     with_p = with_p if chamber_pressures is None else chamber_pressures
     folder = synth.make_campaign(
         folder,
         synth.wrist_params()._replace(**case.reality),
-        seed=100 + i,
+        seed=100 + i + variant.seeds,
         pressures_mpa=pressures,
         twin_hose_loss=case.twin_hose_loss,
         motion={q: protocols.library(q)[proto] for q in pressures},
@@ -292,6 +322,16 @@ def run_case(case: Case, i: int, folder: Path, pressures: tuple, chamber_pressur
         "diagnose_s": t_diag,
         **scores(case, diag),
     }
+
+
+def check_variant(variant: Variant) -> None:
+    """Refuse (UserError) a protocol the library does not have, a negative shift or seed offset."""
+    names = tuple(protocols.library(0.5))
+    if variant.protocol is not None and variant.protocol not in names:
+        raise UserError(f"--protocol {variant.protocol!r}: no such protocol; allowed: {', '.join(names)}")
+    for flag, v in (("--shift", variant.shift), ("--seeds", variant.seeds)):
+        if v < 0:
+            raise UserError(f"{flag} {v}: allowed: a whole number >= 0")
 
 
 def check_only(only: str | None, quick: bool = False) -> None:
@@ -363,7 +403,9 @@ def scores(case: Case, diag: Diagnosis) -> dict:
     return r
 
 
-def summarise(results: list[dict], quick: bool, chamber_pressures: bool | None, wall_s: float) -> dict:
+def summarise(
+    results: list[dict], quick: bool, chamber_pressures: bool | None, wall_s: float, variant: Variant = Variant()
+) -> dict:
     """The bench's scores over the cases diagnosed so far."""
     att = [r for r in results if "top1" in r]
     exact = [r for r in att if r["kind"] in ("single", "pair")]
@@ -378,6 +420,7 @@ def summarise(results: list[dict], quick: bool, chamber_pressures: bool | None, 
     summary = {
         "quick": quick,
         "chamber_pressures_measured": chamber_pressures,
+        "variant": {"protocol": variant.protocol, "shift": variant.shift, "seeds": variant.seeds},
         "wall_time_s": wall_s,
         "top1_rate_exact_form": rate(exact),
         "top1_rate_form_differs": rate(form),

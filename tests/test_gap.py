@@ -726,6 +726,29 @@ def test_bench_slice_over_both_instruments(tmp_path):
     assert (tmp_path / "bench.json").is_file()
 
 
+def test_bench_under_a_variant_of_its_settings(tmp_path):
+    """`twin gap bench --protocol paper_60 --shift 1 --seeds 5000`: the no-effect case of the quick
+    slice on the paper's moves, with the instrument of the case one place along and another seed;
+    bench.json says so. A protocol the library lacks is refused before any work."""
+    from gap.bench import QUICK, Variant, cases, check_variant, run_bench, setting
+    from twin.errors import UserError
+
+    i = [c.name for c in cases()].index("none_1")
+    _, inst, _ = setting(i + 1, cases()[i], np.random.default_rng(1000 + i))
+    s = run_bench(tmp_path, quick=True, only="none_1", variant=Variant("paper_60", 1, 5000))
+    (r,) = s["cases"]
+    assert "none_1" in QUICK and (r["protocol"], r["instrument"]) == ("paper_60", inst.name)
+    assert "paper_60" in (tmp_path / "campaigns" / "none_1" / "campaign.toml").read_text().splitlines()[0]
+    assert r["verdict"] == "no significant gap"
+    assert json.loads((tmp_path / "bench.json").read_text())["variant"] == {
+        "protocol": "paper_60",
+        "shift": 1,
+        "seeds": 5000,
+    }
+    with pytest.raises(UserError, match="--protocol 'sine': no such protocol; allowed: paper_60, staircase"):
+        check_variant(Variant("sine"))
+
+
 def test_a_dask_cluster_gives_the_local_diagnosis(campaigns):
     """`twin gap diagnose --scheduler ADDRESS`: singles and the pair stage on a Dask cluster (here an
     in-process one of two workers) give the diagnosis of the local threads, value for value. The

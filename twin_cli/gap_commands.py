@@ -64,6 +64,26 @@ def register(subparsers) -> None:
         help="only these cases, comma-separated: names, a trailing * matching the start of a name (none*), "
         "or kinds (single, form, pair, outside, none)",
     )
+    b.add_argument(
+        "--protocol",
+        metavar="NAME",
+        help="every case on this protocol of the library (paper_60, staircase, back_and_forth, stop_and_go, "
+        "reversal) instead of its own: how far the figures carry to other motions",
+    )
+    b.add_argument(
+        "--shift",
+        type=number(0, 10**6, integer=True),
+        default=0,
+        metavar="K",
+        help="each case with the protocol, instrument and pressure transducers of the case K places along",
+    )
+    b.add_argument(
+        "--seeds",
+        type=number(0, 10**9, integer=True),
+        default=0,
+        metavar="S",
+        help="each campaign's seed S further on: other noise, dropped frames and camera latencies",
+    )
     b.set_defaults(func=cmd_bench)
 
 
@@ -90,9 +110,11 @@ def cmd_diagnose(args) -> int:
 
 def cmd_bench(args) -> int:
     # on use: at the top, the libraries take `twin --help` from 0.45 to 2.2 s
-    from gap.bench import check_only, run_bench
+    from gap.bench import Variant, check_only, check_variant, run_bench
 
+    variant = Variant(args.protocol, args.shift, args.seeds)
     check_only(args.only, args.quick)
+    check_variant(variant)
     check_output(args.out, "--out", folder=True)
 
     def bench_into(staging: Path) -> dict:
@@ -102,6 +124,7 @@ def cmd_bench(args) -> int:
             jobs=args.jobs,
             chamber_pressures=False if args.angle_only else None,
             only=args.only,
+            variant=variant,
         )
 
     with OutputLock([args.out]):
