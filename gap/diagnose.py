@@ -841,6 +841,7 @@ def summarise(c: Candidate, judge: verdict.Judge, before_rms: float, rng: np.ran
         shrink=heldout_rms / before_rms if before_rms > 0 else math.nan,
         explains=explains,
         heldout_beyond_spread_deg=judge.beyond_spread_deg(c) if c.spread is not None else None,
+        spread_deg=np.degrees(c.spread).tolist() if c.spread is not None else None,
     )
 
 

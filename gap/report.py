@@ -194,12 +194,19 @@ def _verdict(diag: Diagnosis) -> list[str]:
             f"{f} = {v:.4g} (nominal {n:.4g})" + (f" **on its catalogue bound ({b})**" if b else "")
             for f, v, n, b in zip(top.fields, top.fitted_values, top.nominal_values, top.at_bound, strict=True)
         )
-        spread = (
-            f" ({top.heldout_beyond_spread_deg:.2f} deg beyond the twin's own spread: how far its angle moves "
-            f"on each run when the run starts {SPREAD_START_DEG:g} deg further or nearer along the joint)"
-            if top.heldout_beyond_spread_deg is not None
-            else ""
-        )
+        spread = ""
+        if top.heldout_beyond_spread_deg is not None:
+            edge = [
+                f"{r} {x:.2f} deg"
+                for r, x in zip(diag.runs, top.spread_deg, strict=True)
+                if x > diag.noise_floor.floor_deg
+            ]
+            spread = (
+                f" ({top.heldout_beyond_spread_deg:.2f} deg beyond the twin's own spread: how far its angle moves on "
+                f"each run when the run starts {SPREAD_START_DEG:g} deg further or nearer along the joint"
+                + (f"; over the floor on {', '.join(edge)}" if edge else "")
+                + ")"
+            )
         lines += [
             f"Best: **{top.name}** ({' + '.join(top.labels)}): {vals}; "
             f"held-out rms {top.heldout_rms_deg:.2f} deg{spread}, shrink {top.shrink:.2f}.",

@@ -76,6 +76,7 @@ class CandidateSummary:
     # the held-out angle rms beyond the twin's own spread on each run (gap.verdict.Judge.beyond_spread_deg),
     # where the rms alone was over the bar
     heldout_beyond_spread_deg: float | None = field(default=None, metadata=OMIT_NONE)
+    spread_deg: list[float] | None = field(default=None, metadata=OMIT_NONE)  # per run, the twin's own spread
 
 
 @dataclass(frozen=True)

@@ -543,6 +543,10 @@ def test_a_run_on_a_knife_edge_is_held_to_the_twins_own_spread(tmp_path):
     assert w.top.fitted_values[0] == pytest.approx(30.0, rel=0.05)
     assert w.top.heldout_rms_deg > d.noise_floor.significance_threshold_deg  # the spread made the call
     assert w.top.heldout_beyond_spread_deg < d.noise_floor.significance_threshold_deg
+    from gap.report import write
+
+    best = [x for x in write(d, tmp_path / "out")["report"].read_text().splitlines() if x.startswith("Best:")]
+    assert "beyond the twin's own spread" in best[0] and "run_060_1" in best[0] and "run_080_1" not in best[0]
 
 
 def test_a_pair_search_starts_in_every_basin_of_the_grid():
