@@ -67,23 +67,19 @@ def register(subparsers) -> None:
     b.add_argument(
         "--protocol",
         metavar="NAME",
-        help="every case on this protocol of the library (paper_60, staircase, back_and_forth, stop_and_go, "
-        "reversal) instead of its own: how far the figures carry to other motions",
+        help="every case on this protocol of the motion library (gap/protocols.py; a name it lacks is refused with "
+        "the list) instead of its own: how far the figures carry to other motions",
     )
-    b.add_argument(
-        "--shift",
-        type=number(0, 10**6, integer=True),
-        default=0,
-        metavar="K",
-        help="each case with the protocol, instrument and pressure transducers of the case K places along",
-    )
-    b.add_argument(
-        "--seeds",
-        type=number(0, 10**9, integer=True),
-        default=0,
-        metavar="S",
-        help="each campaign's seed S further on: other noise, dropped frames and camera latencies",
-    )
+    for flag, high, meta, text in (
+        (
+            "--shift",
+            10**6,
+            "K",
+            "each case with the protocol, instrument and pressure transducers of the case K places along",
+        ),
+        ("--seeds", 10**9, "S", "each campaign's seed S further on: other noise, dropped frames and camera latencies"),
+    ):
+        b.add_argument(flag, type=number(0, high, integer=True), default=0, metavar=meta, help=text)
     b.set_defaults(func=cmd_bench)
 
 
