@@ -3,9 +3,10 @@
 and the speed of the compiled one-joint replay the effect search is built on, against the plant's
 (MuJoCo + pneumatics) simulation of the very same run as the in-run baseline.
 
-Each campaign is 4 supplies x 4 repeats (angle and both chamber pressures) from the plant (CAMPAIGNS:
+Each campaign is 16 runs at 4 supplies (angle and both chamber pressures) from the plant (CAMPAIGNS:
 a hidden vane leak + Coulomb friction, a pair, so the pair search runs too, the slow path; no
-effect read by a camera; a slow valve on a staircase). Each diagnosis is timed as `twin gap
+effect read by a camera; a slow valve on a staircase: 4 repeats of one protocol; and the pair again
+on 4 protocols once each, 16 distinct runs, the costliest). Each diagnosis is timed as `twin gap
 diagnose` runs it (gap.run.run_diagnose: reading the files, the fits, the report and the plots),
 after a warm-up replay so that loading numba's cache is not counted.
 
@@ -71,12 +72,16 @@ def _time_plant(reality, supply_mpa: float, motion: synth.Motion, rounds: int) -
     return best
 
 
-# the 16-run campaigns timed: (name, hidden JointParams fields, protocol, instrument); the pair
-# case needs the pair stage (the slow path), the others meet the other protocols and the camera
+# the 16-run campaigns timed: (name, hidden JointParams fields, protocols, repeats, instrument); the
+# pair cases need the pair stage (the slow path), the others meet the other protocols and the
+# camera. The first three repeat one protocol 4 times at each supply (4 replays of the twin serve
+# 16 runs); the last runs 4 protocols once each, 16 distinct runs, the costliest 16-run campaign
+MIXED = ("reversal", "stop_and_go", "staircase", "back_and_forth")
 CAMPAIGNS = (
-    ("leak+coulomb, reversal, encoder", HIDDEN, "reversal", synth.ENCODER),
-    ("none, stop-and-go, camera", {}, "stop_and_go", replace(synth.CAMERA, latency_s=0.025)),
-    ("valve lag, staircase, encoder", {"valve_time_constant_s": 0.3}, "staircase", synth.ENCODER),
+    ("leak+coulomb, reversal, encoder", HIDDEN, ("reversal",), 4, synth.ENCODER),
+    ("none, stop-and-go, camera", {}, ("stop_and_go",), 4, replace(synth.CAMERA, latency_s=0.025)),
+    ("valve lag, staircase, encoder", {"valve_time_constant_s": 0.3}, ("staircase",), 4, synth.ENCODER),
+    ("leak+coulomb, 4 protocols once (16 distinct runs), encoder", HIDDEN, MIXED, 1, synth.ENCODER),
 )
 
 
@@ -84,14 +89,14 @@ def bench_gap(jobs: int = 2, rounds: int = 3) -> dict:
     p0 = synth.wrist_params()
     timings = []
     with tempfile.TemporaryDirectory() as tmp:
-        for i, (name, hidden, proto, inst) in enumerate(CAMPAIGNS):
-            motion = {q: protocols.library(q)[proto] for q in synth.PRESSURES_MPA}
+        for i, (name, hidden, protos, repeats, inst) in enumerate(CAMPAIGNS):
+            motion = {q: [protocols.library(q)[proto] for proto in protos] for q in synth.PRESSURES_MPA}
             folder = synth.make_campaign(
                 Path(tmp) / f"c16_{i}",
                 p0._replace(**hidden),
                 seed=7 + i,
                 pressures_mpa=synth.PRESSURES_MPA,
-                repeats=4,
+                repeats=repeats,
                 motion=motion,
                 instrument=inst,
                 description=f"(bench_gap: {name})",

@@ -257,7 +257,8 @@ def make_campaign(
 ) -> Path:
     """Write campaign.toml and one CSV per run (pressure x repeat) from the plant with `reality`
     (and a hidden rig spring), every run through `motion` (a Motion or gap.protocols.Protocol, or
-    a dict of them by supply MPa), read by `instrument`; with `chamber_pressures` the runs also
+    a dict of them by supply MPa; a list of them at a supply: each its own runs, their files
+    lettered a, b, ...), read by `instrument`; with `chamber_pressures` the runs also
     carry both motor ports' pressures, as a calibration rig with a transducer on each port would
     measure them. campaign.toml declares the real hose length unless `declared_hose_length_m`
     says otherwise (a user who wrote down the wrong one)."""
@@ -276,25 +277,22 @@ def make_campaign(
         lines += ["", "[twin]", f"hose_loss = {'true' if twin_hose_loss else 'false'}"]
     if instrument.declare:
         lines += ["", "[instrument]"] + [f"{k} = {getattr(instrument, k)!r}" for k in instrument.declare]
-    cache: dict[float, dict] = {}
     for mpa in pressures_mpa:
-        for r in range(repeats):
-            name = f"run_{int(round(mpa * 100)):03d}_{r + 1}.csv"
-            if mpa not in cache:  # the plant is deterministic: repeats differ by what the instruments add
-                cache[mpa] = simulate_run(
-                    reality,
-                    mpa,
-                    motion[mpa] if isinstance(motion, dict) else motion,
-                    log_period_s=1e-3,
-                    rig_spring_nm_per_rad=rig_spring_nm_per_rad,
-                )
-            write_run_csv(folder / name, cache[mpa], measure(cache[mpa], instrument, rng, chamber_pressures))
-            lines += [
-                "",
-                "[[runs]]",
-                f'file = "{name}"',
-                f"supply_mpa = {mpa}",
-                f"start_deg = {{ {', '.join(f'{j} = 0.0' for j in assets.JOINTS)} }}",
-            ]
+        at = motion[mpa] if isinstance(motion, dict) else motion
+        kinds = list(at) if isinstance(at, list | tuple) else [at]
+        for m, kind in enumerate(kinds):
+            # the plant is deterministic: repeats differ by what the instruments add
+            run = simulate_run(reality, mpa, kind, log_period_s=1e-3, rig_spring_nm_per_rad=rig_spring_nm_per_rad)
+            tag = f"_{chr(ord('a') + m)}" if len(kinds) > 1 else ""
+            for r in range(repeats):
+                name = f"run_{int(round(mpa * 100)):03d}{tag}_{r + 1}.csv"
+                write_run_csv(folder / name, run, measure(run, instrument, rng, chamber_pressures))
+                lines += [
+                    "",
+                    "[[runs]]",
+                    f'file = "{name}"',
+                    f"supply_mpa = {mpa}",
+                    f"start_deg = {{ {', '.join(f'{j} = 0.0' for j in assets.JOINTS)} }}",
+                ]
     (folder / "campaign.toml").write_text("\n".join(lines) + "\n")
     return folder

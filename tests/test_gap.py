@@ -753,6 +753,28 @@ def test_bench_under_a_variant_of_its_settings(tmp_path):
         check_variant(Variant("sine"))
 
 
+def test_a_campaign_may_run_several_protocols_at_each_supply(tmp_path):
+    """gap.synth.make_campaign with a list of protocols at a supply: each its own runs, lettered, each
+    its own replay of the twin (16 distinct runs are benchmarks/bench_gap.py's costliest campaign)."""
+    from gap.diagnose import Twin
+    from gap.protocols import library
+
+    folder = synth.make_campaign(
+        tmp_path / "mixed",
+        synth.wrist_params(),
+        seed=4,
+        pressures_mpa=(0.5, 0.8),
+        repeats=1,
+        motion={q: [library(q)["reversal"], library(q)["staircase"]] for q in (0.5, 0.8)},
+    )
+    c = load_campaign(folder)
+    assert [r.name for r in c.runs] == ["run_050_a_1", "run_050_b_1", "run_080_a_1", "run_080_b_1"]
+    assert len(Twin(c).groups) == 4
+    ends = [r.time_s[-1] for r in c.runs]
+    assert ends[0] == ends[2] == pytest.approx(library(0.5)["reversal"].total_s(), abs=0.01)
+    assert ends[1] == pytest.approx(library(0.5)["staircase"].total_s(), abs=0.01)
+
+
 def test_a_dask_cluster_gives_the_local_diagnosis(campaigns):
     """`twin gap diagnose --scheduler ADDRESS`: singles and the pair stage on a Dask cluster (here an
     in-process one of two workers) give the diagnosis of the local threads, value for value. The
