@@ -47,6 +47,7 @@ class Case:
 
 
 PROTOCOLS = ("reversal", "stop_and_go", "staircase", "back_and_forth")
+INSTRUMENTS = (synth.ENCODER, synth.CAMERA)
 
 
 @dataclass(frozen=True)
@@ -59,9 +60,6 @@ class Variant:
     protocol: str | None = None
     shift: int = 0
     seeds: int = 0
-
-
-INSTRUMENTS = (synth.ENCODER, synth.CAMERA)
 
 
 def cases() -> list[Case]:
