@@ -211,13 +211,15 @@ class Judge:
         fits = family.family_fits(members, gap, masks, angle, profile)
         if not fits:
             return FamilyCall(None, None, [], [])
+        best_of: dict[str, object] = {}
+        for c in singles:  # singles come sorted by score: the first of a family is its best
+            best_of.setdefault(BY_NAME[c.name].family, c)
+        for f, c in best_of.items():  # a family does on withheld runs at least what its best member does
+            fits[f] = family.at_least(fits[f], self._heldout_vector(c), masks, angle)
         run_masks = [twin.sample_mask([k]) for k in range(len(twin.runs))]
         per_run = {f: np.array([np.sum(ft.heldout[m] ** 2) for m in run_masks]) for f, ft in fits.items()}
         nominal = sum(float(np.sum(gap[te] ** 2)) for _, te in masks)
         nominal_angle = sum(float(np.sum(gap[te & angle] ** 2)) for _, te in masks)
-        best_of: dict[str, object] = {}
-        for c in singles:  # singles come sorted by score: the first of a family is its best
-            best_of.setdefault(BY_NAME[c.name].family, c)
         evidence = sorted(
             (self._evidence(f, best_of.get(f), fit, nominal, nominal_angle) for f, fit in fits.items()),
             key=lambda x: x.heldout_shrink,
@@ -230,6 +232,12 @@ class Judge:
         ]
         chosen = max(tied, key=lambda x: x.where_match)  # the first of the most where-like: stable order
         return FamilyCall(chosen.family, chosen.where_match, [x.family for x in tied if x is not chosen], evidence)
+
+    def _heldout_vector(self, c) -> np.ndarray:
+        """Candidate c's residual on its withheld runs in a residual vector's layout (angle, then
+        pressure x sqrt(pressure_weight), per run: gap.diagnose.Twin.run_sses_and_residual)."""
+        w = math.sqrt(self.twin.pressure_weight)
+        return np.concatenate([np.r_[a, w * p] for a, p in zip(c.heldout, c.heldout_p, strict=True)])
 
     def _evidence(self, f: str, best, fit, nominal: float, nominal_angle: float) -> FamilyEvidence:
         """Family f's line of evidence: its best single member (None: only a member already in the

@@ -795,6 +795,21 @@ def test_a_dask_cluster_gives_the_local_diagnosis(campaigns):
     ]
 
 
+def test_a_family_does_at_least_what_its_best_member_does_alone():
+    """The family's correction is chosen on training runs among every member value and sum of two;
+    on withheld runs it can leave more than its best member fitted alone: then the member's counts."""
+    from gap.family import FamilyFit, at_least
+
+    angle = np.array([True, True, True, False])
+    first, second = np.array([True, True, False, False]), np.array([False, False, True, True])
+    folds = [(second, first), (first, second)]  # (training, withheld): every sample withheld once
+    fit = FamilyFit(np.array([1.0, 1.0, 1.0, 1.0]), 4.0, 3.0, 2, 0.2)
+    assert at_least(fit, np.array([0.5, 0.5, 0.5, 2.0]), folds, angle) is fit  # 4.75 > 4: its own fit stays
+    taken = at_least(fit, np.array([0.5, 0.5, 0.5, 1.0]), folds, angle)
+    assert (taken.heldout_sse, taken.heldout_sse_angle) == (1.75, 0.75)
+    assert taken.heldout.tolist() == [0.5, 0.5, 0.5, 1.0] and (taken.shapes, taken.where_misfit) == (2, 0.2)
+
+
 def test_family_fit_explains_a_mix_of_its_members_and_not_another_familys():
     """gap.family: a gap that is two of one family's members at once (each at a value of its own,
     far from linear in it, with a little noise) is explained by that family's own corrections on
