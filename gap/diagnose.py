@@ -62,7 +62,7 @@ from gap.result import (
     TwinFacts,
     Which,
 )
-from gap.stats import bootstrap_ci, normalised_rms, rms_ci_deg, rms_deg, rms_kpa
+from gap.stats import bootstrap_ci, normalised_rms, residual_vector, rms_ci_deg, rms_deg, rms_kpa
 from pneumatics import JointParams, load_joint_params, params_row
 from twin.cluster import dask_client
 
@@ -272,12 +272,13 @@ class Twin:
         vector: angle (rad) then pressure (Pa) x sqrt(pressure_weight), so that its squared norm is
         the objective (the family call and the pair screen work on these vectors, no replay)."""
         out = np.empty((len(ks), len(self.latencies)))
-        vec = []
+        angles, pressures = [], []
         i_ref = int(np.argmin(np.abs(self.latencies - self.ref_latency_s)))
         for i, (_, ang, pres) in enumerate(self._residual_rows(self._each_run(effects, ks))):
             out[i] = np.sum(ang**2, axis=1) + self.pressure_weight * np.sum(pres**2)
-            vec += [ang[i_ref], math.sqrt(self.pressure_weight) * pres]
-        return out, np.concatenate(vec) if vec else np.zeros(0)
+            angles.append(ang[i_ref])
+            pressures.append(pres)
+        return out, residual_vector(angles, pressures, self.pressure_weight)
 
     def fold_residuals(self, effects, train, test) -> tuple[float, dict[int, tuple[np.ndarray, np.ndarray]]]:
         """The latency that fits runs `train` best with `effects`, and the residuals of runs `test` at

@@ -16,6 +16,13 @@ def rms_deg(residuals: list[np.ndarray]) -> float:
     return float(np.rad2deg(math.sqrt(np.mean(np.concatenate(residuals) ** 2))))
 
 
+def residual_vector(angle: list[np.ndarray], pressure: list[np.ndarray], pressure_weight: float) -> np.ndarray:
+    """Runs' residuals as one vector whose squared norm is the fit's objective: per run its angle
+    (rad), then its chamber pressures (Pa) x sqrt(pressure_weight)."""
+    w = math.sqrt(pressure_weight)
+    return np.concatenate([np.r_[a, w * p] for a, p in zip(angle, pressure, strict=True)] or [np.zeros(0)])
+
+
 def rms_beyond_deg(residuals: list[np.ndarray], spread_rad: np.ndarray) -> float:
     """What `residuals` (per run, rad) leave beyond each run's own spread (rad), as an rms in deg:
     per run its mean square less the spread's square, not below 0, weighted by its samples."""

@@ -32,7 +32,7 @@ import numpy as np
 
 from gap import family, where
 from gap.effects import BY_NAME
-from gap.stats import mean_lower_bound, rms_beyond_deg, rms_deg, rms_kpa, run_ms
+from gap.stats import mean_lower_bound, residual_vector, rms_beyond_deg, rms_deg, rms_kpa, run_ms
 from pneumatics import JointParams
 
 OMIT_NONE = {"omit_none": True}  # a field left out of diagnosis.json when None (gap.result.to_json)
@@ -215,7 +215,8 @@ class Judge:
         for c in singles:  # singles come sorted by score: the first of a family is its best
             best_of.setdefault(BY_NAME[c.name].family, c)
         for f, c in best_of.items():  # a family does on withheld runs at least what its best member does
-            fits[f] = family.at_least(fits[f], self._heldout_vector(c), masks, angle)
+            held_out = residual_vector(c.heldout, c.heldout_p, twin.pressure_weight)
+            fits[f] = family.at_least(fits[f], held_out, masks, angle)
         run_masks = [twin.sample_mask([k]) for k in range(len(twin.runs))]
         per_run = {f: np.array([np.sum(ft.heldout[m] ** 2) for m in run_masks]) for f, ft in fits.items()}
         nominal = sum(float(np.sum(gap[te] ** 2)) for _, te in masks)
@@ -232,12 +233,6 @@ class Judge:
         ]
         chosen = max(tied, key=lambda x: x.where_match)  # the first of the most where-like: stable order
         return FamilyCall(chosen.family, chosen.where_match, [x.family for x in tied if x is not chosen], evidence)
-
-    def _heldout_vector(self, c) -> np.ndarray:
-        """Candidate c's residual on its withheld runs in a residual vector's layout (angle, then
-        pressure x sqrt(pressure_weight), per run: gap.diagnose.Twin.run_sses_and_residual)."""
-        w = math.sqrt(self.twin.pressure_weight)
-        return np.concatenate([np.r_[a, w * p] for a, p in zip(c.heldout, c.heldout_p, strict=True)])
 
     def _evidence(self, f: str, best, fit, nominal: float, nominal_angle: float) -> FamilyEvidence:
         """Family f's line of evidence: its best single member (None: only a member already in the
