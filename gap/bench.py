@@ -27,6 +27,7 @@ from gap.campaign import load_campaign
 from gap.diagnose import diagnose
 from gap.effects import BY_NAME, CATALOGUE
 from gap.result import Diagnosis
+from twin.checks import BENCH_SEEDS, BENCH_SHIFT, check_number
 from twin.errors import UserError
 from twin.outputs import write_atomic
 
@@ -323,13 +324,13 @@ def run_case(
 
 
 def check_variant(variant: Variant) -> None:
-    """Refuse (UserError) a protocol the library does not have, a negative shift or seed offset."""
+    """Refuse (UserError) a protocol the library does not have, a shift or seed offset out of its range
+    (twin.checks, as the command line's flags)."""
     names = tuple(protocols.library(0.5))
     if variant.protocol is not None and variant.protocol not in names:
         raise UserError(f"--protocol {variant.protocol!r}: no such protocol; allowed: {', '.join(names)}")
-    for flag, v in (("--shift", variant.shift), ("--seeds", variant.seeds)):
-        if v < 0:
-            raise UserError(f"{flag} {v}: allowed: a whole number >= 0")
+    check_number("shift", variant.shift, **BENCH_SHIFT)
+    check_number("seeds", variant.seeds, **BENCH_SEEDS)
 
 
 def check_only(only: str | None, quick: bool = False) -> None:

@@ -255,7 +255,7 @@ def make_campaign(
     rig_spring_nm_per_rad: float = 0.0,
     declared_hose_length_m: float | None = None,
 ) -> Path:
-    """Write campaign.toml and one CSV per run (pressure x repeat) from the plant with `reality`
+    """Write campaign.toml and one CSV per run (pressure x motion x repeat) from the plant with `reality`
     (and a hidden rig spring), every run through `motion` (a Motion or gap.protocols.Protocol, or
     a dict of them by supply MPa; a list of them at a supply: each its own runs, their files
     lettered a, b, ...), read by `instrument`; with `chamber_pressures` the runs also

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from twin.checks import JOBS, MODEL_TOLERANCE_DEG
+from twin.checks import BENCH_SEEDS, BENCH_SHIFT, JOBS, MODEL_TOLERANCE_DEG
 from twin.outputs import OutputLock, check_output, publish_folder
 from twin_cli.args import number, place
 from twin_cli.figures import figure_lines
@@ -70,16 +70,21 @@ def register(subparsers) -> None:
         help="every case on this protocol of the motion library (gap/protocols.py; a name it lacks is refused with "
         "the list) instead of its own: how far the figures carry to other motions",
     )
-    for flag, high, meta, text in (
+    for flag, spec, meta, text in (
         (
             "--shift",
-            10**6,
+            BENCH_SHIFT,
             "K",
             "each case with the protocol, instrument and pressure transducers of the case K places along",
         ),
-        ("--seeds", 10**9, "S", "each campaign's seed S further on: other noise, dropped frames and camera latencies"),
+        (
+            "--seeds",
+            BENCH_SEEDS,
+            "S",
+            "each campaign's seed S further on: other noise, dropped frames and camera latencies",
+        ),
     ):
-        b.add_argument(flag, type=number(0, high, integer=True), default=0, metavar=meta, help=text)
+        b.add_argument(flag, type=number(**spec), default=0, metavar=meta, help=text)
     b.set_defaults(func=cmd_bench)
 
 
