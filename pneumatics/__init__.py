@@ -6,7 +6,7 @@ and the gap diagnosis (gap/). Pressures are absolute Pa unless a name says `gaug
 
 from pneumatics.brake import brake_feed_gauge_pa, brake_holding_torque, brake_step, brake_target
 from pneumatics.chamber import chamber_pressure_rate
-from pneumatics.friction import coulomb_viscous_torque, reducer_output_torque, stribeck_excess_torque
+from pneumatics.friction import coulomb_viscous_torque, reducer_output_torque, stribeck_excess
 from pneumatics.gas import AIR, Gas, isentropic_temperature
 from pneumatics.hose import friction_factor, hose_mass_flow, hose_pressure_drop, hose_volume, reynolds_number
 from pneumatics.motor import (
@@ -52,7 +52,7 @@ __all__ = [
     "reducer_output_torque",
     "reynolds_number",
     "solenoid_step",
-    "stribeck_excess_torque",
+    "stribeck_excess",
     "swept_area",
     "transmitted_torque",
     "valve_opening",

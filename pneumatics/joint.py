@@ -37,7 +37,7 @@ from pneumatics import params as P
 from pneumatics._jit import njit
 from pneumatics.brake import brake_feed_gauge_pa, brake_holding_torque, brake_mean, brake_step, brake_target
 from pneumatics.chamber import chamber_pressure_rate
-from pneumatics.friction import coulomb_viscous_torque, reducer_output_torque, stribeck_excess_torque
+from pneumatics.friction import coulomb_viscous_torque, reducer_output_torque, stribeck_excess
 from pneumatics.gas import isentropic_temperature
 from pneumatics.hose import hose_mass_flow_with, hose_volume
 from pneumatics.integrators import ROS2_GAMMA, rk4_increment, ros2_increment, ros2_inverse, secant_slope
@@ -769,9 +769,15 @@ def initial_rigid_state(theta_rad: float, p_atm_pa: float) -> np.ndarray:
 
 
 @njit
-def dry_friction_limit(brake_engagement: float, p: np.ndarray) -> float:
-    """Joint-side dry friction in N·m: Coulomb plus the engaged part of the spring-applied brake."""
-    return p[P.COULOMB] + brake_holding_torque(brake_engagement, p[P.BRAKE_HOLD])
+def dry_friction_limit(brake_engagement: float, speed_rad_s: float, p: np.ndarray) -> float:
+    """Joint-side dry friction in N·m at the joint's speed: Coulomb plus the Stribeck excess
+    (`friction.stribeck_excess`: the static level at rest) plus the engaged part of the
+    spring-applied brake."""
+    return (
+        p[P.COULOMB]
+        + stribeck_excess(speed_rad_s, p[P.STRIBECK_EXCESS], p[P.STRIBECK_SPEED])
+        + brake_holding_torque(brake_engagement, p[P.BRAKE_HOLD])
+    )
 
 
 @njit
@@ -830,11 +836,8 @@ def _rates(
     if rigid:
         # a joint held sliding keeps its gear's efficiency (forward or back-driven) with its friction
         drive = _through_gear(t_rippled, slide if slide != 0.0 else omega, p)
-    drive += (
-        stribeck_excess_torque(omega, p[P.STRIBECK_EXCESS], p[P.STRIBECK_SPEED], 0.5 * p[P.STRIBECK_SPEED])
-        - load_torque_nm
-    )
-    coulomb = dry_friction_limit(brake_engagement, p)
+    drive -= load_torque_nm
+    coulomb = dry_friction_limit(brake_engagement, omega, p)
     joint_held = False
     if slide != 0.0:
         out[R_THETA] = omega
@@ -945,7 +948,7 @@ def single_joint_rk4(
         j_m, j_j = inertia_split(inertia_kg_m2, ratio * ratio * p[P.ROTOR_J])
         n = substeps_for(dt_s, mode_frequency(stiffness(p[P.BACKLASH], p[P.COMPLIANCE]), j_m, 1.0 / j_j), 1)
     h = dt_s / n
-    coulomb = dry_friction_limit(brake_engagement, p)
+    static = dry_friction_limit(brake_engagement, 0.0, p)  # what turns a joint round where its speed crosses zero
     k1 = np.empty(N_RIGID)
     k2 = np.empty(N_RIGID)
     k3 = np.empty(N_RIGID)
@@ -975,7 +978,7 @@ def single_joint_rk4(
         for i in range(N_RIGID):
             y[i] += rk4_increment(h, k1[i], k2[i], k3[i], k4[i])
         if s != 0.0 and s * y[R_OMEGA] < 0.0:
-            jump = 2.0 * s * coulomb
+            jump = 2.0 * s * static
             if rigid:  # the gear's efficiency turns with the joint
                 phi = ratio * y[R_THETA]
                 jump += joint_torque(y[R_PA_MOTOR], y[R_PB_MOTOR], phi, -s, p) - joint_torque(

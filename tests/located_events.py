@@ -32,7 +32,7 @@ from scipy.optimize import brentq
 
 from pneumatics import params as P
 from pneumatics.brake import brake_feed_gauge_pa, brake_target
-from pneumatics.friction import stribeck_excess_torque
+from pneumatics.friction import stribeck_excess
 from pneumatics.joint import joint_torque, pressure_rates
 from pneumatics.reducer import damping, inertia_split, is_rigid, stiffness, transmitted_torque
 from pneumatics.valves import proportional_valve_target
@@ -78,22 +78,20 @@ class _Joint:
         self.c = damping(self.k, self.j_m)
         self.half_gap = 0.5 * p[P.BACKLASH]
 
-    def dry_limit(self, y: np.ndarray) -> float:
-        return self.p[P.COULOMB] + y[BRAKE] * self.p[P.BRAKE_HOLD]
+    def dry_limit(self, y: np.ndarray, omega: float) -> float:
+        """Coulomb, the Stribeck excess at speed `omega` (the static level at 0), the engaged brake."""
+        p = self.p
+        excess = stribeck_excess(omega, p[P.STRIBECK_EXCESS], p[P.STRIBECK_SPEED])
+        return p[P.COULOMB] + excess + y[BRAKE] * p[P.BRAKE_HOLD]
 
     def tau_t(self, y: np.ndarray) -> float:
         return transmitted_torque(y[QM] - y[THETA], y[WM] - y[OMEGA], self.half_gap, self.k, self.c)
 
-    def joint_drive(self, y: np.ndarray, omega: float, slide: float = 0.0) -> float:
+    def joint_drive(self, y: np.ndarray, slide: float = 0.0) -> float:
         """Net torque on the joint side before its dry friction and viscous drag; a rigid gear's
         efficiency is the one of the direction the joint slides in (forward when stuck)."""
-        p = self.p
-        drive = joint_torque(y[PA_M], y[PB_M], self.ratio * y[THETA], slide, p) if self.rigid else self.tau_t(y)
-        return (
-            drive
-            - self.load
-            + stribeck_excess_torque(omega, p[P.STRIBECK_EXCESS], p[P.STRIBECK_SPEED], 0.5 * p[P.STRIBECK_SPEED])
-        )
+        drive = joint_torque(y[PA_M], y[PB_M], self.ratio * y[THETA], slide, self.p) if self.rigid else self.tau_t(y)
+        return drive - self.load
 
     def motor_drive(self, y: np.ndarray, direction: float) -> float:
         return joint_torque(y[PA_M], y[PB_M], self.ratio * y[QM], direction, self.p)
@@ -109,8 +107,8 @@ class _Modes:
         """Modes at a point where a speed is zero or a breakaway fired: stuck if friction holds."""
         j = self.j
         if joint_mode == 0.0 or y[OMEGA] == 0.0:
-            drive = j.joint_drive(y, 0.0)
-            limit = j.dry_limit(y)
+            drive = j.joint_drive(y)
+            limit = j.dry_limit(y, 0.0)
             joint_mode = 0.0 if abs(drive) <= limit else math.copysign(1.0, drive)
         if j.rigid:
             return joint_mode, joint_mode
@@ -127,12 +125,10 @@ def _rates(
     p = j.p
     s, s_m = modes
     out = np.zeros(10)
-    limit = j.dry_limit(y)
+    limit = j.dry_limit(y, y[OMEGA])
     if s != 0.0:
         out[THETA] = y[OMEGA]
-        out[OMEGA] = (j.joint_drive(y, y[OMEGA], s) - s * limit - p[P.VISCOUS] * y[OMEGA]) / (
-            j.inertia if j.rigid else j.j_j
-        )
+        out[OMEGA] = (j.joint_drive(y, s) - s * limit - p[P.VISCOUS] * y[OMEGA]) / (j.inertia if j.rigid else j.j_j)
     if j.rigid:
         out[QM], out[WM] = out[THETA], out[OMEGA]
         phi, w_motor = j.ratio * y[THETA], j.ratio * y[OMEGA]
@@ -168,8 +164,8 @@ def _events(j: _Joint, modes: tuple[float, float]) -> list:
     if s != 0.0:
         add(lambda t, y, *a: y[OMEGA], -s, ("joint", None))
     else:
-        add(lambda t, y, *a: j.joint_drive(y, 0.0) - j.dry_limit(y), 1.0, ("joint", 1.0))
-        add(lambda t, y, *a: -j.joint_drive(y, 0.0) - j.dry_limit(y), 1.0, ("joint", -1.0))
+        add(lambda t, y, *a: j.joint_drive(y) - j.dry_limit(y, 0.0), 1.0, ("joint", 1.0))
+        add(lambda t, y, *a: -j.joint_drive(y) - j.dry_limit(y, 0.0), 1.0, ("joint", -1.0))
     if not j.rigid:
         if s_m != 0.0:
             add(lambda t, y, *a: y[WM], -s_m, ("motor", None))

@@ -89,9 +89,12 @@ def _by_name(*names):
             "valve timing",
             None,
         ),
-        # Stribeck friction (40 N·m breakaway excess), the catalogue with Coulomb and viscous only
+        # Stribeck friction (20 N·m breakaway excess), the catalogue with Coulomb and viscous only.
+        # 40 N·m until stop 23, when the excess still vanished at rest; as static friction (55 N·m)
+        # it is over the wrist's stall torque at 0.5 MPa, the joint never moves there, and the
+        # call is supply droop
         (
-            {"stribeck_excess_nm": 40.0, "stribeck_speed_rad_s": 0.2},
+            {"stribeck_excess_nm": 20.0, "stribeck_speed_rad_s": 0.2},
             ("coulomb_friction", "viscous_friction", "heat_exchange", "valve_dead_time", "supply_droop"),
             "friction",
             None,

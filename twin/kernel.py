@@ -14,9 +14,7 @@ import functools
 import numpy as np
 from llvmlite import ir
 
-from pneumatics import params as P
 from pneumatics._jit import NO_JIT, borrowed, intrinsic, njit, types
-from pneumatics.friction import stribeck_excess_torque
 from pneumatics.joint import (
     S_PA_MOTOR,
     S_PB_MOTOR,
@@ -93,10 +91,11 @@ def pneumatic_step(
         pa_start = x[j, S_PA_MOTOR]
         pb_start = x[j, S_PB_MOTOR]
         valve = advance_discrete(x[j], commands[j], supply_pa, dt_s, p)
-        # brake is spring-applied: it and the joint's Coulomb friction are one dry-friction limit,
-        # held by MuJoCo over the step at the brake's mean over it
+        # brake is spring-applied: it, the joint's Coulomb friction and the Stribeck excess are one
+        # dry-friction limit, held by MuJoCo over the step at the brake's mean over it and the
+        # excess at the step's starting speed (the static level at rest)
         tendon_frictionloss[t] = dry_friction_limit(
-            brake_over_step(x[j], commands[j], supply_pa, pa_start, pb_start, dt_s, p), p
+            brake_over_step(x[j], commands[j], supply_pa, pa_start, pb_start, dt_s, p), omega, p
         )
         if rigid:
             # the torque MuJoCo holds over the step, from the pressures at its start (explicit, like
@@ -104,9 +103,7 @@ def pneumatic_step(
             torque = advance_air_pair(x[j], theta, omega, valve, supply_pa, dt_s, p)
         else:
             torque = advance_motor_side(x[j], theta, omega, valve, supply_pa, dt_s, substeps, p)
-        ctrl[actuator_ids[j]] = torque + stribeck_excess_torque(
-            omega, p[P.STRIBECK_EXCESS], p[P.STRIBECK_SPEED], 0.5 * p[P.STRIBECK_SPEED]
-        )
+        ctrl[actuator_ids[j]] = torque
         advance_brake(x[j], commands[j], supply_pa, pa_start, pb_start, x[j, S_PA_MOTOR], x[j, S_PB_MOTOR], dt_s, p)
 
 

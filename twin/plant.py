@@ -249,8 +249,8 @@ class Plant:
         self._warnings_seen_bytes = self._warning_numbers.tobytes()
 
     def _apply_brakes(self) -> None:
-        for row, x, t in zip(self.params, self.air, self.tendon_ids, strict=True):
-            self.model.tendon_frictionloss[t] = J.dry_friction_limit(x[J.S_BRAKE], row)
+        for row, x, t, w in zip(self.params, self.air, self.tendon_ids, self.drive_speeds(), strict=True):
+            self.model.tendon_frictionloss[t] = J.dry_friction_limit(x[J.S_BRAKE], w, row)
 
     # -- outputs ------------------------------------------------------------------------------
     @property
