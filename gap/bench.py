@@ -290,22 +290,7 @@ def run_case(
     variant: Variant = Variant(),
 ) -> dict:
     """The i-th case's campaign made in `folder` and diagnosed blind: its setting and scores."""
-    proto, inst, with_p = setting(i + variant.shift, case, np.random.default_rng(1000 + i))
-    proto = variant.protocol or proto
-    with_p = with_p if chamber_pressures is None else chamber_pressures
-    folder = synth.make_campaign(
-        folder,
-        synth.wrist_params()._replace(**case.reality),
-        seed=100 + i + variant.seeds,
-        pressures_mpa=pressures,
-        twin_hose_loss=case.twin_hose_loss,
-        motion={q: protocols.library(q)[proto] for q in pressures},
-        instrument=inst,
-        description=f"(hidden: {case.name}; {proto}; {inst.name})",
-        chamber_pressures=with_p,
-        rig_spring_nm_per_rad=case.rig_spring_nm_per_rad,
-        declared_hose_length_m=case.declared_hose_length_m,
-    )
+    proto, inst, with_p = make_case_campaign(case, i, folder, pressures, chamber_pressures, variant)
     catalogue = tuple(e for e in CATALOGUE if e.name not in case.exclude)
     t_diag = time.perf_counter()
     diag = diagnose(load_campaign(folder), catalogue=catalogue, n_jobs=jobs, progress=False)
@@ -321,6 +306,30 @@ def run_case(
         "diagnose_s": t_diag,
         **scores(case, diag),
     }
+
+
+def make_case_campaign(
+    case: Case, i: int, folder: Path, pressures: tuple, chamber_pressures: bool | None, variant: Variant = Variant()
+) -> tuple[str, synth.SimInstrument, bool]:
+    """The i-th case's campaign made in `folder` (as `run_case` diagnoses it): its protocol,
+    instrument and whether it measured chamber pressures."""
+    proto, inst, with_p = setting(i + variant.shift, case, np.random.default_rng(1000 + i))
+    proto = variant.protocol or proto
+    with_p = with_p if chamber_pressures is None else chamber_pressures
+    synth.make_campaign(
+        folder,
+        synth.wrist_params()._replace(**case.reality),
+        seed=100 + i + variant.seeds,
+        pressures_mpa=pressures,
+        twin_hose_loss=case.twin_hose_loss,
+        motion={q: protocols.library(q)[proto] for q in pressures},
+        instrument=inst,
+        description=f"(hidden: {case.name}; {proto}; {inst.name})",
+        chamber_pressures=with_p,
+        rig_spring_nm_per_rad=case.rig_spring_nm_per_rad,
+        declared_hose_length_m=case.declared_hose_length_m,
+    )
+    return proto, inst, with_p
 
 
 def check_variant(variant: Variant) -> None:
@@ -380,9 +389,9 @@ def scores(case: Case, diag: Diagnosis) -> dict:
         elif case.kind == "form":
             # scored at FAMILY level: the hidden form is withheld from the catalogue, so the right
             # answer is its family's other forms (Stribeck -> Coulomb/viscous friction; valve
-            # lag -> the valves' dead times). The call: the top candidate's effects when the
-            # verdict is explained/ambiguous (all must be of those), else the diagnosis's
-            # family-level answer, the leading effect of its best candidate.
+            # lag -> the valves' dead times). The call: the diagnosis's family-level answer where
+            # it gives one (outside the catalogue; ambiguous, among the explaining candidates'
+            # families), else the families of the top candidate's effects (all must be right).
             family = {BY_NAME[e].family for e in case.expect}
             r["call"] = [w.nearest.family] if w.nearest else sorted({BY_NAME[e].family for e in named})
             r["top1"] = bool(r["call"]) and set(r["call"]) <= family
@@ -424,8 +433,8 @@ def summarise(
         "top1_rate_exact_form": rate(exact),
         "top1_rate_form_differs": rate(form),
         "form_differs_scoring": (
-            "family level: the call (the families of the top candidate's effects if explained/ambiguous, else the "
-            "diagnosis's nearest family) is the withheld form's family "
+            "family level: the call (the diagnosis's nearest family if outside the catalogue or ambiguous, else "
+            "the families of the top candidate's effects) is the withheld form's family "
             "(Stribeck -> friction, valve lag -> valve timing; the forms built apart from the catalogue's laws: "
             "narrow or longer hose -> hose, brake fed by the supply -> brake, clogged exhaust or a valve opening "
             "less per bar -> valve, a lossy gear -> reducer or friction)"

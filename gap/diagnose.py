@@ -735,7 +735,12 @@ def diagnose(
     call = judge.call(significant, fits.singles, fits.pairs)
     labels = where_labels(twin)
     family = judge.family_call(
-        fits.singles, labels, twin.gap_vector, folds_of(campaign), in_twin_corrections(twin, catalogue)
+        fits.singles,
+        labels,
+        twin.gap_vector,
+        folds_of(campaign),
+        in_twin_corrections(twin, catalogue),
+        among=verdict.families_of([call.top.name, *call.rivals]) if call.verdict == "ambiguous" else None,
     )
     # the instrument as best understood: the latency fitted with the answer (with the nominal twin
     # alone a latency soaks up part of any gap that makes the twin run ahead); the nominal twin's
@@ -789,9 +794,9 @@ def result_of(
         top=summarise(top, judge, before_rms, rng) if top is not None else None,
         rivals=call.rivals,
         pairs_refused=call.pairs_refused,
-        # the family-level answer: the families ranked by how well their best member matches the
-        # gap's where-pattern and fits the withheld runs (gap.verdict.Judge.family_call)
-        nearest=family if call.verdict == "outside the catalogue" else None,
+        # the family-level answer where no one candidate is (gap.verdict.Judge.family_call): outside the
+        # catalogue, among every family; ambiguous, among the families of the candidates that explain
+        nearest=family if call.verdict in ("outside the catalogue", "ambiguous") else None,
         families=family.evidence,
         ranking=[summarise(c, judge, before_rms, rng) for c in fits.singles],
         pairs=[summarise(c, judge, before_rms, rng) for c in fits.pairs],

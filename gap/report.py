@@ -164,29 +164,32 @@ def _header(diag: Diagnosis) -> list[str]:
     ]
 
 
+def _nearest(nb) -> str:
+    """Why the family call chose its family (gap.verdict.FamilyCall), in words."""
+    least = min(x.heldout_shrink for x in nb.evidence)
+    own = next(x.heldout_shrink for x in nb.evidence if x.family == nb.family)
+    held_out = (
+        f"its own corrections leave {own:.2f} of the gap on the withheld runs, the least any family leaves "
+        f"being {least:.2f}"
+        if least < 1.0
+        else f"but no family's corrections shrink the gap on the withheld runs (the best leaves {least:.2f} "
+        "of it): a weak call"
+    )
+    tied = (
+        f"; the withheld runs do not tell it apart from {', '.join(nb.tied)}, and its shapes explain most "
+        f"of the gap's where-profile among them ({nb.where_match:.0%})"
+        if nb.tied
+        else ""
+    )
+    return held_out + tied
+
+
 def _verdict(diag: Diagnosis) -> list[str]:
     w, top, lines = diag.which, diag.which.top, []
-    if w.nearest:
-        nb = w.nearest
-        least = min(x.heldout_shrink for x in nb.evidence)
-        own = next(x.heldout_shrink for x in nb.evidence if x.family == nb.family)
-        held_out = (
-            f"its own corrections leave {own:.2f} of the gap on the withheld runs, the least any family leaves "
-            f"being {least:.2f}"
-            if least < 1.0
-            else f"but no family's corrections shrink the gap on the withheld runs (the best leaves {least:.2f} "
-            "of it): a weak call"
-        )
-        tied = (
-            f"; the withheld runs do not tell it apart from {', '.join(nb.tied)}, and its shapes explain most "
-            f"of the gap's where-profile among them ({nb.where_match:.0%})"
-            if nb.tied
-            else ""
-        )
-        how = held_out + tied
+    if w.verdict == "outside the catalogue" and w.nearest:
         lines += [
-            f"No catalogue entry or pair explains the gap. Nearest family: **{nb.family}** ({how}). "
-            "The unmodelled effect may be another form of it, or something not catalogued.",
+            f"No catalogue entry or pair explains the gap. Nearest family: **{w.nearest.family}** "
+            f"({_nearest(w.nearest)}). The unmodelled effect may be another form of it, or something not catalogued.",
             "",
         ]
     elif top is not None:
@@ -222,6 +225,11 @@ def _verdict(diag: Diagnosis) -> list[str]:
         lines += ["Pairs that do not count: " + "; ".join(f"{r.pair} ({r.why})" for r in w.pairs_refused) + ".", ""]
     if w.rivals:
         lines += [f"Rivals that fit the withheld runs as well: {', '.join(w.rivals)}.", ""]
+    if w.verdict == "ambiguous" and w.nearest:
+        lines += [
+            f"Of their families, nearest: **{w.nearest.family}** ({_nearest(w.nearest)}).",
+            "",
+        ]
     return lines
 
 

@@ -87,7 +87,7 @@ class Which:
     top: CandidateSummary | None
     rivals: list[str]
     pairs_refused: list[Refusal]
-    nearest: FamilyCall | None  # the family-level answer, for "outside the catalogue" only
+    nearest: FamilyCall | None  # the family-level answer, for "outside the catalogue" and "ambiguous"
     families: list[FamilyEvidence]
     ranking: list[CandidateSummary]  # singles, best first
     pairs: list[CandidateSummary]

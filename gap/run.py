@@ -46,7 +46,8 @@ def run_diagnose(
 
 def verdict_line(diag: Diagnosis) -> str:
     """The one-line answer. For a gap outside the catalogue it names the nearest family, never a
-    candidate (a candidate's name there would read like a diagnosis)."""
+    candidate (a candidate's name there would read like a diagnosis); for an ambiguous one, the
+    candidates and their nearest family."""
     w = diag.which
     top = w.top
     before = f"{diag.before_rms_deg:.2f}"
@@ -56,4 +57,5 @@ def verdict_line(diag: Diagnosis) -> str:
         threshold = diag.noise_floor.significance_threshold_deg
         return f"verdict: {w.verdict} (nominal twin {before} deg rms, threshold {threshold:.2f})"
     bound = " [fitted on a catalogue bound]" if any(top.at_bound) else ""
-    return f"verdict: {w.verdict} ({top.name}{bound}, held-out rms {before} -> {top.heldout_rms_deg:.2f} deg)"
+    rivals = f" or {', '.join(w.rivals)}; nearest family: {w.nearest.family}" if w.rivals and w.nearest else ""
+    return f"verdict: {w.verdict} ({top.name}{bound}{rivals}, held-out rms {before} -> {top.heldout_rms_deg:.2f} deg)"

@@ -20,7 +20,13 @@ Rules:
   95 % bootstrap over runs, the test of a candidate's rivals): then, of those tied, the one whose
   shapes explain most of the gap's where-profile (its mean per bin of supply, load, angle, speed,
   time since start, phase and direction, gap.where.profile_matrix), and the report names the others.
-  An "outside the catalogue" verdict names that family, never a candidate.
+  An "outside the catalogue" verdict names that family, never a candidate;
+- an "ambiguous" verdict (candidates that explain and that the withheld runs do not tell apart)
+  names a family too: the family call among the families of those candidates. Their fits alone
+  do not say which part of the joint it is; the family's own corrections on withheld runs may
+  (measured: a valve opening less per bar on the paper's moves was ambiguous between a hose leak
+  and a valve dead zone, and the valve's corrections fit it as well as the leakage's and match its
+  where-profile better).
 """
 
 from __future__ import annotations
@@ -78,6 +84,11 @@ def at_bounds(c) -> list[str | None]:
     return out
 
 
+def families_of(names: list[str]) -> set[str]:
+    """The families of candidates by name (a pair "a+b": both its effects')."""
+    return {BY_NAME[e].family for n in names for e in n.split("+")}
+
+
 @dataclass(frozen=True)
 class Refusal:
     """A pair that does not count, and why."""
@@ -105,7 +116,8 @@ class FamilyEvidence:
 
 @dataclass(frozen=True)
 class FamilyCall:
-    """The family-level answer (None when there is no candidate) and the evidence behind it."""
+    """The family-level answer (None when there is no candidate) and the evidence behind it (every
+    family's, also those the call could not choose)."""
 
     family: str | None
     where_match: float | None
@@ -192,13 +204,20 @@ class Judge:
         return Call("outside the catalogue", best, [], refused)
 
     def family_call(
-        self, singles: list, labels: dict[str, np.ndarray], gap: np.ndarray, folds, in_twin: dict | None = None
+        self,
+        singles: list,
+        labels: dict[str, np.ndarray],
+        gap: np.ndarray,
+        folds,
+        in_twin: dict | None = None,
+        among: set[str] | None = None,
     ) -> FamilyCall:
         """The families ranked by the fit of their own corrections on withheld runs (gap.family),
         ties told apart by the gap's where-profile (module docstring). `gap`: the nominal twin's
         residual vector (Twin.run_sses_and_residual); `folds`: (training, withheld) run lists;
         `in_twin`: per family, corrections of the members the nominal twin already has (taking
-        them out, the opposite, the part at other values: gap.diagnose.in_twin_corrections)."""
+        them out, the opposite, the part at other values: gap.diagnose.in_twin_corrections);
+        `among`: the families the call may choose from (None: every one; the evidence lists all)."""
         twin = self.twin
         angle = twin.angle_mask()
         masks = [(twin.sample_mask(tr), twin.sample_mask(te)) for tr, te in folds]
@@ -225,11 +244,10 @@ class Judge:
             (self._evidence(f, best_of.get(f), fit, nominal, nominal_angle) for f, fit in fits.items()),
             key=lambda x: x.heldout_shrink,
         )
-        lead = evidence[0].family
+        pool = [x for x in evidence if among is None or x.family in among] or evidence
+        lead = pool[0].family
         tied = [
-            x
-            for x in evidence
-            if x.family == lead or mean_lower_bound(per_run[x.family] - per_run[lead], self.rng) <= 0.0
+            x for x in pool if x.family == lead or mean_lower_bound(per_run[x.family] - per_run[lead], self.rng) <= 0.0
         ]
         chosen = max(tied, key=lambda x: x.where_match)  # the first of the most where-like: stable order
         return FamilyCall(chosen.family, chosen.where_match, [x.family for x in tied if x is not chosen], evidence)

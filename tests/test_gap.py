@@ -756,6 +756,28 @@ def test_bench_under_a_variant_of_its_settings(tmp_path):
         check_variant(Variant("sine"))
 
 
+def test_an_ambiguous_verdict_names_the_nearest_of_its_candidates_families(tmp_path):
+    """The bench's valve opening 0.7 times as far per bar (its valve_gain form, the catalogue whole
+    but nothing of that law) on the paper's 60 deg moves, read by the encoder: a hose leak and a
+    valve dead zone explain it and the withheld runs do not tell them apart. The family call among
+    their two families names the valve, and the report and the one-line answer say so. Before it,
+    an ambiguous verdict named no family and the call read as the hose leak's, leakage."""
+    from gap.bench import Variant, cases, make_case_campaign
+    from gap.report import write
+    from gap.run import verdict_line
+
+    i = [c.name for c in cases()].index("valve_gain")
+    make_case_campaign(cases()[i], i, tmp_path / "c", synth.PRESSURES_MPA, None, Variant("paper_60", 0, 5000))
+    d = diagnose(load_campaign(tmp_path / "c"), progress=False)
+    w = d.which
+    assert w.verdict == "ambiguous" and w.rivals, (w.verdict, w.top.name, w.rivals)
+    assert w.nearest.family == "valve"
+    assert "valve" in {BY_NAME[e].family for n in [w.top.name, *w.rivals] for e in n.split("+")}
+    assert "nearest family: valve" in verdict_line(d)
+    write(d, tmp_path / "out")
+    assert "Of their families, nearest: **valve**" in (tmp_path / "out" / "report.md").read_text()
+
+
 def test_a_campaign_may_run_several_protocols_at_each_supply(tmp_path):
     """gap.synth.make_campaign with a list of protocols at a supply: each its own runs, lettered, each
     its own replay of the twin (16 distinct runs are benchmarks/bench_gap.py's costliest campaign)."""
