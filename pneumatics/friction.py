@@ -4,7 +4,9 @@ The paper's eq. 7 has -C_s S(x2) - C_f x2: Coulomb friction C_s with the sign fu
 viscous friction C_f. On the plant side MuJoCo applies the Coulomb part as the drive tendon's
 `frictionloss` (a constraint, so sticking is exact) and the viscous part as its `damping`, with
 the same numbers; the predictor integrates `coulomb_viscous_torque` below, whose stick rule
-(Karnopp, J. Dyn. Sys. 107(1), 1985) plays the role of the constraint.
+(Karnopp, J. Dyn. Sys. 107(1), 1985) plays the role of the constraint. A Stribeck excess (an
+effect, off by default) raises that dry-friction limit near zero speed, on both sides alike
+(`stribeck_excess`, pneumatics.joint.dry_friction_limit).
 """
 
 from __future__ import annotations
@@ -38,9 +40,8 @@ def stribeck_excess(speed_rad_s: float, breakaway_excess_nm: float, stribeck_spe
     1994). It belongs to the dry-friction limit, not to the drive: a joint at rest holds up to the
     static level F_s (Karnopp's rule, or MuJoCo's friction constraint, at zero speed), and a sliding
     joint feels F_c plus this excess. Until stop 23 it was a drive torque smoothed across zero by
-    tanh(w / 0.5 w_s): zero at rest, so no breakaway above F_c at all, and an explicit term so stiff
-    near zero speed that plant and replay of the same run parted by up to 8.7 deg (a 20 N·m excess
-    on back-and-forth moves at 0.5 MPa).
+    tanh(w / 0.5 w_s): zero at rest, so a joint whose drive lay between the two levels crept on
+    instead of holding (tests/test_joint_stops.py, tests/test_plant.py).
     """
     if breakaway_excess_nm == 0.0:
         return 0.0
