@@ -47,7 +47,7 @@ from pneumatics import load_joint_params
 from pneumatics.fields import FLAG, MISSING, REAL, TABLE, TEXT, Problem, choice, first_problem, number, read_toml
 from pneumatics.gas import AIR
 from pneumatics.params import SPEC
-from pneumatics.paths import NOT_REGULAR, is_special, path_problem
+from pneumatics.paths import input_problem, path_problem
 from twin.errors import UserError
 from twin.mcap_log import read_mcap
 
@@ -335,14 +335,13 @@ def load_campaign(folder: str | Path) -> Campaign:
 
 
 def read_run_file(path: Path, supply_mpa: float, start_rad: float, where: str = "", joint: str = "wrist_pitch") -> Run:
-    problem = path_problem(path)
+    problem = input_problem(path)
     if problem:
         raise GapError(f"{where}: run file {path} {problem}; allowed: a CSV or .mcap file")
     if path.is_dir():
         raise GapError(f"{where}: run file {path} is a folder; allowed: a CSV or .mcap file")
     if not path.is_file():
-        why = NOT_REGULAR if is_special(path) else "does not exist"
-        raise GapError(f"{where}: run file {path} {why}; allowed: a CSV or .mcap file")
+        raise GapError(f"{where}: run file {path} does not exist; allowed: a CSV or .mcap file")
     if path.suffix.lower() == ".mcap":
         return _read_mcap_run(path, supply_mpa, start_rad, joint)
     return _read_csv_run(path, supply_mpa, start_rad, joint)

@@ -21,7 +21,7 @@ from typing import Annotated, Any, Literal, NamedTuple, Union, get_args, get_ori
 from pydantic import BeforeValidator, ConfigDict, ValidationError
 from pydantic_core import PydanticCustomError
 
-from pneumatics.paths import NOT_REGULAR, is_special, path_problem
+from pneumatics.paths import input_problem
 
 MISSING = "<missing>"  # the value of a field the file does not give
 TABLE = ConfigDict(extra="forbid")  # every table refuses keys it does not know
@@ -186,11 +186,9 @@ def _allowed_of(field: Any) -> str:
 def read_toml(path: Path, error: type[Exception], what: str) -> tuple[dict, str]:
     """The TOML document at `path` and its text; `error` (one line naming the path) if it is
     missing, unreadable or not TOML."""
-    problem = path_problem(path)
+    problem = input_problem(path)
     if problem:
         raise error(f"{path}: {problem}; allowed: a {what} on disk")
-    if is_special(path):
-        raise error(f"{path}: {NOT_REGULAR}; allowed: a {what} on disk")
     try:
         text = path.read_text(encoding="utf-8-sig")  # a byte-order mark at the start allowed (an editor's)
     except FileNotFoundError:

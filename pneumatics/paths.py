@@ -42,3 +42,9 @@ def is_special(path: Path) -> bool:
     pipe read would block and /dev/zero never end; one replaced whole would lose the device."""
     path = Path(path)
     return path.exists() and not path.is_file() and not path.is_dir()
+
+
+def input_problem(path: Path) -> str | None:
+    """Why `path` cannot be read as an input file (`path_problem`, or something there that is not a
+    regular file: a pipe, a device, a socket), or None: it may still be missing or a folder."""
+    return path_problem(path) or (NOT_REGULAR if is_special(path) else None)
