@@ -435,7 +435,8 @@ def summarise(
         "form_differs_scoring": (
             "family level: the call (the diagnosis's nearest family if outside the catalogue or ambiguous, else "
             "the families of the top candidate's effects) is the withheld form's family "
-            "(Stribeck -> friction, valve lag -> valve timing; the forms built apart from the catalogue's laws: "
+            "(Stribeck -> friction, valve lag -> valve (the valves' dead times); the forms built apart from "
+            "the catalogue's laws: "
             "narrow or longer hose -> hose, brake fed by the supply -> brake, clogged exhaust or a valve opening "
             "less per bar -> valve, a lossy gear -> reducer or friction)"
         ),

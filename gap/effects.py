@@ -34,7 +34,7 @@ class Effect:
     high: float
     log: bool = False  # search grid spaced logarithmically (value 0 allowed as the low end)
     discrete_value: float | None = None  # a switch: added with this value, nothing to fit
-    family: str = ""
+    family: str = ""  # the part of the joint it is in (below)
     equation: str = ""
 
     def value_of(self, params: JointParams) -> float:
@@ -47,6 +47,15 @@ class Effect:
         return params._replace(**{self.field: float(value)}), rig
 
 
+# Families are the parts of the joint a user would inspect: the family call (gap.family) names one
+# where no catalogue form fits, so it must point at a part, not at a kind of signature. The valves
+# are one part, "valve": the direction valve (its solenoid's dead time) and the proportional valve
+# (its set point's dead time, its lag, its dead zone) sit together on the operator's platform, and
+# the conductance error scales both valves' areas, so the catalogue's laws do not split along them.
+# Until stop 24 the valves' timing was a family of its own, "valve timing": a proportional valve
+# opening 0.7 times as far per bar, explained by its lag 0.115 s against 0.1 s, was then called the
+# wrong family, though the part was right. Whether timing or opening is off is the effect's name.
+#
 # Bounds: physically plausible ranges for the wrist class (assets/joints/wrist_pitch.toml values
 # are the nominal: coulomb 15 N·m, viscous 3 N·m·s/rad, solenoid 15 ms, valve tau 0.1 s). The leak
 # area's grid is logarithmic: a worn vane's gap area spans orders of magnitude.
@@ -112,7 +121,7 @@ CATALOGUE: tuple[Effect, ...] = (
         "solenoid_delay_s",
         0.0,
         0.3,
-        family="valve timing",
+        family="valve",
         equation="direction valve switches after a delay (s)",
     ),
     Effect(
@@ -121,7 +130,7 @@ CATALOGUE: tuple[Effect, ...] = (
         "valve_set_dead_time_s",
         0.0,
         0.3,
-        family="valve timing",
+        family="valve",
         equation="the proportional valve's set point takes effect after a delay (s)",
     ),
     Effect(
@@ -131,7 +140,7 @@ CATALOGUE: tuple[Effect, ...] = (
         0.005,
         0.6,
         log=True,
-        family="valve timing",
+        family="valve",
         equation="proportional valve first-order lag tau (s)",
     ),
     Effect(

@@ -86,7 +86,7 @@ def _by_name(*names):
         (
             {"valve_time_constant_s": 0.2},
             ("valve_dead_time", "valve_set_dead_time", "supply_droop", "coulomb_friction", "conductance_error"),
-            "valve timing",
+            "valve",
             None,
         ),
         # Stribeck friction (20 N·m breakaway excess), the catalogue with Coulomb and viscous only.
