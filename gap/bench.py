@@ -44,6 +44,7 @@ class Case:
     twin_hose_loss: bool | None = None
     truth: dict = field(default_factory=dict)  # effect name -> true value for parameter recovery
     rig_spring_nm_per_rad: float = 0.0  # a hidden angle-dependent load (MuJoCo joint spring)
+    rig_load_nm: float = 0.0  # a hidden static load the same at every angle (MuJoCo applied joint force)
     declared_hose_length_m: float | None = None  # what campaign.toml says of the hose (None: the truth)
 
 
@@ -82,6 +83,12 @@ def cases() -> list[Case]:
         Case("ripple", "outside", {"ripple_fraction": 0.5}),
         *(Case(f"none_{k}", "none", {}) for k in range(8)),
         *other_form_cases(),
+        # since stop 24 (after the others: a case's index sets its setting), two static loads the
+        # catalogue's angle_load (a spring about the joint's zero) does not have, family load: 12 N·m
+        # the same at every angle (MuJoCo's applied joint force), and a spring of 10 N·m/rad resting
+        # at 1 rad, the joint's zero at 10 N·m (its stiffness and that force)
+        Case("static_load", "form", {}, ("angle_load",), rig_load_nm=12.0),
+        Case("offset_spring", "form", {}, ("angle_load",), rig_spring_nm_per_rad=10.0, rig_load_nm=-10.0),
     ]
 
 
@@ -327,6 +334,7 @@ def make_case_campaign(
         description=f"(hidden: {case.name}; {proto}; {inst.name})",
         chamber_pressures=with_p,
         rig_spring_nm_per_rad=case.rig_spring_nm_per_rad,
+        rig_load_nm=case.rig_load_nm,
         declared_hose_length_m=case.declared_hose_length_m,
     )
     return proto, inst, with_p

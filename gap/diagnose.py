@@ -46,7 +46,7 @@ import assets
 from control.arm_model import ArmModel
 from gap import instrument, verdict, where
 from gap.campaign import Campaign, GapError, Run
-from gap.effects import BY_NAME, CATALOGUE, IN_TWIN_VARIATIONS, Effect, Rig
+from gap.effects import BY_NAME, CATALOGUE, FAMILY_VARIATIONS, IN_TWIN_VARIATIONS, Effect, Rig
 from gap.instrument import Nuisance
 from gap.noise import RepeatNoise, repeat_noise
 from gap.protocols import worst_tolerance_deg, worst_tolerance_kpa
@@ -85,7 +85,7 @@ SIGNIFICANCE = 2.0  # a gap is significant above SIGNIFICANCE x floor, floor = s
 # (the plant's stop 0.034 deg off, through the ripple, 0.85 N·m less breakaway torque)
 SPREAD_START_DEG = 0.05
 N_PAIRS_CV = 3  # pairs given the full cross-validated fit after the in-sample screen
-# pairs are formed from the best PAIR_POOL singles (28 pairs, not the 136 of all 17): a pair's
+# pairs are formed from the best PAIR_POOL singles (28 pairs, not the 210 of all 21): a pair's
 # members each explain part of its gap, so each is expected to rank high alone; a pair of two
 # low-ranked singles is not searched. Counted: the full screen was ~70 % of the replays of a
 # diagnosis with the pair stage
@@ -212,7 +212,7 @@ class Twin:
             *rep.args,
             rep.run.start_rad + start_shift_rad,
             rep.inertia * rig.inertia_scale,
-            0.0,
+            rig.load_torque_nm,
             self.t_end[g] + DT_S,
             DT_S,
             rig.load_spring_nm_per_rad,
@@ -754,18 +754,26 @@ def in_twin_corrections(twin: Twin, catalogue) -> dict[str, list[np.ndarray]]:
     correction of switching it off, and its opposite (more of it, to first order), so that a family
     is in the family call even when none of its members is a candidate (a narrower hose); and the
     corrections of the part it switches at other values (gap.effects.IN_TWIN_VARIATIONS: the hose's
-    bore and length), more and less of it than the twin's, replayed."""
+    bore and length), more and less of it than the twin's, replayed. And for each family with a
+    member in `catalogue`, its parts varied for the family call only (gap.effects.FAMILY_VARIATIONS:
+    the load's static torque the same at every angle), one member per part."""
     out: dict[str, list[np.ndarray]] = {}
     every = list(range(len(twin.runs)))
+
+    def corrections(varied: list[tuple[Effect, float]]) -> list[np.ndarray]:
+        return [twin.gap_vector - twin.run_sses_and_residual([ev], every)[1] for ev in varied]
+
     for e in catalogue:
         if e.discrete_value is not None and e.value_of(twin.params) == e.discrete_value:
             c = twin.gap_vector - twin.run_sses_and_residual([(e, e.low)], every)[1]
             rows = [c, -c]
-            if e.name in IN_TWIN_VARIATIONS:  # one member: the part's values are not added to each other
-                for part, factors in IN_TWIN_VARIATIONS[e.name]:
-                    v = part.value_of(twin.params)
-                    rows += [twin.gap_vector - twin.run_sses_and_residual([(part, k * v)], every)[1] for k in factors]
+            for part, factors in IN_TWIN_VARIATIONS.get(e.name, ()):  # one member: not added to each other
+                rows += corrections([(part, k * part.value_of(twin.params)) for k in factors])
             out.setdefault(e.family, []).append(np.vstack(rows))
+    in_catalogue = {e.family for e in catalogue}
+    for family, parts in FAMILY_VARIATIONS.items():
+        for part, values in parts if family in in_catalogue else ():
+            out.setdefault(family, []).append(np.vstack(corrections([(part, v) for v in values])))
     return out
 
 

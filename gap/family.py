@@ -5,14 +5,16 @@ A family's effects move the twin in characteristic ways: the corrections (twin w
 value minus the nominal twin) that its members make at every value the single fits replayed
 (gap.diagnose.fit_single keeps them), and for a member the nominal twin already has (the hose loss)
 the correction of taking it out, its opposite, and the part at other values (its bore and length:
-gap.effects.IN_TWIN_VARIATIONS, replayed). A family's fit on withheld runs is its own
-physics, not an extrapolation: per fold, the member correction, or the sum of two members'
-corrections, that fits the training runs best (a form the catalogue lacks is often close to two of
-its family's effects at once: Stribeck friction to more Coulomb and less viscous friction), scored
-on the withheld runs. A linear mix of a family's principal shapes, fitted on three supplies and
-carried to the fourth, was tried first: it left more of the gap on the withheld runs than it found
-for nearly every family on the bench's forms (the mix's coefficients do not carry across supplies
-when the corrections are far from linear in their value), so the call rested on chance.
+gap.effects.IN_TWIN_VARIATIONS, replayed); a family may also have a part varied for the call only
+(the load's static torque the same at every angle: gap.effects.FAMILY_VARIATIONS, replayed). A
+family's fit on withheld runs is its own physics, not an extrapolation: per fold, the member
+correction, or the sum of two members' corrections, that fits the training runs best (a form the
+catalogue lacks is often close to two of its family's effects at once: Stribeck friction to more
+Coulomb and less viscous friction), scored on the withheld runs. A linear mix of a family's
+principal shapes, fitted on three supplies and carried to the fourth, was tried first: it left more
+of the gap on the withheld runs than it found for nearly every family on the bench's forms (the
+mix's coefficients do not carry across supplies when the corrections are far from linear in their
+value), so the call rested on chance.
 
 The shapes (at most MAX_SHAPES leading principal shapes of a family's corrections, each correction
 counted at unit size so that the largest values replayed do not set them) describe the family's

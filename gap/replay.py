@@ -113,9 +113,9 @@ def replay_run(
     samples (it is a continuous state), so the valve lag is not applied a second time; the dead
     zone still acts on it.
 
-    The load on the joint (a torque opposing the drive) is `load_torque_nm + load_spring_nm_per_rad
-    * theta` (a spring pulling back to 0, the static load that depends on the angle: gap.effects'
-    angle_load), taken at each step's start and held over it
+    The load on the joint (a torque toward negative angles) is `load_torque_nm +
+    load_spring_nm_per_rad * theta` (the static load the same at every angle, and a spring pulling
+    back to 0: gap.effects' static_load and angle_load), taken at each step's start and held over it
     (the one-joint model takes its load as a constant per step; over 1 ms the joint turns at most
     ~3 mrad, a 0.3 % change of the load at 1 rad).
 

@@ -11,7 +11,7 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from gap.diagnose import SPREAD_START_DEG
-from gap.effects import IN_TWIN_VARIATIONS, NOT_IN_CATALOGUE
+from gap.effects import FAMILY_VARIATIONS, IN_TWIN_VARIATIONS, NOT_IN_CATALOGUE
 from gap.instrument import InstrumentFacts
 from gap.result import CandidateSummary, Diagnosis, PressureFloor, to_json
 
@@ -251,7 +251,19 @@ def _families(diag: Diagnosis) -> list[str]:
             + f" {x.where_match:.2f} | {x.best} | {_or_dash(x.score_in_floors, 2)} | {_or_dash(x.shrink, 3)} |"
             for x in diag.which.families
         ),
+        *_family_variations({x.family for x in diag.which.families}),
     ]
+
+
+def _family_variations(families: set[str]) -> list[str]:
+    """The line naming the parts replayed for the family call only (gap.effects.FAMILY_VARIATIONS)."""
+    varied = [
+        f"{f}: {part.label} at {'/'.join(f'{v:g}' for v in values)} ({part.equation})"
+        for f, parts in FAMILY_VARIATIONS.items()
+        if f in families
+        for part, values in parts
+    ]
+    return ["", f"Also replayed for the families' fits, never candidates: {'; '.join(varied)}."] if varied else []
 
 
 def _per_channel(x) -> str:

@@ -105,13 +105,21 @@ def wrist_params() -> JointParams:
 
 
 def _plant_and_schedule(
-    reality: JointParams, supply_mpa: float, motion: Motion, start_rad: float, rig_spring_nm_per_rad: float = 0.0
+    reality: JointParams,
+    supply_mpa: float,
+    motion: Motion,
+    start_rad: float,
+    rig_spring_nm_per_rad: float = 0.0,
+    rig_load_nm: float = 0.0,
 ):
     plant = Plant(assets.WRIST_RIG_XML, joint_params={JOINT: reality})
     i = plant.joints.index(JOINT)
     # a hidden angle-dependent load: MuJoCo's own joint spring (passive force -k (q - qpos_spring),
     # qpos_spring = 0 from the model's reference pose), not the replay's law
     plant.model.jnt_stiffness[plant.model.joint(JOINT).id] = rig_spring_nm_per_rad
+    # and a hidden static load the same at every angle: MuJoCo's applied joint force, which mj_step
+    # keeps (the plant applies its drive as actuator forces), toward negative angles for a positive load
+    plant.data.qfrc_applied[plant.model.joint(JOINT).dofadr[0]] = -rig_load_nm
     plant.data.qpos[plant.model.joint(JOINT).qposadr[0]] = start_rad
     mujoco.mj_forward(plant.model, plant.data)
     plant.align_motors()
@@ -135,11 +143,12 @@ def simulate_run(
     start_rad: float = 0.0,
     log_period_s: float = SAMPLE_PERIOD_S,
     rig_spring_nm_per_rad: float = 0.0,
+    rig_load_nm: float = 0.0,
 ) -> dict[str, np.ndarray]:
     """Run the plant (twin.plant.Plant on the wrist rig) through `motion` (a Motion or a
     gap.protocols.Protocol); 1 ms command rows and the true angle and chamber pressures every
     `log_period_s` (NaN between samples)."""
-    plant, schedule, i = _plant_and_schedule(reality, supply_mpa, motion, start_rad, rig_spring_nm_per_rad)
+    plant, schedule, i = _plant_and_schedule(reality, supply_mpa, motion, start_rad, rig_spring_nm_per_rad, rig_load_nm)
     supply_pa = plant.supply_pa
     tel = run(plant, schedule, motion.total_s(), supply_pa_at=lambda t: supply_pa, log_period_s=log_period_s)
     arr = tel.arrays()
@@ -253,10 +262,12 @@ def make_campaign(
     description: str = "",
     chamber_pressures: bool = False,
     rig_spring_nm_per_rad: float = 0.0,
+    rig_load_nm: float = 0.0,
     declared_hose_length_m: float | None = None,
 ) -> Path:
     """Write campaign.toml and one CSV per run (pressure x motion x repeat) from the plant with `reality`
-    (and a hidden rig spring), every run through `motion` (a Motion or gap.protocols.Protocol, or
+    (and a hidden static load on the rig: a spring about the joint's zero, a torque the same at
+    every angle), every run through `motion` (a Motion or gap.protocols.Protocol, or
     a dict of them by supply MPa; a list of them at a supply: each its own runs, their files
     lettered a, b, ...), read by `instrument`; with `chamber_pressures` the runs also
     carry both motor ports' pressures, as a calibration rig with a transducer on each port would
@@ -282,7 +293,14 @@ def make_campaign(
         kinds = list(at) if isinstance(at, list | tuple) else [at]
         for m, kind in enumerate(kinds):
             # the plant is deterministic: repeats differ by what the instruments add
-            run = simulate_run(reality, mpa, kind, log_period_s=1e-3, rig_spring_nm_per_rad=rig_spring_nm_per_rad)
+            run = simulate_run(
+                reality,
+                mpa,
+                kind,
+                log_period_s=1e-3,
+                rig_spring_nm_per_rad=rig_spring_nm_per_rad,
+                rig_load_nm=rig_load_nm,
+            )
             tag = f"_{chr(ord('a') + m)}" if len(kinds) > 1 else ""
             for r in range(repeats):
                 name = f"run_{int(round(mpa * 100)):03d}{tag}_{r + 1}.csv"

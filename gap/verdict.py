@@ -216,7 +216,8 @@ class Judge:
         ties told apart by the gap's where-profile (module docstring). `gap`: the nominal twin's
         residual vector (Twin.run_sses_and_residual); `folds`: (training, withheld) run lists;
         `in_twin`: per family, corrections of the members the nominal twin already has (taking
-        them out, the opposite, the part at other values: gap.diagnose.in_twin_corrections);
+        them out, the opposite, the part at other values) and of parts varied for the call only
+        (gap.diagnose.in_twin_corrections);
         `among`: the families the call may choose from (None: every one; the evidence lists all)."""
         twin = self.twin
         angle = twin.angle_mask()

@@ -488,6 +488,36 @@ def test_every_pair_of_the_best_single_is_screened_whatever_their_corrections_ad
     assert len(chosen) == len(names) == len(pool) - 1 + PAIR_SCREEN
 
 
+def test_a_spring_resting_off_the_joints_zero_is_called_load(tmp_path):
+    """A spring of 10 N·m/rad resting at 1 rad (MuJoCo's joint stiffness and applied force: 10 N·m at
+    the joint's zero) hidden in the plant on back-and-forth runs, diagnosed with the whole
+    catalogue, whose angle_load springs rest at the joint's zero. No candidate explains it; the
+    family call names the load, whose corrections include a static load the same at every angle
+    (gap.effects.FAMILY_VARIATIONS, never a candidate), and the report says it was replayed.
+    Without that variation the call was the brake."""
+    from gap import protocols
+    from gap.report import write
+
+    folder = synth.make_campaign(
+        tmp_path / "offset_spring",
+        synth.wrist_params(),
+        seed=16,
+        pressures_mpa=(0.5, 0.6, 0.8),
+        motion={q: protocols.library(q)["back_and_forth"] for q in (0.5, 0.6, 0.8)},
+        rig_spring_nm_per_rad=10.0,
+        rig_load_nm=-10.0,
+    )
+    d = diagnose(load_campaign(folder), progress=False)
+    w = d.which
+    assert "static_load" not in [c.name for c in w.ranking]
+    assert w.verdict == "outside the catalogue" and w.nearest.family == "load", (w.verdict, w.nearest)
+    write(d, tmp_path / "out")
+    assert (
+        "load: angle-independent static load at -40/-20/-10/-5/5/10/20/40"
+        in (tmp_path / "out" / "report.md").read_text()
+    )
+
+
 def test_a_pair_that_acts_through_its_interaction_is_found(tmp_path):
     """A vane leak and more Coulomb friction, read by a camera on the paper's 60-degree moves: both
     take torque and near a stall take more together than apart, so their corrections, added, rank
