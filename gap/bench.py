@@ -446,7 +446,8 @@ def summarise(
             "(Stribeck -> friction, valve lag -> valve (the valves' dead times); the forms built apart from "
             "the catalogue's laws: "
             "narrow or longer hose -> hose, brake fed by the supply -> brake, clogged exhaust or a valve opening "
-            "less per bar -> valve, a lossy gear -> reducer or friction)"
+            "less per bar -> valve, a lossy gear -> reducer or friction, a static load the same at every angle "
+            "or a spring resting off the joint's zero -> load)"
         ),
         "false_alarm_by_instrument": {
             i.name: _rate_of([r["verdict"] != "no significant gap" for r in none if r["instrument"] == i.name])
