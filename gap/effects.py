@@ -308,15 +308,15 @@ IN_TWIN_VARIATIONS: dict[str, tuple[tuple[Effect, tuple[float, ...]], ...]] = {
     "hose_loss": ((HOSE_BORE, (0.7, 0.8, 0.9, 1.15)), (HOSE_LENGTH, (0.5, 1.5, 2.0, 3.0)))
 }
 # A part of a family varied for the family call only, at these values (not factors: the twin has
-# none of it), never a candidate. The static load the same at every angle (a hose or cable
-# bundle's pull, a counterbalance set off by a constant): with angle_load it makes the first two
-# terms of any static load about the joint's zero, so a spring resting elsewhere is close to a sum
-# of the two. A spring of 10 N·m/rad resting at 1 rad (or a 12 N·m load) was called load on 2 of
-# 9 campaigns without it, 6 with it (brake and valve otherwise). Not a candidate: on one-way moves (the paper's 60 deg)
-# a constant load against the motion is Coulomb friction, and with it a candidate a Coulomb
+# none of it), never a candidate. The static load the same at every angle (a hose or cable bundle's
+# pull, a counterbalance set off by a constant): with angle_load it makes the first two terms of any
+# static load about the joint's zero, so a spring resting elsewhere is close to a sum of the two. A
+# spring of 10 N·m/rad resting at 1 rad (or a 12 N·m load) was called load on 2 of 9 campaigns
+# without it, 6 with it (brake and valve otherwise). Not a candidate: on one-way moves (the paper's
+# 60 deg) a constant load against the motion is Coulomb friction, and with it a candidate a Coulomb
 # friction there was called ambiguous with the load on top (stop 24, top-1 19/24 on those moves).
-# Signed as angle_load's spring at positive angles: positive pulls toward negative angles; up to
-# 40 N·m either way, 58 % of the wrist's stall torque at 0.8 MPa (69 N·m)
+# Signed as angle_load's spring at positive angles: positive pulls toward negative angles; up to 40
+# N·m either way, 58 % of the wrist's stall torque at 0.8 MPa (69 N·m)
 STATIC_LOAD = Effect(
     "static_load",
     "angle-independent static load",
