@@ -765,7 +765,7 @@ def in_twin_corrections(twin: Twin, catalogue) -> dict[str, list[np.ndarray]]:
 
     for e in catalogue:
         if e.discrete_value is not None and e.value_of(twin.params) == e.discrete_value:
-            c = twin.gap_vector - twin.run_sses_and_residual([(e, e.low)], every)[1]
+            (c,) = corrections([(e, e.low)])
             rows = [c, -c]
             for part, factors in IN_TWIN_VARIATIONS.get(e.name, ()):  # one member: not added to each other
                 rows += corrections([(part, k * part.value_of(twin.params)) for k in factors])
