@@ -46,8 +46,9 @@ import assets
 from control.arm_model import ArmModel
 from gap import instrument, verdict, where
 from gap.campaign import Campaign, GapError, Run
-from gap.effects import BY_NAME, CATALOGUE, FAMILY_VARIATIONS, IN_TWIN_VARIATIONS, Effect, Rig
+from gap.effects import BY_NAME, CATALOGUE, Effect, Rig
 from gap.instrument import Nuisance
+from gap.members import at_family_latencies, family_members
 from gap.noise import RepeatNoise, repeat_noise
 from gap.protocols import worst_tolerance_deg, worst_tolerance_kpa
 from gap.replay import DT_S, replay_run
@@ -267,18 +268,23 @@ class Twin:
         squared angle residuals plus weighted squared pressure residuals."""
         return self.run_sses_and_residual(effects, ks)[0]
 
-    def run_sses_and_residual(self, effects, ks) -> tuple[np.ndarray, np.ndarray]:
-        """`run_sses`, and the residual of runs `ks` at the reference latency (`ref_latency_s`) as one
-        vector: angle (rad) then pressure (Pa) x sqrt(pressure_weight), so that its squared norm is
-        the objective (the family call and the pair screen work on these vectors, no replay)."""
+    def run_sses_and_residual(self, effects, ks, latency_s: float | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """`run_sses`, and the residual of runs `ks` at `latency_s` (None: the reference latency,
+        `ref_latency_s`) as one vector: angle (rad) then pressure (Pa) x sqrt(pressure_weight), so that
+        its squared norm is the objective (the family call and the pair screen work on these vectors,
+        no replay)."""
         out = np.empty((len(ks), len(self.latencies)))
         angles, pressures = [], []
-        i_ref = int(np.argmin(np.abs(self.latencies - self.ref_latency_s)))
+        i_ref = self.latency_index(self.ref_latency_s if latency_s is None else latency_s)
         for i, (_, ang, pres) in enumerate(self._residual_rows(self._each_run(effects, ks))):
             out[i] = np.sum(ang**2, axis=1) + self.pressure_weight * np.sum(pres**2)
             angles.append(ang[i_ref])
             pressures.append(pres)
         return out, residual_vector(angles, pressures, self.pressure_weight)
+
+    def latency_index(self, latency_s: float) -> int:
+        """The index of the grid's latency nearest `latency_s`."""
+        return int(np.argmin(np.abs(self.latencies - latency_s)))
 
     def fold_residuals(self, effects, train, test) -> tuple[float, dict[int, tuple[np.ndarray, np.ndarray]]]:
         """The latency that fits runs `train` best with `effects`, and the residuals of runs `test` at
@@ -340,10 +346,12 @@ class Candidate:
     )  # per run: withheld pressure residual (Pa; empty where not measured)
     fold_latencies: list[float] = field(default_factory=list)  # per fold, the instrument latency fitted with it (s)
     latency_s: float = 0.0  # fitted with the full values on all runs
-    # singles only: the values replayed and each one's residual vector over all runs
-    # (Twin.run_sses_and_residual), and the residual vector at the full value
+    # singles only: the values replayed, each one's residual vector over all runs
+    # (Twin.run_sses_and_residual) and its objective on all runs at every latency of the grid, and
+    # the residual vector at the full value
     grid_values: np.ndarray | None = None
     grid_residuals: np.ndarray | None = None
+    grid_sses: np.ndarray | None = None
     full_residual: np.ndarray | None = None
     spread: np.ndarray | None = None  # per run, the twin's own spread at the full values (Twin.spread; when asked)
 
@@ -380,6 +388,7 @@ def fit_single(twin: Twin, e: Effect, folds) -> Candidate:
         float(twin.latencies[int(np.argmin(full_sse.sum(axis=0)))]),
         grid_values=xs,
         grid_residuals=vecs,
+        grid_sses=sses.sum(axis=1),
         full_residual=full_vec,
     )
 
@@ -730,6 +739,7 @@ def diagnose(
         before_rms, before_kpa = rms_deg(before), rms_kpa(before_p)
         significant = fl.above(before_rms, before_kpa)
         fits = fit_candidates(twin, catalogue, fl, significant, run_jobs, progress)
+        corrections = at_family_latencies(twin, family_members(twin, fits.singles, catalogue), run_jobs)
 
     judge = verdict.Judge(twin, fl, before_rms, fl.score, rng, before_kpa)
     call = judge.call(significant, fits.singles, fits.pairs)
@@ -739,7 +749,7 @@ def diagnose(
         labels,
         twin.gap_vector,
         folds_of(campaign),
-        in_twin_corrections(twin, catalogue),
+        corrections,
         among=verdict.families_of([call.top.name, *call.rivals]) if call.verdict == "ambiguous" else None,
     )
     # the instrument as best understood: the latency fitted with the answer (with the nominal twin
@@ -747,34 +757,6 @@ def diagnose(
     # residual, its breakdown and how far are reported at it
     latency = call.top.latency_s if call.top is not None else nominal_latency
     return result_of(judge, fits, call, family, labels, latency, rng)
-
-
-def in_twin_corrections(twin: Twin, catalogue) -> dict[str, list[np.ndarray]]:
-    """Per family, for each catalogue switch the nominal twin already has on (the hose loss): the
-    correction of switching it off, and its opposite (more of it, to first order), so that a family
-    is in the family call even when none of its members is a candidate (a narrower hose); and the
-    corrections of the part it switches at other values (gap.effects.IN_TWIN_VARIATIONS: the hose's
-    bore and length), more and less of it than the twin's, replayed. And for each family with a
-    member in `catalogue`, its parts varied for the family call only (gap.effects.FAMILY_VARIATIONS:
-    the load's static torque the same at every angle), one member per part."""
-    out: dict[str, list[np.ndarray]] = {}
-    every = list(range(len(twin.runs)))
-
-    def corrections(varied: list[tuple[Effect, float]]) -> list[np.ndarray]:
-        return [twin.gap_vector - twin.run_sses_and_residual([ev], every)[1] for ev in varied]
-
-    for e in catalogue:
-        if e.discrete_value is not None and e.value_of(twin.params) == e.discrete_value:
-            (c,) = corrections([(e, e.low)])
-            rows = [c, -c]
-            for part, factors in IN_TWIN_VARIATIONS.get(e.name, ()):  # one member: not added to each other
-                rows += corrections([(part, k * part.value_of(twin.params)) for k in factors])
-            out.setdefault(e.family, []).append(np.vstack(rows))
-    in_catalogue = {e.family for e in catalogue}
-    for family, parts in FAMILY_VARIATIONS.items():
-        for part, values in parts if family in in_catalogue else ():
-            out.setdefault(family, []).append(np.vstack(corrections([(part, v) for v in values])))
-    return out
 
 
 def result_of(

@@ -275,8 +275,8 @@ CATALOGUE: tuple[Effect, ...] = (
         equation="torsional spring 1/k between motor and joint side (rad/N·m)",
     ),
 )
-# Parts the nominal twin already has, varied for the family call only (gap.diagnose.
-# in_twin_corrections), never candidates: the catalogue's switch for such a part (the hose loss,
+# Parts the nominal twin already has, varied for the family call only (gap.members.
+# in_twin_members), never candidates: the catalogue's switch for such a part (the hose loss,
 # on in the twin) gives its family only the correction of switching it off and its opposite, so a
 # hose that loses several times what the twin's does was called leakage (stop 20's bench: a 3 mm
 # bore for 4 mm). Keyed by the switch: while it is on, its family also gets the twin with the

@@ -108,6 +108,7 @@ class FamilyEvidence:
     shrink: float  # held-out rms / the nominal twin's
     where_match: float  # the part of the gap's where-profile its shapes explain (1 - gap.family.profile_misfit)
     heldout_shrink: float  # held-out rms of the gap after the family's own corrections / before (gap.family)
+    latency_s: float  # the instrument latency fitted with the family's corrections (gap.family.best_latency)
     # the same per channel where chamber pressures are measured (None where not): which channel the
     # family's corrections fit, the angle's or the pressures'
     heldout_shrink_angle: float | None = field(default=None, metadata=OMIT_NONE)
@@ -209,26 +210,20 @@ class Judge:
         labels: dict[str, np.ndarray],
         gap: np.ndarray,
         folds,
-        in_twin: dict | None = None,
+        corrections: family.Corrections,
         among: set[str] | None = None,
     ) -> FamilyCall:
         """The families ranked by the fit of their own corrections on withheld runs (gap.family),
         ties told apart by the gap's where-profile (module docstring). `gap`: the nominal twin's
-        residual vector (Twin.run_sses_and_residual); `folds`: (training, withheld) run lists;
-        `in_twin`: per family, corrections of the members the nominal twin already has (taking
-        them out, the opposite, the part at other values) and of parts varied for the call only
-        (gap.diagnose.in_twin_corrections);
+        residual vector (Twin.run_sses_and_residual), the held-out shrinks' denominator; `folds`:
+        (training, withheld) run lists; `corrections`: per family, its members' corrections of the gap
+        as read at the family's own latency (gap.members.at_family_latencies);
         `among`: the families the call may choose from (None: every one; the evidence lists all)."""
         twin = self.twin
         angle = twin.angle_mask()
         masks = [(twin.sample_mask(tr), twin.sample_mask(te)) for tr, te in folds]
-        members: dict[str, list[np.ndarray]] = {}
-        for c in singles:
-            members.setdefault(BY_NAME[c.name].family, []).append(gap[None, :] - c.grid_residuals)
-        for f, cs in (in_twin or {}).items():
-            members.setdefault(f, []).extend(cs)
         profile = where.profile_matrix(labels)
-        fits = family.family_fits(members, gap, masks, angle, profile)
+        fits = family.family_fits(corrections, gap, masks, angle, profile)
         if not fits:
             return FamilyCall(None, None, [], [])
         best_of: dict[str, object] = {}
@@ -242,7 +237,10 @@ class Judge:
         nominal = sum(float(np.sum(gap[te] ** 2)) for _, te in masks)
         nominal_angle = sum(float(np.sum(gap[te & angle] ** 2)) for _, te in masks)
         evidence = sorted(
-            (self._evidence(f, best_of.get(f), fit, nominal, nominal_angle) for f, fit in fits.items()),
+            (
+                self._evidence(f, best_of.get(f), fit, nominal, nominal_angle, corrections.latency_s[f])
+                for f, fit in fits.items()
+            ),
             key=lambda x: x.heldout_shrink,
         )
         pool = [x for x in evidence if among is None or x.family in among] or evidence
@@ -253,10 +251,10 @@ class Judge:
         chosen = max(tied, key=lambda x: x.where_match)  # the first of the most where-like: stable order
         return FamilyCall(chosen.family, chosen.where_match, [x.family for x in tied if x is not chosen], evidence)
 
-    def _evidence(self, f: str, best, fit, nominal: float, nominal_angle: float) -> FamilyEvidence:
+    def _evidence(self, f: str, best, fit, nominal: float, nominal_angle: float, latency_s: float) -> FamilyEvidence:
         """Family f's line of evidence: its best single member (None: only a member already in the
-        twin), the fit of its own corrections (gap.family.FamilyFit), in all and, where chamber
-        pressures are measured, per channel (`nominal`, `nominal_angle`: the gap's withheld SSE)."""
+        twin), the fit of its own corrections (gap.family.FamilyFit) at its latency, in all and, where
+        chamber pressures are measured, per channel (`nominal`, `nominal_angle`: the gap's withheld SSE)."""
         per_channel = {}
         if self.twin.has_pressure:
             per_channel = {
@@ -270,6 +268,7 @@ class Judge:
             rms_deg(best.heldout) / self.before_rms if best is not None and self.before_rms > 0 else math.nan,
             1.0 - fit.where_misfit,
             _shrink(fit.heldout_sse, nominal),
+            latency_s,
             **per_channel,
         )
 

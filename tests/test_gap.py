@@ -518,6 +518,29 @@ def test_a_spring_resting_off_the_joints_zero_is_called_load(tmp_path):
     )
 
 
+def test_each_family_reads_the_gap_at_its_own_instrument_latency(tmp_path):
+    """The same resting spring on staircases read by an encoder (no latency). The nominal twin, run
+    ahead by the spring's pull, fits the instrument's latency at 45-60 ms; read there, the load's
+    corrections left 0.37 of the gap on withheld runs and the valve's 0.30, and the call was the
+    valve. Each family fits the latency with its own corrections (gap.family.best_latency), as every
+    candidate does: the load's at 0 ms leave a tenth of the gap, and the call is the load."""
+    from gap import protocols
+
+    folder = synth.make_campaign(
+        tmp_path / "offset_spring_staircase",
+        synth.wrist_params(),
+        seed=16,
+        pressures_mpa=(0.5, 0.6, 0.8),
+        motion={q: protocols.library(q)["staircase"] for q in (0.5, 0.6, 0.8)},
+        rig_spring_nm_per_rad=10.0,
+        rig_load_nm=-10.0,
+    )
+    w = diagnose(load_campaign(folder), progress=False).which
+    assert w.verdict == "outside the catalogue" and w.nearest.family == "load", (w.verdict, w.nearest)
+    load = next(x for x in w.families if x.family == "load")
+    assert load.latency_s <= 0.005 and load.heldout_shrink < 0.2, load
+
+
 def test_a_pair_that_acts_through_its_interaction_is_found(tmp_path):
     """A vane leak and more Coulomb friction, read by a camera on the paper's 60-degree moves: both
     take torque and near a stall take more together than apart, so their corrections, added, rank
@@ -865,6 +888,21 @@ def test_a_family_does_at_least_what_its_best_member_does_alone():
     assert taken.heldout.tolist() == [0.5, 0.5, 0.5, 1.0] and (taken.shapes, taken.where_misfit) == (2, 0.2)
 
 
+def test_a_familys_latency_is_where_its_best_replayed_row_fits_best():
+    """gap.family.best_latency: the latency (index of the instrument's grid) at which the family's best
+    row, over all its members, fits all runs best; a mirrored member's opposite row comes last."""
+    from gap import family
+
+    a = family.Member([[], []], np.zeros((2, 3)), np.array([[5.0, 4.0, 6.0], [3.0, 2.5, 2.9]]))
+    b = family.Member([[]], np.ones((1, 3)), np.array([[4.0, 2.6, 2.4]]), mirrored=True)
+    assert family.best_latency([a]) == 1 and family.best_latency([a, b]) == 2
+    gap = np.array([1.0, 2.0, 3.0])
+    assert family.Member([[]], np.ones((1, 3)), np.zeros((1, 3)), mirrored=True).corrections(gap).tolist() == [
+        [0.0, 1.0, 2.0],
+        [-0.0, -1.0, -2.0],
+    ]
+
+
 def test_family_fit_explains_a_mix_of_its_members_and_not_another_familys():
     """gap.family: a gap that is two of one family's members at once (each at a value of its own,
     far from linear in it, with a little noise) is explained by that family's own corrections on
@@ -883,7 +921,9 @@ def test_family_fit_explains_a_mix_of_its_members_and_not_another_familys():
     folds = [(half, ~half), (~half, half)]
     angle = np.ones(t.size, bool)
     bins = np.array([np.abs(t - c) < 0.05 for c in np.linspace(0.05, 0.95, 10)], float)  # a where-profile
-    fits = family.family_fits({"own": [shift, ramp], "other": [other]}, gap, folds, angle, bins)
+    members = {"own": [shift, ramp], "other": [other]}
+    at = family.Corrections(members, {f: gap for f in members}, {f: 0.0 for f in members})
+    fits = family.family_fits(at, gap, folds, angle, bins)
     assert fits["own"].heldout_sse < 0.01 * fits["other"].heldout_sse
     assert fits["own"].heldout_sse < 0.01 * float(gap @ gap)
     assert fits["own"].where_misfit < 0.05 < 0.9 < fits["other"].where_misfit

@@ -1,0 +1,85 @@
+"""The family call's members, replayed (gap.family fits them, no replay there): each catalogue
+family's members with every value their single fits replayed, the parts the nominal twin already
+has varied (gap.effects.IN_TWIN_VARIATIONS) and the parts varied for the call only
+(gap.effects.FAMILY_VARIATIONS); then their corrections of the gap as read at each family's own
+instrument latency (gap.family.best_latency), the rows replayed again where it is not the nominal
+twin's.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from joblib import delayed
+
+from gap.effects import BY_NAME, FAMILY_VARIATIONS, IN_TWIN_VARIATIONS, Effect
+from gap.family import Corrections, Member, best_latency
+
+
+def family_members(twin, singles: list, catalogue) -> dict[str, list[Member]]:
+    """Per family, its members: each single candidate (gap.diagnose.Candidate) at every value its fit
+    replayed, then the family's members from the twin (`in_twin_members`)."""
+    out: dict[str, list[Member]] = {}
+    for c in singles:
+        e = BY_NAME[c.name]
+        rows = [[(e, float(v))] for v in c.grid_values]
+        out.setdefault(e.family, []).append(Member(rows, c.grid_residuals, c.grid_sses))
+    for f, ms in in_twin_members(twin, catalogue).items():
+        out.setdefault(f, []).extend(ms)
+    return out
+
+
+def in_twin_members(twin, catalogue) -> dict[str, list[Member]]:
+    """Per family, for each catalogue switch the nominal twin already has on (the hose loss): the
+    correction of switching it off, and its opposite (more of it, to first order), so that a family
+    is in the family call even when none of its members is a candidate (a narrower hose); and the
+    corrections of the part it switches at other values (gap.effects.IN_TWIN_VARIATIONS: the hose's
+    bore and length), more and less of it than the twin's, replayed: one member, not added to each
+    other. And for each family with a member in `catalogue`, its parts varied for the family call
+    only (gap.effects.FAMILY_VARIATIONS: the load's static torque the same at every angle), one
+    member per part."""
+    out: dict[str, list[Member]] = {}
+    every = list(range(len(twin.runs)))
+
+    def member(varied: list[tuple[Effect, float]], mirrored: bool = False) -> Member:
+        evals = [twin.run_sses_and_residual([ev], every) for ev in varied]
+        residuals = np.array([r for _, r in evals])
+        return Member([[ev] for ev in varied], residuals, np.array([s.sum(axis=0) for s, _ in evals]), mirrored)
+
+    for e in catalogue:
+        if e.discrete_value is not None and e.value_of(twin.params) == e.discrete_value:
+            varied = [(e, e.low)]
+            for part, factors in IN_TWIN_VARIATIONS.get(e.name, ()):
+                varied += [(part, k * part.value_of(twin.params)) for k in factors]
+            out.setdefault(e.family, []).append(member(varied, mirrored=True))
+    in_catalogue = {e.family for e in catalogue}
+    for family, parts in FAMILY_VARIATIONS.items():
+        for part, values in parts if family in in_catalogue else ():
+            out.setdefault(family, []).append(member([(part, v) for v in values]))
+    return out
+
+
+def at_family_latencies(twin, members: dict[str, list[Member]], run_jobs) -> Corrections:
+    """Per family, its members' corrections of the gap as read at the family's own latency
+    (gap.family.best_latency): the rows as replayed where it is the nominal twin's (the reference
+    latency), replayed again on `run_jobs` where not."""
+    every = list(range(len(twin.runs)))
+    i_ref = twin.latency_index(twin.ref_latency_s)
+    index = {f: best_latency(ms) for f, ms in members.items()}
+    again = [(f, m, effects) for f, ms in members.items() if index[f] != i_ref for m in ms for effects in m.effects]
+    replayed = iter(
+        run_jobs(
+            delayed(twin.run_sses_and_residual)(effects, every, float(twin.latencies[index[f]]))
+            for f, _, effects in again
+        )
+    )
+    gaps_at = {i_ref: twin.gap_vector}
+    out: dict[str, list[np.ndarray]] = {}
+    gaps: dict[str, np.ndarray] = {}
+    for f, ms in members.items():
+        i = index[f]
+        if i not in gaps_at:
+            gaps_at[i] = twin.run_sses_and_residual([], every, float(twin.latencies[i]))[1]
+        gaps[f] = gaps_at[i]
+        rows = [None if i == i_ref else np.array([next(replayed)[1] for _ in m.effects]) for m in ms]
+        out[f] = [m.corrections(gaps[f], r) for m, r in zip(ms, rows, strict=True)]
+    return Corrections(out, gaps, {f: float(twin.latencies[i]) for f, i in index.items()})
