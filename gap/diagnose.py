@@ -48,7 +48,7 @@ from gap import instrument, verdict, where
 from gap.campaign import Campaign, GapError, Run
 from gap.effects import BY_NAME, CATALOGUE, Effect, Rig
 from gap.instrument import Nuisance
-from gap.members import at_family_latencies, family_members
+from gap.members import at_fold_latencies, family_members
 from gap.noise import RepeatNoise, repeat_noise
 from gap.protocols import worst_tolerance_deg, worst_tolerance_kpa
 from gap.replay import DT_S, replay_run
@@ -268,19 +268,25 @@ class Twin:
         squared angle residuals plus weighted squared pressure residuals."""
         return self.run_sses_and_residual(effects, ks)[0]
 
-    def run_sses_and_residual(self, effects, ks, latency_s: float | None = None) -> tuple[np.ndarray, np.ndarray]:
-        """`run_sses`, and the residual of runs `ks` at `latency_s` (None: the reference latency,
-        `ref_latency_s`) as one vector: angle (rad) then pressure (Pa) x sqrt(pressure_weight), so that
-        its squared norm is the objective (the family call and the pair screen work on these vectors,
-        no replay)."""
+    def run_sses_and_residual(self, effects, ks) -> tuple[np.ndarray, np.ndarray]:
+        """`run_sses`, and the residual of runs `ks` at the reference latency (`ref_latency_s`) as one
+        vector: angle (rad) then pressure (Pa) x sqrt(pressure_weight), so that its squared norm is
+        the objective (the family call and the pair screen work on these vectors, no replay)."""
         out = np.empty((len(ks), len(self.latencies)))
         angles, pressures = [], []
-        i_ref = self.latency_index(self.ref_latency_s if latency_s is None else latency_s)
+        i_ref = self.latency_index(self.ref_latency_s)
         for i, (_, ang, pres) in enumerate(self._residual_rows(self._each_run(effects, ks))):
             out[i] = np.sum(ang**2, axis=1) + self.pressure_weight * np.sum(pres**2)
             angles.append(ang[i_ref])
             pressures.append(pres)
         return out, residual_vector(angles, pressures, self.pressure_weight)
+
+    def residual_vectors(self, effects, ks, indices) -> dict[int, np.ndarray]:
+        """The residual vector of runs `ks` (as `run_sses_and_residual`'s) at each latency of the grid
+        whose index is in `indices`, from one replay."""
+        rows = list(self._residual_rows(self._each_run(effects, ks)))
+        pressures = [pres for _, _, pres in rows]
+        return {i: residual_vector([ang[i] for _, ang, _ in rows], pressures, self.pressure_weight) for i in indices}
 
     def latency_index(self, latency_s: float) -> int:
         """The index of the grid's latency nearest `latency_s`."""
@@ -347,8 +353,8 @@ class Candidate:
     fold_latencies: list[float] = field(default_factory=list)  # per fold, the instrument latency fitted with it (s)
     latency_s: float = 0.0  # fitted with the full values on all runs
     # singles only: the values replayed, each one's residual vector over all runs
-    # (Twin.run_sses_and_residual) and its objective on all runs at every latency of the grid, and
-    # the residual vector at the full value
+    # (Twin.run_sses_and_residual) and its objective per run at every latency of the grid, and the
+    # residual vector at the full value
     grid_values: np.ndarray | None = None
     grid_residuals: np.ndarray | None = None
     grid_sses: np.ndarray | None = None
@@ -388,7 +394,7 @@ def fit_single(twin: Twin, e: Effect, folds) -> Candidate:
         float(twin.latencies[int(np.argmin(full_sse.sum(axis=0)))]),
         grid_values=xs,
         grid_residuals=vecs,
-        grid_sses=sses.sum(axis=1),
+        grid_sses=sses,
         full_residual=full_vec,
     )
 
@@ -739,7 +745,8 @@ def diagnose(
         before_rms, before_kpa = rms_deg(before), rms_kpa(before_p)
         significant = fl.above(before_rms, before_kpa)
         fits = fit_candidates(twin, catalogue, fl, significant, run_jobs, progress)
-        corrections = at_family_latencies(twin, family_members(twin, fits.singles, catalogue), run_jobs)
+        folds = folds_of(campaign)
+        corrections = at_fold_latencies(twin, family_members(twin, fits.singles, catalogue), folds, run_jobs)
 
     judge = verdict.Judge(twin, fl, before_rms, fl.score, rng, before_kpa)
     call = judge.call(significant, fits.singles, fits.pairs)
@@ -748,7 +755,7 @@ def diagnose(
         fits.singles,
         labels,
         twin.gap_vector,
-        folds_of(campaign),
+        folds,
         corrections,
         among=verdict.families_of([call.top.name, *call.rivals]) if call.verdict == "ambiguous" else None,
     )

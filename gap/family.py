@@ -11,7 +11,8 @@ family's fit on withheld runs is its own physics, not an extrapolation: per fold
 correction, or the sum of two members' corrections, that fits the training runs best (a form the
 catalogue lacks is often close to two of its family's effects at once: Stribeck friction to more
 Coulomb and less viscous friction), scored on the withheld runs. The gap and the corrections are
-read at the family's own instrument latency (`best_latency`), as each candidate fits its own. A linear mix of a family's
+read, per fold, at the instrument latency the family's best correction fits the training runs with
+(`fold_latencies`), as each candidate fits its own. A linear mix of a family's
 principal shapes, fitted on three supplies and carried to the fourth, was tried first: it left more
 of the gap on the withheld runs than it found for nearly every family on the bench's forms (the
 mix's coefficients do not carry across supplies when the corrections are far from linear in their
@@ -39,12 +40,12 @@ ENERGY = 0.999  # shapes kept until they carry this fraction of the corrections'
 class Member:
     """A member's replayed rows: per row the effects added to the nominal twin, the row's residual
     vector at the twin's reference latency (gap.diagnose.Twin.run_sses_and_residual) and its objective
-    on all runs at every latency of the instrument's grid. `mirrored`: the opposite of the first
-    row's correction is a row too (for a part the twin already has: more of it, to first order)."""
+    per run at every latency of the instrument's grid. `mirrored`: the opposite of the first row's
+    correction is a row too (for a part the twin already has: more of it, to first order)."""
 
     effects: list  # per row, [(Effect, value), ...]
     residuals: np.ndarray  # rows x samples
-    sses: np.ndarray  # rows x latencies
+    sses: np.ndarray  # rows x runs x latencies
     mirrored: bool = False
 
     def corrections(self, gap: np.ndarray, residuals: np.ndarray | None = None) -> np.ndarray:
@@ -54,25 +55,29 @@ class Member:
         return np.vstack([c, -c[:1]]) if self.mirrored else c
 
 
-def best_latency(members: list[Member]) -> int:
-    """The index of the instrument latency at which the family's best replayed row fits all runs best.
-    The latency is the instrument's nuisance, fitted with each hypothesis as every candidate fits its
-    own: read at the nominal twin's latency, which soaks up part of any gap that makes the twin run
-    ahead or behind, a family's corrections fit the gap as it looks at a latency the family would not
-    choose (measured: a spring resting at 1 rad on a staircase read by an encoder, no latency, was
-    read at the grid's end, 60 ms, and the load family's static torque left 0.36 of the gap there, 0.10
-    at its own latency, 0 ms)."""
-    return int(np.argmin(np.min(np.vstack([m.sses for m in members]), axis=0)))
+def fold_latencies(members: list[Member], trains: list[list[int]]) -> list[int]:
+    """Per fold (its training runs in `trains`), the index of the instrument latency at which the
+    family's best replayed row fits the training runs best. The latency is the instrument's nuisance,
+    fitted with each hypothesis on its training runs as every candidate fits its own: read at the
+    nominal twin's latency, which soaks up part of any gap that runs the twin ahead or behind, a
+    family's corrections fit the gap as it looks at a latency the family would not choose (measured:
+    a spring resting at 1 rad on staircases read by an encoder, no latency, was read at 45-60 ms,
+    and the load family's corrections left 0.37 of the gap on withheld runs there, 0.09 at its own
+    latency, 0 ms)."""
+    s = np.concatenate([m.sses for m in members])
+    return [int(np.argmin(s[:, tr, :].sum(axis=1).min(axis=0))) for tr in trains]
 
 
 @dataclass(frozen=True)
 class Corrections:
     """Per family: its members' corrections (values x samples each) of the gap as read at the
-    family's latency (`best_latency`), that gap, and that latency (s)."""
+    nominal twin's latency (`reference`, the where-profile's), per fold the same at the latency the
+    fold's training runs choose with the family (`fold_latencies`) with the gap read there
+    (`per_fold`), and those latencies (s)."""
 
-    members: dict[str, list[np.ndarray]]
-    gaps: dict[str, np.ndarray]
-    latency_s: dict[str, float]
+    reference: dict[str, list[np.ndarray]]
+    per_fold: dict[str, list[tuple[list[np.ndarray], np.ndarray]]]
+    latency_s: dict[str, list[float]]
 
 
 @dataclass(frozen=True)
@@ -122,38 +127,42 @@ def _superposed_sse(a: np.ndarray, b: np.ndarray | None, g: np.ndarray) -> np.nd
     return sa[:, None] + (np.sum(b**2, axis=1) - 2.0 * (b @ g))[None, :] + 2.0 * a @ b.T
 
 
-def member_fit(members: list[np.ndarray], gap: np.ndarray, folds: list[tuple[np.ndarray, np.ndarray]]) -> np.ndarray:
+def member_fit(
+    per_fold: list[tuple[list[np.ndarray], np.ndarray]], gap: np.ndarray, folds: list[tuple[np.ndarray, np.ndarray]]
+) -> np.ndarray:
     """The gap left on each fold's withheld samples after the family's best correction on its
     training samples: one member's correction at one of its values, or two members' added
-    (`members`: per member, its corrections, values x samples); the gap where never withheld."""
+    (`per_fold`: per fold, per member its corrections, values x samples, and the gap they correct,
+    both read at the fold's latency); `gap` where never withheld."""
     left = gap.copy()
-    combos = [(a, b) for i, a in enumerate(members) for b in [None, *members[i + 1 :]]]
-    for tr, te in folds:
-        best, correction = math.inf, np.zeros_like(gap)
-        for a, b in combos:
-            s = _superposed_sse(a[:, tr], None if b is None else b[:, tr], gap[tr])
-            i, j = np.unravel_index(int(np.argmin(s)), s.shape)
-            if s[i, j] < best:
-                best, correction = float(s[i, j]), a[i] + (0.0 if b is None else b[j])
-        left[te] = gap[te] - correction[te]
+    for (members, g), (tr, te) in zip(per_fold, folds, strict=True):
+        best, correction = math.inf, np.zeros_like(g)
+        for i, a in enumerate(members):
+            for b in [None, *members[i + 1 :]]:
+                s = _superposed_sse(a[:, tr], None if b is None else b[:, tr], g[tr])
+                j, k = np.unravel_index(int(np.argmin(s)), s.shape)
+                if s[j, k] < best:
+                    best, correction = float(s[j, k]), a[j] + (0.0 if b is None else b[k])
+        left[te] = g[te] - correction[te]
     return left
 
 
 def fit(
-    members: list[np.ndarray],
+    reference: list[np.ndarray],
+    per_fold: list[tuple[list[np.ndarray], np.ndarray]],
     gap: np.ndarray,
     folds: list[tuple[np.ndarray, np.ndarray]],
     angle: np.ndarray,
     profile,
-    profiled: np.ndarray | None = None,
 ) -> FamilyFit:
-    """`gap` (a residual vector) fitted by the family's own corrections on each fold's training
-    samples (bool masks), scored on its withheld samples (`member_fit`); the where-profile misfit of
-    its shapes over the angle samples (`angle`, a bool mask; `profile` their matrix) to the gap
-    `profiled` (None: `gap`)."""
-    basis = shapes(np.vstack(members)) if members else np.zeros((0, gap.size))
-    where_misfit = profile_misfit(basis[:, angle], (gap if profiled is None else profiled)[angle], profile)
-    left = member_fit(members, gap, folds) if members else gap.copy()
+    """`gap` (the nominal twin's residual vector) fitted by the family's own corrections on each
+    fold's training samples (bool masks) at the fold's latency (`per_fold`), scored on its withheld
+    samples (`member_fit`); the where-profile misfit over the angle samples (`angle`, a bool mask;
+    `profile` their matrix) of the shapes of its corrections at the nominal twin's latency
+    (`reference`), to `gap`: one target for every family."""
+    basis = shapes(np.vstack(reference)) if reference else np.zeros((0, gap.size))
+    where_misfit = profile_misfit(basis[:, angle], gap[angle], profile)
+    left = member_fit(per_fold, gap, folds) if reference else gap.copy()
     sse = float(sum(np.sum(left[te] ** 2) for _, te in folds))
     sse_angle = float(sum(np.sum(left[te & angle] ** 2) for _, te in folds))
     return FamilyFit(left, sse, sse_angle, len(basis), where_misfit)
@@ -181,8 +190,5 @@ def family_fits(
     angle: np.ndarray,
     profile: np.ndarray,
 ) -> dict[str, FamilyFit]:
-    """Per family, its fit (`fit`) of the gap as read at its latency; the where-profile misfit of all
-    to one gap, `gap` (the nominal twin's): the tie-break compares them on one target (measured: read
-    at each family's latency, a valve opening 0.7 times as far per bar on the paper's moves, the
-    valve and the leakage tied, was called leakage by 0.96 against 0.95)."""
-    return {f: fit(m, corrections.gaps[f], folds, angle, profile, gap) for f, m in corrections.members.items()}
+    """Per family, its fit (`fit`) of `gap`, the nominal twin's residual vector."""
+    return {f: fit(m, corrections.per_fold[f], gap, folds, angle, profile) for f, m in corrections.reference.items()}

@@ -1,9 +1,9 @@
 """The family call's members, replayed (gap.family fits them, no replay there): each catalogue
 family's members with every value their single fits replayed, the parts the nominal twin already
 has varied (gap.effects.IN_TWIN_VARIATIONS) and the parts varied for the call only
-(gap.effects.FAMILY_VARIATIONS); then their corrections of the gap as read at each family's own
-instrument latency (gap.family.best_latency), the rows replayed again where it is not the nominal
-twin's.
+(gap.effects.FAMILY_VARIATIONS); then their corrections of the gap as read at the nominal twin's
+latency and, per fold, at the latency the family's best row fits the fold's training runs with
+(gap.family.fold_latencies), the rows replayed again where that is not the nominal twin's.
 """
 
 from __future__ import annotations
@@ -12,7 +12,7 @@ import numpy as np
 from joblib import delayed
 
 from gap.effects import BY_NAME, FAMILY_VARIATIONS, IN_TWIN_VARIATIONS, Effect
-from gap.family import Corrections, Member, best_latency
+from gap.family import Corrections, Member, fold_latencies
 
 
 def family_members(twin, singles: list, catalogue) -> dict[str, list[Member]]:
@@ -43,7 +43,7 @@ def in_twin_members(twin, catalogue) -> dict[str, list[Member]]:
     def member(varied: list[tuple[Effect, float]], mirrored: bool = False) -> Member:
         evals = [twin.run_sses_and_residual([ev], every) for ev in varied]
         residuals = np.array([r for _, r in evals])
-        return Member([[ev] for ev in varied], residuals, np.array([s.sum(axis=0) for s, _ in evals]), mirrored)
+        return Member([[ev] for ev in varied], residuals, np.array([s for s, _ in evals]), mirrored)
 
     for e in catalogue:
         if e.discrete_value is not None and e.value_of(twin.params) == e.discrete_value:
@@ -58,28 +58,27 @@ def in_twin_members(twin, catalogue) -> dict[str, list[Member]]:
     return out
 
 
-def at_family_latencies(twin, members: dict[str, list[Member]], run_jobs) -> Corrections:
-    """Per family, its members' corrections of the gap as read at the family's own latency
-    (gap.family.best_latency): the rows as replayed where it is the nominal twin's (the reference
-    latency), replayed again on `run_jobs` where not."""
+def at_fold_latencies(twin, members: dict[str, list[Member]], folds, run_jobs) -> Corrections:
+    """Per family, its members' corrections of the gap at the nominal twin's latency (the reference)
+    and, per fold of `folds` ((training, withheld) run lists), at the latency its best row fits the
+    training runs with (gap.family.fold_latencies): the rows as replayed where that is the
+    reference, replayed again on `run_jobs` where not (one replay gives every latency)."""
     every = list(range(len(twin.runs)))
     i_ref = twin.latency_index(twin.ref_latency_s)
-    index = {f: best_latency(ms) for f, ms in members.items()}
-    again = [(f, m, effects) for f, ms in members.items() if index[f] != i_ref for m in ms for effects in m.effects]
-    replayed = iter(
-        run_jobs(
-            delayed(twin.run_sses_and_residual)(effects, every, float(twin.latencies[index[f]]))
-            for f, _, effects in again
-        )
-    )
-    gaps_at = {i_ref: twin.gap_vector}
-    out: dict[str, list[np.ndarray]] = {}
-    gaps: dict[str, np.ndarray] = {}
+    index = {f: fold_latencies(ms, [list(tr) for tr, _ in folds]) for f, ms in members.items()}
+    others = {f: sorted(set(ix) - {i_ref}) for f, ix in index.items()}
+    again = [(m, effects, others[f]) for f, ms in members.items() if others[f] for m in ms for effects in m.effects]
+    replayed = iter(run_jobs(delayed(twin.residual_vectors)(effects, every, ix) for _, effects, ix in again))
+    gaps = twin.residual_vectors([], every, sorted(set().union(*others.values())))
+    gaps[i_ref] = twin.gap_vector
+    reference: dict[str, list[np.ndarray]] = {}
+    per_fold: dict[str, list[tuple[list[np.ndarray], np.ndarray]]] = {}
     for f, ms in members.items():
-        i = index[f]
-        if i not in gaps_at:
-            gaps_at[i] = twin.run_sses_and_residual([], every, float(twin.latencies[i]))[1]
-        gaps[f] = gaps_at[i]
-        rows = [None if i == i_ref else np.array([next(replayed)[1] for _ in m.effects]) for m in ms]
-        out[f] = [m.corrections(gaps[f], r) for m, r in zip(ms, rows, strict=True)]
-    return Corrections(out, gaps, {f: float(twin.latencies[i]) for f, i in index.items()})
+        at = [{i_ref: m.residuals} for m in ms]  # per member, its rows' residuals by latency index
+        for m, rows_at in zip(ms, at, strict=True) if others[f] else ():
+            rows = [next(replayed) for _ in m.effects]
+            rows_at.update({i: np.array([r[i] for r in rows]) for i in others[f]})
+        reference[f] = [m.corrections(twin.gap_vector) for m in ms]
+        per_fold[f] = [([m.corrections(gaps[i], a[i]) for m, a in zip(ms, at, strict=True)], gaps[i]) for i in index[f]]
+    latency_s = {f: [float(twin.latencies[i]) for i in ix] for f, ix in index.items()}
+    return Corrections(reference, per_fold, latency_s)

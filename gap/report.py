@@ -237,18 +237,18 @@ def _families(diag: Diagnosis) -> list[str]:
     # with chamber pressures, the held-out shrink per channel too: which one the family's corrections fit
     channels = diag.pressure.measured
     columns = ["family", "held-out shrink", *(["angle", "pressures"] if channels else [])]
-    columns += ["where match", "latency (ms)", "best member", "misfit in floors", "shrink"]
+    columns += ["where match", "latency per fold (ms)", "best member", "misfit in floors", "shrink"]
     return [
         "## Families (the fit of each family's own corrections on withheld runs"
         + (", in all and per channel" if channels else "")
-        + "; its where-pattern match; the instrument latency fitted with them; its best member)",
+        + "; its where-pattern match; the instrument latency fitted with them per fold; its best member)",
         "",
         "| " + " | ".join(columns) + " |",
         "|---" * len(columns) + "|",
         *(
             f"| {x.family} | {x.heldout_shrink:.3f} |"
             + (_per_channel(x) if channels else "")
-            + f" {x.where_match:.2f} | {1e3 * x.latency_s:.0f} | {x.best} |"
+            + f" {x.where_match:.2f} | {'/'.join(f'{1e3 * v:.0f}' for v in x.latency_s)} | {x.best} |"
             + f" {_or_dash(x.score_in_floors, 2)} | {_or_dash(x.shrink, 3)} |"
             for x in diag.which.families
         ),

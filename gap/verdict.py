@@ -108,7 +108,7 @@ class FamilyEvidence:
     shrink: float  # held-out rms / the nominal twin's
     where_match: float  # the part of the gap's where-profile its shapes explain (1 - gap.family.profile_misfit)
     heldout_shrink: float  # held-out rms of the gap after the family's own corrections / before (gap.family)
-    latency_s: float  # the instrument latency fitted with the family's corrections (gap.family.best_latency)
+    latency_s: list[float]  # per fold, the instrument latency fitted with its corrections (gap.family.fold_latencies)
     # the same per channel where chamber pressures are measured (None where not): which channel the
     # family's corrections fit, the angle's or the pressures'
     heldout_shrink_angle: float | None = field(default=None, metadata=OMIT_NONE)
@@ -217,7 +217,7 @@ class Judge:
         ties told apart by the gap's where-profile (module docstring). `gap`: the nominal twin's
         residual vector (Twin.run_sses_and_residual), the held-out shrinks' denominator; `folds`:
         (training, withheld) run lists; `corrections`: per family, its members' corrections of the gap
-        as read at the family's own latency (gap.members.at_family_latencies);
+        at the nominal twin's latency and at each fold's own (gap.members.at_fold_latencies);
         `among`: the families the call may choose from (None: every one; the evidence lists all)."""
         twin = self.twin
         angle = twin.angle_mask()
@@ -251,9 +251,11 @@ class Judge:
         chosen = max(tied, key=lambda x: x.where_match)  # the first of the most where-like: stable order
         return FamilyCall(chosen.family, chosen.where_match, [x.family for x in tied if x is not chosen], evidence)
 
-    def _evidence(self, f: str, best, fit, nominal: float, nominal_angle: float, latency_s: float) -> FamilyEvidence:
+    def _evidence(
+        self, f: str, best, fit, nominal: float, nominal_angle: float, latency_s: list[float]
+    ) -> FamilyEvidence:
         """Family f's line of evidence: its best single member (None: only a member already in the
-        twin), the fit of its own corrections (gap.family.FamilyFit) at its latency, in all and, where
+        twin), the fit of its own corrections (gap.family.FamilyFit) at its folds' latencies, in all and, where
         chamber pressures are measured, per channel (`nominal`, `nominal_angle`: the gap's withheld SSE)."""
         per_channel = {}
         if self.twin.has_pressure:
