@@ -8,14 +8,19 @@ latency and, per fold, at the latency the family's best row fits the fold's trai
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 from joblib import delayed
 
 from gap.effects import BY_NAME, FAMILY_VARIATIONS, IN_TWIN_VARIATIONS, Effect
 from gap.family import Corrections, Member, fold_latencies
 
+if TYPE_CHECKING:  # gap.diagnose imports this module
+    from gap.diagnose import Twin
 
-def family_members(twin, singles: list, catalogue) -> dict[str, list[Member]]:
+
+def family_members(twin: Twin, singles: list, catalogue) -> dict[str, list[Member]]:
     """Per family, its members: each single candidate (gap.diagnose.Candidate) at every value its fit
     replayed, then the family's members from the twin (`in_twin_members`)."""
     out: dict[str, list[Member]] = {}
@@ -28,7 +33,7 @@ def family_members(twin, singles: list, catalogue) -> dict[str, list[Member]]:
     return out
 
 
-def in_twin_members(twin, catalogue) -> dict[str, list[Member]]:
+def in_twin_members(twin: Twin, catalogue) -> dict[str, list[Member]]:
     """Per family, for each catalogue switch the nominal twin already has on (the hose loss): the
     correction of switching it off, and its opposite (more of it, to first order), so that a family
     is in the family call even when none of its members is a candidate (a narrower hose); and the
@@ -58,7 +63,7 @@ def in_twin_members(twin, catalogue) -> dict[str, list[Member]]:
     return out
 
 
-def at_fold_latencies(twin, members: dict[str, list[Member]], folds, run_jobs) -> Corrections:
+def at_fold_latencies(twin: Twin, members: dict[str, list[Member]], folds, run_jobs) -> Corrections:
     """Per family, its members' corrections of the gap at the nominal twin's latency (the reference)
     and, per fold of `folds` ((training, withheld) run lists), at the latency its best row fits the
     training runs with (gap.family.fold_latencies): the rows as replayed where that is the
@@ -67,10 +72,10 @@ def at_fold_latencies(twin, members: dict[str, list[Member]], folds, run_jobs) -
     i_ref = twin.latency_index(twin.ref_latency_s)
     index = {f: fold_latencies(ms, [list(tr) for tr, _ in folds]) for f, ms in members.items()}
     others = {f: sorted(set(ix) - {i_ref}) for f, ix in index.items()}
-    again = [(m, effects, others[f]) for f, ms in members.items() if others[f] for m in ms for effects in m.effects]
-    replayed = iter(run_jobs(delayed(twin.residual_vectors)(effects, every, ix) for _, effects, ix in again))
-    gaps = twin.residual_vectors([], every, sorted(set().union(*others.values())))
-    gaps[i_ref] = twin.gap_vector
+    again = [(effects, others[f]) for f, ms in members.items() for m in ms for effects in m.effects if others[f]]
+    replayed = iter(run_jobs(delayed(twin.residual_vectors)(effects, every, ix) for effects, ix in again))
+    needed = sorted(set().union(*others.values()))
+    gaps = {i_ref: twin.gap_vector, **(twin.residual_vectors([], every, needed) if needed else {})}
     reference: dict[str, list[np.ndarray]] = {}
     per_fold: dict[str, list[tuple[list[np.ndarray], np.ndarray]]] = {}
     for f, ms in members.items():
@@ -78,7 +83,11 @@ def at_fold_latencies(twin, members: dict[str, list[Member]], folds, run_jobs) -
         for m, rows_at in zip(ms, at, strict=True) if others[f] else ():
             rows = [next(replayed) for _ in m.effects]
             rows_at.update({i: np.array([r[i] for r in rows]) for i in others[f]})
-        reference[f] = [m.corrections(twin.gap_vector) for m in ms]
-        per_fold[f] = [([m.corrections(gaps[i], a[i]) for m, a in zip(ms, at, strict=True)], gaps[i]) for i in index[f]]
+        # one set of corrections per latency, shared by the folds that chose it
+        by_latency = {
+            i: [m.corrections(gaps[i], a[i]) for m, a in zip(ms, at, strict=True)] for i in {i_ref, *index[f]}
+        }
+        reference[f] = by_latency[i_ref]
+        per_fold[f] = [(by_latency[i], gaps[i]) for i in index[f]]
     latency_s = {f: [float(twin.latencies[i]) for i in ix] for f, ix in index.items()}
     return Corrections(reference, per_fold, latency_s)
