@@ -349,10 +349,12 @@ def test_a_failing_mcap_writer_is_a_log_error(tmp_path):
 
 @pytest.mark.skipif(not Path("/dev/full").exists(), reason="needs /dev/full (a device that is always full)")
 def test_a_full_disk_under_the_mcap_ends_the_run_in_one_line_and_keeps_the_rrd(tmp_path, capsys):
-    """`--mcap /dev/full`: the writer fails when its file first reaches the disk (ENOSPC, 3.5 s into
-    the cleaning run). The run stops there with one line naming the file and the cause, exit 2,
-    and the .rrd keeps what was logged until then. The run's last flush (in a `finally`) wrote to
-    the failed MCAP again and ended in a ValueError traceback."""
+    """`--mcap /dev/full`: the writer fails when its file first reaches the disk (ENOSPC). The run
+    stops at its next batch to the writer with one line naming the file and the cause, exit 2, and
+    the .rrd keeps what was logged until then. The run's last flush (in a `finally`) wrote to the
+    failed MCAP again and ended in a ValueError traceback. How far the run gets first depends on
+    how far the writer process got (it runs beside the run): 3.5 s of the cleaning run on an idle
+    machine, 2.5 s with two diagnoses on both cores (stop 25)."""
     rrd = tmp_path / "run.rrd"
     scenario = Path(__file__).parent.parent / "scenarios" / "insulator_cleaning.toml"
     code = twin_main(["run", str(scenario), "--mcap", "/dev/full", "--rrd", str(rrd), "--duration", "10"])
@@ -363,7 +365,7 @@ def test_a_full_disk_under_the_mcap_ends_the_run_in_one_line_and_keeps_the_rrd(t
     _, series, _ = rrd_entities(rrd)
     logged_until = max(float(v[-1, 0]) for v in series.values())
     print(f"\n.rrd logged until {logged_until} s; {err.strip()}")
-    assert logged_until >= 3.0  # the samples up to the failing flush
+    assert 0.5 <= logged_until < 10.0  # at least the first batch (every 0.5 s), and the run stopped early
 
 
 def test_telemetry_blocks_give_back_what_was_appended():
