@@ -488,6 +488,23 @@ def test_every_pair_of_the_best_single_is_screened_whatever_their_corrections_ad
     assert len(chosen) == len(names) == len(pool) - 1 + PAIR_SCREEN
 
 
+def _resting_spring_campaign(folder, protocol: str):
+    """A spring of 10 N·m/rad resting at 1 rad hidden in the plant (MuJoCo's joint stiffness and
+    applied force: 10 N·m at the joint's zero), `protocol` of gap.protocols at 0.5/0.6/0.8 MPa, read
+    by the encoder."""
+    from gap import protocols
+
+    return synth.make_campaign(
+        folder,
+        synth.wrist_params(),
+        seed=16,
+        pressures_mpa=(0.5, 0.6, 0.8),
+        motion={q: protocols.library(q)[protocol] for q in (0.5, 0.6, 0.8)},
+        rig_spring_nm_per_rad=10.0,
+        rig_load_nm=-10.0,
+    )
+
+
 def test_a_spring_resting_off_the_joints_zero_is_called_load(tmp_path):
     """A spring of 10 N·m/rad resting at 1 rad (MuJoCo's joint stiffness and applied force: 10 N·m at
     the joint's zero) hidden in the plant on back-and-forth runs, diagnosed with the whole
@@ -495,19 +512,9 @@ def test_a_spring_resting_off_the_joints_zero_is_called_load(tmp_path):
     family call names the load, whose corrections include a static load the same at every angle
     (gap.effects.FAMILY_VARIATIONS, never a candidate), and the report says it was replayed.
     Without that variation the call was the brake."""
-    from gap import protocols
     from gap.report import write
 
-    folder = synth.make_campaign(
-        tmp_path / "offset_spring",
-        synth.wrist_params(),
-        seed=16,
-        pressures_mpa=(0.5, 0.6, 0.8),
-        motion={q: protocols.library(q)["back_and_forth"] for q in (0.5, 0.6, 0.8)},
-        rig_spring_nm_per_rad=10.0,
-        rig_load_nm=-10.0,
-    )
-    d = diagnose(load_campaign(folder), progress=False)
+    d = diagnose(load_campaign(_resting_spring_campaign(tmp_path / "offset_spring", "back_and_forth")), progress=False)
     w = d.which
     assert "static_load" not in [c.name for c in w.ranking]
     assert w.verdict == "outside the catalogue" and w.nearest.family == "load", (w.verdict, w.nearest)
@@ -525,17 +532,7 @@ def test_each_family_reads_the_gap_at_its_own_instrument_latency(tmp_path):
     valve. Each family fits the latency with its own corrections on each fold's training runs
     (gap.family.fold_latencies), as every candidate does: the load's at 0 ms leave a tenth of the
     gap, and the call is the load."""
-    from gap import protocols
-
-    folder = synth.make_campaign(
-        tmp_path / "offset_spring_staircase",
-        synth.wrist_params(),
-        seed=16,
-        pressures_mpa=(0.5, 0.6, 0.8),
-        motion={q: protocols.library(q)["staircase"] for q in (0.5, 0.6, 0.8)},
-        rig_spring_nm_per_rad=10.0,
-        rig_load_nm=-10.0,
-    )
+    folder = _resting_spring_campaign(tmp_path / "offset_spring_staircase", "staircase")
     w = diagnose(load_campaign(folder), progress=False).which
     assert w.verdict == "outside the catalogue" and w.nearest.family == "load", (w.verdict, w.nearest)
     load = next(x for x in w.families if x.family == "load")
