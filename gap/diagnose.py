@@ -22,7 +22,8 @@ Steps (each a plain function of the campaign):
    follows the valley of two effects acting alike, refitted per fold from there
    (`_valley_search`) and scored on withheld runs; a verdict and a family call by the
    rules of gap.verdict (a pair counts only with both effects off nominal and a clear margin;
-   the family by each family's own corrections on withheld runs, ties told apart by the
+   the family by each family's own corrections on withheld runs, read at the instrument latency
+   each fold's training runs choose with the family (gap.members), ties told apart by the
    where-profile, gap.family);
 4. how far: per pressure, mean and max |error| on withheld runs before and after each effect, with
    bootstrap confidence intervals over runs.
