@@ -27,6 +27,7 @@ from gap.campaign import load_campaign
 from gap.diagnose import diagnose
 from gap.effects import BY_NAME, CATALOGUE
 from gap.result import Diagnosis
+from gap.verdict import families_of
 from twin.checks import BENCH_SEEDS, BENCH_SHIFT, check_number
 from twin.errors import UserError
 from twin.outputs import write_atomic
@@ -400,8 +401,8 @@ def scores(case: Case, diag: Diagnosis) -> dict:
             # lag -> the valves' dead times). The call: the diagnosis's family-level answer where
             # it gives one (outside the catalogue; ambiguous, among the explaining candidates'
             # families), else the families of the top candidate's effects (all must be right).
-            family = {BY_NAME[e].family for e in case.expect}
-            r["call"] = [w.nearest.family] if w.nearest else sorted({BY_NAME[e].family for e in named})
+            family = families_of(list(case.expect))
+            r["call"] = [w.nearest.family] if w.nearest else sorted(families_of(list(named)))
             r["top1"] = bool(r["call"]) and set(r["call"]) <= family
         else:
             r["top1"] = len(named) >= 1 and named[0] in case.expect and w.verdict in ("explained", "ambiguous")
