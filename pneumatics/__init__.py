@@ -5,9 +5,10 @@ and the gap diagnosis (gap/). Pressures are absolute Pa unless a name says `gaug
 """
 
 from pneumatics.brake import brake_feed_gauge_pa, brake_holding_torque, brake_step, brake_target
-from pneumatics.chamber import chamber_pressure_rate
+from pneumatics.chamber import carried_temperature, chamber_energy_rates, chamber_pressure_rate, vessel_response
 from pneumatics.friction import coulomb_viscous_torque, reducer_output_torque, stribeck_excess
 from pneumatics.gas import AIR, Gas, isentropic_temperature
+from pneumatics.heat import vane_chamber_heat_transfer, vessel_heat_transfer_coefficient
 from pneumatics.hose import friction_factor, hose_mass_flow, hose_pressure_drop, hose_volume, reynolds_number
 from pneumatics.motor import (
     chamber_volumes,
@@ -17,7 +18,7 @@ from pneumatics.motor import (
     vane_torque,
     wrap_motor_angle,
 )
-from pneumatics.orifice import critical_pressure_ratio, flow_function, orifice_mass_flow
+from pneumatics.orifice import critical_pressure_ratio, flow_function, orifice_mass_flow, orifice_mass_flow_between
 from pneumatics.params import JointParams, ParameterError, load_joint_params, params_row, validated
 from pneumatics.reducer import transmitted_torque
 from pneumatics.valves import dead_time_step, lag_toward, proportional_valve_target, solenoid_step, valve_opening
@@ -31,22 +32,25 @@ __all__ = [
     "brake_holding_torque",
     "brake_step",
     "brake_target",
+    "carried_temperature",
+    "chamber_energy_rates",
     "chamber_pressure_rate",
     "chamber_volumes",
     "coulomb_viscous_torque",
     "critical_pressure_ratio",
+    "dead_time_step",
     "displacement_per_rad",
-    "least_displacement_per_rad",
     "flow_function",
     "friction_factor",
     "hose_mass_flow",
     "hose_pressure_drop",
     "hose_volume",
     "isentropic_temperature",
-    "dead_time_step",
     "lag_toward",
+    "least_displacement_per_rad",
     "load_joint_params",
     "orifice_mass_flow",
+    "orifice_mass_flow_between",
     "params_row",
     "proportional_valve_target",
     "reducer_output_torque",
@@ -55,8 +59,11 @@ __all__ = [
     "stribeck_excess",
     "swept_area",
     "transmitted_torque",
-    "valve_opening",
     "validated",
+    "valve_opening",
+    "vane_chamber_heat_transfer",
     "vane_torque",
+    "vessel_heat_transfer_coefficient",
+    "vessel_response",
     "wrap_motor_angle",
 ]

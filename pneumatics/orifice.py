@@ -86,6 +86,17 @@ def orifice_mass_flow(p_up_pa: float, p_down_pa: float, area_m2: float, t_up_k: 
 
 
 @njit
+def orifice_mass_flow_between(
+    p_a_pa: float, p_b_pa: float, area_m2: float, t_a_k: float, t_b_k: float, r: float, k: float
+) -> float:
+    """Signed mass flow in kg/s from side a to side b, each side with its own gas temperature: the
+    flow is `orifice_mass_flow` of the gas on the upstream (higher-pressure) side, at its temperature.
+    """
+    t_up_k = t_a_k if p_a_pa >= p_b_pa else t_b_k
+    return orifice_mass_flow_with(p_a_pa, p_b_pa, area_m2, choked_flux(t_up_k, r, k), k)
+
+
+@njit
 def orifice_mass_flow_with(p_up_pa: float, p_down_pa: float, area_m2: float, choked_flux_s_m: float, k: float) -> float:
     """`orifice_mass_flow` with the upstream gas's `choked_flux` passed in (the kernels keep it)."""
     if area_m2 <= 0.0:
