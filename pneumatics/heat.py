@@ -124,6 +124,28 @@ def vane_cell(stator_radius_m: float, rotor_radius_m: float, vane_length_m: floa
 
 
 @njit
+def duct_heat_transfer_coefficient(
+    speed_m_s: float, p_pa: float, t_gas_k: float, t_wall_k: float, hydraulic_diameter_m: float, r: float, k: float
+) -> float:
+    """h in W/(m^2 K) of gas moving at `speed_m_s` past the walls of a duct (module docstring).
+
+    Dittus-Boelter, Nu = 0.023 Re^0.8 Pr^n with n = 0.4 when the wall heats the gas and 0.3 when
+    it cools it, Re = rho |speed| D_h / mu, floored at the laminar duct's Nu = 3.66; properties at
+    the film temperature and p_pa. For a hose: its bore and the flow's mean speed m / (rho A).
+    """
+    t_film = 0.5 * (t_gas_k + t_wall_k)
+    mu = air_viscosity(t_film)
+    conductivity = air_conductivity(t_film)
+    prandtl = k * r / (k - 1.0) * mu / conductivity
+    reynolds = p_pa / (r * t_film) * abs(speed_m_s) * hydraulic_diameter_m / mu
+    exponent = 0.4 if t_wall_k > t_gas_k else 0.3
+    nusselt = LAMINAR_DUCT_NU
+    if reynolds > 0.0:  # Re^0.8 Pr^n as one exp of logs, cheaper than two pows (the kernels call it per step)
+        nusselt = max(DUCT_C * math.exp(DUCT_RE_EXPONENT * math.log(reynolds) + exponent * math.log(prandtl)), nusselt)
+    return nusselt * conductivity / hydraulic_diameter_m
+
+
+@njit
 def vane_chamber_heat_transfer_coefficient(
     omega_rad_s: float,
     p_pa: float,
@@ -136,21 +158,14 @@ def vane_chamber_heat_transfer_coefficient(
 ) -> float:
     """h in W/(m^2 K) between the gas of a vane motor's chamber and its walls (module docstring).
 
-    Dittus-Boelter on the cell's hydraulic diameter (`vane_cell`) and the stator's speed past the
-    gas, |omega| B: Nu = max(0.023 Re^0.8 Pr^n, 3.66), n = 0.4 heating the gas, 0.3 cooling it.
-    Properties at the film temperature and p_pa. The wrist's 1UP motor (B 11 mm, D_h 5.7 mm) at
-    6000 rpm and 0.5 MPa: Re ~ 1.3e4, h ~ 180 W/(m^2 K); at rest 3.66 k / D_h ~ 16 W/(m^2 K).
+    `duct_heat_transfer_coefficient` on the cell's hydraulic diameter (`vane_cell`) and the
+    stator's speed past the gas that turns with the cell, |omega| B. The wrist's 1UP motor
+    (B 11 mm, D_h 5.7 mm) at 6000 rpm and 0.5 MPa: Re ~ 1.3e4, h ~ 180 W/(m^2 K); at rest
+    3.66 k / D_h ~ 16 W/(m^2 K).
     """
-    t_film = 0.5 * (t_gas_k + t_wall_k)
-    mu = air_viscosity(t_film)
-    conductivity = air_conductivity(t_film)
-    prandtl = k * r / (k - 1.0) * mu / conductivity
-    reynolds = p_pa / (r * t_film) * abs(omega_rad_s) * stator_radius_m * hydraulic_diameter_m / mu
-    exponent = 0.4 if t_wall_k > t_gas_k else 0.3
-    nusselt = LAMINAR_DUCT_NU
-    if reynolds > 0.0:  # Re^0.8 Pr^n as one exp of logs, cheaper than two pows (the kernels call it per step)
-        nusselt = max(DUCT_C * math.exp(DUCT_RE_EXPONENT * math.log(reynolds) + exponent * math.log(prandtl)), nusselt)
-    return nusselt * conductivity / hydraulic_diameter_m
+    return duct_heat_transfer_coefficient(
+        omega_rad_s * stator_radius_m, p_pa, t_gas_k, t_wall_k, hydraulic_diameter_m, r, k
+    )
 
 
 class ChamberWall(NamedTuple):
