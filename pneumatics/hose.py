@@ -15,7 +15,10 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
+
 from pneumatics._jit import njit
+from pneumatics.gas import AIR
 
 BLASIUS_LAMINAR_RE = (64.0 / 0.316) ** (1.0 / 0.75)  # Re at which 64/Re = 0.316 Re^-0.25 (~1189)
 
@@ -111,7 +114,85 @@ def hose_mass_flow_with(
     return m if dp > 0.0 else -m
 
 
+@njit(inline="always")
+def hose_resistance_with(
+    mass_flow_kg_s: float, rho_kg_m3: float, k_laminar: float, laminar_limit: float, k_blasius: float
+) -> float:
+    """The drop per unit of flow, dp / m in Pa·s/kg, of a hose carrying `mass_flow_kg_s` (either
+    sign) in gas of density rho: the secant of `hose_mass_flow_with`'s law, with the same
+    `hose_constants`. Laminar 1 / (k_laminar rho) up to the laminar limit (also at zero flow, where
+    it is the law's slope); Blasius |m|^0.75 / (k_blasius rho) above it, the power taken as
+    exp(0.75 log |m|) like `hose_mass_flow_with`'s. A line with gas inertia (pneumatics/line.py)
+    takes its wall friction from it, linearly implicit in the flow.
+    """
+    m = abs(mass_flow_kg_s)
+    if m <= laminar_limit:
+        return 1.0 / (k_laminar * rho_kg_m3)
+    return math.exp(0.75 * math.log(m)) / (k_blasius * rho_kg_m3)
+
+
 @njit
 def hose_volume(length_m: float, diameter_m: float) -> float:
     """Internal volume of a round hose in m^3."""
     return 0.25 * math.pi * diameter_m**2 * length_m
+
+
+# pneumatics/line.py takes its wall friction from the laws above, so it is imported after them
+from pneumatics import line as _line  # noqa: E402
+
+LINE_STEP_S = 0.5e-3  # `line_response`'s longest step: the plant's physics step
+
+
+def line_response(
+    length_m: float,
+    bore_m: float,
+    end_volume_m3: float,
+    times_s: np.ndarray,
+    inlet_pa: np.ndarray,
+    temperature_k: float,
+) -> np.ndarray:
+    """Far-end pressure (Pa, absolute) at `times_s` of an air line with gas inertia and wall friction
+    (pneumatics/line.py) whose inlet pressure follows `inlet_pa` (Pa absolute, sampled at `times_s`,
+    linear between samples) and whose far end is closed by a rigid volume `end_volume_m3`; the line
+    starts at rest at inlet_pa[0], its gas at `temperature_k`, air of pneumatics.gas.AIR.
+
+    Raises ValueError naming the argument, its value and what is allowed.
+    """
+    times = np.asarray(times_s, dtype=float)
+    inlet = np.asarray(inlet_pa, dtype=float)
+    _check_line_arguments(length_m, bore_m, end_volume_m3, times, inlet, temperature_k)
+    c = _line.wave_speed(temperature_k, AIR.r_j_per_kg_k, AIR.k)
+    row = _line.line_row(
+        length_m, bore_m, temperature_k, AIR.r_j_per_kg_k, AIR.k, AIR.mu_pa_s, _line.segments_for(length_m, c)
+    )
+    return _line.far_end_series(row, end_volume_m3, times, inlet, LINE_STEP_S)
+
+
+LINE_LENGTH_M = (0.3, 100.0)  # the lengths the line is checked over (docs/air_lines.md)
+LINE_BORE_M = (1.0e-3, 50.0e-3)  # and the bores
+LINE_TEMPERATURE_K = (200.0, 400.0)  # air as an ideal gas of constant viscosity (pneumatics.gas.AIR)
+
+
+def _check_line_arguments(
+    length_m: float, bore_m: float, end_volume_m3: float, times: np.ndarray, inlet: np.ndarray, temperature_k: float
+) -> None:
+    # `line_response`'s arguments, each against what is allowed, in the order of the signature
+    for name, value, (low, high) in (
+        ("length_m", length_m, LINE_LENGTH_M),
+        ("bore_m", bore_m, LINE_BORE_M),
+        ("temperature_k", temperature_k, LINE_TEMPERATURE_K),
+    ):
+        if not low <= value <= high:
+            raise ValueError(f"line_response: {name} = {value!r} is outside {low:g}-{high:g}")
+    if not (math.isfinite(end_volume_m3) and end_volume_m3 >= 0.0):
+        raise ValueError(f"line_response: end_volume_m3 = {end_volume_m3!r} must be finite and >= 0 (m^3)")
+    if times.ndim != 1 or times.size < 2 or not np.all(np.isfinite(times)) or np.any(np.diff(times) <= 0.0):
+        raise ValueError(
+            f"line_response: times_s (shape {times.shape}) must be a 1-D array of at least 2 finite, strictly "
+            "increasing times (s)"
+        )
+    if inlet.shape != times.shape or not np.all(np.isfinite(inlet)) or np.any(inlet <= 0.0):
+        raise ValueError(
+            f"line_response: inlet_pa (shape {inlet.shape}, min {np.min(inlet) if inlet.size else None!r}) must be "
+            f"finite absolute pressures > 0 Pa, one per time of times_s (shape {times.shape})"
+        )
