@@ -74,7 +74,7 @@ from typing import NamedTuple
 import numpy as np
 
 from pneumatics._jit import njit
-from pneumatics.hose import hose_constants, hose_resistance_with
+from pneumatics.darcy import hose_constants, hose_resistance_with
 from pneumatics.integrators import secant_slope
 from pneumatics.orifice import orifice_mass_flow_with
 
