@@ -281,7 +281,7 @@ CATALOGUE: tuple[Effect, ...] = (
 # hose that loses several times what the twin's does was called leakage (stop 20's bench: a 3 mm
 # bore for 4 mm). Keyed by the switch: while it is on, its family also gets the twin with the
 # part at these factors of the twin's value. The hose's bore: its loss at a given flow goes as
-# d^-4.75 on the Blasius branch (d^-4 laminar; pneumatics/hose.py, paper eq. 1-4), so 0.7-1.15
+# d^-4.75 on the Blasius branch (d^-4 laminar; pneumatics/darcy.py, paper eq. 1-4), so 0.7-1.15
 # spans about 5.4 to 0.5 times the twin's loss, with 0.5-1.3 times its volume; its length: loss
 # and volume both as L, 0.5-3 times (a 13 m hose declared as 8 m was called valve without them).
 # Not candidates: a continuous hose member (its resistance, stop 17; its length, stop 18) stood

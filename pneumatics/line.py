@@ -7,7 +7,7 @@ The law (one-dimensional isothermal-area duct, convective terms dropped at Mach 
 
 with the gas stored by the chambers' own law (pneumatics/chamber.py): a node of volume V takes
 dp = n R T dm / V, so a disturbance travels at c = sqrt(n R T). The friction drop dp_f of a
-length dx is the steady Darcy-Weisbach law of pneumatics/hose.py (Hagen-Poiseuille below the
+length dx is the steady Darcy-Weisbach law of pneumatics/darcy.py (Hagen-Poiseuille below the
 Blasius crossover, Blasius above), reused through `hose_constants` and `hose_resistance_with`.
 
 Wave speed: n is the line's polytropic exponent, k = 1.4 by default, so c = sqrt(k R T)
