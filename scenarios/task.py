@@ -181,6 +181,12 @@ class TaskController:
     def target_angles(self) -> np.ndarray:
         return self.controller.target_angles()
 
+    def event_lists(self) -> list[tuple[str, list[str]]]:
+        """The report lists and who made them (twin.events): the platform's, and the operator's
+        (his corrections as the task notes them, and his looks)."""
+        lists = [("controller", self.controller.events), ("operator", self._notes)]
+        return lists + ([("operator", self.operator.log)] if self.operator else [])
+
     @property
     def events(self) -> list[str]:
         """The platform's events, the re-references and the operator's looks, in time order."""
