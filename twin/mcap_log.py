@@ -57,6 +57,7 @@ import dataclasses
 import datetime as dt
 import functools
 import json
+import logging
 import math
 import sys
 import time
@@ -78,6 +79,8 @@ from twin import worker
 from twin.errors import UserError
 from twin.provenance import package_versions
 from twin.telemetry import SIGNALS
+
+log = logging.getLogger(__name__)
 
 CHUNK_SIZE = 32 * 1024  # bytes: ~0.3 s of telemetry, within DESIGN's 4-64 KB
 START_TIME_NS = 946_684_800 * 1_000_000_000  # 2000-01-01T00:00:00Z: the fixed start of a log (deterministic)
@@ -508,7 +511,7 @@ class McapRecorder:
             return []
         frames = sorted(self._camera.frames_from(0, wait=True), key=lambda f: f[0])
         if self._camera.error:  # the log holds everything else
-            print(f"twin: note: no camera frames in {self.path}: {self._camera.error}", file=sys.stderr)
+            log.warning("note: no camera frames in %s: %s", self.path, self._camera.error)
         return frames
 
     def close(self) -> None:
