@@ -1050,3 +1050,41 @@ def test_mcap_display_fields_are_the_logged_values_in_degrees_and_bar(logged):
     np.testing.assert_allclose(col["pressure_a_bar"], a["pressure_a_pa"][:, k] / 1e5)
     np.testing.assert_allclose(col["valve_gauge_bar"], a["valve_gauge_pa"][:, k] / 1e5)
     np.testing.assert_allclose([r["supply_bar"] for r in arm], a["supply_pa"] / 1e5)
+
+
+def test_run_streams_live_to_a_viewer_it_connects_to(tmp_path):
+    """`twin run --connect ADDR` streams the recording to a running rerun gRPC server: here rerun's
+    own, on 127.0.0.1 only, saving what arrives (`rerun --save`); what it saved is the run."""
+    import shutil
+    import socket
+
+    import rerun as rr
+
+    exe = shutil.which("rerun", path=str(Path(sys.executable).parent)) or shutil.which("rerun")
+    if exe is None:
+        pytest.skip("rerun's command line is not installed beside this Python")
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    saved = tmp_path / "live.rrd"
+    server = subprocess.Popen(
+        [exe, "--port", str(port), "--bind", "127.0.0.1", "--save", str(saved)],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+    )
+    try:
+        deadline = time.monotonic() + 30
+        while True:
+            with socket.socket() as s:
+                if s.connect_ex(("127.0.0.1", port)) == 0:
+                    break
+            assert time.monotonic() < deadline and server.poll() is None, "the rerun server did not start"
+            time.sleep(0.1)
+        url = f"rerun+http://127.0.0.1:{port}/proxy"
+        # arrives (an event) at 1.25 s
+        assert twin_main(["run", "wrist_closed_loop_60deg", "--duration", "1.5", "--connect", url]) == 0
+    finally:
+        server.terminate()
+        server.wait(timeout=30)
+    paths = {chunk.entity_path for chunk in rr.chunk.RrdReader(saved).stream()}
+    assert {"/joints/wrist_pitch/angle_deg/predicted", "/world/predicted_arm/rig_load", "/events"} <= paths

@@ -33,8 +33,8 @@ Timeline: "time" (simulated seconds, as a duration).
 from __future__ import annotations
 
 import json
+import logging
 import math
-import sys
 from pathlib import Path
 
 import mujoco
@@ -47,6 +47,8 @@ from twin.camera_pose import camera_pose
 from twin.errors import UserError
 from twin.ghost import GhostArm
 from twin.model import body_name, geom_rgba, has_camera
+
+log = logging.getLogger(__name__)
 
 TIMELINE = "time"
 PA_PER_BAR = 1e5
@@ -341,17 +343,17 @@ class RerunRecorder:
         focus: str | None = None,
         frames=None,
         camera_view: bool = False,
+        viewer: str | None = None,
     ):
-        self.path = Path(path)
+        if path is None and viewer is None:
+            raise ValueError("a rerun recording needs a file, a viewer, or both")
+        self.path = Path(path) if path is not None else None
         self.model = plant_model
         self.joints = tuple(joints)
         self.bodies = tuple(body_name(plant_model, b) for b in range(1, plant_model.nbody))
         self.rec = rr.RecordingStream("pneumatic_arm_twin")
-        try:
-            camera = camera_view or (camera_fps > 0 and has_camera(plant_model, "global_view"))
-            self.rec.save(self.path, default_blueprint=blueprint(self.joints, plant_model, focus, camera=camera))
-        except Exception as e:  # rerun raises its own error types for unwritable paths
-            raise RerunLogError(f"{self.path}: cannot write a rerun recording: {e}") from e
+        camera = camera_view or (camera_fps > 0 and has_camera(plant_model, "global_view"))
+        self._open_sinks(viewer, blueprint(self.joints, plant_model, focus, camera=camera))
         if meta and meta.get("scenario_name"):
             self.rec.send_recording_name(str(meta["scenario_name"]))
         self.rec.log(
@@ -374,6 +376,22 @@ class RerunRecorder:
         if self._camera is None and self.camera_fps > 0:
             self._camera = FrameFeed(plant_model, self.camera_fps)
         self._closed = False
+
+    def _open_sinks(self, viewer: str | None, layout) -> None:
+        """Where the recording goes: the file `path`, and/or a live viewer (`viewer`: "spawn"
+        starts one on this machine, else the gRPC URL of a running one, e.g.
+        rerun+http://127.0.0.1:9876/proxy)."""
+        where = ", ".join(str(x) for x in (self.path, viewer) if x is not None)
+        try:
+            sinks = [rr.FileSink(str(self.path))] if self.path is not None else []
+            if viewer == "spawn":
+                self.rec.spawn(connect=False)  # a viewer on rerun's default port, which GrpcSink() reaches
+                sinks.append(rr.GrpcSink())
+            elif viewer is not None:
+                sinks.append(rr.GrpcSink(viewer))
+            self.rec.set_sinks(*sinks, default_blueprint=layout)
+        except Exception as e:  # rerun raises its own error types for unwritable paths and bad URLs
+            raise RerunLogError(f"{where}: cannot write a rerun recording: {e}") from e
 
     def _log_series_styles(self) -> None:
         styles = {f"joints/{j}/{sub}": s for j in self.joints for sub, s in SERIES_STYLES.items()} | OTHER_STYLES
@@ -488,6 +506,6 @@ class RerunRecorder:
         if self._camera is not None:
             self.log_frames(self._camera.frames_from(self._frames_seen, wait=True))
             if self._camera.error:  # the recording holds everything else
-                print(f"twin: note: no camera frames in {self.path}: {self._camera.error}", file=sys.stderr)
+                log.warning("note: no camera frames in %s: %s", self.path or "the viewer", self._camera.error)
         self.rec.flush()
         self.rec.disconnect()
