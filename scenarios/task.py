@@ -208,10 +208,10 @@ class TaskController:
             return
         if self.k >= 0 and self.operator is not None and self._is_press(self.k):
             # he looks at the press as he looks at every standoff; if it is off, he backs out to
-            # touching distance (out of the rim first, wrist held) and presses again from there: the
+            # touching distance (out of the rim first, wrist held) and presses again from there: a
             # corrected press made from inside the first one (shoulder and elbow together, the brush
-            # on the rim) lifted the head off and swung its side onto disc 1's rim, 682 N (as-built,
-            # 0.5 MPa, the operator's seed 2021340933837429789)
+            # on the rim) can lift the head off and swing its side onto the disc's rim (682 N seen
+            # on disc 1, as-built arm at 0.5 MPa)
             target = self.scenario.targets[self.k]
             verdict = self.operator.review_press(t, self._review_from_s, target.brush_at_disc, -target.standoff_m)
             if verdict is None:
