@@ -1071,6 +1071,7 @@ def test_run_streams_live_to_a_viewer_it_connects_to(tmp_path):
         [exe, "--port", str(port), "--bind", "127.0.0.1", "--save", str(saved)],
         stdout=subprocess.DEVNULL,
         stderr=subprocess.DEVNULL,
+        start_new_session=True,  # `rerun` is a wrapper that starts the viewer's binary: stop both together
     )
     try:
         deadline = time.monotonic() + 30
@@ -1084,7 +1085,7 @@ def test_run_streams_live_to_a_viewer_it_connects_to(tmp_path):
         # arrives (an event) at 1.25 s
         assert twin_main(["run", "wrist_closed_loop_60deg", "--duration", "1.5", "--connect", url]) == 0
     finally:
-        server.terminate()
+        os.killpg(server.pid, signal.SIGTERM)
         server.wait(timeout=30)
     paths = {chunk.entity_path for chunk in rr.chunk.RrdReader(saved).stream()}
     assert {"/joints/wrist_pitch/angle_deg/predicted", "/world/predicted_arm/rig_load", "/events"} <= paths
