@@ -84,7 +84,7 @@ def cases() -> list[Case]:
         Case("ripple", "outside", {"ripple_fraction": 0.5}),
         *(Case(f"none_{k}", "none", {}) for k in range(8)),
         *other_form_cases(),
-        # since stop 24 (after the others: a case's index sets its setting), two static loads the
+        # last (a case's index sets its setting, so new cases go after the others), two static loads the
         # catalogue's angle_load (a spring about the joint's zero) does not have, family load: 12 N·m
         # the same at every angle (MuJoCo's applied joint force), and a spring of 10 N·m/rad resting
         # at 1 rad, the joint's zero at 10 N·m (its stiffness and that force)
@@ -101,13 +101,12 @@ def other_form_cases() -> list[Case]:
         # a narrower hose (3 mm against the 4 mm the twin is told, paper eq. 1-5 with the real bore):
         # the twin already has the hose loss, so no candidate of the hose family varies
         Case("narrow_hose", "form", {"hose_diameter_m": 0.003}, ("hose_loss",)),
-        # a leak to atmosphere in port A's hose (a cut hose or a loose fitting): a form until stop
-        # 17, since then the catalogue's hose_leak, scored as a single (kept here: a case's index
-        # sets its protocol, instrument and seeds)
+        # a leak to atmosphere in port A's hose (a cut hose or a loose fitting): the catalogue's
+        # hose_leak, scored as a single (kept among the forms: a case's index sets its protocol,
+        # instrument and seeds)
         Case("hose_leak", "single", {"hose_leak_area_m2": 3e-7}, ("hose_leak",), truth={"hose_leak": 3e-7}),
-        # the brake's piston fills slowly (0.4 s against 0.05 s): it drags at every start only. A form
-        # until stop 17, since then the catalogue's brake_slow_release, scored as a single (its index
-        # kept)
+        # the brake's piston fills slowly (0.4 s against 0.05 s): it drags at every start only. The
+        # catalogue's brake_slow_release, scored as a single (kept here for its index)
         Case(
             "slow_brake_release",
             "single",
@@ -121,8 +120,8 @@ def other_form_cases() -> list[Case]:
         # scales both, the dead zone neither
         Case("exhaust_throttle", "form", {"exhaust_area_m2": 0.4e-6}, ("conductance_error",)),
         # the brake's springs engage slowly (0.1 s against 0.02 s: a restricted brake exhaust): every
-        # stop slides further, as a weak lining's does, but the lining holds once it bites. A form in
-        # stop 18, since stop 19 the catalogue's brake_slow_engage, scored as a single (its index kept)
+        # stop slides further, as a weak lining's does, but the lining holds once it bites. The
+        # catalogue's brake_slow_engage, scored as a single (kept here for its index)
         Case(
             "slow_brake_engage",
             "single",
@@ -136,12 +135,12 @@ def other_form_cases() -> list[Case]:
         Case("gear_efficiency", "form", {"efficiency_forward": 0.5}, ("reducer_compliance", "coulomb_friction")),
         # the proportional valve opens less per bar than its datasheet says (k_u 0.137 against 0.196 per
         # bar gauge: a worn spool or a weak solenoid): the supply path only, and only below full
-        # opening, which the nominal valve reaches at 5.1 bar. Added in stop 19 with its right family,
-        # the valve, written down before it was run
+        # opening, which the nominal valve reaches at 5.1 bar. Its right family, the valve, was
+        # written down before the case was run
         Case("valve_gain", "form", {"k_u_per_pa": 0.7 * 1.959e-6}, ("conductance_error",)),
         # hoses 14 m long where campaign.toml says 8 (a user who wrote down the wrong length): 1.75
-        # times the loss and the volume. Added in stop 21 with the hose family's variations of the
-        # part (gap.effects.IN_TWIN_VARIATIONS); before it, 13-24 m were tried on a small catalogue
+        # times the loss and the volume; the hose family's variations of the part
+        # (gap.effects.IN_TWIN_VARIATIONS) are what can name it
         Case("long_hose", "form", {"hose_length_m": 14.0}, ("hose_loss",), declared_hose_length_m=8.0),
     ]
 

@@ -84,7 +84,7 @@ SIGNIFICANCE = 2.0  # a gap is significant above SIGNIFICANCE x floor, floor = s
 # measured on a held-out back-and-forth campaign with Coulomb friction at 30 N·m (nominal 15),
 # the 0.6 MPa run moved 1.95 deg for this shift, the other supplies 0.05-0.35 deg, and the plant
 # stood 1.96 deg from the located-event reference there while the replay stood 0.013 deg from it
-# (the plant's stop 0.034 deg off, through the ripple, 0.85 N·m less breakaway torque)
+# (the plant's end of motion 0.034 deg off, through the ripple, 0.85 N·m less breakaway torque)
 SPREAD_START_DEG = 0.05
 N_PAIRS_CV = 3  # pairs given the full cross-validated fit after the in-sample screen
 # pairs are formed from the best PAIR_POOL singles (28 pairs, not the 210 of all 21): a pair's
@@ -96,7 +96,7 @@ PAIR_POOL = 8
 # one of two effects at work) and the PAIR_SCREEN whose corrections, simply added, fit best
 # (superposed_sse: no replay). Adding corrections ignores how two effects interact: a vane leak and
 # more Coulomb friction both take torque, and near a stall they take more together than apart. With
-# the sum alone (stop 21), two held-out campaigns of that pair (the paper's 60-degree moves, a
+# the sum alone, two held-out campaigns of that pair (the paper's 60-degree moves, a
 # camera; back-and-forth moves, a camera) ranked it 6th and 7th, unscreened, while its replayed
 # screen was 8-10 times lower than any screened pair's: a wrong pair or a single was called
 PAIR_SCREEN = 5

@@ -55,9 +55,9 @@ class Effect:
 # are one part, "valve": the direction valve (its solenoid's dead time) and the proportional valve
 # (its set point's dead time, its lag, its dead zone) sit together on the operator's platform, and
 # the conductance error scales both valves' areas, so the catalogue's laws do not split along them.
-# Until stop 24 the valves' timing was a family of its own, "valve timing": a proportional valve
-# opening 0.7 times as far per bar, explained by its lag 0.115 s against 0.1 s, was then called the
-# wrong family, though the part was right. Whether timing or opening is off is the effect's name.
+# The valves' timing is not a family of its own: a proportional valve opening 0.7 times as far per
+# bar is explained by its lag (0.115 s against 0.1 s) as well, and the part is then right though the
+# effect differs. Whether timing or opening is off is the effect's name.
 #
 # Bounds: physically plausible ranges for the wrist class (assets/joints/wrist_pitch.toml values
 # are the nominal: coulomb 15 N·m, viscous 3 N·m·s/rad, solenoid 15 ms, valve tau 0.1 s). The leak
@@ -278,14 +278,14 @@ CATALOGUE: tuple[Effect, ...] = (
 # Parts the nominal twin already has, varied for the family call only (gap.members.
 # in_twin_members), never candidates: the catalogue's switch for such a part (the hose loss,
 # on in the twin) gives its family only the correction of switching it off and its opposite, so a
-# hose that loses several times what the twin's does was called leakage (stop 20's bench: a 3 mm
-# bore for 4 mm). Keyed by the switch: while it is on, its family also gets the twin with the
+# hose that loses several times what the twin's does would be called leakage (a 3 mm bore for
+# 4 mm, on the bench). Keyed by the switch: while it is on, its family also gets the twin with the
 # part at these factors of the twin's value. The hose's bore: its loss at a given flow goes as
 # d^-4.75 on the Blasius branch (d^-4 laminar; pneumatics/darcy.py, paper eq. 1-4), so 0.7-1.15
 # spans about 5.4 to 0.5 times the twin's loss, with 0.5-1.3 times its volume; its length: loss
 # and volume both as L, 0.5-3 times (a 13 m hose declared as 8 m was called valve without them).
-# Not candidates: a continuous hose member (its resistance, stop 17; its length, stop 18) stood
-# in for a valve lag, a lossy gear and a slow brake release.
+# Not candidates: a continuous hose member (its resistance, or its length) stands in for a valve
+# lag, a lossy gear and a slow brake release.
 HOSE_BORE = Effect(
     "hose_bore",
     "hose bore",
@@ -314,7 +314,7 @@ IN_TWIN_VARIATIONS: dict[str, tuple[tuple[Effect, tuple[float, ...]], ...]] = {
 # spring of 10 N·m/rad resting at 1 rad (or a 12 N·m load) was called load on 2 of 9 campaigns
 # without it, 6 with it (brake and valve otherwise). Not a candidate: on one-way moves (the paper's
 # 60 deg) a constant load against the motion is Coulomb friction, and with it a candidate a Coulomb
-# friction there was called ambiguous with the load on top (stop 24, top-1 19/24 on those moves).
+# friction there was called ambiguous with the load on top (top-1 19/24 on those moves).
 # Signed as angle_load's spring at positive angles: positive pulls toward negative angles; up to 40
 # N·m either way, 58 % of the wrist's stall torque at 0.8 MPa (69 N·m)
 STATIC_LOAD = Effect(

@@ -22,10 +22,9 @@ from dataclasses import dataclass
 import numpy as np
 
 # rms difference replay - plant per protocol over 0.5-0.8 MPa, nominal wrist, in angle (deg) and
-# chamber pressures (kPa), rounded up; measured by `python -m gap.protocols` on the plant and replay
-# of stop 20 (the plant's air by ROS2; with stop 17's Heun: 0.046, 0.033, 0.043, 0.151, 0.108 deg
-# and 0.33, 0.49, 0.35, 0.88, 0.68 kPa). tests/test_gap.py measures them again and fails when the
-# physics has moved them: re-run the command and copy its figures.
+# chamber pressures (kPa), rounded up; measured by `python -m gap.protocols` on the plant (its air
+# by ROS2) and the replay. tests/test_gap.py measures them again and fails when the physics has
+# moved them: re-run the command and copy its figures.
 TOLERANCE_DEG = {
     "paper_60": 0.04,
     "staircase": 0.016,

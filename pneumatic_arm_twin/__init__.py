@@ -7,19 +7,54 @@ or a pandas DataFrame, sweep it, read a logged run, diagnose a calibration campa
     run.passed, run.summary["joints"]["wrist_pitch"]["error_deg"]
     a = run.arrays()          # {"time_s": (T,), "true_angle_rad": (T, joints), ...} numpy arrays
     t = run.table()           # flat 1-D columns: "time_s", "true_angle_rad.wrist_pitch", ...
-    df = run.to_dataframe()   # the same table as a pandas DataFrame (needs pandas)
+    df = run.to_dataframe()   # the same table as a pandas DataFrame indexed by time (s)
     run.plot_angles("angles.png")
+    pat.run("wrist_closed_loop_60deg", overrides={"supply": {"pressure_mpa": 0.7}})  # or dotted keys
 
     log = pat.read_log("out/run.mcap")                # a run logged with `twin run --mcap`
     sw = pat.sweep("wrist_closed_loop_60deg", {"supply.pressure_mpa": [0.5, 0.7]}, duration_s=2.0)
-    sw.summaries, sw.table(), sw.to_csv("sweep.csv")
+    sw.summaries, sw.table(), sw.to_dataframe(), sw.to_csv("sweep.csv")
+    st = pat.study(["sensorless"], [0.6], seeds=1)    # the cleaning study; st.to_dataframe()
     d = pat.diagnose("my_campaign/", out="report/")   # d.verdict, d.effect, d.details
+    d = pat.diagnose(pat.synthetic_campaign(seed=1))  # a campaign made by the plant, in memory
+    # sweep(..., scheduler="tcp://host:8786") and diagnose(..., scheduler=...) run on a Dask cluster
+
+The notebook docs/example.ipynb walks through a run, a sweep, a diagnosis and the plots.
 
 Signals and their units are those of twin.telemetry.SIGNALS (SI: rad, Pa absolute unless
 `gauge`, N, m). This package sits above every other one (DESIGN rule 9) and is the one to import
 from a notebook; the command line (`twin`) offers the same.
 """
 
-from pneumatic_arm_twin.api import Diagnosis, Log, Run, Sweep, diagnose, read_log, run, scenario, sweep
+from gap import Campaign, make_campaign
+from pneumatic_arm_twin.api import (
+    Diagnosis,
+    Log,
+    Run,
+    Study,
+    Sweep,
+    diagnose,
+    read_log,
+    run,
+    scenario,
+    study,
+    sweep,
+    synthetic_campaign,
+)
 
-__all__ = ["Diagnosis", "Log", "Run", "Sweep", "diagnose", "read_log", "run", "scenario", "sweep"]
+__all__ = [
+    "Campaign",
+    "Diagnosis",
+    "Log",
+    "Run",
+    "Study",
+    "Sweep",
+    "diagnose",
+    "make_campaign",
+    "read_log",
+    "run",
+    "scenario",
+    "study",
+    "sweep",
+    "synthetic_campaign",
+]

@@ -3,18 +3,21 @@ gap/ that return objects with arrays instead of the command line's files."""
 
 from __future__ import annotations
 
+import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 import numpy as np
 
-from gap import CATALOGUE, GapError, load_campaign, write_report
+from gap import CATALOGUE, Campaign, GapError, load_campaign, make_campaign, write_report
 from gap.diagnose import MODEL_TOLERANCE_DEG
 from gap.diagnose import diagnose as _diagnose  # not gap.diagnose: the submodule's name hides gap's function
+from gap.synth import wrist_params
 from scenarios.recording import open_recorders
 from scenarios.runner import run_scenario, scenario_files
 from scenarios.schema import Scenario, ScenarioError, load, with_overrides
+from scenarios.study import Row, rows_table, run_study
 from scenarios.sweep import summary_table, write_csv
 from scenarios.sweep import sweep as _sweep
 from twin.mcap_log import read_mcap
@@ -23,11 +26,6 @@ from twin.telemetry import SIGNALS
 
 if TYPE_CHECKING:
     from gap.result import Diagnosis as GapDiagnosis
-
-PANDAS_MISSING = (
-    "to_dataframe() needs pandas, which pneumatic-arm-twin does not install; `pip install pandas`, "
-    "or use .table() (a dict of 1-D numpy arrays, which pandas.DataFrame(...) takes as it is)"
-)
 
 
 def shipped_scenario_path(name: str) -> Path:
@@ -39,14 +37,28 @@ def shipped_scenario_path(name: str) -> Path:
     return shipped[name]
 
 
-def scenario(name_or_path: str | Path | Scenario, **overrides) -> Scenario:
-    """A scenario: one given, a file, or a shipped scenario by name (`insulator_cleaning`); dotted
-    `overrides` (`{"supply.pressure_mpa": 0.7}` as `**{...}`) are checked like the file."""
+def dotted(overrides: dict) -> dict:
+    """Overrides as dotted keys: nested dicts (`{"supply": {"pressure_mpa": 0.7}}`) are flattened
+    (`{"supply.pressure_mpa": 0.7}`); dotted keys are kept as they are."""
+    out = {}
+    for key, value in overrides.items():
+        if isinstance(value, dict):
+            out |= {f"{key}.{k}": v for k, v in dotted(value).items()}
+        else:
+            out[key] = value
+    return out
+
+
+def scenario(name_or_path: str | Path | Scenario, overrides: dict | None = None, **dotted_overrides) -> Scenario:
+    """A scenario: one given, a file, or a shipped scenario by name (`insulator_cleaning`), with
+    `overrides` as nested dicts (`{"supply": {"pressure_mpa": 0.7}}`) or dotted keys
+    (`{"supply.pressure_mpa": 0.7}`, also as `**{...}`), checked like the file."""
     if isinstance(name_or_path, Scenario):
         sc = name_or_path
     else:
         sc = load(name_or_path if Path(name_or_path).is_file() else shipped_scenario_path(str(name_or_path)))
-    return with_overrides(sc, overrides) if overrides else sc
+    changes = dotted(overrides or {}) | dotted_overrides
+    return with_overrides(sc, changes) if changes else sc
 
 
 def flat_columns(arrays: dict[str, np.ndarray], joints: tuple[str, ...], bodies: tuple[str, ...]) -> dict:
@@ -66,12 +78,11 @@ def flat_columns(arrays: dict[str, np.ndarray], joints: tuple[str, ...], bodies:
     return out
 
 
-def _dataframe(columns: dict):
-    try:
-        import pandas as pd  # optional, not a dependency: imported where asked for
-    except ImportError:
-        raise ImportError(PANDAS_MISSING) from None
-    return pd.DataFrame(columns)
+def _dataframe(columns: dict, index: str | None = None):
+    import pandas as pd  # on use: pandas takes 0.5 s to import, and only tables need it
+
+    df = pd.DataFrame(columns)
+    return df.set_index(index) if index else df
 
 
 @dataclass
@@ -93,8 +104,8 @@ class Log:
         return flat_columns(self._arrays, self.joints, self.bodies)
 
     def to_dataframe(self):
-        """The table as a pandas DataFrame indexed by sample (pandas is imported here, on use)."""
-        return _dataframe(self.table())
+        """The table as a pandas DataFrame indexed by simulated time, s (its index "time_s")."""
+        return _dataframe(self.table(), index="time_s")
 
     def plot_angles(self, path, only_moving: bool = True) -> Path:
         """The README's angles figure of this run (PNG)."""
@@ -118,11 +129,13 @@ def run(
     mcap=None,
     camera_fps: float = 0.0,
     start_time: str | None = None,
-    **overrides,
+    overrides: dict | None = None,
+    **dotted_overrides,
 ) -> Run:
-    """Run a scenario (shortened to `duration_s`, with another `seed`, dotted `overrides`), logging
-    to `rrd` / `mcap` if given, as `twin run` does (`start_time`: its --start-time)."""
-    sc = scenario(name_or_path, **overrides)
+    """Run a scenario (shortened to `duration_s`, with another `seed`, `overrides` as nested dicts
+    or dotted keys), logging to `rrd` / `mcap` if given, as `twin run` does (`start_time`: its
+    --start-time)."""
+    sc = scenario(name_or_path, overrides, **dotted_overrides)
     if seed is not None:
         sc = with_overrides(sc, {"seed": seed})
     recorders = open_recorders(sc, Path(rrd) if rrd else None, Path(mcap) if mcap else None, camera_fps, start_time)
@@ -169,10 +182,63 @@ def sweep(
     workers: int = 1,
     duration_s: float | None = None,
     progress: bool = False,
+    scheduler: str | None = None,
 ) -> Sweep:
-    """Run a scenario over a grid of dotted fields and/or `monte_carlo` child seeds (`twin sweep`)."""
-    summaries = _sweep(scenario(name_or_path), grid or {}, monte_carlo, workers, None, duration_s, progress=progress)
+    """Run a scenario over a grid of fields (nested dicts or dotted keys, each a list of values)
+    and/or `monte_carlo` child seeds (`twin sweep`); on a Dask cluster at `scheduler` if given
+    (e.g. "tcp://host:8786"), else on `workers` local processes."""
+    points = dotted(grid or {})
+    summaries = _sweep(scenario(name_or_path), points, monte_carlo, workers, scheduler, duration_s, progress=progress)
     return Sweep(summaries)
+
+
+@dataclass
+class Study:
+    """The cleaning study (`twin study cleaning`): every run's summary and a row per strategy and
+    supply over its seeds (scenarios.study.Row)."""
+
+    summaries: list[dict]
+    rows: list[Row]
+
+    def table(self) -> dict[str, list]:
+        return rows_table(self.rows)
+
+    def to_dataframe(self):
+        """A row per strategy and supply, as a pandas DataFrame."""
+        return _dataframe(self.table())
+
+
+def study(
+    strategies: list[str] | None = None,
+    supplies_mpa: list[float] | None = None,
+    *,
+    seeds: int = 2,
+    workers: int = 0,
+    duration_s: float | None = None,
+    progress: bool = False,
+) -> Study:
+    """The insulator-cleaning task per strategy x supply x seed (scenarios/study.py), in memory."""
+    from scenarios.schema import STRATEGIES
+    from scenarios.study import SUPPLIES_MPA, rows
+
+    summaries = run_study(
+        list(strategies or STRATEGIES),
+        list(supplies_mpa or SUPPLIES_MPA),
+        seeds=seeds,
+        workers=workers,
+        duration_s=duration_s,
+        progress=progress,
+    )
+    return Study(summaries, rows(summaries))
+
+
+def synthetic_campaign(reality=None, **kwargs) -> Campaign:
+    """A calibration campaign made by the plant (gap.make_campaign's arguments: seed,
+    pressures_mpa, repeats, motion, instrument, ...), held in memory: the wrist rig with `reality`
+    (pneumatics JointParams; default the nominal wrist, gap.synth.wrist_params()) as the real
+    arm, each run measured by the campaign's instrument."""
+    with tempfile.TemporaryDirectory(prefix="twin-campaign-") as folder:
+        return load_campaign(make_campaign(folder, reality or wrist_params(), **kwargs))
 
 
 @dataclass
@@ -203,9 +269,11 @@ def diagnose(
     model_tolerance_deg: float | None = None,
     jobs: int = 2,
     progress: bool = False,
+    scheduler: str | None = None,
 ) -> Diagnosis:
-    """Diagnose a calibration campaign folder (`twin gap diagnose`); `effects` limits the
-    catalogue to those names; `out` also writes diagnosis.json, report.md and the plots there."""
+    """Diagnose a calibration campaign (`twin gap diagnose`): a folder, or a gap.Campaign in
+    memory (synthetic_campaign); `effects` limits the catalogue to those names; `out` also writes
+    diagnosis.json, report.md and the plots there; `scheduler` runs the fits on that Dask cluster."""
     catalogue = CATALOGUE
     if effects is not None:
         known = {e.name for e in CATALOGUE}
@@ -214,7 +282,10 @@ def diagnose(
             raise GapError(f"effects {unknown}: not in the catalogue ({', '.join(sorted(known))})")
         catalogue = tuple(e for e in CATALOGUE if e.name in effects)
     tol = MODEL_TOLERANCE_DEG if model_tolerance_deg is None else model_tolerance_deg
-    d = _diagnose(load_campaign(campaign), catalogue=catalogue, model_tolerance_deg=tol, n_jobs=jobs, progress=progress)
+    loaded = campaign if isinstance(campaign, Campaign) else load_campaign(campaign)
+    d = _diagnose(
+        loaded, catalogue=catalogue, model_tolerance_deg=tol, n_jobs=jobs, progress=progress, scheduler=scheduler
+    )
     if out is not None:
         write_report(d, out)
     top = d.which.top

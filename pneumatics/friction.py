@@ -39,9 +39,9 @@ def stribeck_excess(speed_rad_s: float, breakaway_excess_nm: float, stribeck_spe
     (F_s - F_c) exp(-(w/w_s)^2): the Stribeck curve's excess (Armstrong-Helouvry, Automatica 30(7),
     1994). It belongs to the dry-friction limit, not to the drive: a joint at rest holds up to the
     static level F_s (Karnopp's rule, or MuJoCo's friction constraint, at zero speed), and a sliding
-    joint feels F_c plus this excess. Until stop 23 it was a drive torque smoothed across zero by
-    tanh(w / 0.5 w_s): zero at rest, so a joint whose drive lay between the two levels crept on
-    instead of holding (tests/test_joint_stops.py, tests/test_plant.py).
+    joint feels F_c plus this excess. Not a drive torque smoothed across zero (tanh(w / 0.5 w_s)):
+    that is zero at rest, so a joint whose drive lay between the two levels would creep on instead
+    of holding (tests/test_joint_stops.py, tests/test_plant.py).
     """
     if breakaway_excess_nm == 0.0:
         return 0.0

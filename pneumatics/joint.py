@@ -468,7 +468,7 @@ def advance_air_pair(
     second half meets another direction or supply (a valve switching, a supply step) ends there,
     at the first stage's estimate, and a new one begins.
 
-    One rate evaluation a physics step, where Heun's method (used until stop 20) took two; the
+    One rate evaluation a physics step, where Heun's method takes two; the
     pressures' W matrix (the flows' slopes, the vane leak's coupling of the chambers with them)
     keeps the air's fast modes damped (a short or wide hose, a large leak), where Heun's explicit
     stages rang (tests/test_plant.py holds the plant to LSODA and to the flows' balance).

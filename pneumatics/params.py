@@ -137,7 +137,7 @@ SPEC: dict[str, FieldSpec] = {
     # leaking A -> B evens the two chambers out faster than the predictor's 1 ms RK4 follows.
     # Measured on the wrist stalled at its stop at 0.8 MPa, 1 s: at 3e-5 its B chamber 20 kPa off the
     # plant at 1/8 of its step. The plant (ROS2, the leak in its W) settles within 0.07 kPa of where
-    # the flows balance up to 1e-4 (tests/test_plant.py); its Heun, until stop 20, 160 kPa off at 1e-4
+    # the flows balance up to 1e-4 (tests/test_plant.py); an explicit Heun step was 160 kPa off at 1e-4
     "leak_area_m2": FieldSpec("effects", 0.0, 1e-5, "m^2"),
     "stribeck_excess_nm": FieldSpec("effects", 0.0, 1e4, "N·m"),
     "stribeck_speed_rad_s": FieldSpec("effects", 1e-4, 10.0, "rad/s"),

@@ -20,10 +20,12 @@ from __future__ import annotations
 import itertools
 import json
 import math
+import sys
 from pathlib import Path
 
 import numpy as np
 from scipy.stats import spearmanr
+from tqdm import tqdm
 
 import assets
 from control.experiments import (
@@ -243,19 +245,34 @@ def as_built_table() -> list[dict]:
     ]
 
 
-def reproduce(out_dir: str | Path, quick: bool = False) -> Path:
+def reproduce(out_dir: str | Path, quick: bool = False, progress: bool = False) -> Path:
     """Run every experiment, write paper.json, report.md and the plots; returns the report's path.
-    `quick` shortens the control experiments (fewer angles and supplies), not the validation."""
+    `quick` shortens the control experiments (fewer angles and supplies), not the validation;
+    `progress` shows a bar of the experiments on stderr."""
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    validation, series = prediction_validation()
+    stages = {
+        "prediction_error": prediction_validation,
+        "as_built": as_built_table,
+        "random_supply": lambda: random_supply_run(quick),
+        "minimum_rotation": lambda: minimum_rotation(quick),
+        "closed_vs_open_loop": lambda: closed_against_open(quick),
+        "error_vs_pressure": lambda: error_vs_pressure(quick),
+    }
+    done = {}
+    with tqdm(total=len(stages), desc="paper", unit="experiment", file=sys.stderr, disable=not progress) as bar:
+        for name, stage in stages.items():
+            bar.set_postfix_str(name.replace("_", " "))
+            done[name] = stage()
+            bar.update()
+    validation, series = done["prediction_error"]
     results = {
-        "as_built": as_built_table(),
+        "as_built": done["as_built"],
         "prediction_error": validation,
-        "random_supply": random_supply_run(quick),
-        "minimum_rotation": minimum_rotation(quick),
-        "closed_vs_open_loop": closed_against_open(quick),
-        "error_vs_pressure": error_vs_pressure(quick),
+        "random_supply": done["random_supply"],
+        "minimum_rotation": done["minimum_rotation"],
+        "closed_vs_open_loop": done["closed_vs_open_loop"],
+        "error_vs_pressure": done["error_vs_pressure"],
         "quick": quick,
     }
     (out / "paper.json").write_text(json.dumps({**results, "validation_series": series}, indent=2, default=float))

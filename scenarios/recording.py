@@ -22,9 +22,12 @@ def open_recorders(
     mcap: Path | None,
     camera_fps: float = RECORDING_CAMERA_FPS,
     start_time: str | None = None,
+    viewer: str | None = None,
 ) -> list:
     """The log writers a run asked for, told what they need to know about the scenario;
-    `start_time` ("now" or ISO 8601) starts the MCAP's clock there (twin.mcap_log.start_time)."""
+    `start_time` ("now" or ISO 8601) starts the MCAP's clock there (twin.mcap_log.start_time);
+    `viewer` streams the rerun recording live ("spawn": a viewer started here, else a viewer's
+    gRPC URL), beside the `rrd` file or instead of it."""
     start = {} if start_time is None else start_meta(start_time)  # refused when bad, with or without a log
     if start and not mcap:
         raise UserError(
@@ -32,18 +35,21 @@ def open_recorders(
             "allowed: --start-time with --mcap"
         )
     recorders = []
-    if not (rrd or mcap):
+    if not (rrd or mcap or viewer):
         return recorders
     meta = run_metadata(scenario) | start
     plant = build_plant(scenario)
     frames = None
-    if rrd and mcap and camera_fps > 0:  # one camera process renders each frame for both logs
+    if (rrd or viewer) and mcap and camera_fps > 0:  # one camera process renders each frame for both logs
         frames = FrameFeed(plant.model, camera_fps)
-    if rrd:
-        rrd.parent.mkdir(parents=True, exist_ok=True)
+    if rrd or viewer:
+        if rrd:
+            rrd.parent.mkdir(parents=True, exist_ok=True)
         focus = moving_joint(plant.joints, plant.drive_angles(), resolve_targets(scenario, plant))
         recorders.append(
-            RerunRecorder(rrd, plant.model, plant.joints, meta, camera_fps=camera_fps, focus=focus, frames=frames)
+            RerunRecorder(
+                rrd, plant.model, plant.joints, meta, camera_fps=camera_fps, focus=focus, frames=frames, viewer=viewer
+            )
         )
     if mcap:
         mcap.parent.mkdir(parents=True, exist_ok=True)

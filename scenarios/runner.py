@@ -6,7 +6,9 @@ draw comes from `np.random.default_rng(scenario.seed)`.
 
 from __future__ import annotations
 
+import logging
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
@@ -38,6 +40,38 @@ from twin.plant import Plant
 from twin.sim import Recorder, run
 from twin.telemetry import Telemetry
 
+log = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True)
+class Progress:
+    """How far a run has got: simulated time and the run's length (s), discs done of the plan's."""
+
+    time_s: float
+    duration_s: float
+    discs_done: int = 0
+    discs: int = 0  # discs the plan brushes (0: a plan without discs)
+
+
+class _ProgressReport:
+    """A recorder that writes nothing: at each flush of the run it reports a Progress to `report`."""
+
+    def __init__(self, report: Callable[[Progress], None], duration_s: float, scenario: Scenario, task):
+        self.report, self.duration_s, self.task, self.path = report, duration_s, task, None
+        by_disc: dict[int, list[int]] = {}
+        for k, t in enumerate(scenario.targets):
+            if t.brush_at_disc:
+                by_disc.setdefault(t.brush_at_disc, []).append(k)
+        self.by_disc = by_disc if task is not None else {}
+
+    def write(self, telemetry, start: int) -> None:
+        if len(telemetry):
+            done = sum(all(self.task.reached[k] for k in ks) for ks in self.by_disc.values())
+            self.report(Progress(telemetry.time_at(-1), self.duration_s, done, len(self.by_disc)))
+
+    def close(self) -> None:
+        pass
+
 
 @dataclass
 class Result:
@@ -60,7 +94,15 @@ class Result:
     def passed(self) -> bool:
         return not self.error and all(v.passed for v in self.verdicts if v.judged)
 
-    def _final_target(self, joint: str) -> float:
+    def _final_target(self, joint: str, logged: float) -> float:
+        """The target in force for `joint` at the end: the controller's own set point as the last
+        sample logged it (`logged`), which is what the logs show; where the controller has none
+        (NaN: a command schedule), the latest target the plan or the task issued naming it. The
+        plan's targets are not always what the controller holds at the end: a refused plan leaves
+        the arm held where it stood, a joint no target names is held at its start, and the task
+        sends each target in steps and moves its aim between them."""
+        if math.isfinite(logged):
+            return logged
         if self.active_target_rad is not None:
             return self.active_target_rad.get(joint, math.nan)
         return next((t[joint] for t in reversed(self.targets_rad) if joint in t), math.nan)
@@ -71,7 +113,8 @@ class Result:
         a = self.telemetry.arrays()
         joints = {}
         for i, j in enumerate(self.telemetry.joints):
-            target = self._final_target(j)
+            logged = float(a["target_angle_rad"][-1, i]) if len(a["time_s"]) else math.nan
+            target = self._final_target(j, logged)
             true = float(a["true_angle_rad"][-1, i]) if len(a["time_s"]) else math.nan
             pred = float(a["predicted_angle_rad"][-1, i]) if len(a["time_s"]) else math.nan
             joints[j] = {
@@ -172,8 +215,10 @@ def run_scenario(
     recorders: tuple[Recorder, ...] = (),
     duration_s: float | None = None,
     seed: int | None = None,
+    progress: Callable[[Progress], None] | None = None,
 ) -> Result:
-    """Run a scenario (optionally shortened, or with another seed) and judge it."""
+    """Run a scenario (optionally shortened, or with another seed) and judge it; `progress` is
+    told how far the run has got every half second of simulated time."""
     if duration_s is not None:
         check_number("duration_s", duration_s, **DURATION_S)
     if seed is not None:
@@ -197,6 +242,9 @@ def run_scenario(
         plant.joints,
         tuple(mujoco.mj_id2name(plant.model, mujoco.mjtObj.mjOBJ_BODY, i) for i in range(1, plant.model.nbody)),
     )
+    log.info("%s: %g s simulated, seed %s, %d recorders", scenario.name, duration, scenario.seed, len(recorders))
+    if progress is not None:
+        recorders = (*recorders, _ProgressReport(progress, duration, scenario, task))
     try:
         run(plant, controller, duration, supply_pa_at=supply, events=faults, recorders=recorders, telemetry=telemetry)
     except SimulationError as e:  # a divergence: keep what was logged, report it as a failed run

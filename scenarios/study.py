@@ -4,15 +4,16 @@ One sweep (scenarios/sweep.py) of `scenarios/insulator_cleaning.toml` over `cont
 `supply.pressure_mpa` x child seeds. Per run: discs cleaned out of 8 (each judged from MuJoCo's
 contacts: pressed long enough, force in the band, face on the rim), the peak force on each disc,
 the rim brushed, when the plan was finished, and the joints' final errors. Written as
-`study.json` (every run's summary), `study.md` (a table per strategy and supply) and
-`study.png` (discs cleaned and time to finish against supply).
+`study.json` (every run's summary), `study.csv` and `study.md` (a row per strategy and supply)
+and `study.png` (discs cleaned and time to finish against supply).
 """
 
 from __future__ import annotations
 
+import csv
 import json
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 from pathlib import Path
 
 import numpy as np
@@ -124,11 +125,27 @@ def plot(study_rows: list[Row], path: Path) -> None:
     fig.savefig(path, dpi=110)
 
 
+def rows_table(study_rows: list[Row]) -> dict[str, list]:
+    """The rows as columns named by Row's fields (units in the names' comments of Row)."""
+    return {f.name: [getattr(r, f.name) for r in study_rows] for f in fields(Row)}
+
+
+def write_csv(study_rows: list[Row], path: Path) -> None:
+    """A row per strategy and supply, a column per Row field (NaN written as empty)."""
+    columns = rows_table(study_rows)
+    with open(path, "w", newline="") as f:
+        out = csv.writer(f)
+        out.writerow(columns)
+        for r in zip(*columns.values(), strict=True):
+            out.writerow(["" if isinstance(v, float) and math.isnan(v) else v for v in r])
+
+
 def write(results: list[dict], out: Path) -> list[Row]:
-    """study.json, study.md and study.png in `out`."""
+    """study.json, study.csv, study.md and study.png in `out`."""
     out.mkdir(parents=True, exist_ok=True)
     (out / "study.json").write_text(json.dumps(results, indent=2))
     study_rows = rows(results)
     (out / "study.md").write_text("# Cleaning study\n\n" + table(study_rows) + "\n")
+    write_csv(study_rows, out / "study.csv")
     plot(study_rows, out / "study.png")
     return study_rows

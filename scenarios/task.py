@@ -181,6 +181,12 @@ class TaskController:
     def target_angles(self) -> np.ndarray:
         return self.controller.target_angles()
 
+    def event_lists(self) -> list[tuple[str, list[str]]]:
+        """The report lists and who made them (twin.events): the platform's, and the operator's
+        (his corrections as the task notes them, and his looks)."""
+        lists = [("controller", self.controller.events), ("operator", self._notes)]
+        return lists + ([("operator", self.operator.log)] if self.operator else [])
+
     @property
     def events(self) -> list[str]:
         """The platform's events, the re-references and the operator's looks, in time order."""
@@ -202,10 +208,10 @@ class TaskController:
             return
         if self.k >= 0 and self.operator is not None and self._is_press(self.k):
             # he looks at the press as he looks at every standoff; if it is off, he backs out to
-            # touching distance (out of the rim first, wrist held) and presses again from there: the
+            # touching distance (out of the rim first, wrist held) and presses again from there: a
             # corrected press made from inside the first one (shoulder and elbow together, the brush
-            # on the rim) lifted the head off and swung its side onto disc 1's rim, 682 N (as-built,
-            # 0.5 MPa, the operator's seed 2021340933837429789)
+            # on the rim) can lift the head off and swing its side onto the disc's rim (682 N seen
+            # on disc 1, as-built arm at 0.5 MPa)
             target = self.scenario.targets[self.k]
             verdict = self.operator.review_press(t, self._review_from_s, target.brush_at_disc, -target.standoff_m)
             if verdict is None:

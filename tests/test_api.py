@@ -46,16 +46,14 @@ def test_run_gives_the_telemetry_it_logged(wrist):
     np.testing.assert_array_equal(table[f"body_quat_wxyz.{body}.w"], a["body_quat_wxyz"][:, 0, 0])
 
 
-def test_to_dataframe_or_a_clear_error(wrist):
+def test_to_dataframe_is_indexed_by_time(wrist):
     _, run = wrist
-    try:
-        import pandas  # noqa: F401
-    except ImportError:
-        with pytest.raises(ImportError, match="pip install pandas"):
-            run.to_dataframe()
-        return
     df = run.to_dataframe()
-    assert df.shape == (len(run.arrays()["time_s"]), len(run.table()))
+    a = run.arrays()
+    assert df.index.name == "time_s" and df.shape == (len(a["time_s"]), len(run.table()) - 1)
+    np.testing.assert_array_equal(df.index.to_numpy(), a["time_s"])
+    t = float(a["time_s"][10])
+    assert df.loc[t, "true_angle_rad.wrist_pitch"] == a["true_angle_rad"][10, 0]
 
 
 def test_replay_of_a_wrist_rig_log_needs_no_model(wrist, tmp_path, capsys):
@@ -110,6 +108,10 @@ def test_twin_plot_checks_out_before_the_work_and_says_where_it_wrote(wrist, tmp
 def test_scenario_by_name_path_or_refused():
     assert pat.scenario(SCENARIO).name == SCENARIO
     assert pat.scenario(SCENARIO, **{"supply.pressure_mpa": 0.7}).supply.pressure_mpa == 0.7
+    nested = pat.scenario(SCENARIO, {"supply": {"pressure_mpa": 0.7}, "seed": 5})
+    assert nested.supply.pressure_mpa == 0.7 and nested.seed == 5
+    with pytest.raises(ScenarioError, match="supply.pressure_mpa"):
+        pat.scenario(SCENARIO, {"supply": {"pressure_mpa": 1.4}})
     with pytest.raises(ScenarioError, match="shipped: .*insulator_cleaning"):
         pat.scenario("no_such_scenario")
 
@@ -144,16 +146,18 @@ def test_diagnose_names_a_hidden_leak(tmp_path):
     """A campaign from the plant with a vane leak the twin lacks: the API's diagnosis names it."""
     from gap import synth
 
-    folder = synth.make_campaign(
-        tmp_path / "leak", synth.wrist_params()._replace(leak_area_m2=4e-7), seed=2, pressures_mpa=(0.5, 0.8)
+    # in memory: no campaign folder is left on disk
+    campaign = pat.synthetic_campaign(
+        synth.wrist_params()._replace(leak_area_m2=4e-7), seed=2, pressures_mpa=(0.5, 0.8)
     )
-    d = pat.diagnose(folder, effects=["vane_leakage", "coulomb_friction"], out=tmp_path / "report")
+    assert not campaign.folder.exists() and len(campaign.runs) == 4
+    d = pat.diagnose(campaign, effects=["vane_leakage", "coulomb_friction"], out=tmp_path / "report")
     assert d.verdict == "explained" and d.effect == "vane_leakage"
     assert d.after_rms_deg < 0.3 * d.before_rms_deg
     assert d.ranking()["name"][0] == "vane_leakage"
     assert (tmp_path / "report" / "report.md").is_file()
     with pytest.raises(GapError, match="not in the catalogue"):
-        pat.diagnose(folder, effects=["no_such_effect"])
+        pat.diagnose(campaign, effects=["no_such_effect"])
 
 
 def test_the_gap_packages_functions_are_not_shadowed_by_their_modules():
@@ -166,3 +170,20 @@ def test_the_gap_packages_functions_are_not_shadowed_by_their_modules():
 
     assert all(callable(f) for f in (diagnose, make_campaign, run_bench)), (diagnose, make_campaign, run_bench)
     assert gap.diagnose is diagnose
+
+
+def test_study_in_memory_as_a_dataframe_and_its_csv(tmp_path):
+    """The cleaning study from Python: a row per strategy and supply, as a DataFrame, and the CSV
+    `twin study` writes beside its JSON holds the same rows."""
+    from scenarios.study import write
+
+    st = pat.study(["sensorless"], [0.6], seeds=1, workers=1, duration_s=1.0)
+    df = st.to_dataframe()
+    assert list(df["strategy"]) == ["sensorless"] and list(df["supply_mpa"]) == [0.6]
+    assert df["runs"].iloc[0] == len(st.summaries) == 1
+    write(st.summaries, tmp_path)
+    with open(tmp_path / "study.csv") as f:
+        rows = list(csv.DictReader(f))
+    assert [(r["strategy"], float(r["supply_mpa"]), int(r["cleaned_min"])) for r in rows] == [
+        ("sensorless", 0.6, int(df["cleaned_min"].iloc[0]))
+    ]

@@ -40,9 +40,13 @@ class Predicting:
         self.schedule = wrist_schedule(joints)
         self.n = len(joints)
         self.t = 0.0
+        self.events: list[str] = []  # reports, as the platform's controller writes them
 
     def tick(self, sensors):
         self.t = sensors.time_s
+        if self.t >= 0.7 and not self.events:
+            self.events += [f"t = {self.t:.3f} s: wrist_pitch at 1.00 deg (predicted), target 1.00 deg"]
+            self.events += [f"t = {self.t:.3f} s: fault, all brakes engaged: supply lost"]
         return self.schedule.tick(sensors)
 
     def predicted_angles(self):
@@ -208,16 +212,16 @@ def test_rrd_holds_the_entities(logged):
         expected |= {f"/joints/{j}/angle_deg/{s}" for s in ("true", "predicted", "target")}
         expected |= {
             f"/joints/{j}/error_deg/predicted_minus_true",
-            f"/joints/{j}/pressure_pa/chamber_a",
-            f"/joints/{j}/pressure_pa/chamber_b",
+            f"/joints/{j}/pressure_bar/chamber_a",
+            f"/joints/{j}/pressure_bar/chamber_b",
         }
         expected |= {
             f"/joints/{j}/valve/direction",
-            f"/joints/{j}/valve/gauge_pa",
+            f"/joints/{j}/valve/gauge_bar",
             f"/joints/{j}/brake/release",
             f"/joints/{j}/brake/engagement",
         }
-    expected |= {"/supply/pressure_pa", "/brush/force_n"}
+    expected |= {"/supply/pressure_bar", "/brush/force_n"}
     import mujoco
 
     m = mujoco.MjModel.from_xml_path(str(assets.SCENE_XML))
@@ -232,7 +236,7 @@ def test_rrd_holds_the_entities(logged):
     np.testing.assert_array_equal(true[:, 1], np.degrees(a["true_angle_rad"][:, 3]))
     err = series["/joints/wrist_pitch/error_deg/predicted_minus_true"][:, 1]
     np.testing.assert_allclose(err, np.degrees(a["predicted_angle_rad"][:, 3]) - np.degrees(a["true_angle_rad"][:, 3]))
-    np.testing.assert_array_equal(series["/supply/pressure_pa"][:, 1], a["supply_pa"])
+    np.testing.assert_array_equal(series["/supply/pressure_bar"][:, 1], a["supply_pa"] / 1e5)
     # one transform per body per sample: 50 per simulated second (>= 30 frames/s)
     assert len(a["time_s"]) / 1.5 >= 30
 
@@ -365,7 +369,8 @@ def test_a_full_disk_under_the_mcap_ends_the_run_in_one_line_and_keeps_the_rrd(t
     _, series, _ = rrd_entities(rrd)
     logged_until = max(float(v[-1, 0]) for v in series.values())
     print(f"\n.rrd logged until {logged_until} s; {err.strip()}")
-    assert 0.5 <= logged_until < 10.0  # at least the first batch (every 0.5 s), and the run stopped early
+    # at least the first batch (samples every 20 ms to 0.48 s, sent at 0.5 s), and the run stopped early
+    assert 0.48 - 1e-9 <= logged_until < 10.0
 
 
 def test_telemetry_blocks_give_back_what_was_appended():
@@ -421,7 +426,7 @@ def rrd_frames(path: Path) -> list[tuple[float, bytes]]:
 
     out = []
     for chunk in rr.chunk.RrdReader(path).stream():
-        if chunk.entity_path.strip("/") == "camera/global_view" and not chunk.is_static:
+        if chunk.entity_path.strip("/") == "world/camera/global_view" and not chunk.is_static:
             batch = chunk.to_record_batch()
             times = np.asarray(batch.column("time").cast("int64").to_numpy()) * 1e-9
             out += [
@@ -593,7 +598,18 @@ def test_mcap_starts_at_its_declared_epoch_with_units_in_its_schemas(logged):
     assert summary.statistics.message_start_time >= START_TIME_NS
     assert first.log_time == START_TIME_NS + round(telemetry.time_at(0) * 1e9)
     assert summary.statistics.message_end_time == START_TIME_NS + round(telemetry.time_at(-1) * 1e9)
-    units = (", Pa absolute", ", Pa gauge", ", rad", ", s", ", N", ", m", "dimensionless")
+    units = (
+        ", Pa absolute",
+        ", Pa gauge",
+        ", bar absolute",
+        ", bar gauge",
+        ", rad",
+        ", deg",
+        ", s",
+        ", N",
+        ", m",
+        "dimensionless",
+    )
     for schema in summary.schemas.values():
         if schema.encoding == "jsonschema":
             for name, prop in json_.loads(schema.data)["properties"].items():
@@ -623,7 +639,8 @@ def test_mcap_holds_camera_frames_as_compressed_images_or_says_why(tmp_path, cap
 
 def test_shipped_foxglove_layout_is_current_and_reads_logged_channels(logged):
     """assets/foxglove_layout.json is what twin.foxglove_layout makes, and every channel it reads
-    is one a log has; its joint filters name the log's joints."""
+    is one a log has; every field it plots is one its channel's schema declares, in the units the
+    rerun recording shows (degrees and bar, not radians and pascals); its tabs name the log's joints."""
     import json as json_
     import re
 
@@ -636,10 +653,22 @@ def test_shipped_foxglove_layout_is_current_and_reads_logged_channels(logged):
     assert shipped == json_.loads(json_.dumps(layout())), "regenerate: python -m twin.foxglove_layout"
     tmp, telemetry = logged
     with open(tmp / "run.mcap", "rb") as f:
-        topics = {c.topic for c in make_reader(f).get_summary().channels.values()}
+        summary = make_reader(f).get_summary()
+    topics = {c.topic for c in summary.channels.values()}
     assert topics_used(shipped) <= topics | {CAMERA_TOPIC}
-    paths = " ".join(p["value"] for panel in shipped["configById"].values() for p in panel.get("paths", []))
-    named = set(re.findall(r'name=="(\w+)"', paths))
+    fields = {
+        c.topic: json_.loads(summary.schemas[c.schema_id].data)["properties"]
+        for c in summary.channels.values()
+        if summary.schemas[c.schema_id].encoding == "jsonschema"
+    }
+    plotted = [p["value"] for panel in shipped["configById"].values() for p in panel.get("paths", [])]
+    for path in plotted:
+        topic, field = path.split(".", 1)
+        unit = fields[topic][field]["description"]
+        assert ", rad" not in unit and ", Pa" not in unit, (path, unit)
+    units = " ".join(fields[p.split(".", 1)[0]][p.split(".", 1)[1]]["description"] for p in plotted)
+    assert ", deg" in units and ", bar absolute" in units and ", bar gauge" in units
+    named = set(re.findall(r"^/joint/(\w+)\.", "\n".join(plotted), flags=re.M))
     assert named == set(telemetry.joints)
     assert "foxglove_layout.json" in (ROOT / "pyproject.toml").read_text().replace('"*.json"', "foxglove_layout.json")
 
@@ -821,3 +850,242 @@ def test_mcap_with_camera_frames_is_deterministic(tmp_path):
     run_with_camera(McapRecorder, tmp_path / "b.mcap")
     assert len(read_mcap(tmp_path / "a.mcap", frames=True)[1]["camera_frames"]) == 5
     assert (tmp_path / "a.mcap").read_bytes() == (tmp_path / "b.mcap").read_bytes()
+
+
+def expected_predicted_arm(telemetry) -> tuple[np.ndarray, np.ndarray]:
+    """Body positions (T, b, 3) and orientations (T, b, 4, wxyz) of the arm at the logged
+    predicted angles (the true one where a joint has no prediction), by MuJoCo from joint angles
+    that scenarios.ik's inverse of the drive tendons gives (not twin.ghost's matrix)."""
+    import mujoco
+
+    from scenarios.ik import drive_to_qpos
+
+    m = mujoco.MjModel.from_xml_path(str(assets.SCENE_XML))
+    d = mujoco.MjData(m)
+    a = telemetry.arrays()
+    drive = np.where(np.isfinite(a["predicted_angle_rad"]), a["predicted_angle_rad"], a["true_angle_rad"])
+    pos, quat = [], []
+    for row in drive:
+        d.qpos[:] = m.qpos0
+        for joint, q in drive_to_qpos(dict(zip(telemetry.joints, row, strict=True))).items():
+            d.joint(joint).qpos[0] = q
+        mujoco.mj_kinematics(m, d)
+        pos.append(d.xpos[1:].copy())
+        quat.append(d.xquat[1:].copy())
+    return np.array(pos), np.array(quat)
+
+
+def rrd_transforms(path: Path, entity: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(times s, translations, quaternions xyzw) an entity's Transform3D takes in a .rrd."""
+    import rerun as rr
+
+    rows = []
+    for chunk in rr.chunk.RrdReader(path).stream():
+        if chunk.entity_path == entity and not chunk.is_static:
+            b = chunk.to_record_batch()
+            t = np.asarray(b.column("time").cast("int64").to_numpy()) * 1e-9
+            tr = [x[0] for x in b.column("Transform3D:translation").to_pylist()]
+            q = [x[0] for x in b.column("Transform3D:quaternion").to_pylist()]
+            rows += list(zip(t, tr, q, strict=True))
+    rows.sort(key=lambda r: r[0])
+    return np.array([r[0] for r in rows]), np.array([r[1] for r in rows]), np.array([r[2] for r in rows])
+
+
+def test_rrd_draws_the_predicted_arm_at_the_predicted_angles(logged):
+    """world/predicted_arm/<body> follows the controller's predicted angles (the wrist: 0.5 +
+    0.1 t rad), not the true ones, translucent, and is a visible toggle of the 3D view."""
+    import mujoco
+    import rerun as rr
+
+    from twin.rerun_log import GHOST_PATH, blueprint
+
+    tmp, telemetry = logged
+    pos, quat = expected_predicted_arm(telemetry)
+    a = telemetry.arrays()
+    for b, body in enumerate(telemetry.bodies):
+        t, tr, q = rrd_transforms(tmp / "run.rrd", f"/{GHOST_PATH}/{body}")
+        np.testing.assert_allclose(t, a["time_s"], atol=1e-8)
+        np.testing.assert_allclose(tr, pos[:, b], atol=1e-6)
+        np.testing.assert_allclose(np.abs(np.sum(q * np.roll(quat[:, b], -1, axis=1), axis=1)), 1.0, atol=1e-6)
+    head = telemetry.bodies.index("brush_head")
+    _, tr, _ = rrd_transforms(tmp / "run.rrd", f"/{GHOST_PATH}/brush_head")
+    apart = np.linalg.norm(tr - a["body_pos_m"][:, head], axis=1)
+    assert apart.max() > 0.05, "the predicted brush stands where the true one does: the ghost is the true arm"
+    alphas = []
+    for chunk in rr.chunk.RrdReader(tmp / "run.rrd").stream():
+        if chunk.entity_path.startswith(f"/{GHOST_PATH}/") and chunk.is_static:
+            batch = chunk.to_record_batch()
+            alphas += [
+                c[0] & 255 for n in batch.schema.names if n.endswith(":colors") for c in batch.column(n).to_pylist()
+            ]
+    assert alphas and max(alphas) < 128, "the predicted arm is not translucent"
+    m = mujoco.MjModel.from_xml_path(str(assets.SCENE_XML))
+    arm_view = blueprint(assets.JOINTS, m, "wrist_pitch").root_container.contents[0].contents[0]
+    behaviour = arm_view.visualizer_overrides[GHOST_PATH]
+    assert list(behaviour.visible.as_arrow_array().to_pylist()) == [True]
+
+
+def test_mcap_has_the_predicted_arm_as_its_own_frames_and_scene(logged):
+    """/tf/predicted puts frames predicted/<body> where the predicted angles put the bodies, and
+    /scene/predicted draws the moving bodies in those frames, translucent."""
+    from foxglove_schemas_protobuf.FrameTransforms_pb2 import FrameTransforms
+    from foxglove_schemas_protobuf.SceneUpdate_pb2 import SceneUpdate
+    from mcap.reader import make_reader
+
+    tmp, telemetry = logged
+    pos, _ = expected_predicted_arm(telemetry)
+    with open(tmp / "run.mcap", "rb") as f:
+        msgs = list(make_reader(f).iter_messages(topics=["/tf/predicted", "/scene/predicted"]))
+    tfs = [FrameTransforms.FromString(m.data) for _, ch, m in msgs if ch.topic == "/tf/predicted"]
+    (scene,) = [SceneUpdate.FromString(m.data) for _, ch, m in msgs if ch.topic == "/scene/predicted"]
+    assert len(tfs) == len(telemetry)
+    got = np.array([[(x.translation.x, x.translation.y, x.translation.z) for x in tf.transforms] for tf in tfs])
+    assert [x.child_frame_id for x in tfs[0].transforms] == [f"predicted/{b}" for b in telemetry.bodies]
+    np.testing.assert_allclose(got, pos, atol=1e-9)
+    frames = {e.frame_id for e in scene.entities}
+    assert frames and all(f.startswith("predicted/") for f in frames)
+    assert all(c.color.a < 0.5 for e in scene.entities for c in e.cylinders)
+
+
+def test_reports_are_a_text_log_and_foxglove_log_at_their_time(logged):
+    """The controller's reports land in the .rrd's `events` (TextLog, with a level) and the MCAP's
+    /events (foxglove.Log) at the simulated time the report names."""
+    import rerun as rr
+    from foxglove_schemas_protobuf.Log_pb2 import Log
+    from mcap.reader import make_reader
+
+    from twin.mcap_log import START_TIME_NS
+
+    tmp, _ = logged
+    texts = []
+    for chunk in rr.chunk.RrdReader(tmp / "run.rrd").stream():
+        if chunk.entity_path == "/events":
+            b = chunk.to_record_batch()
+            t = np.asarray(b.column("time").cast("int64").to_numpy()) * 1e-9
+            texts += list(
+                zip(
+                    t,
+                    [x[0] for x in b.column("TextLog:text").to_pylist()],
+                    [x[0] for x in b.column("TextLog:level").to_pylist()],
+                    strict=True,
+                )
+            )
+    assert len(texts) == 2
+    assert all(abs(t - 0.7) < 0.021 for t, _, _ in texts)
+    assert texts[0][1].startswith("controller: wrist_pitch at") and texts[0][2] == "INFO"
+    assert "brakes engaged" in texts[1][1] and texts[1][2] == "WARN"
+    with open(tmp / "run.mcap", "rb") as f:
+        logs = [(m.log_time, Log.FromString(m.data)) for _, _, m in make_reader(f).iter_messages(topics=["/events"])]
+    assert [(lg.name, lg.level) for _, lg in logs] == [("controller", Log.INFO), ("controller", Log.WARNING)]
+    assert [lg.message for _, lg in logs] == [text.removeprefix("controller: ") for _, text, _ in texts]
+    assert all(abs((ns - START_TIME_NS) * 1e-9 - t) < 1e-6 for (ns, _), (t, _, _) in zip(logs, texts, strict=True))
+
+
+def test_the_camera_stands_in_3d_where_mujoco_puts_it(logged):
+    """The .rrd holds a pinhole at the global camera's pose and the MCAP a CameraCalibration and its
+    optical frame: a point straight ahead of MuJoCo's camera lands on the image centre, a point
+    above that ahead above the centre (image y grows down), both ways."""
+    import mujoco
+    import rerun as rr
+    from foxglove_schemas_protobuf.CameraCalibration_pb2 import CameraCalibration
+    from foxglove_schemas_protobuf.FrameTransforms_pb2 import FrameTransforms
+    from mcap.reader import make_reader
+
+    tmp, _ = logged
+    m = mujoco.MjModel.from_xml_path(str(assets.SCENE_XML))
+    d = mujoco.MjData(m)
+    mujoco.mj_forward(m, d)
+    cam = m.camera("global_view").id
+    R = d.cam_xmat[cam].reshape(3, 3)  # columns: camera x (right), y (up), z (back) in the world
+    ahead = d.cam_xpos[cam] - 2.0 * R[:, 2]
+    above = ahead + 0.3 * R[:, 1]
+    with open(tmp / "run.mcap", "rb") as f:
+        msgs = {
+            ch.topic: m_.data
+            for _, ch, m_ in make_reader(f).iter_messages(topics=["/tf/camera", "/camera/global_view/calibration"])
+        }
+    cal = CameraCalibration.FromString(msgs["/camera/global_view/calibration"])
+    (x,) = FrameTransforms.FromString(msgs["/tf/camera"]).transforms
+    assert x.child_frame_id == cal.frame_id == "global_view" and (cal.width, cal.height) == (480, 360)
+    R_opt = np.empty(9)
+    mujoco.mju_quat2Mat(R_opt, np.array([x.rotation.w, x.rotation.x, x.rotation.y, x.rotation.z]))
+    origin = np.array([x.translation.x, x.translation.y, x.translation.z])
+    K = np.array(cal.K).reshape(3, 3)
+
+    def pixel(p):
+        ray = R_opt.reshape(3, 3).T @ (p - origin)
+        uvw = K @ ray
+        return uvw[:2] / uvw[2]
+
+    np.testing.assert_allclose(pixel(ahead), [240, 180], atol=1e-6)
+    u, v = pixel(above)
+    fy = 180 / np.tan(np.radians(m.cam_fovy[cam]) / 2)
+    assert abs(u - 240) < 1e-6 and v == pytest.approx(180 - fy * 0.3 / 2.0)
+    pinhole = None
+    for chunk in rr.chunk.RrdReader(tmp / "run.rrd").stream():
+        if chunk.entity_path == "/world/camera/global_view" and chunk.is_static:
+            pinhole = chunk.to_record_batch()
+    assert pinhole is not None
+    K_rr = np.array(pinhole.column("Pinhole:image_from_camera").to_pylist()[0][0]).reshape(3, 3).T  # column-major
+    np.testing.assert_allclose(K_rr, K, rtol=1e-6)
+    np.testing.assert_allclose(pinhole.column("Transform3D:translation").to_pylist()[0][0], d.cam_xpos[cam], atol=1e-6)
+
+
+def test_mcap_display_fields_are_the_logged_values_in_degrees_and_bar(logged):
+    """The fields the Foxglove layout plots are the telemetry in the rerun recording's units."""
+    import json as json_
+
+    from mcap.reader import make_reader
+
+    tmp, telemetry = logged
+    a = telemetry.arrays()
+    with open(tmp / "run.mcap", "rb") as f:
+        messages = list(make_reader(f).iter_messages(topics=["/joint/wrist_pitch", "/arm"]))
+    rows = [json_.loads(m.data) for _, ch, m in messages if ch.topic == "/joint/wrist_pitch"]
+    arm = [json_.loads(m.data) for _, ch, m in messages if ch.topic == "/arm"]
+    k = telemetry.joints.index("wrist_pitch")
+    col = {f: np.array([r[f] for r in rows], dtype=float) for f in rows[0]}
+    np.testing.assert_allclose(col["angle_true_deg"], np.degrees(a["true_angle_rad"][:, k]))
+    np.testing.assert_allclose(col["angle_predicted_deg"], np.degrees(a["predicted_angle_rad"][:, k]))
+    np.testing.assert_allclose(col["pressure_a_bar"], a["pressure_a_pa"][:, k] / 1e5)
+    np.testing.assert_allclose(col["valve_gauge_bar"], a["valve_gauge_pa"][:, k] / 1e5)
+    np.testing.assert_allclose([r["supply_bar"] for r in arm], a["supply_pa"] / 1e5)
+
+
+def test_run_streams_live_to_a_viewer_it_connects_to(tmp_path):
+    """`twin run --connect ADDR` streams the recording to a running rerun gRPC server: here rerun's
+    own, on 127.0.0.1 only, saving what arrives (`rerun --save`); what it saved is the run."""
+    import shutil
+    import socket
+
+    import rerun as rr
+
+    exe = shutil.which("rerun", path=str(Path(sys.executable).parent)) or shutil.which("rerun")
+    if exe is None:
+        pytest.skip("rerun's command line is not installed beside this Python")
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    saved = tmp_path / "live.rrd"
+    server = subprocess.Popen(
+        [exe, "--port", str(port), "--bind", "127.0.0.1", "--save", str(saved)],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+        start_new_session=True,  # `rerun` is a wrapper that starts the viewer's binary: stop both together
+    )
+    try:
+        deadline = time.monotonic() + 30
+        while True:
+            with socket.socket() as s:
+                if s.connect_ex(("127.0.0.1", port)) == 0:
+                    break
+            assert time.monotonic() < deadline and server.poll() is None, "the rerun server did not start"
+            time.sleep(0.1)
+        url = f"rerun+http://127.0.0.1:{port}/proxy"
+        # arrives (an event) at 1.25 s
+        assert twin_main(["run", "wrist_closed_loop_60deg", "--duration", "1.5", "--connect", url]) == 0
+    finally:
+        os.killpg(server.pid, signal.SIGTERM)
+        server.wait(timeout=30)
+    paths = {chunk.entity_path for chunk in rr.chunk.RrdReader(saved).stream()}
+    assert {"/joints/wrist_pitch/angle_deg/predicted", "/world/predicted_arm/rig_load", "/events"} <= paths

@@ -5,12 +5,13 @@ from __future__ import annotations
 
 import json
 import math
+import re
 
 import numpy as np
 import pytest
 
 import assets
-from scenarios.runner import run_file, run_scenario, scenario_files
+from scenarios.runner import run_scenario, scenario_files
 from scenarios.schema import ScenarioError, load, parse, with_overrides
 from scenarios.supply import supply_profile
 from scenarios.sweep import child_seeds, parse_grid, sweep, sweep_points
@@ -167,12 +168,39 @@ def test_cli_run_json_and_exit_codes(capsys, tmp_path):
 
 
 @pytest.mark.parametrize("path", scenario_files(), ids=lambda p: p.stem)
-def test_every_scenario_passes_its_criteria(path):
-    result = run_file(path)
+def test_every_scenario_passes_its_criteria_and_its_summary_is_what_its_log_shows(path, tmp_path):
+    """Each shipped scenario, whole, passes its criteria; its summary's final target, angles and
+    error per joint are those its MCAP log shows at the end (the log written by its own run)."""
+    from scenarios.recording import close_all, open_recorders
+    from twin.mcap_log import read_mcap
+
+    scenario = load(path)
+    recorders = open_recorders(scenario, None, tmp_path / "run.mcap", camera_fps=0)
+    try:
+        result = run_scenario(scenario, recorders=tuple(recorders))
+    finally:
+        assert close_all(recorders) == {}
     failed = [v for v in result.verdicts if not v.passed]
     assert result.passed, (result.error, failed)
     assert result.verdicts, "a scenario without criteria checks nothing"
     assert all(math.isfinite(v.value) for v in result.verdicts)
+    logged, meta = read_mcap(tmp_path / "run.mcap")
+    summary = result.summary()
+    for i, joint in enumerate(meta["joints"]):
+        row = summary["joints"][joint]
+        target, true, predicted = (math.degrees(logged[k][-1, i]) for k in ANGLES)
+        for field, value, tol in (
+            ("target_deg", target, 1e-4),
+            ("true_final_deg", true, 1e-4),
+            ("predicted_final_deg", predicted, 1e-4),
+            ("error_deg", true - target, 2e-4),
+        ):
+            # the summary says None where the log holds no number (NaN: no set point, no prediction)
+            expected = None if math.isnan(value) else pytest.approx(value, abs=tol)
+            assert row[field] == expected, (joint, field)
+
+
+ANGLES = ("target_angle_rad", "true_angle_rad", "predicted_angle_rad")
 
 
 def test_a_rig_run_cut_short_is_judged_on_the_target_in_force(capsys, tmp_path):
@@ -242,3 +270,17 @@ def test_a_fault_after_the_cut_is_said_and_what_depends_on_it_not_judged(capsys,
     assert twin_main(["run", str(path), "--json", "--duration", "5.5"]) == 0  # struck: judged (no load to move it)
     summary = json.loads(capsys.readouterr().out)
     assert summary["faults_not_applied"] == [] and all(c["judged"] for c in summary["criteria"])
+
+
+def test_run_shows_progress_on_a_terminal_and_nothing_else(capsys, monkeypatch):
+    """On a terminal `twin run` rewrites one line on stderr with simulated time, real-time factor
+    and discs done; with --json, or when stderr is not a terminal, it writes none."""
+    monkeypatch.setattr("sys.stderr.isatty", lambda: True, raising=False)
+    assert twin_main(["run", "insulator_cleaning", "--duration", "1.5"]) == 0
+    err = capsys.readouterr().err
+    assert re.search(r"\r\s+1\.5 / 1\.5 s simulated, [0-9.]+x real time, discs 0/8", err), err
+    assert twin_main(["run", "insulator_cleaning", "--duration", "1.5", "--json"]) == 0
+    assert "simulated" not in capsys.readouterr().err
+    monkeypatch.setattr("sys.stderr.isatty", lambda: False, raising=False)
+    assert twin_main(["run", "insulator_cleaning", "--duration", "1.5"]) == 0
+    assert "simulated," not in capsys.readouterr().err

@@ -31,6 +31,7 @@ import numpy as np
 from PIL import Image
 
 from twin import worker
+from twin.camera_pose import FRAME_HEIGHT, FRAME_WIDTH
 from twin.model import has_camera
 from twin.render import PoseRenderer
 
@@ -49,8 +50,8 @@ class CameraProcess:
         self,
         model: mujoco.MjModel,
         camera: str = "global_view",
-        width: int = 480,
-        height: int = 360,
+        width: int = FRAME_WIDTH,
+        height: int = FRAME_HEIGHT,
         backends: tuple[str, ...] | None = None,
     ):
         self._dir = tempfile.TemporaryDirectory(prefix="twin-camera-")
@@ -134,7 +135,12 @@ class FrameFeed:
     count (`frames_from`)."""
 
     def __init__(
-        self, model: mujoco.MjModel, fps: float, camera: str = "global_view", width: int = 480, height: int = 360
+        self,
+        model: mujoco.MjModel,
+        fps: float,
+        camera: str = "global_view",
+        width: int = FRAME_WIDTH,
+        height: int = FRAME_HEIGHT,
     ):
         self.fps = float(fps)
         self._next_t = 0.0

@@ -1,7 +1,9 @@
-"""The Foxglove layout shipped for the MCAP logs (assets/foxglove_layout.json): the arm in 3D and
-the global camera on the left; on the right one tab per joint with its angles, angle error,
-chamber pressures, valve and brake, each plot one quantity in one unit (as the rerun recording).
-Import it in Foxglove (Layouts > Import from file) and open a log of `twin run --mcap`.
+"""The Foxglove layout shipped for the MCAP logs (assets/foxglove_layout.json): the arm in 3D with
+the arm the controller believes in (translucent) and the camera's frustum, the global camera and
+the controller's and operator's reports on the left; on the right one tab per joint with its
+angles, angle error, chamber pressures, valve and brake, each plot one quantity in the unit the
+rerun recording shows (degrees, bar). Import it in Foxglove (Layouts > Import from file) and open
+a log of `twin run --mcap`.
 
     python -m twin.foxglove_layout [OUT.json]    # regenerates the shipped file
 
@@ -17,7 +19,7 @@ import sys
 from pathlib import Path
 
 import assets
-from twin.mcap_log import CAMERA_TOPIC
+from twin.mcap_log import CALIBRATION_TOPIC, CAMERA_TOPIC, EVENTS_TOPIC
 
 LAYOUT_PATH = assets.ASSETS_DIR / "foxglove_layout.json"
 # dark-theme colours, as in the rerun recording (twin.rerun_log.SERIES_STYLES)
@@ -52,36 +54,36 @@ def _split(direction: str, items: list, shares: list[float] | None = None):
 
 
 def joint_plots(j: str, k: int) -> tuple[dict, dict]:
-    """The plots of joint `j` (panel ids carry its index `k`) and their split tree."""
-    pick = f'.joints[:]{{name=="{j}"}}.position'
+    """The plots of joint `j` (panel ids carry its index `k`) and their split tree, in degrees and
+    bar (the /joint/<j> channel's display fields, twin.mcap_log)."""
     port = f"/joint/{j}"
     plots = {
         f"Plot!{k}angle": _plot(
-            f"{j}: angle (rad)",
+            f"{j}: angle (deg)",
             [
-                (f"/joint_states/true{pick}", "true (plant)", WHITE),
-                (f"/joint_states/predicted{pick}", "predicted (controller)", ORANGE),
-                (f"/joint_states/target{pick}", "target", BLUE),
+                (f"{port}.angle_true_deg", "true (plant)", WHITE),
+                (f"{port}.angle_predicted_deg", "predicted (controller)", ORANGE),
+                (f"{port}.angle_target_deg", "target", BLUE),
             ],
         ),
         f"Plot!{k}error": _plot(
-            f"{j}: predicted − true (rad)",
+            f"{j}: predicted − true (deg)",
             [
-                (f"{port}.predicted_minus_true_rad", "predicted − true", ORANGE),
+                (f"{port}.predicted_minus_true_deg", "predicted − true", ORANGE),
             ],
         ),
         f"Plot!{k}pressure": _plot(
-            f"{j}: absolute pressure (Pa)",
+            f"{j}: absolute pressure (bar)",
             [
-                (f"{port}.pressure_a_pa", "chamber A", RED),
-                (f"{port}.pressure_b_pa", "chamber B", BLUE),
-                ("/arm.supply_pa", "supply", GREY),
+                (f"{port}.pressure_a_bar", "chamber A", RED),
+                (f"{port}.pressure_b_bar", "chamber B", BLUE),
+                ("/arm.supply_bar", "supply", GREY),
             ],
         ),
         f"Plot!{k}valve": _plot(
-            f"{j}: proportional valve, gauge (Pa)",
+            f"{j}: proportional valve, gauge (bar)",
             [
-                (f"{port}.valve_gauge_pa", "prop. valve set pressure", GREEN),
+                (f"{port}.valve_gauge_bar", "prop. valve set pressure", GREEN),
             ],
         ),
         f"Plot!{k}commands": _plot(
@@ -102,11 +104,13 @@ def layout(joints: tuple[str, ...] = assets.JOINTS, focus: str = "elbow_pitch") 
         "3D!arm": {
             "followTf": "world",
             "scene": {"enableStats": False},
-            "topics": {"/scene": {"visible": True}},
+            # the true arm, the predicted one (its own frames predicted/<body>), the camera's frustum
+            "topics": {t: {"visible": True} for t in ("/scene", "/scene/predicted", CALIBRATION_TOPIC)},
             "layers": {"grid": {"layerId": "foxglove.Grid", "visible": False}},  # the model's floor is drawn
         },
-        "Image!camera": {"imageMode": {"imageTopic": CAMERA_TOPIC}},
+        "Image!camera": {"imageMode": {"imageTopic": CAMERA_TOPIC, "calibrationTopic": CALIBRATION_TOPIC}},
         "Plot!brush": _plot("brush normal force (N)", [("/arm.brush_force_n", "brush force", YELLOW)]),
+        "RosOut!events": {"topicToRender": EVENTS_TOPIC, "searchTerms": [], "minLogLevel": 1},
     }
     tabs = []
     for k, j in enumerate(joints):
@@ -114,7 +118,8 @@ def layout(joints: tuple[str, ...] = assets.JOINTS, focus: str = "elbow_pitch") 
         config |= plots
         tabs.append({"title": j, "layout": tree})
     config["Tab!joints"] = {"activeTabIdx": joints.index(focus) if focus in joints else 0, "tabs": tabs}
-    left = _split("column", ["3D!arm", _split("row", ["Image!camera", "Plot!brush"])], [3, 1])
+    below = _split("row", ["Image!camera", "Plot!brush", "RosOut!events"])
+    left = _split("column", ["3D!arm", below], [3, 1])
     return {
         "configById": config,
         "globalVariables": {},
@@ -132,7 +137,9 @@ def topics_used(doc: dict) -> set[str]:
             out.add(p["value"].split(".", 1)[0])
         out |= set(panel.get("topics", {}))
         if "imageMode" in panel:
-            out.add(panel["imageMode"]["imageTopic"])
+            out |= {panel["imageMode"]["imageTopic"], panel["imageMode"]["calibrationTopic"]}
+        if "topicToRender" in panel:
+            out.add(panel["topicToRender"])
     return out
 
 

@@ -8,10 +8,21 @@ Channels, one message per telemetry sample (50 per simulated second), `sequence`
     /joint_states/target     foxglove.JointStates   position = set point, rad (NaN: none)
     /tf                      foxglove.FrameTransforms  world -> <body>, one per body
     /scene                   foxglove.SceneUpdate   each body's geoms, once, frame-locked
+    /tf/predicted            foxglove.FrameTransforms  world -> predicted/<body>: the arm at the
+                                   controller's predicted angles (twin.ghost), samples that have one
+    /scene/predicted         foxglove.SceneUpdate   the moving bodies' geoms in predicted/<body>,
+                                   translucent orange, once (with the first predicted pose)
     /joint/<joint>           JSON  pressure_a_pa, pressure_b_pa (abs), valve_gauge_pa, direction,
-                                   brake_release, brake_engagement, predicted_minus_true_rad
+                                   brake_release, brake_engagement, predicted_minus_true_rad; and
+                                   for the plots, in the units the rerun recording shows: angle_
+                                   {true,predicted,target}_deg, predicted_minus_true_deg,
+                                   pressure_{a,b}_bar (abs), valve_gauge_bar
     /arm                     JSON  time_s, supply_pa (abs), brush_force_n, brush_contact_{x,y,z}_m
-                                   (world, null: no contact), brush_push_{x,y,z}_n (world)
+                                   (world, null: no contact), brush_push_{x,y,z}_n (world), supply_bar
+    /events                  foxglove.Log   the controller's and the operator's reports (twin.events)
+    /tf/camera               foxglove.FrameTransforms  world -> global_view (the camera's optical
+                                   frame, x right, y down, z forward), once at the start
+    /camera/global_view/calibration  foxglove.CameraCalibration  its pinhole, once at the start
     /camera/global_view      foxglove.CompressedImage  JPEG frames of the scene's global camera
                                    (`camera_fps` > 0 and offscreen GL works), written at close
 
@@ -46,15 +57,18 @@ import dataclasses
 import datetime as dt
 import functools
 import json
+import logging
 import math
 import sys
 import time
 from pathlib import Path
 
 import numpy as np
+from foxglove_schemas_protobuf.CameraCalibration_pb2 import CameraCalibration
 from foxglove_schemas_protobuf.CompressedImage_pb2 import CompressedImage
 from foxglove_schemas_protobuf.FrameTransforms_pb2 import FrameTransforms
 from foxglove_schemas_protobuf.JointStates_pb2 import JointStates
+from foxglove_schemas_protobuf.Log_pb2 import Log
 from foxglove_schemas_protobuf.SceneUpdate_pb2 import SceneUpdate
 from mcap.records import Attachment, Channel, Footer, Message, Metadata
 from mcap.stream_reader import StreamReader
@@ -66,9 +80,17 @@ from twin.errors import UserError
 from twin.provenance import package_versions
 from twin.telemetry import SIGNALS
 
+log = logging.getLogger(__name__)
+
 CHUNK_SIZE = 32 * 1024  # bytes: ~0.3 s of telemetry, within DESIGN's 4-64 KB
 START_TIME_NS = 946_684_800 * 1_000_000_000  # 2000-01-01T00:00:00Z: the fixed start of a log (deterministic)
 CAMERA_TOPIC = "/camera/global_view"
+CALIBRATION_TOPIC = "/camera/global_view/calibration"
+EVENTS_TOPIC = "/events"
+GHOST_PREFIX = "predicted/"  # the predicted arm's frames: predicted/<body>
+GHOST_RGBA = (1.0, 140 / 255, 0.0, 0.35)  # the prediction's orange (twin.rerun_log), translucent
+PA_PER_BAR = 1e5
+LOG_LEVELS = {"INFO": Log.INFO, "WARN": Log.WARNING, "ERROR": Log.ERROR}  # twin.events.EventLevel -> foxglove
 # what each JSON field holds, with its unit (the schemas' field descriptions)
 JOINT_DOC = {
     "pressure_a_pa": "motor chamber A pressure, Pa absolute",
@@ -79,6 +101,16 @@ JOINT_DOC = {
     "brake_engagement": "brake engagement: 0 released .. 1 holding, dimensionless",
     "predicted_minus_true_rad": "controller's predicted angle minus the plant's true angle, rad",
 }
+# the same in the units the rerun recording shows (for the shipped Foxglove layout's plots)
+DISPLAY_DOC = {
+    "angle_true_deg": "the plant's true drive angle, deg",
+    "angle_predicted_deg": "controller's predicted drive angle, deg (null: no prediction)",
+    "angle_target_deg": "controller's set point, deg (null: none)",
+    "predicted_minus_true_deg": "controller's predicted angle minus the plant's true angle, deg",
+    "pressure_a_bar": "motor chamber A pressure, bar absolute",
+    "pressure_b_bar": "motor chamber B pressure, bar absolute",
+    "valve_gauge_bar": "proportional valve pressure as its sensor reads it, bar gauge",
+}
 ARM_DOC = {
     "time_s": "simulated time since the run's start, s",
     "supply_pa": "supply pressure, Pa absolute",
@@ -86,6 +118,7 @@ ARM_DOC = {
 }
 ARM_DOC |= {f"brush_contact_{x}_m": f"brush contact point, world {x}, m (null: no contact)" for x in "xyz"}
 ARM_DOC |= {f"brush_push_{x}_n": f"force of the brush on what it touches, world {x}, N" for x in "xyz"}
+ARM_DOC["supply_bar"] = "supply pressure, bar absolute"
 JOINT_FIELDS = ("pressure_a_pa", "pressure_b_pa", "valve_gauge_pa", "direction", "brake_release", "brake_engagement")
 ANGLE_CHANNELS = {
     "true_angle_rad": "/joint_states/true",
@@ -94,11 +127,11 @@ ANGLE_CHANNELS = {
 }
 
 
-JOINT_JSON = "{" + ",".join(f'"{f}":%r' for f in (*JOINT_FIELDS, "predicted_minus_true_rad")) + "}"
-# /arm fields: scalars, then each 3-vector of the brush contact as _x, _y, _z
+JOINT_JSON = "{" + ",".join(f'"{f}":%r' for f in (*JOINT_FIELDS, "predicted_minus_true_rad", *DISPLAY_DOC)) + "}"
+# /arm fields: scalars, then each 3-vector of the brush contact as _x, _y, _z, then the supply in bar
 ARM_SCALARS = ("time_s", "supply_pa", "brush_force_n")
 ARM_VECTORS = {"brush_contact_m": "brush_contact_{}_m", "brush_push_n": "brush_push_{}_n"}
-ARM_FIELDS = ARM_SCALARS + tuple(f.format(x) for f in ARM_VECTORS.values() for x in "xyz")
+ARM_FIELDS = ARM_SCALARS + tuple(f.format(x) for f in ARM_VECTORS.values() for x in "xyz") + ("supply_bar",)
 ARM_JSON = "{" + ",".join(f'"{f}":%r' for f in ARM_FIELDS) + "}"
 
 
@@ -120,15 +153,28 @@ class McapWriter:
     """Writes the MCAP file in the calling process: what McapRecorder's writer process runs.
 
     `bodies` are the body names in telemetry order, `scene` the serialised foxglove.SceneUpdate
-    of the model's geometry, `meta` the run's metadata (twin.provenance.run_metadata).
+    of the model's geometry, `meta` the run's metadata (twin.provenance.run_metadata);
+    `predicted_scene` the moving bodies' geoms in the predicted arm's frames (written with the
+    first predicted pose), `camera` the camera's serialised (FrameTransforms, CameraCalibration).
     """
 
-    def __init__(self, path, joints, bodies, scene: bytes, meta: dict | None = None, *, chunk_size: int = CHUNK_SIZE):
+    def __init__(
+        self,
+        path,
+        joints,
+        bodies,
+        scene: bytes,
+        meta: dict | None = None,
+        *,
+        chunk_size: int = CHUNK_SIZE,
+        predicted_scene: bytes | None = None,
+        camera: tuple[bytes, bytes] | None = None,
+    ):
         self.path = Path(path)
         self.joints = tuple(joints)
         self.bodies = tuple(bodies)
         meta = dict(meta or {})
-        self.start_ns = int(meta["start_time_ns"]) if meta.get("start_time_ns") is not None else START_TIME_NS
+        self.start_ns = _start_ns(meta)
         self._file = _open_for_writing(self.path)
         self._writer = Writer(self._file, chunk_size=chunk_size, compression=CompressionType.ZSTD)
         self._writer.start(profile="", library="pneumatic-arm-twin")
@@ -151,11 +197,11 @@ class McapWriter:
             )
             return self._writer.register_channel(topic=topic, message_encoding="json", schema_id=sid)
 
-        self._JointStates, self._FrameTransforms = JointStates, FrameTransforms
+        self._JointStates = JointStates
         self._angle_ch = {sig: proto_channel(topic, JointStates) for sig, topic in ANGLE_CHANNELS.items()}
         self._tf_ch = proto_channel("/tf", FrameTransforms)
         scene_ch = proto_channel("/scene", SceneUpdate)
-        self._joint_ch = [json_channel(f"/joint/{j}", JOINT_DOC) for j in self.joints]
+        self._joint_ch = [json_channel(f"/joint/{j}", JOINT_DOC | DISPLAY_DOC) for j in self.joints]
         self._arm_ch = json_channel("/arm", ARM_DOC)
         self._proto_channel = proto_channel
         self._camera_ch: int | None = None  # registered with the first frame
@@ -176,6 +222,16 @@ class McapWriter:
         if meta.get("scenario_text") is not None:
             self._writer.add_attachment(0, 0, "scenario.toml", "application/toml", str(meta["scenario_text"]).encode())
         self._writer.add_message(scene_ch, self.start_ns, scene, self.start_ns, sequence=0)
+        self._predicted_scene = predicted_scene
+        self._predicted_tf_ch: int | None = None  # registered with the first predicted pose
+        self._events_ch: int | None = None  # registered with the first report
+        self._events_written = 0
+        if camera is not None:
+            self._writer.add_message(
+                proto_channel("/tf/camera", FrameTransforms), self.start_ns, camera[0], self.start_ns, sequence=0
+            )
+            calibration_ch = proto_channel(CALIBRATION_TOPIC, CameraCalibration)
+            self._writer.add_message(calibration_ch, self.start_ns, camera[1], self.start_ns, sequence=0)
         self._writer.flush()
         self._closed = False
 
@@ -189,14 +245,18 @@ class McapWriter:
         if len(times) == 0:
             return
         add = self._writer.add_message
-        JointStates, FrameTransforms = self._JointStates, self._FrameTransforms
+        JointStates = self._JointStates
         lists = {k: a[k].tolist() for k in ("time_s", *ANGLE_CHANNELS)}
         # per joint and sample, the JSON fields in order: (T, n, fields) -> nested lists
-        rows = np.stack(
-            [a[f] for f in JOINT_FIELDS] + [a["predicted_angle_rad"] - a["true_angle_rad"]], axis=-1
-        ).tolist()
+        error = a["predicted_angle_rad"] - a["true_angle_rad"]
+        display = [np.degrees(a[k]) for k in ANGLE_CHANNELS] + [np.degrees(error)]
+        display += [a[k] / PA_PER_BAR for k in ("pressure_a_pa", "pressure_b_pa", "valve_gauge_pa")]
+        rows = np.stack([a[f] for f in JOINT_FIELDS] + [error] + display, axis=-1).tolist()
         arm_rows = np.concatenate(
-            [np.stack([a[f] for f in ARM_SCALARS], axis=-1)] + [a[v] for v in ARM_VECTORS], axis=-1
+            [np.stack([a[f] for f in ARM_SCALARS], axis=-1)]
+            + [a[v] for v in ARM_VECTORS]
+            + [a["supply_pa"][:, None] / PA_PER_BAR],
+            axis=-1,
         ).tolist()
         pos, quat = a["body_pos_m"], a["body_quat_wxyz"]
         for k, t in enumerate(lists["time_s"]):
@@ -209,19 +269,44 @@ class McapWriter:
                 for name, value in zip(self.joints, lists[sig][k], strict=True):
                     msg.joints.add(name=name, position=value)
                 add(ch, ns, msg.SerializeToString(), ns, sequence=seq)
-            tf = FrameTransforms()
-            for b, body in enumerate(self.bodies):
-                x = tf.transforms.add(parent_frame_id="world", child_frame_id=body)
-                x.timestamp.seconds, x.timestamp.nanos = sec, nsec
-                px, py, pz = pos[k, b].tolist()
-                qw, qx, qy, qz = quat[k, b].tolist()
-                x.translation.x, x.translation.y, x.translation.z = px, py, pz
-                x.rotation.w, x.rotation.x, x.rotation.y, x.rotation.z = qw, qx, qy, qz
+            tf = _frame_transforms(ns, "world", self.bodies, pos[k].tolist(), quat[k].tolist())
             add(self._tf_ch, ns, tf.SerializeToString(), ns, sequence=seq)
             for ch, row in zip(self._joint_ch, rows[k], strict=True):
                 add(ch, ns, _json_object(JOINT_JSON, row), ns, sequence=seq)
             add(self._arm_ch, ns, _json_object(ARM_JSON, arm_rows[k]), ns, sequence=seq)
+        if "predicted_pos_m" in a:
+            self._write_predicted(a, start)
         self._writer.flush()  # ends the chunk and flushes the file: a kill now loses nothing
+
+    def _write_predicted(self, a: dict[str, np.ndarray], start: int) -> None:
+        """The predicted arm's frames (twin.ghost poses in `a`) for the samples that have them."""
+        drawn = np.flatnonzero(a["predicted_drawn"])
+        if drawn.size == 0:
+            return
+        if self._predicted_tf_ch is None:
+            self._predicted_tf_ch = self._proto_channel("/tf/predicted", FrameTransforms)
+            if self._predicted_scene is not None:
+                ch = self._proto_channel("/scene/predicted", SceneUpdate)
+                self._writer.add_message(ch, self.start_ns, self._predicted_scene, self.start_ns, sequence=0)
+        pos, quat, times = a["predicted_pos_m"].tolist(), a["predicted_quat_wxyz"].tolist(), a["time_s"].tolist()
+        for k in drawn.tolist():
+            ns = self.start_ns + int(round(times[k] * 1e9))
+            tf = _frame_transforms(ns, "world", [GHOST_PREFIX + b for b in self.bodies], pos[k], quat[k])
+            self._writer.add_message(self._predicted_tf_ch, ns, tf.SerializeToString(), ns, sequence=start + k)
+
+    def write_events(self, events: list[tuple[float, str, str, str]]) -> None:
+        """Append reports (time s, source, level "INFO"|"WARN"|"ERROR", text) as foxglove.Log."""
+        if not events:
+            return
+        if self._events_ch is None:
+            self._events_ch = self._proto_channel(EVENTS_TOPIC, Log)
+        for t, source, level, text in events:
+            ns = self.start_ns + int(round(t * 1e9))
+            msg = Log(level=LOG_LEVELS[level], message=text, name=source)
+            msg.timestamp.seconds, msg.timestamp.nanos = divmod(ns, 1_000_000_000)
+            self._writer.add_message(self._events_ch, ns, msg.SerializeToString(), ns, sequence=self._events_written)
+            self._events_written += 1
+        self._writer.flush()
 
     def write_frames(self, frames: list[tuple[float, bytes]], camera: str = "global_view") -> None:
         """Append camera frames (simulated time s, JPEG bytes) as foxglove.CompressedImage."""
@@ -244,6 +329,18 @@ class McapWriter:
         self._file.close()
 
 
+def _frame_transforms(ns: int, parent: str, children, positions, quats_wxyz) -> FrameTransforms:
+    """One FrameTransforms of `parent` -> each child at log time `ns` (positions m, quaternions wxyz)."""
+    tf = FrameTransforms()
+    sec, nsec = divmod(ns, 1_000_000_000)
+    for child, (px, py, pz), (qw, qx, qy, qz) in zip(children, positions, quats_wxyz, strict=True):
+        x = tf.transforms.add(parent_frame_id=parent, child_frame_id=child)
+        x.timestamp.seconds, x.timestamp.nanos = sec, nsec
+        x.translation.x, x.translation.y, x.translation.z = px, py, pz
+        x.rotation.w, x.rotation.x, x.rotation.y, x.rotation.z = qw, qx, qy, qz
+    return tf
+
+
 def start_time(text: str, where: str = "--start-time") -> dict:
     """The metadata that starts a log at `text`: "now" (the wall clock; the log then differs from
     run to run) or an ISO 8601 time with its zone (2026-11-23T13:00:00Z). LogError otherwise."""
@@ -260,6 +357,11 @@ def start_time(text: str, where: str = "--start-time") -> dict:
         raise LogError(f"{where} {text!r}: is before 1970-01-01T00:00:00Z; expected {allowed}")
     ns = int(when.timestamp()) * 1_000_000_000 + when.microsecond * 1000
     return {"start_time_ns": ns, "start_time_source": f"given: {text}"}
+
+
+def _start_ns(meta: dict) -> int:
+    """The log's start: the metadata's "start_time_ns", else the fixed START_TIME_NS."""
+    return int(meta["start_time_ns"]) if meta.get("start_time_ns") is not None else START_TIME_NS
 
 
 def _utc(ns: int) -> str:
@@ -295,8 +397,11 @@ def _serve(stdin, stdout) -> None:
                 writer.close()
                 stdout.write(b"ok\n")
                 return
-            if isinstance(msg, dict):  # {"frames": [(t, jpeg), ...]}
-                writer.write_frames(msg["frames"])
+            if isinstance(msg, dict):  # {"frames": [(t, jpeg), ...]} or {"events": [(t, source, level, text), ...]}
+                if "frames" in msg:
+                    writer.write_frames(msg["frames"])
+                else:
+                    writer.write_events(msg["events"])
                 continue
             writer.write_arrays(*msg)
     except Exception as e:  # the run reads it at its next write or at close
@@ -336,13 +441,19 @@ class McapRecorder:
     ):
         # MuJoCo on use: the writer process (`python -m twin.mcap_log`) starts in 0.35 s without it, 0.59 s with
         from twin.camera import FrameFeed
+        from twin.ghost import GhostArm
         from twin.model import body_name
 
         self.path = Path(path)
         _open_for_writing(self.path).close()  # a bad path is refused here, before the run starts
         bodies = tuple(body_name(plant_model, b) for b in range(1, plant_model.nbody))
         args = (self.path, tuple(joints), bodies, _scene_update(plant_model).SerializeToString(), dict(meta or {}))
-        kwargs = {"chunk_size": chunk_size}
+        kwargs = {
+            "chunk_size": chunk_size,
+            "predicted_scene": _scene_update(plant_model, GHOST_PREFIX, GHOST_RGBA).SerializeToString(),
+            "camera": _camera_messages(plant_model, _start_ns(meta or {})),
+        }
+        self._ghost = GhostArm(plant_model, tuple(joints))
         self._inline = self._proc = None
         self._closed = False
         self._camera = frames
@@ -377,9 +488,22 @@ class McapRecorder:
             return
         if self._camera is not None and len(telemetry) > start:
             self._camera.request(telemetry, start)
+        a = telemetry.arrays(start)
+        a["predicted_pos_m"], a["predicted_quat_wxyz"], a["predicted_drawn"] = self._ghost.poses(
+            a["predicted_angle_rad"], a["true_angle_rad"]
+        )
         if self._inline is not None:
-            return self._inline.write(telemetry, start)
-        self._send((telemetry.arrays(start), start))
+            return self._inline.write_arrays(a, start)
+        self._send((a, start))
+
+    def write_events(self, events) -> None:
+        """The controller's and the operator's reports (twin.events.Event) as foxglove.Log."""
+        if self._closed or not events:
+            return
+        rows = [(e.time_s, e.source, e.level.value, e.text) for e in events]
+        if self._inline is not None:
+            return self._inline.write_events(rows)
+        self._send({"events": rows})
 
     def _close_camera(self) -> list[tuple[float, bytes]]:
         """All frames, in time order (the order they were rendered in is the renderer's)."""
@@ -387,7 +511,7 @@ class McapRecorder:
             return []
         frames = sorted(self._camera.frames_from(0, wait=True), key=lambda f: f[0])
         if self._camera.error:  # the log holds everything else
-            print(f"twin: note: no camera frames in {self.path}: {self._camera.error}", file=sys.stderr)
+            log.warning("note: no camera frames in %s: %s", self.path, self._camera.error)
         return frames
 
     def close(self) -> None:
@@ -416,8 +540,35 @@ def _place(prim, offset=(0.0, 0.0, 0.0), *, pos, quat, rot, rgba) -> None:
     prim.color.r, prim.color.g, prim.color.b, prim.color.a = rgba
 
 
-def _scene_update(model):
-    """Each geom as a foxglove primitive in its body's frame (world geoms in "world")."""
+def _camera_messages(model, start_ns: int) -> tuple[bytes, bytes] | None:
+    """The global camera's pose (FrameTransforms world -> its optical frame) and pinhole
+    (CameraCalibration), serialised, at the log's start; None without a world-fixed camera."""
+    from twin.camera_pose import camera_pose
+
+    cam = camera_pose(model)
+    if cam is None:
+        return None
+    pose = [cam.position_m.tolist()], [cam.optical_quat_wxyz().tolist()]
+    tf = _frame_transforms(start_ns, "world", [cam.name], *pose)
+    K = cam.intrinsics()
+    calibration = CameraCalibration(
+        frame_id=cam.name,
+        width=cam.width,
+        height=cam.height,
+        distortion_model="plumb_bob",  # with D all zero: MuJoCo's pinhole has no distortion
+        D=[0.0] * 5,
+        K=K.ravel().tolist(),
+        R=np.eye(3).ravel().tolist(),
+        P=np.hstack([K, np.zeros((3, 1))]).ravel().tolist(),
+    )
+    calibration.timestamp.seconds, calibration.timestamp.nanos = divmod(start_ns, 1_000_000_000)
+    return tf.SerializeToString(), calibration.SerializeToString()
+
+
+def _scene_update(model, prefix: str = "", rgba_override: tuple[float, ...] | None = None):
+    """Each geom as a foxglove primitive in its body's frame (world geoms in "world"). With a
+    `prefix`: only the moving bodies' shown geoms, in frames `prefix + body`, in `rgba_override`
+    (the predicted arm)."""
     import mujoco  # on use: see McapRecorder (the writer process starts in 0.35 s without MuJoCo, 0.59 s with)
 
     from twin.model import body_name, geom_rgba
@@ -427,13 +578,15 @@ def _scene_update(model):
     entities = {}
     for g in range(model.ngeom):
         b = model.geom_bodyid[g]
-        frame = "world" if b == 0 else body_name(model, b)
+        if prefix and (b == 0 or int(model.geom_group[g]) > 2):  # groups 0-2: what MuJoCo shows by default
+            continue
+        frame = "world" if b == 0 else prefix + body_name(model, b)
         if frame not in entities:
             entities[frame] = update.entities.add(frame_id=frame, id=f"geoms/{frame}", frame_locked=True)
         ent = entities[frame]
         t, s = int(model.geom_type[g]), model.geom_size[g]  # int: enum `in` tuple fails on numpy ints
         p, q = model.geom_pos[g], model.geom_quat[g]
-        rgba = tuple(float(c) for c in geom_rgba(model, g))
+        rgba = rgba_override or tuple(float(c) for c in geom_rgba(model, g))
         R = np.empty(9)
         mujoco.mju_quat2Mat(R, q)
         place = functools.partial(_place, pos=p, quat=q, rot=R.reshape(3, 3), rgba=rgba)

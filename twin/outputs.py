@@ -12,9 +12,9 @@ from __future__ import annotations
 import contextlib
 import errno
 import fcntl
+import logging
 import os
 import shutil
-import sys
 import tempfile
 import time
 from collections.abc import Callable, Iterable
@@ -23,6 +23,8 @@ from pathlib import Path
 from pneumatics.paths import is_special, path_problem
 from twin.errors import UserError
 from twin.signals import shielded, stop_behind
+
+log = logging.getLogger(__name__)
 
 
 def _nearest_existing(path: Path) -> Path:
@@ -169,7 +171,7 @@ def keep_result(path: Path, write: Callable[[Path], object], what: str) -> Path:
             write(place)
         except OSError:
             continue
-        print(f"twin: could not write {what} to {path} ({reason}); saved them to {place} instead", file=sys.stderr)
+        log.warning("could not write %s to %s (%s); saved them to %s instead", what, path, reason, place)
         return place
     tried = ", ".join(map(str, fallback_places(path)))
     raise UserError(f"{path}: could not write {what} ({reason}), nor in any fallback place ({tried})")
@@ -281,7 +283,7 @@ def publish_folder(
         if keep_on_stop and stop_behind(e) is not None and any(p.is_file() for p in staging.rglob("*")):
             with shielded():  # a second signal does not cut the move short
                 folder = _move_in(staging, out, what)
-            print(f"twin: stopped; {what} finished so far are in {folder}", file=sys.stderr)
+            log.warning("stopped; %s finished so far are in %s", what, folder)
         else:  # the work failed or was stopped: nothing finished to keep
             shutil.rmtree(staging, ignore_errors=True)
         raise
@@ -311,5 +313,5 @@ def _move_in(staging: Path, out: Path, what: str) -> Path:
             staging.rename(kept)
         except OSError:
             kept = staging
-        print(f"twin: could not write {what} to {out} ({e.strerror or e}); they are in {kept}", file=sys.stderr)
+        log.warning("could not write %s to %s (%s); they are in %s", what, out, e.strerror or e, kept)
         return kept

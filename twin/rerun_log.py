@@ -1,25 +1,31 @@
-"""Rerun recording of a run: the arm in 3D beside true and predicted angles, pressures, valves.
+"""Rerun recording of a run: the arm in 3D beside the arm the controller believes in, the true and
+predicted angles, pressures, valves, and what the controller and the operator reported.
 
 A `RerunRecorder` implements the Recorder protocol of twin.sim: it logs each body's geometry once
 (read from the MuJoCo model: rerun has no MJCF loader, DESIGN "What we measured"), then, for every
 batch of telemetry, one transform per body per sample (50 per simulated second) and the time
 series, all with `send_columns` (bulk: ~0.3 µs a sample against ~160 µs for one `log` call).
 
-Entity paths (angles in degrees: the recording is a user-facing edge, STYLE rule 3):
+Entity paths (angles in degrees and pressures in bar: the recording is a user-facing edge,
+STYLE rule 3):
 
     world/scene/<geom>                 floor, gantry (static)
     world/string/<disc>                insulator string discs and caps (static)
     world/arm/<body>                   body pose in the world frame, one Transform3D per sample
     world/arm/<body>/<geom>            the body's geoms (static, pose in the body frame)
+    world/predicted_arm/<body>[/<geom>]  the same at the controller's predicted angles (twin.ghost),
+                                       translucent orange; hide it in the blueprint panel
+    world/camera/global_view           the operator's camera: its pose, a pinhole, and its frames
+                                       (`camera_fps` > 0 and offscreen GL works)
     joints/<joint>/angle_deg/{true,predicted,target}
     joints/<joint>/error_deg/{predicted_minus_true,target_minus_true}
-    joints/<joint>/pressure_pa/{chamber_a,chamber_b}     absolute
-    joints/<joint>/valve/{direction,gauge_pa}            direction command -1/0/+1, prop. valve
+    joints/<joint>/pressure_bar/{chamber_a,chamber_b}    absolute
+    joints/<joint>/valve/{direction,gauge_bar}           direction command -1/0/+1, prop. valve
     joints/<joint>/brake/{release,engagement}            release command 0/1, true engagement
-    supply/pressure_pa                 absolute
+    supply/pressure_bar                absolute
     brush/force_n                      brush normal force on the discs
     world/brush_contact                the brush's push on the string at its contact point (arrow, 1 mm/N)
-    camera/global_view                 optional rendered frames (`camera_fps` > 0 and GL works)
+    events                             the controller's and the operator's reports (TextLog)
 
 Timeline: "time" (simulated seconds, as a duration).
 """
@@ -27,8 +33,8 @@ Timeline: "time" (simulated seconds, as a duration).
 from __future__ import annotations
 
 import json
+import logging
 import math
-import sys
 from pathlib import Path
 
 import mujoco
@@ -37,10 +43,19 @@ import rerun as rr
 import rerun.blueprint as rrb
 
 from twin.camera import FrameFeed
+from twin.camera_pose import camera_pose
 from twin.errors import UserError
+from twin.ghost import GhostArm
 from twin.model import body_name, geom_rgba, has_camera
 
+log = logging.getLogger(__name__)
+
 TIMELINE = "time"
+PA_PER_BAR = 1e5
+CAMERA_PATH = "world/camera/global_view"
+GHOST_PATH = "world/predicted_arm"
+GHOST_RGBA = (255, 140, 0, 90)  # the prediction's orange (SERIES_STYLES), about a third opaque
+EVENTS_PATH = "events"
 
 # MuJoCo geom types we draw; others (mesh, hfield, sdf, ellipsoid) are skipped with a note.
 _GEOM = mujoco.mjtGeom
@@ -84,15 +99,16 @@ def _rgba8(rgba: np.ndarray) -> list[int]:
     return [int(round(255 * float(np.clip(c, 0, 1)))) for c in rgba]
 
 
-def geom_archetype(model: mujoco.MjModel, g: int):
-    """The rerun primitive for geom `g` in its own frame, or None for a type we do not draw.
+def geom_archetype(model: mujoco.MjModel, g: int, rgba8: tuple[int, ...] | None = None):
+    """The rerun primitive for geom `g` in its own frame, or None for a type we do not draw;
+    in its own colour, or in `rgba8` (0..255, alpha included).
 
     MuJoCo sizes: box half-sizes; cylinder/capsule (radius, half-length) along local z, centred;
     sphere radius; plane (half-x, half-y, grid spacing). Rerun capsules run from z=0 to z=length,
     so they are shifted down by the half-length.
     """
     t, s = int(model.geom_type[g]), model.geom_size[g]  # int: enum `in` tuple fails on numpy ints
-    color = [_rgba8(geom_rgba(model, g))]
+    color = [list(rgba8) if rgba8 is not None else _rgba8(geom_rgba(model, g))]
     if t == _GEOM.mjGEOM_BOX:
         return rr.Boxes3D(half_sizes=[s[:3]], colors=color, fill_mode="solid")
     if t == _GEOM.mjGEOM_CYLINDER:
@@ -146,18 +162,45 @@ def _geom_parent_path(model: mujoco.MjModel, g: int) -> str:
     return "world/string" if geom_name(model, g).startswith("disc_") else "world/scene"
 
 
-def log_static_geometry(rec, model: mujoco.MjModel) -> list[str]:
-    """Log every drawable geom once (static); returns the entity paths written."""
+def log_static_geometry(rec, model: mujoco.MjModel, ghost: bool = False) -> list[str]:
+    """Log every drawable geom once (static); returns the entity paths written. With `ghost`, the
+    moving bodies' shown geoms once more under GHOST_PATH, translucent: the arm at its predicted
+    angles (twin.ghost)."""
     paths = []
     for g in range(model.ngeom):
-        arch = geom_archetype(model, g)
+        b = int(model.geom_bodyid[g])
+        if ghost and (b == 0 or int(model.geom_group[g]) not in VISIBLE_GROUPS):
+            continue
+        arch = geom_archetype(model, g, GHOST_RGBA if ghost else None)
         if arch is None:
             continue
-        path = f"{_geom_parent_path(model, g)}/{geom_name(model, g)}"
+        parent = f"{GHOST_PATH}/{body_name(model, b)}" if ghost else _geom_parent_path(model, g)
+        path = f"{parent}/{geom_name(model, g)}"
         pose = rr.Transform3D(translation=model.geom_pos[g], quaternion=wxyz_to_xyzw(model.geom_quat[g]))
         rec.log(path, pose, arch, static=True)
         paths.append(path)
     return paths
+
+
+def log_camera(rec, model: mujoco.MjModel) -> bool:
+    """The operator's camera in 3D (static): its pose and a pinhole of its frames' size and field
+    of view (twin.camera_pose), which the frames logged at CAMERA_PATH fill. False: no world-fixed
+    camera "global_view"."""
+    cam = camera_pose(model)
+    if cam is None:
+        return False
+    rec.log(
+        CAMERA_PATH,
+        rr.Transform3D(translation=cam.position_m, quaternion=wxyz_to_xyzw(cam.quat_wxyz)),
+        rr.Pinhole(
+            image_from_camera=cam.intrinsics(),
+            resolution=[cam.width, cam.height],
+            camera_xyz=rr.ViewCoordinates.RUB,  # MuJoCo's camera frame: x right, y up, looking along -z
+            image_plane_distance=0.3,
+        ),
+        static=True,
+    )
+    return True
 
 
 # Series styles, chosen for the viewer's default dark theme: the plant's truth a thin bright line
@@ -169,15 +212,15 @@ SERIES_STYLES = {
     "angle_deg/target": ((60, 170, 255), 1.5, "target"),
     "error_deg/predicted_minus_true": ((255, 140, 0), 2.0, "predicted − true"),
     "error_deg/target_minus_true": ((60, 170, 255), 1.5, "target − true"),
-    "pressure_pa/chamber_a": ((255, 90, 90), 1.5, "chamber A"),
-    "pressure_pa/chamber_b": ((90, 160, 255), 1.5, "chamber B"),
-    "valve/gauge_pa": ((110, 220, 110), 1.5, "prop. valve set pressure"),
+    "pressure_bar/chamber_a": ((255, 90, 90), 1.5, "chamber A"),
+    "pressure_bar/chamber_b": ((90, 160, 255), 1.5, "chamber B"),
+    "valve/gauge_bar": ((110, 220, 110), 1.5, "prop. valve set pressure"),
     "valve/direction": ((255, 210, 60), 1.5, "direction valve"),
     "brake/release": ((110, 220, 110), 1.5, "release command"),
     "brake/engagement": ((255, 90, 90), 1.5, "engagement"),
 }
 OTHER_STYLES = {
-    "supply/pressure_pa": ((200, 200, 200), 1.5, "supply"),
+    "supply/pressure_bar": ((200, 200, 200), 1.5, "supply"),
     "brush/force_n": ((255, 210, 60), 1.5, "brush force"),
 }
 
@@ -231,8 +274,8 @@ def joint_views(j: str):
     return rrb.Vertical(
         view(f"{j}: angle (deg)", f"{p}/angle_deg/**"),
         view(f"{j}: angle error (deg)", f"{p}/error_deg/**"),
-        view(f"{j}: absolute pressure (Pa)", [f"{p}/pressure_pa/**", "supply/pressure_pa"]),
-        view(f"{j}: proportional valve, gauge (Pa)", f"{p}/valve/gauge_pa"),
+        view(f"{j}: absolute pressure (bar)", [f"{p}/pressure_bar/**", "supply/pressure_bar"]),
+        view(f"{j}: proportional valve, gauge (bar)", f"{p}/valve/gauge_bar"),
         rrb.Horizontal(
             view(f"{j}: direction valve (-1, 0, +1)", f"{p}/valve/direction"),
             view(f"{j}: brake (0 released, 1 holding)", f"{p}/brake/**"),
@@ -245,8 +288,10 @@ def joint_views(j: str):
 def blueprint(
     joints: tuple[str, ...], model: mujoco.MjModel | None = None, focus: str | None = None, camera: bool = False
 ):
-    """The layout the recording opens with: the arm in 3D, close up (left), and the time series of
-    one joint at a time in tabs, opened on `focus` (the joint that moves; right)."""
+    """The layout the recording opens with: the arm in 3D, close up, with the arm the controller
+    believes in beside it (its visibility a toggle of the 3D view's blueprint), and the reports
+    below (left); the time series of one joint at a time in tabs, opened on `focus` (the joint
+    that moves; right)."""
     focus = focus if focus in joints else joints[0]
     hidden = [f"- {p}" for p in hidden_geom_paths(model)] if model is not None else []
     arm = rrb.Spatial3DView(
@@ -255,13 +300,16 @@ def blueprint(
         contents=["+ $origin/**", *hidden],
         line_grid=False,  # the model's own floor is drawn
         eye_controls=rrb.EyeControls3D(**eye(model)) if model is not None else None,
+        # shown, and not picked by a click (the true arm is what one inspects)
+        overrides={GHOST_PATH: rrb.EntityBehavior(visible=True, interactive=False)},
     )
     below = []
     if camera:
-        below.append(rrb.Spatial2DView(name="global_view camera", origin="camera"))
+        below.append(rrb.Spatial2DView(name="global_view camera", origin=CAMERA_PATH))
     if model is None or mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, "brush") >= 0:
         below.append(rrb.TimeSeriesView(name="brush normal force (N)", origin="brush"))
-    left = rrb.Vertical(arm, rrb.Horizontal(*below), row_shares=[3, 1]) if below else arm
+    below.append(rrb.TextLogView(name="controller and operator", origin=EVENTS_PATH))
+    left = rrb.Vertical(arm, rrb.Horizontal(*below), row_shares=[3, 1])
     right = rrb.Tabs(*(joint_views(j) for j in joints), active_tab=joints.index(focus), name="joints")
     return rrb.Blueprint(
         rrb.Horizontal(left, right, column_shares=[1, 1]),
@@ -295,23 +343,26 @@ class RerunRecorder:
         focus: str | None = None,
         frames=None,
         camera_view: bool = False,
+        viewer: str | None = None,
     ):
-        self.path = Path(path)
+        if path is None and viewer is None:
+            raise ValueError("a rerun recording needs a file, a viewer, or both")
+        self.path = Path(path) if path is not None else None
         self.model = plant_model
         self.joints = tuple(joints)
         self.bodies = tuple(body_name(plant_model, b) for b in range(1, plant_model.nbody))
         self.rec = rr.RecordingStream("pneumatic_arm_twin")
-        try:
-            camera = camera_view or (camera_fps > 0 and has_camera(plant_model, "global_view"))
-            self.rec.save(self.path, default_blueprint=blueprint(self.joints, plant_model, focus, camera=camera))
-        except Exception as e:  # rerun raises its own error types for unwritable paths
-            raise RerunLogError(f"{self.path}: cannot write a rerun recording: {e}") from e
+        camera = camera_view or (camera_fps > 0 and has_camera(plant_model, "global_view"))
+        self._open_sinks(viewer, blueprint(self.joints, plant_model, focus, camera=camera))
         if meta and meta.get("scenario_name"):
             self.rec.send_recording_name(str(meta["scenario_name"]))
         self.rec.log(
             "meta", rr.TextDocument(json.dumps(meta or {}, indent=2, default=str), media_type="text/plain"), static=True
         )
         log_static_geometry(self.rec, plant_model)
+        log_camera(self.rec, plant_model)
+        self._ghost = GhostArm(plant_model, self.joints)
+        self._ghost_drawn = False  # its geometry is logged with its first predicted pose
         self._log_series_styles()
         self.camera_fps = float(camera_fps)
         if self.camera_fps < 0:
@@ -325,6 +376,22 @@ class RerunRecorder:
         if self._camera is None and self.camera_fps > 0:
             self._camera = FrameFeed(plant_model, self.camera_fps)
         self._closed = False
+
+    def _open_sinks(self, viewer: str | None, layout) -> None:
+        """Where the recording goes: the file `path`, and/or a live viewer (`viewer`: "spawn"
+        starts one on this machine, else the gRPC URL of a running one, e.g.
+        rerun+http://127.0.0.1:9876/proxy)."""
+        where = ", ".join(str(x) for x in (self.path, viewer) if x is not None)
+        try:
+            sinks = [rr.FileSink(str(self.path))] if self.path is not None else []
+            if viewer == "spawn":
+                self.rec.spawn(connect=False)  # a viewer on rerun's default port, which GrpcSink() reaches
+                sinks.append(rr.GrpcSink())
+            elif viewer is not None:
+                sinks.append(rr.GrpcSink(viewer))
+            self.rec.set_sinks(*sinks, default_blueprint=layout)
+        except Exception as e:  # rerun raises its own error types for unwritable paths and bad URLs
+            raise RerunLogError(f"{where}: cannot write a rerun recording: {e}") from e
 
     def _log_series_styles(self) -> None:
         styles = {f"joints/{j}/{sub}": s for j in self.joints for sub, s in SERIES_STYLES.items()} | OTHER_STYLES
@@ -364,6 +431,7 @@ class RerunRecorder:
                     translation=a["body_pos_m"][:, i], quaternion=wxyz_to_xyzw(a["body_quat_wxyz"][:, i])
                 ),
             )
+        self._send_ghost(a, idx)
         true_deg = np.degrees(a["true_angle_rad"])
         pred_deg = np.degrees(a["predicted_angle_rad"])
         target_deg = np.degrees(a["target_angle_rad"])
@@ -374,13 +442,13 @@ class RerunRecorder:
             scalars(f"{p}/angle_deg/target", target_deg[:, k])
             scalars(f"{p}/error_deg/predicted_minus_true", pred_deg[:, k] - true_deg[:, k])
             scalars(f"{p}/error_deg/target_minus_true", target_deg[:, k] - true_deg[:, k])
-            scalars(f"{p}/pressure_pa/chamber_a", a["pressure_a_pa"][:, k])
-            scalars(f"{p}/pressure_pa/chamber_b", a["pressure_b_pa"][:, k])
+            scalars(f"{p}/pressure_bar/chamber_a", a["pressure_a_pa"][:, k] / PA_PER_BAR)
+            scalars(f"{p}/pressure_bar/chamber_b", a["pressure_b_pa"][:, k] / PA_PER_BAR)
             scalars(f"{p}/valve/direction", a["direction"][:, k])
-            scalars(f"{p}/valve/gauge_pa", a["valve_gauge_pa"][:, k])
+            scalars(f"{p}/valve/gauge_bar", a["valve_gauge_pa"][:, k] / PA_PER_BAR)
             scalars(f"{p}/brake/release", a["brake_release"][:, k])
             scalars(f"{p}/brake/engagement", a["brake_engagement"][:, k])
-        scalars("supply/pressure_pa", a["supply_pa"])
+        scalars("supply/pressure_bar", a["supply_pa"] / PA_PER_BAR)
         scalars("brush/force_n", a["brush_force_n"])
         # the brush's push on the string, drawn where it touches: an arrow per sample in contact,
         # none otherwise (rows of length 0 clear it); 1 mm per N
@@ -393,12 +461,41 @@ class RerunRecorder:
             ).partition(touching.astype(np.int32)),
         )
 
+    def _send_ghost(self, a: dict[str, np.ndarray], idx: list) -> None:
+        """The arm at the controller's predicted angles, for the samples that have a prediction
+        (a replayed command schedule has none: then no ghost is drawn at all)."""
+        pos, quat, drawn = self._ghost.poses(a["predicted_angle_rad"], a["true_angle_rad"])
+        if not drawn.any():
+            return
+        if not self._ghost_drawn:
+            log_static_geometry(self.rec, self.model, ghost=True)
+            self._ghost_drawn = True
+        times = [rr.TimeColumn(TIMELINE, duration=a["time_s"][drawn])]
+        for i, body in enumerate(self.bodies):
+            self.rec.send_columns(
+                f"{GHOST_PATH}/{body}",
+                indexes=times,
+                columns=rr.Transform3D.columns(translation=pos[drawn, i], quaternion=wxyz_to_xyzw(quat[drawn, i])),
+            )
+
+    def write_events(self, events) -> None:
+        """The controller's and the operator's reports (twin.events.Event), as a text log."""
+        if not events:
+            return
+        self.rec.send_columns(
+            EVENTS_PATH,
+            indexes=[rr.TimeColumn(TIMELINE, duration=[e.time_s for e in events])],
+            columns=rr.TextLog.columns(
+                text=[f"{e.source}: {e.text}" for e in events], level=[e.level.value for e in events]
+            ),
+        )
+
     def log_frames(self, frames: list[tuple[float, bytes]]) -> None:
         """Log camera frames (simulated time s, JPEG bytes), e.g. those a replayed log holds."""
         self._frames_seen += len(frames)
         for t, jpeg in frames:
             self.rec.set_time(TIMELINE, duration=t)
-            self.rec.log("camera/global_view", rr.EncodedImage(contents=jpeg, media_type="image/jpeg"))
+            self.rec.log(CAMERA_PATH, rr.EncodedImage(contents=jpeg, media_type="image/jpeg"))
 
     def close(self) -> None:
         if self._closed:
@@ -409,6 +506,6 @@ class RerunRecorder:
         if self._camera is not None:
             self.log_frames(self._camera.frames_from(self._frames_seen, wait=True))
             if self._camera.error:  # the recording holds everything else
-                print(f"twin: note: no camera frames in {self.path}: {self._camera.error}", file=sys.stderr)
+                log.warning("note: no camera frames in %s: %s", self.path or "the viewer", self._camera.error)
         self.rec.flush()
         self.rec.disconnect()

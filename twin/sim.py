@@ -22,6 +22,7 @@ import numpy as np
 from control.loop import run_ticks
 from pneumatics import joint as J
 from twin.compiled_loop import compiled_ticks
+from twin.events import EventTail
 from twin.model import SimulationError
 from twin.plant import Plant, Sensors
 from twin.sample_row import ROW_SIGNALS
@@ -38,6 +39,9 @@ class Controller(Protocol):
 
 
 class Recorder(Protocol):
+    """A log writer. One that also has `write_events(events: list[twin.events.Event])` is given
+    the controller's and operator's reports as they come (rerun's text log, foxglove.Log)."""
+
     def write(self, telemetry: Telemetry, start: int) -> None: ...
     def close(self) -> None: ...
 
@@ -186,6 +190,7 @@ class _Recording:
         # the joints the controller predicts (a number from the start; a command schedule has none)
         self._predicted = np.isfinite(controller.predicted_angles())
         self.checked = len(telemetry)  # samples before this one were checked by `check_prediction`
+        self._events = EventTail(controller)
 
     def on_tick(self, k: int, t: float, row: np.ndarray | None = None) -> None:
         """The run's work at tick k (time t): a sample on a log tick (`row`: taken already by the
@@ -231,3 +236,11 @@ class _Recording:
         for r in self.recorders:
             r.write(self.telemetry, self.flushed)
         self.flushed = len(self.telemetry)
+        if not self.recorders:
+            return
+        events = self._events.new(self.plant.time)
+        if events:
+            for r in self.recorders:
+                write_events = getattr(r, "write_events", None)
+                if write_events is not None:
+                    write_events(events)

@@ -15,6 +15,7 @@ cumulative import time); what is left, 0.4 s, is numba, which pneumatics (Parame
 from __future__ import annotations
 
 import argparse
+import logging
 import signal
 import sys
 from importlib import metadata
@@ -26,6 +27,26 @@ from twin_cli import gap_commands, log_commands, plot_command, run_commands, stu
 
 # each defines `register(subparsers)`; the order is that of `twin --help`
 COMMAND_MODULES = (run_commands, log_commands, plot_command, gap_commands, study_commands)
+
+
+class _CurrentStderr(logging.Handler):
+    """Log records as "twin: message" lines on sys.stderr as it is when the record comes (not as it
+    was when the handler was made: tests and callers swap sys.stderr)."""
+
+    def emit(self, record: logging.LogRecord) -> None:
+        try:
+            sys.stderr.write(f"twin: {record.getMessage()}\n")
+        except Exception:  # noqa: BLE001 - logging must never end a run
+            self.handleError(record)
+
+
+def configure_logging(verbose: bool) -> None:
+    """The libraries log (stdlib logging); the command line shows their warnings, and with
+    --verbose what they do (INFO), one line each on stderr."""
+    root = logging.getLogger()
+    if not any(isinstance(h, _CurrentStderr) for h in root.handlers):
+        root.addHandler(_CurrentStderr())
+    root.setLevel(logging.INFO if verbose else logging.WARNING)
 
 
 class OneLineParser(argparse.ArgumentParser):
@@ -48,6 +69,9 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument(
         "--version", action="version", version=f"%(prog)s {version()}", help="print the version and exit"
     )
+    parser.add_argument(
+        "-v", "--verbose", action="store_true", help="say what the libraries do (their log, INFO and above) on stderr"
+    )
     sub = parser.add_subparsers(
         dest="command", required=True, metavar="COMMAND", help="what to do (each has its own --help)"
     )
@@ -59,6 +83,7 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
+    configure_logging(args.verbose)
     try:
         with stop_on_sigterm():
             return int(args.func(args) or 0)

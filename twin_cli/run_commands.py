@@ -13,6 +13,7 @@ from twin.checks import DURATION_S, MONTE_CARLO, RECORDING_CAMERA_FPS, SEED
 from twin.outputs import OutputLock, check_output, keep_result, publish_folder, write_atomic
 from twin_cli.args import add_workers, number, place
 from twin_cli.figures import figure_lines
+from twin_cli.progress import ProgressLine
 
 
 def _add_run(sub: argparse._SubParsersAction) -> None:
@@ -22,6 +23,13 @@ def _add_run(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--json", action="store_true", help="print the summary as JSON on stdout")
     p.add_argument("--rrd", type=place, help="write a rerun recording here")
     p.add_argument("--mcap", type=place, help="write an MCAP log here")
+    live = p.add_mutually_exclusive_group()
+    live.add_argument("--spawn", action="store_true", help="stream the rerun recording live to a viewer started here")
+    live.add_argument(
+        "--connect",
+        metavar="ADDR",
+        help="stream the rerun recording live to a running viewer (e.g. rerun+http://127.0.0.1:9876/proxy)",
+    )
     p.add_argument(
         "--camera-fps",
         type=number(**CAMERA_FPS_RANGE),
@@ -123,11 +131,16 @@ def cmd_run(args) -> int:
                 inputs=[Path(scenario.path)],
                 others={f: p for f, p in outputs.items() if f != flag},
             )
+    viewer = "spawn" if args.spawn else args.connect
+    # the progress line only where someone watches it: not into a pipe or a file, not beside --json
+    progress = ProgressLine() if not args.json and sys.stderr.isatty() else None
     with OutputLock(outputs.values()):
-        recorders = open_recorders(scenario, args.rrd, args.mcap, args.camera_fps, args.start_time)
+        recorders = open_recorders(scenario, args.rrd, args.mcap, args.camera_fps, args.start_time, viewer)
         try:
-            result = run_scenario(scenario, recorders=recorders, duration_s=args.duration)
+            result = run_scenario(scenario, recorders=recorders, duration_s=args.duration, progress=progress)
         finally:
+            if progress is not None:
+                progress.close()
             log_errors = close_all(recorders)
     summary = result.summary()
     if args.json:
@@ -135,7 +148,7 @@ def cmd_run(args) -> int:
         print()
     else:
         print_summary(summary)
-    for label, path in (("rerun recording", args.rrd), ("MCAP log", args.mcap)):
+    for label, path in (("rerun recording", args.rrd), ("MCAP log", args.mcap), ("rerun viewer", args.connect)):
         if path:
             state = " NOT written (the error below)" if Path(path) in log_errors else ""
             print(f"{label}: {path}{state}", file=sys.stderr if args.json else sys.stdout)
@@ -219,7 +232,9 @@ def cmd_paper(args) -> int:
     check_output(args.out, "--out", folder=True)
     with OutputLock([args.out]):
         report, folder = publish_folder(
-            args.out, lambda staging: reproduce(staging, quick=args.quick), "the paper's experiments"
+            args.out,
+            lambda staging: reproduce(staging, quick=args.quick, progress=sys.stderr.isatty()),
+            "the paper's experiments",
         )
     print(f"paper's experiments reproduced: {folder / report.name}")
     return 0

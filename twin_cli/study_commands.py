@@ -14,14 +14,14 @@ def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("study", help="studies over the scenarios: `twin study cleaning --out DIR`")
     studies = p.add_subparsers(dest="study", required=True, metavar="STUDY", help="the study to run")
     c = studies.add_parser(
-        "cleaning", help="the insulator-cleaning task per strategy x supply x seed: DIR/study.json, study.md, study.png"
+        "cleaning", help="the cleaning task per strategy x supply x seed: DIR/study.json, .csv, .md, .png"
     )
     c.add_argument(
         "--out",
         type=place,
         required=True,
         metavar="DIR",
-        help="output folder (made if missing): study.json, study.md, study.png",
+        help="output folder (made if missing): study.json, study.csv, study.md, study.png",
     )
     c.add_argument(
         "--strategies",
@@ -77,5 +77,5 @@ def cmd_study_cleaning(args) -> int:
     with OutputLock([args.out]):
         study_rows, folder = publish_folder(args.out, study_into, "the study")
     print(table(study_rows))
-    print(f"{folder / 'study.json'}, {folder / 'study.md'}, {folder / 'study.png'}")
+    print(f"{folder / 'study.json'}, {folder / 'study.csv'}, {folder / 'study.md'}, {folder / 'study.png'}")
     return 0
