@@ -16,6 +16,7 @@ import signal
 import subprocess
 import sys
 import time
+import tomllib
 import warnings
 from pathlib import Path
 
@@ -366,8 +367,8 @@ def test_shipped_scenarios_are_found_by_name_from_any_folder(tmp_path, monkeypat
     assert Path(s.path) == SHIPPED_DIR / "insulator_cleaning.toml" and s.name == "insulator_cleaning"
     assert load("wrist_min_rotation.toml").model == "wrist_rig"
     # the files are package data of `scenarios`, so a plain (non-editable) install has them
-    pyproject = (ROOT / "pyproject.toml").read_text()
-    assert 'scenarios = ["*.toml"]' in pyproject
+    package_data = tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["setuptools"]["package-data"]
+    assert "*.toml" in package_data["scenarios"]
     (tmp_path / "insulator_cleaning").mkdir()  # a folder of that name here is not a scenario file
     with pytest.raises(ScenarioError, match="cannot be read"):
         load("insulator_cleaning")
