@@ -3,8 +3,9 @@
 Every telemetry sample carries the brush's contact force (the sum of the normal forces of its
 contacts, `mj_contactForce`) and the force-weighted contact point (twin/sim.py `brush_contact`).
 The brush can touch only the discs (contype/conaffinity, assets/arm.xml and scene.xml), and the
-discs are 12.6 cm apart with a 2 cm rim, so a contact point belongs to the disc whose shell holds
-it. Per disc:
+discs are 10 cm or more apart with a 2 cm rim, so a contact point belongs to the disc whose shell
+holds it (in the disc's own frame: the string may stand turned or leaning, scenarios/string.py).
+Per disc:
 
     contact_s   the longest unbroken stretch with the force above CONTACT_N (s)
     peak_n      the largest force while touching it (N)
@@ -23,7 +24,9 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
-N_DISCS = 8
+from scenarios.string import Disc, discs_of
+
+N_DISCS = 8  # the shipped scene's string (assets/scene.xml); a scenario's [string] may have another count
 # a touch counts above half the head's spring preload (10 N, assets/arm.xml): any press that lifts
 # the head off its stop passes it, the contact's first sample of a graze may not
 CONTACT_N = 5.0
@@ -42,15 +45,22 @@ class DiscContact:
 
 
 def disc_of_points(model: mujoco.MjModel, points: np.ndarray) -> np.ndarray:
-    """The disc (1..8) whose shell holds each contact point (0: none, or no contact: NaN point)."""
+    """The disc (1..n) whose shell holds each contact point (0: none, or no contact: NaN point)."""
     out = np.zeros(len(points), dtype=int)
-    for k in range(1, N_DISCS + 1):
-        g = model.geom(f"disc_{k}")
-        half = g.size[1] + SHELL_MARGIN_M
-        radial = np.hypot(points[:, 0] - g.pos[0], points[:, 1] - g.pos[1])
-        inside = (np.abs(points[:, 2] - g.pos[2]) <= half) & (radial <= g.size[0] + SHELL_MARGIN_M)
+    for k, disc in enumerate(discs_of(model), start=1):
+        along, radial = _in_disc(disc, points)
+        inside = (np.abs(along) <= disc.half_thickness_m + SHELL_MARGIN_M) & (radial <= disc.radius_m + SHELL_MARGIN_M)
         out[inside] = k
     return out
+
+
+def _in_disc(disc: Disc, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Each point's height along the disc's axis from its centre, and its distance from the axis."""
+    rel = points - disc.centre_m
+    with np.errstate(invalid="ignore"):
+        along = rel @ disc.axis
+        radial = np.linalg.norm(rel - along[:, None] * disc.axis, axis=1)
+    return along, radial
 
 
 def _longest_run_s(mask: np.ndarray, t: np.ndarray) -> float:
@@ -84,20 +94,18 @@ def disc_contacts(model: mujoco.MjModel, arrays: dict[str, np.ndarray], until_s:
     disc = disc_of_points(model, np.nan_to_num(point, nan=np.inf))
     brush_radius = float(model.geom("brush").size[0])
     out = []
-    for k in range(1, N_DISCS + 1):
-        g = model.geom(f"disc_{k}")
+    for k, shell in enumerate(discs_of(model), start=1):
         on = (disc == k) & (force > CONTACT_N)
         touched = force[disc == k]
-        azimuth = np.arctan2(point[on, 1] - g.pos[1], point[on, 0] - g.pos[0])
+        local = (point[on] - shell.centre_m) @ shell.frame()
+        azimuth = np.arctan2(local[:, 1], local[:, 0])
         out.append(
             DiscContact(
                 disc=k,
                 contact_s=_longest_run_s(on, t),
                 peak_n=float(touched.max()) if touched.size else math.nan,
                 mean_n=float(force[on].mean()) if on.any() else math.nan,
-                brushed_m=_covered_arc_m(
-                    azimuth, math.asin(min(1.0, brush_radius / float(g.size[0]))), float(g.size[0])
-                ),
+                brushed_m=_covered_arc_m(azimuth, math.asin(min(1.0, brush_radius / shell.radius_m)), shell.radius_m),
             )
         )
     return out

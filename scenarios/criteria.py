@@ -29,6 +29,7 @@ import numpy as np
 
 from scenarios.cleaning import DiscContact, disc_contacts
 from scenarios.schema import Criterion, Fault, Scenario
+from scenarios.string import discs_of
 
 
 @dataclass(frozen=True)
@@ -81,7 +82,7 @@ def judge(
             if (
                 reached is not None
                 and c.kind == "contact_force_n"
-                and not any(disc_reached(scenario, k, reached) for k in range(1, 9))
+                and not any(disc_reached(scenario, k, reached) for k in range(1, len(discs_of(model)) + 1))
             ):
                 verdicts = [replace(v, passed=False, judged=False) for v in verdicts]  # no press finished yet
             out.extend(verdicts or [Verdict(c.kind, c.joint or "-", math.nan, _limit(c), False)])
@@ -163,9 +164,9 @@ def _judge_one(c: Criterion, scenario: Scenario, a: dict, joints, bodies, model,
     if c.kind == "brush_on_disc":
         brush = a["body_pos_m"][:, bodies.index("brush")]
         verdicts = []
-        for disc in [c.disc] if c.disc else range(1, 9):
-            g = model.geom(f"disc_{disc}")
-            rim = g.pos - np.array([g.size[0], 0.0, 0.0])
+        shells = discs_of(model)
+        for disc in [c.disc] if c.disc else range(1, len(shells) + 1):
+            rim, _ = shells[disc - 1].rim_facing()
             # the brush face is its half-length in front of the brush body's origin, on the tool axis
             gap = np.linalg.norm(brush - rim, axis=1) - 0.03
             value = float(np.min(np.abs(gap)))

@@ -1,9 +1,10 @@
 """Where the joints must be for the brush to stand on an insulator disc's rim.
 
-The cleaning task keeps the tool level (pointing along +x at the string) and the base and tool
-roll at zero, so the shoulder and the parallelogram elbow form a planar two-link arm and the
-inverse kinematics is closed-form (law of cosines, elbow above the line from shoulder to wrist).
-Lengths are read from the compiled model, not repeated here.
+The base yaw turns the arm's plane to the target (the shoulder sits on the yaw axis, arm.xml), the
+tool roll stays at zero, so in that plane the shoulder and the parallelogram elbow form a planar
+two-link arm and the inverse kinematics is closed-form (law of cosines, elbow above the line from
+shoulder to wrist). Lengths are read from the compiled model, not repeated here. A disc's rim is
+the one facing the arm's base (scenarios/string.py), wherever the string stands.
 """
 
 from __future__ import annotations
@@ -13,6 +14,8 @@ import weakref
 
 import mujoco
 import numpy as np
+
+from scenarios.string import Disc, discs_of
 
 # the brush's face stands this far in front of its centre site (cylinder half-length, arm.xml)
 BRUSH_HALF_LENGTH_M = 0.03
@@ -45,14 +48,17 @@ def arm_lengths(model: mujoco.MjModel) -> tuple[np.ndarray, float, float, float]
 
 
 def tool_drive_angles(model: mujoco.MjModel, tip_target: np.ndarray, tool_pitch_rad: float = 0.0) -> dict[str, float]:
-    """Drive angles (rad) that put brush_tip at `tip_target` (in the arm's x-z plane) with the
-    tool's absolute pitch `tool_pitch_rad` (0: level, pointing along +x).
+    """Drive angles (rad) that put brush_tip at `tip_target` with the tool's absolute pitch
+    `tool_pitch_rad` (0: level, pointing away from the base axis): the base yaw turns the arm's
+    plane through the target (0 for a target on the x axis).
 
     Drive coordinates: shoulder = shoulder pitch, elbow = forearm's absolute pitch (parallelogram),
     wrist = tool pitch - forearm pitch. ValueError if out of reach.
     """
     shoulder, l1, l2, lt = arm_lengths(model)
-    wx = tip_target[0] - lt * math.cos(tool_pitch_rad) - shoulder[0]
+    yaw = math.atan2(tip_target[1], tip_target[0])
+    radial = math.hypot(tip_target[0], tip_target[1])  # the shoulder is on the yaw axis: radial = x in its plane
+    wx = radial - lt * math.cos(tool_pitch_rad) - shoulder[0]
     wz = tip_target[2] - lt * math.sin(tool_pitch_rad) - shoulder[2]
     r = math.hypot(wx, wz)
     if not abs(l1 - l2) < r < l1 + l2:
@@ -65,7 +71,7 @@ def tool_drive_angles(model: mujoco.MjModel, tip_target: np.ndarray, tool_pitch_
     elbow_z = l1 * math.sin(q_shoulder)
     q_forearm = math.atan2(wz - elbow_z, wx - elbow_x)  # absolute pitch of the forearm
     return {
-        "base_yaw": 0.0,
+        "base_yaw": yaw,
         "shoulder_pitch": q_shoulder,
         "elbow_pitch": q_forearm,
         "wrist_pitch": tool_pitch_rad - q_forearm,
@@ -103,13 +109,26 @@ def _within_ranges(model: mujoco.MjModel, qpos: dict[str, float]) -> bool:
 
 
 def disc_rim_target(model: mujoco.MjModel, disc: int, standoff_m: float) -> np.ndarray:
-    """brush_tip position that puts the brush face on disc `disc`'s rim facing the arm.
+    """brush_tip position that puts the brush face on disc `disc`'s rim facing the arm, in the
+    model's scene (the truth; the operator's plan uses `rim_target` on the discs he found).
 
     A negative standoff presses the brush into the rim; a positive one holds it clear.
     """
-    geom = model.geom(f"disc_{disc}")
-    rim = geom.pos - np.array([geom.size[0], 0.0, 0.0])
-    return rim - np.array([BRUSH_HALF_LENGTH_M + standoff_m, 0.0, 0.0])
+    return rim_target(discs_of(model)[disc - 1], standoff_m)
+
+
+def normal_pitch(disc: Disc) -> float:
+    """The tool's absolute pitch (rad) that points it into the rim along the rim's normal: level
+    on a vertical string, tilted as the disc is on a leaning one."""
+    _, normal = disc.rim_facing()
+    return math.atan2(-normal[2], math.hypot(normal[0], normal[1]))
+
+
+def rim_target(disc: Disc, standoff_m: float) -> np.ndarray:
+    """brush_tip position that puts the brush face `standoff_m` off `disc`'s rim facing the arm,
+    along the rim's outward normal (negative: pressed into it)."""
+    rim, normal = disc.rim_facing()
+    return rim + (BRUSH_HALF_LENGTH_M + standoff_m) * normal
 
 
 def drive_to_qpos(drive: dict[str, float]) -> dict[str, float]:

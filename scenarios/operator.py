@@ -60,10 +60,11 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
-from scenarios.cleaning import N_DISCS
 from scenarios.ik import BRUSH_HALF_LENGTH_M, drive_to_qpos, tip_drive_angles, tool_drive_angles
 from scenarios.pinhole import Pinhole, camera_of
 from scenarios.schema import Operator as OperatorParams
+from scenarios.sighting import Sighting, sight_string, silhouette_ends_px
+from scenarios.string import believed_disc_type, discs_of
 from twin.camera_frames import CLOCK_NEXT_S, CLOCK_TAKEN, record_frame, row_size
 
 LATENCY_SPREAD = 0.25  # each look's latency is latency_s x (1 +- this), uniform (assumed: reaction times scatter ~25 %)
@@ -79,6 +80,7 @@ MAX_PRESS_LOOKS = 2
 REREAD_PX = 2.0
 ARM_POINTS = ("upper_arm", "forearm", "wrist")  # bodies whose origins are the shoulder, elbow, wrist axes
 CAMERA = "global_view"
+OVERHEAD = "top_view"  # the overhead camera: where the string stands across the global view's depth
 FRAMES_KEPT = 64  # the camera's last frames kept (2.6 s at 25 frames/s: longer than any look's latency)
 
 
@@ -86,8 +88,7 @@ FRAMES_KEPT = 64  # the camera's last frames kept (2.6 s at 25 frames/s: longer 
 class Frame:
     time_s: float
     brush_px: np.ndarray  # (2,) centre of the brush's face, whole pixels (u right, v down)
-    rim_px: np.ndarray  # (8, 2) each disc's rim point facing the arm, whole pixels
-    disc_pitch_px: float  # the string's disc-to-disc spacing in the picture, pixels (mean over the string)
+    rim_px: np.ndarray  # (n, 2) each disc's rim point facing the arm, whole pixels
     arm_px: np.ndarray  # (4, 2) shoulder, elbow and wrist axes and the brush's centre, whole pixels
 
 
@@ -98,10 +99,8 @@ def brush_face_m(data: mujoco.MjData) -> np.ndarray:
 
 
 def disc_rims_m(model: mujoco.MjModel) -> np.ndarray:
-    """Each disc's rim point facing the arm (-x), world, (8, 3)."""
-    return np.array(
-        [model.geom(f"disc_{k}").pos - [model.geom(f"disc_{k}").size[0], 0.0, 0.0] for k in range(1, N_DISCS + 1)]
-    )
+    """Each disc's rim point facing the arm's base, world, (n, 3)."""
+    return np.array([disc.rim_facing()[0] for disc in discs_of(model)])
 
 
 class GlobalCamera:
@@ -115,12 +114,21 @@ class GlobalCamera:
         self.pinhole: Pinhole = camera_of(model, data, CAMERA, params.width_px, params.height_px)  # fixed to the world
         self.period_s = 1.0 / params.camera_fps
         self.rim_px = np.floor(self.pinhole.project(disc_rims_m(model)))
-        self.disc_pitch_px = float(abs(self.rim_px[-1, 1] - self.rim_px[0, 1]) / (N_DISCS - 1))
+        # the discs' outlines, left and right ends: what the operator finds the string by (the string
+        # does not move: one picture of it serves the run)
+        self.disc_ends_px = np.floor([silhouette_ends_px(self.pinhole, disc) for disc in discs_of(model)])
+        self.overhead: Pinhole = camera_of(model, data, OVERHEAD, params.width_px, params.height_px)
+        self.top_disc_ends_px = np.floor(silhouette_ends_px(self.overhead, discs_of(model)[0]))
         body = [mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, b) for b in ("brush_head", *ARM_POINTS)]
         self.body_ids = np.array(body, dtype=np.int64)
         self.site_ids = np.array([mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, "brush_tip")], dtype=np.int64)
         self.clock = np.array([0.0, self.period_s, 0.0])  # next frame due, period, frames taken
         self.rows = np.zeros((FRAMES_KEPT, row_size(len(self.body_ids), len(self.site_ids))))
+
+    def sight_string(self) -> Sighting:
+        """The string as found in the picture (scenarios/sighting.py), the disc type being known."""
+        radius, half = believed_disc_type()
+        return sight_string(self.pinhole, self.disc_ends_px, self.overhead, self.top_disc_ends_px, radius, half)
 
     def capture(self, time_s: float) -> None:
         """Take a frame if one is due (called every control tick)."""
@@ -149,7 +157,7 @@ class GlobalCamera:
         r = self.rows[i % FRAMES_KEPT]
         face = r[1:4] + BRUSH_HALF_LENGTH_M * r[4:7]  # brush_face_m of the recorded head
         seen = np.floor(self.pinhole.project(np.array([face, r[7:10], r[10:13], r[13:16], r[16:19]])))
-        return Frame(float(r[0]), seen[0], self.rim_px, self.disc_pitch_px, seen[1:])
+        return Frame(float(r[0]), seen[0], self.rim_px, seen[1:])
 
     @property
     def next_frame_s(self) -> float:
@@ -185,15 +193,21 @@ class Operator:
         self.looks = 0
         self.press_looks = 0  # corrections of the press on the disc under way
         self.last_miss_m = 0.0  # how far off the brush's face he last saw it (m)
-        # the string's disc type is known: its unit spacing (146 mm, U70BL) is his scale in the picture
-        self.disc_pitch_m = float(model.geom("disc_1").pos[2] - model.geom("disc_2").pos[2])
-        self.log: list[str] = []
+        # he finds the string in the picture first (its discs' outlines and the known disc type): the
+        # plan is made for the string he found, and what a pixel is at the string is his scale
+        self.sighting: Sighting = camera.sight_string()
+        self.log: list[str] = [
+            f"t = 0.00 s: string found: {len(self.sighting.discs)} discs, pitch {self.sighting.pitch_m * 100:.1f} cm, "
+            f"top disc at ({', '.join(f'{v:.3f}' for v in self.sighting.discs[0].centre_m)}) m"
+        ]
 
     def picture_error_m(self, frame: Frame, disc: int, standoff_m: float) -> np.ndarray:
-        """The face's error from where it should stand (world x, 0, z), as the picture shows it."""
-        scale = self.disc_pitch_m / max(frame.disc_pitch_px, 1.0)
+        """The face's error from where it should stand (world x, 0, z), as the picture shows it: the
+        standoff is along the rim's outward normal of the disc as he found it."""
+        scale = self.sighting.m_per_px
         du, dv = frame.brush_px - frame.rim_px[disc - 1]
-        return np.array([du * scale + standoff_m, 0.0, -dv * scale])
+        _, normal = self.sighting.discs[disc - 1].rim_facing()
+        return np.array([du * scale - standoff_m * normal[0], 0.0, -dv * scale - standoff_m * normal[2]])
 
     def _draw_latency(self) -> float:
         return max(0.0, self.params.latency_s * (1.0 + LATENCY_SPREAD * (2.0 * self.rng.random() - 1.0)))
@@ -249,7 +263,7 @@ class Operator:
         tool's axis (the line from the wrist's axis to the carrier). The stroke is what the force
         is (the spring's), wherever on the face the rim bears: at disc 1, tilted 15 deg, the carrier
         stood 11 mm past the rim point with the head pushed 26 mm in (the face's lower half on it)."""
-        scale = self.disc_pitch_m / max(frame.disc_pitch_px, 1.0)
+        scale = self.sighting.m_per_px
         wrist, carrier = frame.arm_px[-2], frame.arm_px[-1]
         axis = (carrier - wrist) / max(float(np.linalg.norm(carrier - wrist)), 1.0)
         ahead = float((frame.brush_px - carrier) @ axis) * scale
@@ -273,7 +287,8 @@ class Operator:
             self.press_looks = 0
             return False
         self.press_looks += 1
-        move = np.array([error, 0.0, 0.0])
+        _, normal = self.sighting.discs[disc - 1].rim_facing()
+        move = -error * normal  # along the rim's normal, as he found the disc: out where it is pushed in too far
         self.aim_offset_m -= move
         self._last_move_m = move
         self.log.append(

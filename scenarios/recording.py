@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from scenarios.runner import build_plant, resolve_targets
+from scenarios.runner import build_plant, plan
 from twin.camera import FrameFeed
 from twin.checks import RECORDING_CAMERA_FPS
 from twin.errors import UserError
@@ -45,7 +45,7 @@ def open_recorders(
     if rrd or viewer:
         if rrd:
             rrd.parent.mkdir(parents=True, exist_ok=True)
-        focus = moving_joint(plant.joints, plant.drive_angles(), resolve_targets(scenario, plant))
+        focus = moving_joint(plant.joints, plant.drive_angles(), plan(scenario, plant)[2])
         recorders.append(
             RerunRecorder(
                 rrd, plant.model, plant.joints, meta, camera_fps=camera_fps, focus=focus, frames=frames, viewer=viewer

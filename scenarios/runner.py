@@ -22,18 +22,21 @@ from scenarios import controllers
 from scenarios.cleaning import DiscContact, disc_contacts
 from scenarios.criteria import DISC_KINDS, Verdict, as_dicts, judge
 from scenarios.faults import fault_events
-from scenarios.ik import disc_drive_angles
+from scenarios.ik import normal_pitch, rim_target, tip_drive_angles
+from scenarios.plan import expand
 from scenarios.schema import (
     Fault,
     Scenario,
     ScenarioError,
+    String,
     joint_params_for,
     load,
     nominal_params,
     reality_params,
 )
+from scenarios.string import Disc, scene_spec
 from scenarios.supply import supply_profile
-from scenarios.task import TaskController
+from scenarios.task import TaskController, platform_string
 from twin.checks import DURATION_S, SEED, check_number
 from twin.model import SimulationError
 from twin.plant import Plant
@@ -173,8 +176,12 @@ def _deg(x: float):
     return None if x is None or not math.isfinite(x) else round(math.degrees(x), 4)
 
 
-def model_path(scenario: Scenario) -> Path:
-    return assets.WRIST_RIG_XML if scenario.model == "wrist_rig" else assets.SCENE_XML
+def model_path(scenario: Scenario) -> Path | mujoco.MjSpec:
+    """The rig's MJCF, or the arm's scene with the string where the scenario's [string] puts it
+    (built at run time: scenarios/string.py; the scene file's own string when it is the default)."""
+    if scenario.model == "wrist_rig":
+        return assets.WRIST_RIG_XML
+    return assets.SCENE_XML if scenario.string == String() else scene_spec(scenario.string)
 
 
 def build_plant(scenario: Scenario) -> Plant:
@@ -199,15 +206,48 @@ def build_plant(scenario: Scenario) -> Plant:
     return plant
 
 
-def resolve_targets(scenario: Scenario, plant: Plant) -> list[dict[str, float]]:
-    """Each target as drive angles in rad (brush_at_disc solved by inverse kinematics)."""
+def plan(scenario: Scenario, plant: Plant) -> tuple[Scenario, list[Disc], list[dict[str, float]]]:
+    """The plan made at run time for the string as the platform sees it (scenarios/plan.py): the
+    scenario with its `clean_string` target made into every disc's targets, those discs, and each
+    target as drive angles (rad)."""
+    discs = platform_string(scenario, plant) if scenario.model == "arm" else []
+    scenario = expand(scenario, len(discs))
+    return scenario, discs, resolve_targets(scenario, plant, discs)
+
+
+def resolve_targets(scenario: Scenario, plant: Plant, discs: list[Disc] | None = None) -> list[dict[str, float]]:
+    """Each target as drive angles in rad (brush_at_disc solved by inverse kinematics on `discs`,
+    the string as the platform sees it; None: as `plan` finds it)."""
+    if discs is None and any(t.brush_at_disc for t in scenario.targets):
+        discs = platform_string(scenario, plant)
     out = []
-    for t in scenario.targets:
+    for i, t in enumerate(scenario.targets):
         target = {j: math.radians(v) for j, v in t.angles_deg.items()}
         if t.brush_at_disc:
-            target = {**disc_drive_angles(plant.model, t.brush_at_disc, t.standoff_m), **target}
+            target = {**_brush_drive(scenario, plant.model, discs, i, t), **target}
         out.append(target)
     return out
+
+
+def _brush_drive(scenario: Scenario, model: mujoco.MjModel, discs: list[Disc], i: int, t) -> dict[str, float]:
+    """Drive angles putting the brush `t.standoff_m` off the rim of disc `t.brush_at_disc` as the
+    platform sees it, the tool along the rim's normal (tilted in 5 deg steps where out of range)."""
+    seen = "the string as the platform sees it"
+    if t.brush_at_disc > len(discs):
+        raise ScenarioError(
+            f"{scenario.path}: targets[{i}].brush_at_disc = {t.brush_at_disc} is not allowed; "
+            f"allowed: 1..{len(discs)} (the discs of {seen})"
+        )
+    disc = discs[t.brush_at_disc - 1]
+    try:
+        return tip_drive_angles(model, rim_target(disc, t.standoff_m), normal_pitch(disc))
+    except ValueError:
+        where = ", ".join(f"{v:.3f}" for v in disc.centre_m)
+        raise ScenarioError(
+            f"{scenario.path}: [string] disc {t.brush_at_disc} ({seen}, centre at ({where}) m) is out of the "
+            f"brush's reach at standoff {t.standoff_m:g} m; allowed: a string within the arm's reach (1.1 m from "
+            "the shoulder at 0.4 m, every joint inside its range)"
+        ) from None
 
 
 def run_scenario(
@@ -225,14 +265,14 @@ def run_scenario(
         scenario = replace(scenario, seed=check_number("seed", seed, **SEED))
     rng = np.random.default_rng(scenario.seed)
     plant = build_plant(scenario)
-    targets = resolve_targets(scenario, plant)
+    scenario, discs, targets = plan(scenario, plant)
     predictor = joint_params_for(nominal_params(scenario.joints), scenario.predictor)
     controller, refusal = controllers.build(scenario, plant, predictor, targets)
     task = None
     if scenario.model == "arm" and scenario.control.mode != "none" and not refusal:
         controller.set_targets([])  # the plan was checked whole; the task feeds it one target at a time
         controller = task = TaskController(
-            controller, scenario, plant, targets, np.random.default_rng([scenario.seed, 1])
+            controller, scenario, plant, targets, np.random.default_rng([scenario.seed, 1]), discs
         )  # a stream of its own: the supply's draws stay as they were
     duration = scenario.duration_s if duration_s is None else min(duration_s, scenario.duration_s)
     supply = supply_profile(scenario.supply, duration, rng)

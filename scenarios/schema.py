@@ -56,6 +56,7 @@ from pneumatics.fields import (
 from pneumatics.params import JointParamsSubset, ParameterError, check_related
 from pneumatics.paths import path_problem
 from scenarios.ik import disc_drive_angles, drive_to_qpos, qpos_to_drive
+from scenarios.string import MAX_DISCS, discs_of
 from twin.errors import UserError
 
 SHIPPED_DIR = Path(__file__).resolve().parent  # the scenario files ship as package data (pyproject.toml)
@@ -190,9 +191,27 @@ class Operator:
 
 
 @dataclass(frozen=True, config=TABLE)
+class String:
+    """Where the insulator string really stands (scenarios/string.py builds the scene from it at run
+    time). The defaults are assets/scene.xml's string. Nobody on the platform is told these: the
+    operator finds the string in his camera's picture (scenarios/sighting.py)."""
+
+    x_m: number(0.3, 1.3, "m") = 0.75  # the top disc's centre, world (before the yaw below)
+    y_m: number(-0.6, 0.6, "m") = 0.0
+    top_z_m: number(0.3, 1.7, "m") = 1.25
+    yaw_deg: number(-60.0, 60.0, "deg") = 0.0  # the string turned about the arm's base axis (world z)
+    tilt_deg: number(-20.0, 20.0, "deg") = 0.0  # its axis leaning from vertical, the bottom towards the arm (+)
+    discs: whole(1, MAX_DISCS) = 8
+    pitch_m: number(0.1, 0.3, "m") = 0.146  # disc to disc along the axis (U70BL: 146 mm, IEC 60305)
+
+
+@dataclass(frozen=True, config=TABLE)
 class Target:
     angles_deg: dict[str, ANGLE_DEG] = field(default_factory=dict)  # drive angles (scenarios.ik)
-    brush_at_disc: whole(0, 8) = 0  # the brush on that disc's rim by inverse kinematics; 0: none
+    brush_at_disc: whole(0, MAX_DISCS) = 0  # the brush on that disc's rim by inverse kinematics; 0: none
+    # the cleaning of every disc of the string, planned at run time for the string as the platform
+    # sees it (scenarios/plan.py): this one target becomes each disc's approach, press and back-off
+    clean_string: FLAG = False
     dwell_s: number(0.0, 600.0, "s") = 0.0
     standoff_m: number(-0.05, 0.5, "m") = -0.006  # brush face to the disc's rim (negative: pressed into it)
 
@@ -211,7 +230,7 @@ class Criterion:
     joint: TEXT = ""  # JOINT_CRITERIA only; none: every joint it applies to
     max: number(0.0, math.inf) = math.inf
     min: number(-math.inf, math.inf) = -math.inf
-    disc: whole(0, 8) = 0  # DISC_CRITERIA only; 0: every disc
+    disc: whole(0, MAX_DISCS) = 0  # DISC_CRITERIA only; 0: every disc
 
 
 @dataclass(frozen=True, config=TABLE)
@@ -229,6 +248,7 @@ class Scenario:
     predictor: Model = Model()
     control: Control = Control()
     operator: Operator = Operator()
+    string: String = String()
     targets: tuple[Target, ...] = ()
     faults: tuple[Fault, ...] = ()
     criteria: tuple[Criterion, ...] = ()
@@ -368,6 +388,9 @@ def _check_read(s: Scenario, doc: dict) -> None:
     if s.model != "arm" and "payload" in doc:
         for key, value in doc["payload"].items():
             raise _fail(s.path, f"payload.{key}", value, "no [payload] with model = 'wrist_rig' (the rig carries none)")
+    if s.model != "arm" and "string" in doc:
+        for key, value in doc["string"].items():
+            raise _fail(s.path, f"string.{key}", value, "no [string] with model = 'wrist_rig' (the rig has none)")
     for key, value in doc.get("supply", {}).items():
         read = SUPPLY_FIELDS[s.supply.kind]
         if key != "kind" and key not in read:
@@ -397,8 +420,21 @@ def _effect_at(path: str, table: str):
 
 def _check_target(s: Scenario, i: int, t: Target, standoff_given: bool) -> None:
     where = f"targets[{i}]"
+    if t.clean_string:
+        if s.model != "arm":
+            raise _fail(s.path, f"{where}.clean_string", True, "only with model = 'arm' (the rig has no brush)")
+        if t.brush_at_disc or t.angles_deg or standoff_given:
+            raise _fail(
+                s.path, f"{where}.clean_string", True, "alone in its target (the plan places the brush on every disc)"
+            )
+        return
     if not t.angles_deg and not t.brush_at_disc:
-        raise _fail(s.path, f"{where}.angles_deg", {}, "angles_deg for at least one joint, or brush_at_disc 1..8")
+        raise _fail(
+            s.path,
+            f"{where}.angles_deg",
+            {},
+            "angles_deg for at least one joint, brush_at_disc, or clean_string = true",
+        )
     if t.brush_at_disc and s.model != "arm":
         raise _fail(s.path, f"{where}.brush_at_disc", t.brush_at_disc, "only with model = 'arm' (the rig has no brush)")
     if standoff_given and not t.brush_at_disc:
@@ -554,6 +590,15 @@ def _target_drive(s: Scenario, m: mujoco.MjModel, i: int, t: Target) -> dict[str
     """The drive angles (rad) the i-th target sets: its brush pose by inverse kinematics, then its angles."""
     drive = {}
     if t.brush_at_disc:
+        believed = len(discs_of(m))
+        if t.brush_at_disc > believed:
+            raise _fail(
+                s.path,
+                f"targets[{i}].brush_at_disc",
+                t.brush_at_disc,
+                f"1..{believed} (the discs of assets/scene.xml's string, which a target's disc number names; "
+                "clean_string = true cleans the string as found)",
+            )
         try:
             drive = disc_drive_angles(m, t.brush_at_disc, t.standoff_m)
         except ValueError:

@@ -35,9 +35,10 @@ import numpy as np
 
 from control import ArmController, MotionRefused
 from pneumatics.joint import C_BRAKE_RELEASE, C_DIRECTION, C_PV_SET_GAUGE_PA
-from scenarios.ik import disc_rim_target, drive_to_qpos
+from scenarios.ik import drive_to_qpos, rim_target
 from scenarios.operator import GlobalCamera, Operator
 from scenarios.schema import Scenario
+from scenarios.string import Disc, believed_discs
 from twin.plant import Plant
 
 STOP_JOINT = "shoulder_pitch"  # the joint whose error grows (README, "Sensorless drift")
@@ -57,7 +58,14 @@ TOUCH_STANDOFF_M = 0.02
 # the head's 25 mm press then stays inside its 50 mm stroke, and the face's edge (45 mm radius) on the
 # rim (10 mm half-thickness) with room for the press's own error
 PRESS_MISS_M = 0.02
-RIM_NORMAL = np.array([-1.0, 0.0, 0.0])  # the discs' rims face the arm along -x (scenarios/ik.disc_rim_target)
+
+
+def platform_string(scenario: Scenario, plant: Plant) -> list[Disc]:
+    """The string as the platform sees it: the operator finds it in his camera's picture
+    (scenarios/sighting.py); without him, the platform knows only where the scene file puts it."""
+    if scenario.control.strategy == "operator":
+        return GlobalCamera(plant.model, plant.data, scenario.operator).sight_string().discs
+    return list(believed_discs())
 
 
 @dataclass
@@ -80,6 +88,7 @@ class TaskController:
         plant: Plant,
         targets: list[dict[str, float]],
         rng: np.random.Generator,
+        discs: list[Disc] | None = None,
     ):
         self.controller, self.scenario = controller, scenario
         self.targets = targets
@@ -89,6 +98,9 @@ class TaskController:
         self.k = -1  # the target under way
         self.strategy = scenario.control.strategy
         self.model = plant.model
+        # the string the plan was made for, as the platform sees it (the operator's sighting, or the
+        # scene file's string): where the task places the brush and expects the rim's reaction
+        self.discs = list(discs) if discs is not None else platform_string(scenario, plant)
         self._plant = plant if self.strategy == "true_angle" else None  # the bound's only window on the truth
         self.camera = GlobalCamera(plant.model, plant.data, scenario.operator) if self.strategy == "operator" else None
         self.operator = Operator(plant.model, self.camera, scenario.operator, rng) if self.camera else None
@@ -308,8 +320,9 @@ class TaskController:
         1 cm shallower press, to 47 mm (47 N) before the shoulder drew it out (as-built, 0.52 MPa).
         The brush then goes no deeper than where it starts or ends."""
         here = dict(zip(self.controller.joints, self.controller.predicted_angles().tolist(), strict=True))
-        start = self._tip_m(here) @ RIM_NORMAL
-        out = {j: q for j, q in target.items() if self._tip_m({**here, j: q}) @ RIM_NORMAL > start}
+        _, normal = self.discs[self.scenario.targets[self.k].brush_at_disc - 1].rim_facing()
+        start = self._tip_m(here) @ normal
+        out = {j: q for j, q in target.items() if self._tip_m({**here, j: q}) @ normal > start}
         if not out or len(out) == len(target):
             return [target]
         return [out, target]
@@ -359,10 +372,11 @@ class TaskController:
         disc = self.scenario.targets[k].brush_at_disc
         if not disc:
             return None, None
-        surface = disc_rim_target(self.model, disc, 0.0)
+        surface = rim_target(self.discs[disc - 1], 0.0)
+        _, normal = self.discs[disc - 1].rim_facing()
         if self.operator is not None:
             surface = surface + self.operator.aim_offset_m
-        return surface, RIM_NORMAL
+        return surface, normal
 
     def _standoff_m(self, k: int) -> float:
         """Where target k holds the brush's face off its disc's rim (closer while closing in)."""
@@ -377,7 +391,7 @@ class TaskController:
             return dict(nominal)
         standoff = self._standoff_m(k)
         tilt = self._press_tilt(k)
-        tip = disc_rim_target(self.model, t.brush_at_disc, standoff)
+        tip = rim_target(self.discs[t.brush_at_disc - 1], standoff)
         if standoff <= TOUCH_STANDOFF_M:  # at touching distance (his corrections there) and the press
             wrist = float(self.controller.predicted_angles()[self.controller.joints.index("wrist_pitch")])
             with contextlib.suppress(ValueError):  # out of reach with the wrist where it is: the full aim

@@ -414,12 +414,14 @@ def test_a_press_reaches_its_depth_when_the_platform_knows_the_springs_reaction(
     assert supply in toml
     path = tmp_path / "cleaning_052.toml"
     path.write_text(toml.replace(supply, "pressure_mpa = 0.52 "))
-    assert twin_main(["run", str(path), "--json", "--duration", "34", "--seed", "5220146013781160048"]) == 0
+    assert twin_main(["run", str(path), "--json", "--duration", "40", "--seed", "5220146013781160048"]) == 0
     summary = json.loads(capsys.readouterr().out)
     discs = {d["disc"]: d for d in summary["discs"]}
     for k in (1, 2):
         assert discs[k]["cleaned"] is True, discs[k]
-        assert 18.0 < discs[k]["peak_force_n"] < 45.0, discs[k]
+        # inside the 15-55 N band with room (46 N at disc 1 since the plan is made for the string as
+        # the operator finds it, 2 mm off the scene's: 45 N before)
+        assert 18.0 < discs[k]["peak_force_n"] < 50.0, discs[k]
 
 
 def test_the_back_off_from_touching_distance_draws_the_brush_out_of_the_rim_first(monkeypatch):

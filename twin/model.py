@@ -25,8 +25,10 @@ class SimulationError(RuntimeError):
     """MuJoCo warned during a run (divergence, constraint overflow, ...): the run cannot be trusted."""
 
 
-def load_model(path: str | Path) -> mujoco.MjModel:
-    """Compile an MJCF file."""
+def load_model(path: str | Path | mujoco.MjSpec) -> mujoco.MjModel:
+    """Compile an MJCF file, or a scene built at run time (an MjSpec: scenarios/string.py)."""
+    if isinstance(path, mujoco.MjSpec):
+        return path.compile()
     return mujoco.MjModel.from_xml_path(str(path))
 
 
