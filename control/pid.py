@@ -52,7 +52,7 @@ class PidGains(NamedTuple):
     # assumed: +-0.4 bar at the nominal 4 bar) and the port sits a little under the set point on
     # an approach (the hose's drop at a slow joint's flow). Without it every approach parks the
     # port at the edge of the real brake's drag band, where 0.1 bar of spring moved a 90 deg move
-    # by 6 deg (README, "The as-built arm"). The nominal brake clears low enough for the floor to
+    # by 6 deg (docs/validation/predictor_and_control.md). The nominal brake clears low enough for the floor to
     # fit under a 0.5 MPa supply and its droop (assets/joints/wrist_pitch.toml).
     brake_clear_margin_pa: float = 0.5e5
 

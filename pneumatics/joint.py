@@ -1046,7 +1046,7 @@ def at_the_stops(y: np.ndarray, p: np.ndarray) -> None:
     limit constraint, `solreflimit` 0.001 s: assets/wrist_rig.xml), so a joint driven home against
     its stop is predicted and replayed there, not turning on past it. (The arm's MJCF keeps
     MuJoCo's soft limits, a 20 ms bumper: its joints rest a little past the range under the motor's
-    stall torque; README, "End stops".)"""
+    stall torque; docs/validation/plant.md, "End stops".)"""
     if y[R_THETA] > p[P.STOP_HIGH]:
         y[R_THETA] = p[P.STOP_HIGH]
         y[R_OMEGA] = min(y[R_OMEGA], 0.0)

@@ -200,7 +200,8 @@ def error_vs_pressure(quick: bool) -> dict:
 def _held_vs_pressure(quick: bool, nominal, reality, pressures) -> dict:
     # Fig. 20 under Fig. 17's loop as drawn (control.experiments.held_on_valve): the PID holds the
     # joint on the valve, 8 s from the move's start, the error the largest over the last 3 s; Fig.
-    # 23's span, every 10 deg (over 30/60/90 alone the truth's mean is not monotonic: README)
+    # 23's span, every 10 deg (over 30/60/90 alone the truth's mean is not monotonic:
+    # docs/validation/as_built_and_paper.md)
     angles = (30, 90) if quick else HELD_ANGLES_DEG
     res = held_error_against_pressure(_rig_factory(reality), pressures, angles, nominal)
     true = [float(np.mean([e[0] for e in res[m]])) for m in pressures]

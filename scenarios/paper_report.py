@@ -275,7 +275,7 @@ def _speed_lines(pv: dict) -> list[str]:
         f"deg/s; the motor's maximum-power point (6000 rpm, paper Sec. III-B) is "
         f"{pv['max_power_joint_deg_s']:.0f} deg/s at the joint "
         "through 1:120. The exhaust throttle (0.8 mm^2) holds the joint's steady speed well below it "
-        '(README, "Joint speed against supply").',
+        '(docs/validation/as_built_and_paper.md, "Joint speed against supply").',
         "",
         "![speed against supply](speed_vs_supply.png)",
         "",
@@ -344,8 +344,8 @@ def _closed_vs_open_lines(co: dict) -> list[str]:
         f"The open loop's error grows with the rotation (paper: yes): {_trend_words(co['open_trend'])}; "
         f"the closed loop's (paper: yes): {_trend_words(co['closed_trend'])}. "
         f"The open loop's own prediction lands within {max(co['open_loop_predicted_error_deg']):.2f} deg of "
-        "each target: its error is the as-built joint falling behind the nominal model (README, "
-        '"What remains off").',
+        "each target: its error is the as-built joint falling behind the nominal model (docs/validation/"
+        'as_built_and_paper.md, "What remains off").',
         "",
         "![closed vs open loop](closed_vs_open_loop.png)",
         "",

@@ -161,7 +161,7 @@ def misfit(runs: list[ValidationRun]) -> float:
 
 # the calibrated unknowns and their grids: the as-built magnitudes nothing else pins down, the real
 # valve/throttle conductance over nominal, the real joint's Coulomb friction, the supply line's
-# droop under flow and the real brake's full-release pressure (README, "The as-built arm")
+# droop under flow and the real brake's full-release pressure (docs/validation/as_built_and_paper.md)
 FIT_GRID = {
     "conductance_scale": (0.8, 0.9, 1.0, 1.1, 1.2, 1.35),
     "coulomb_nm": (6.0, 9.0, 12.0, 15.0, 18.0),
@@ -200,6 +200,7 @@ def fit_as_built(grid: dict[str, tuple[float, ...]] = FIT_GRID) -> tuple[Point, 
     return best[0], best[1], scored
 
 
-if __name__ == "__main__":  # python -m scenarios.paper_validation: the fit, printed (README)
+# python -m scenarios.paper_validation: the fit, printed (docs/validation/as_built_and_paper.md, "The fit")
+if __name__ == "__main__":
     point, score, _ = fit_as_built()
     print(f"best {point}, score (misfit + prior) {score:.3f}")

@@ -41,7 +41,7 @@ from scenarios.schema import Scenario
 from scenarios.string import Disc, believed_discs
 from twin.plant import Plant
 
-STOP_JOINT = "shoulder_pitch"  # the joint whose error grows (README, "Sensorless drift")
+STOP_JOINT = "shoulder_pitch"  # the joint whose error grows (docs/validation/predictor_and_control.md)
 STOP_DRIVE_S = 1.0  # open-loop drive into the stop: this long ...
 STOP_DRIVE_S_PER_RAD = (
     6.0  # ... plus this per rad to go (the shoulder turns ~10 deg/s at 0.5 MPa, measured in the cleaning run)

@@ -1,6 +1,6 @@
 """The as-built arm (issue 14): its files, reality built from them, the predictor left nominal, the
 vane-passing air loss of the chamber law against an analytic balance, the wrist's gravity load
-the README quotes, and a slice of `twin paper` on the paper's own protocol."""
+docs/validation/plant.md quotes, and a slice of `twin paper` on the paper's own protocol."""
 
 from __future__ import annotations
 
@@ -107,7 +107,7 @@ def test_vane_passing_vents_the_pockets_air_as_the_analytic_balance_says():
     model, and B's side gains p_B dV/(R T) from nowhere. With n = 1 the nodes' air is exactly
     p V / (R T), so over a steady run at constant speed
         (mass in at A) - (mass out at B) - (mass stored) = sum over passings (p_A - p_B) dV / (R T),
-    which holds here to 1 %. The vented share of what enters A is what the README quotes."""
+    which holds here to 1 %. The vented share of what enters A is what docs/validation/air.md quotes."""
     p = load_joint_params(assets.joint_param_path("wrist_pitch"))._replace(polytropic_n=1.0)
     row = params_row(p)
     r, t_s, atm = AIR.r_j_per_kg_k, AIR.t_supply_k, AIR.p_atm_pa
@@ -167,13 +167,14 @@ def test_vane_passing_vents_the_pockets_air_as_the_analytic_balance_says():
     assert balance == pytest.approx(vented, rel=0.01)
     share = vented / mass_in
     print(f"vented share {share:.3f}, p_A {x[S_PA_MOTOR]:.0f} p_B {x[S_PB_MOTOR]:.0f} Pa, in {mass_in:.3e} kg")
-    assert 0.5 < share < 0.95, share  # README: most of the air entering at A is vented at the passings (80 % here)
+    # docs/validation/air.md: most of the air entering at A is vented at the passings (80 % here)
+    assert 0.5 < share < 0.95, share
     assert mass_out > 0.0
 
 
-def test_the_readme_quotes_the_wrists_gravity_load_from_the_mjcf():
+def test_the_plant_page_quotes_the_wrists_gravity_load_from_the_mjcf():
     """Gravity on the wrist at full reach (its distal mass horizontal) with the 20 kg payload,
-    from Pinocchio reading the MJCF, is what README.md says: 23.0 N·m (the load without the
+    from Pinocchio reading the MJCF, is what docs/validation/plant.md says: 23.0 N·m (the load without the
     wrist's counterbalance spring, which the arm model adds)."""
     from control.arm_model import ArmModel
 
@@ -185,7 +186,7 @@ def test_the_readme_quotes_the_wrists_gravity_load_from_the_mjcf():
         home[i] = q
         loads.append(abs(arm.load_torques(home)[i] - arm.spring_torques(home)[i]))
     assert max(loads) == pytest.approx(23.0, abs=0.05)
-    assert "23.0 N·m" in (assets.ASSETS_DIR.parent / "README.md").read_text()
+    assert "23.0 N·m" in (assets.ASSETS_DIR.parent / "docs" / "validation" / "plant.md").read_text()
 
 
 @pytest.fixture(scope="module")
@@ -251,7 +252,7 @@ def test_twin_paper_quick_writes_every_figure_with_the_papers_numbers(tmp_path):
     """`twin paper --quick` (control experiments shortened): paper.json holds the validation's mean
     and max beside the paper's, the report shows them, every plot exists, and the control
     experiments, predictions against the as-built wrist, land within a factor 2 of the paper's
-    where the README says they do."""
+    where docs/validation/as_built_and_paper.md says they do."""
     from twin_cli.cli import main as twin_main
 
     assert twin_main(["paper", "--out", str(tmp_path), "--quick"]) == 0
@@ -265,7 +266,7 @@ def test_twin_paper_quick_writes_every_figure_with_the_papers_numbers(tmp_path):
     co = r["closed_vs_open_loop"]
     assert len(co["angles_deg"]) == 3
     # closed beats open at every angle, as in the paper (before the loop's set point was floored clear
-    # of the brake's drag band it did not at 20-30 deg: README, "The as-built arm")
+    # of the brake's drag band it did not at 20-30 deg: docs/validation/predictor_and_control.md)
     assert all(c < o for c, o in zip(co["closed_loop_error_deg"], co["open_loop_error_deg"], strict=True))
     assert r["random_supply"]["max_error_deg"] < 2 * r["random_supply"]["paper_max_error_deg"]
     mr = r["minimum_rotation"]  # the paper's ~20 deg within a factor 2 (before the brake margin: none)
@@ -274,7 +275,7 @@ def test_twin_paper_quick_writes_every_figure_with_the_papers_numbers(tmp_path):
     assert ep["pressures_mpa"][0] == 0.5 and ep["max_error_deg"][0] < 3.0, ep
     # Fig. 20 under Fig. 17's loop as drawn (the PID holds the joint on the valve): the paper's trend,
     # the error growing with the supply, within +-3 deg at 0.5 MPa (with the arm's hand-over to the
-    # brake it does not grow: README, "What remains off")
+    # brake it does not grow: docs/validation/as_built_and_paper.md, "What remains off")
     held = ep["fig17_loop"]
     assert held["predicted_grows_with_pressure"] and held["true_grows_with_pressure"], held
     assert held["true_max_error_deg"][0] < 3.0, held

@@ -3,7 +3,7 @@ naming the file or flag, the field, the value and what is allowed (exit status 2
 results survive a failing output place; SIGTERM stops a run like Ctrl-C; two runs never write
 one file; a campaign reads only its own folder; shipped scenarios are found by name.
 
-README, "What is checked", lists each class; each has a test here."""
+docs/validation/inputs.md lists each class; each has a test here."""
 
 from __future__ import annotations
 

@@ -12,8 +12,8 @@ and a backlash reducer (the gear's motor side a body of its own). Each checks, w
 the angle at every stop and at the end, and that the joint does not creep while braked.
 
 Before the fix (friction flipping between RK4 stages, brake and valves held at one end of the
-step) the same runs ended 1.7-12 deg from the reference at 0.5 MPa; see the README's "The
-one-joint model at its stops" for the figures.
+step) the same runs ended 1.7-12 deg from the reference at 0.5 MPa; see docs/validation/plant.md,
+"The one-joint model at its stops", for the figures.
 """
 
 from __future__ import annotations
