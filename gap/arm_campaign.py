@@ -403,9 +403,11 @@ def write_arm_run(path: Path, run: ArmRun) -> None:
         w.writerow(header)
         for k in range(len(run.time_s)):
             c = run.commands[k]
-            row = [f"{run.time_s[k]:.4f}", f"{run.supply_pa[k]:.1f}"]
+            # commands and supply as the platform sent them, every digit: a joint near its breakaway
+            # turns on a fraction of a N·m, so a rounded set point can move a replay by degrees
+            row = [f"{run.time_s[k]:.4f}", repr(float(run.supply_pa[k]))]
             for i in range(len(JOINTS)):
-                row += [int(c[i, 0]), int(c[i, 2]), f"{c[i, 1]:.1f}"]
+                row += [int(c[i, 0]), int(c[i, 2]), repr(float(c[i, 1]))]
             row += ["" if not math.isfinite(v[k]) else f.format(v[k]) for f, v in measured]
             w.writerow(row)
 
@@ -434,6 +436,6 @@ def campaign_toml(
     if reality is not None:
         lines += ["", "[reality]", f'effect = "{reality.effect}"', f"value = {reality.value!r}"]
     for name, start in runs:
-        starts = ", ".join(f"{j} = {math.degrees(v):.6f}" for j, v in zip(JOINTS, start, strict=True))
+        starts = ", ".join(f"{j} = {math.degrees(v)!r}" for j, v in zip(JOINTS, start, strict=True))
         lines += ["", "[[runs]]", f'file = "{name}"', f"start_deg = {{ {starts} }}"]
     return "\n".join(lines) + "\n"

@@ -69,7 +69,7 @@ def shared_draw(x: np.ndarray, params: np.ndarray, supply_pa: float) -> float:
     return total
 
 
-@njit
+@njit(nogil=True)
 def _replay_ticks(
     mj_step_address,
     model_address,
