@@ -159,6 +159,17 @@ class ArmCampaign:
     joints: tuple[str, ...] = field(default=JOINTS)
 
 
+def _line_in_table(text: str, table: str, key: str) -> int:
+    """1-based line of `key = ` inside `table` (its header's line if the key is not there)."""
+    start = _toml_line(text, table)
+    for i, line in enumerate(text.splitlines()[start:], start + 1):
+        if line.lstrip().startswith("["):
+            break
+        if line.split("=")[0].strip() == key:
+            return i
+    return start
+
+
 def _refusal(path: Path, text: str, problem) -> GapError:
     """campaign.toml's refusal in one line: `<file>:<line> (<table>): field = value; allowed: ...`."""
     loc = problem.loc
@@ -166,7 +177,7 @@ def _refusal(path: Path, text: str, problem) -> GapError:
         where = f"{path}:{_toml_line(text, '[[runs]]', loc[1])} ([[runs]] #{loc[1] + 1})"
         key = loc[2:]
     elif loc and loc[0] in ("instrument", "pressures", "reality") and len(loc) > 1:
-        where, key = f"{path}:{_toml_line(text, f'[{loc[0]}]')} ([{loc[0]}])", loc[1:]
+        where, key = f"{path}:{_line_in_table(text, f'[{loc[0]}]', str(loc[1]))} ([{loc[0]}])", loc[1:]
     else:
         where, key = f"{path}:{_toml_line(text, f'{loc[0]} =') if loc else 0}", loc
     name = ".".join(str(k) for k in key) or str(loc[0] if loc else "")
@@ -250,7 +261,7 @@ def _check_header(path: Path, header: list[str]) -> None:
         raise GapError(
             f"{path}:1: missing column {missing[0]}"
             + (f" (and {len(missing) - 1} more)" if len(missing) > 1 else "")
-            + "; required: time_s, supply_pa and, per joint J, J.direction, J.brake_released, J.valve_set_gauge_pa"
+            + "; allowed: a header with time_s, supply_pa and, per joint J, J.direction, J.brake_released, J.valve_set_gauge_pa"
         )
     unknown = [c for c in header if c not in REQUIRED_COLUMNS + OPTIONAL_COLUMNS]
     if unknown:

@@ -40,10 +40,10 @@ from gap.campaign import Run
 from gap.diagnose import _parallel
 from gap.where import breakdown, labels_of
 from pneumatics import JointParams
-from pneumatics.gas import AIR
-from scenarios.schema import joint_params_for, nominal_params
-from scenarios.schema import Model as TwinSwitches
 from pneumatics.as_built import load_as_built
+from pneumatics.gas import AIR
+from scenarios.schema import Model as TwinSwitches
+from scenarios.schema import joint_params_for, nominal_params
 
 LATENCY_GRID_S = np.round(np.arange(0.0, 0.06 + 1e-9, 0.005), 6)  # as gap/instrument.py's: 0-60 ms
 SIGNIFICANT = 2.0  # floors: a channel's rms residual this many times its noise is a gap (gap/verdict.py's rule)
