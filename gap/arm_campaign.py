@@ -261,7 +261,8 @@ def _check_header(path: Path, header: list[str]) -> None:
         raise GapError(
             f"{path}:1: missing column {missing[0]}"
             + (f" (and {len(missing) - 1} more)" if len(missing) > 1 else "")
-            + "; allowed: a header with time_s, supply_pa and, per joint J, J.direction, J.brake_released, J.valve_set_gauge_pa"
+            + "; allowed: a header with time_s, supply_pa and, per joint J, "
+            "J.direction, J.brake_released, J.valve_set_gauge_pa"
         )
     unknown = [c for c in header if c not in REQUIRED_COLUMNS + OPTIONAL_COLUMNS]
     if unknown:

@@ -39,11 +39,9 @@ from gap.arm_replay import Replay, arm_plant, replay, set_drive_angles
 from gap.campaign import Run
 from gap.diagnose import _parallel
 from gap.where import breakdown, labels_of
-from pneumatics import JointParams
+from pneumatics import JointParams, load_joint_params
 from pneumatics.as_built import load_as_built
 from pneumatics.gas import AIR
-from scenarios.schema import Model as TwinSwitches
-from scenarios.schema import joint_params_for, nominal_params
 
 LATENCY_GRID_S = np.round(np.arange(0.0, 0.06 + 1e-9, 0.005), 6)  # as gap/instrument.py's: 0-60 ms
 SIGNIFICANT = 2.0  # floors: a channel's rms residual this many times its noise is a gap (gap/verdict.py's rule)
@@ -63,11 +61,11 @@ class Twin:
 
 def twin_of(campaign: ArmCampaign) -> Twin:
     """campaign.toml's twin: its base arm (as built or nominal), hose switch and payload."""
-    base = nominal_params(JOINTS)
+    base = {j: load_joint_params(assets.joint_param_path(j)) for j in JOINTS}
     if campaign.arm == "as_built":
         base = {j: load_as_built(p, assets.as_built_path(j)) for j, p in base.items()}
     if campaign.hose_loss is not None:
-        base = joint_params_for(base, TwinSwitches(hose_loss=campaign.hose_loss))
+        base = {j: p._replace(hose_loss=1.0 if campaign.hose_loss else 0.0) for j, p in base.items()}
     return Twin(base, ArmSetup(payload_kg=campaign.payload_kg))
 
 

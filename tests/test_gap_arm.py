@@ -9,13 +9,13 @@ import pytest
 from gap.arm_campaign import JOINTS, ArmRun, Reality, campaign_toml, load_arm_campaign, write_arm_run
 from gap.arm_diagnose import SIGNIFICANT, joint_gaps, residual, screen, twin_of
 from gap.arm_replay import replay
-from gap.arm_synth import CAMERA, make_arm_campaign, simulate
-from gap.arm_synth import twin_of as scenario_twin
 from gap.campaign import GapError
 from gap.diagnose import _parallel
+from scenarios.arm_rehearsal import CAMERA, make_arm_campaign, simulate
+from scenarios.arm_rehearsal import twin_of as scenario_twin
 from scenarios.schema import load
 
-ONE_JOINT = "gap/arm_protocols/one_joint.toml"
+ONE_JOINT = "scenarios/arm_protocols/one_joint.toml"
 SECONDS = 11.0  # the exercise's moves of the base, the shoulder, the elbow and the wrist (out)
 
 
