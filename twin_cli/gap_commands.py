@@ -6,6 +6,7 @@ from pathlib import Path
 
 from twin.checks import BENCH_SEEDS, BENCH_SHIFT, JOBS, MODEL_TOLERANCE_DEG
 from twin.outputs import OutputLock, check_output, publish_folder
+from twin_cli import gap_arm_commands
 from twin_cli.args import number, place
 from twin_cli.figures import figure_lines
 
@@ -85,7 +86,9 @@ def register(subparsers) -> None:
         ),
     ):
         b.add_argument(flag, type=number(**spec), default=0, metavar=meta, help=text)
+    gap_arm_commands.add_bench_options(b)
     b.set_defaults(func=cmd_bench)
+    gap_arm_commands.register(sub)
 
 
 def cmd_diagnose(args) -> int:
@@ -110,6 +113,8 @@ def cmd_diagnose(args) -> int:
 
 
 def cmd_bench(args) -> int:
+    if args.arm:
+        return gap_arm_commands.cmd_arm_bench(args)
     # on use: at the top, the libraries take `twin --help` from 0.45 to 2.2 s
     from gap.bench import Variant, check_only, check_variant, run_bench
 

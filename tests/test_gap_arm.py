@@ -1,0 +1,150 @@
+"""The whole arm's gap diagnosis (gap/arm_*.py): campaigns written and read back, bad files
+refused in one line, the replay of a twin run reproducing its angles, a hidden effect located."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from gap.arm_campaign import JOINTS, ArmRun, Reality, campaign_toml, load_arm_campaign, write_arm_run
+from gap.arm_diagnose import SIGNIFICANT, joint_gaps, residual, screen, twin_of
+from gap.arm_replay import replay
+from gap.campaign import GapError
+from gap.diagnose import _parallel
+from scenarios.arm_rehearsal import CAMERA, make_arm_campaign, simulate
+from scenarios.arm_rehearsal import twin_of as scenario_twin
+from scenarios.schema import load
+
+ONE_JOINT = "scenarios/arm_protocols/one_joint.toml"
+SECONDS = 11.0  # the exercise's moves of the base, the shoulder, the elbow and the wrist (out)
+
+
+def _small_run(n: int = 50) -> ArmRun:
+    rng = np.random.default_rng(0)
+    t = np.arange(n) * 1e-3
+    commands = np.zeros((n, len(JOINTS), 3))
+    commands[10:, 1, 0] = 1.0
+    commands[10:, 1, 1] = 412345.678901
+    commands[10:, 1, 2] = 1.0
+    angle = rng.normal(0.0, 0.01, (n, len(JOINTS)))
+    angle[::3] = np.nan
+    port = np.full((n, len(JOINTS), 2), np.nan)
+    port[::20] = 101325.0 + rng.uniform(0, 5e5, port[::20].shape)
+    start = np.radians([40.0, 90.0, -30.0, 30.0, 0.0])
+    return ArmRun("r", None, start, t, commands, np.full(n, 701325.0), angle, port)
+
+
+def _write_campaign(folder, runs: list[ArmRun]) -> None:
+    for i, r in enumerate(runs):
+        write_arm_run(folder / f"run_{i}.csv", r)
+    text = campaign_toml(CAMERA, [(f"run_{i}.csv", r.start_rad) for i, r in enumerate(runs)], 20.0)
+    (folder / "campaign.toml").write_text(text)
+
+
+def test_campaign_written_and_read_back(tmp_path):
+    runs = [_small_run(), _small_run(60)]
+    _write_campaign(tmp_path, runs)
+    c = load_arm_campaign(tmp_path)
+    assert c.instrument == CAMERA and c.payload_kg == 20.0 and len(c.runs) == 2
+    for got, want in zip(c.runs, runs, strict=True):
+        np.testing.assert_array_equal(got.commands, want.commands)  # every digit of the set point
+        np.testing.assert_array_equal(got.supply_pa, want.supply_pa)
+        np.testing.assert_allclose(got.start_rad, want.start_rad, rtol=0, atol=1e-15)
+        np.testing.assert_allclose(got.angle_rad, want.angle_rad, atol=1e-7)  # 7 decimals
+        np.testing.assert_array_equal(np.isnan(got.angle_rad), np.isnan(want.angle_rad))
+        np.testing.assert_allclose(got.port_pa, want.port_pa, atol=0.5)
+
+
+@pytest.mark.parametrize(
+    ("edit", "expected"),
+    [
+        (("run_0.csv", "\n0.0020,", "\n0.0020,"), None),
+        (("campaign.toml", 'kind = "camera"', 'kind = "laser"'), "campaign.toml:5 ([instrument]): kind = 'laser'"),
+        (("campaign.toml", "payload_kg = 20.0", "payload_kg = 200.0"), "campaign.toml:2: payload_kg = 200.0"),
+        (
+            ("campaign.toml", "[[runs]]", '[reality]\neffect = "elbow_pitch:warp_drive"\nvalue = 1\n\n[[runs]]'),
+            "effect",
+        ),
+        (("run_1.csv", "shoulder_pitch.brake_released", "shoulder_pitch.brake_release"), "run_1.csv:1: missing column"),
+    ],
+)
+def test_bad_files_refused_in_one_line(tmp_path, edit, expected):
+    _write_campaign(tmp_path, [_small_run(), _small_run()])
+    name, old, new = edit
+    text = (tmp_path / name).read_text()
+    if expected is None:  # a command out of range: brake_released = 2 on the run's row 13
+        lines = text.splitlines()
+        cells = lines[13].split(",")
+        cells[3] = "2"  # base_yaw.brake_released (time, supply, then direction, brake, valve per joint)
+        lines[13] = ",".join(cells)
+        (tmp_path / name).write_text("\n".join(lines) + "\n")
+        expected = "run_0.csv:14: base_yaw.brake_released = 2; allowed: 0 or 1"
+    else:
+        assert old in text
+        (tmp_path / name).write_text(text.replace(old, new, 1))
+    with pytest.raises(GapError) as e:
+        load_arm_campaign(tmp_path)
+    message = str(e.value)
+    assert "\n" not in message and expected in message and "allowed" in message, message
+
+
+@pytest.fixture(scope="module")
+def exercise():
+    """The one-joint exercise's first seconds on the twin: (scenario, twin, run, angles, ports)."""
+    s = load(ONE_JOINT)
+    params, setup = scenario_twin(s)
+    run, angles, ports = simulate(s, params, setup, SECONDS)
+    return s, params, setup, run, angles, ports
+
+
+def test_replay_of_a_twin_run_reproduces_its_angles(exercise):
+    """The logged commands replayed through the whole twin give the plant's closed-loop run back
+    (the same kernel, stepped as twin.sim.run steps it): angles and port pressures exactly."""
+    _, params, setup, run, angles, ports = exercise
+    moved = np.degrees(np.abs(angles - angles[0]).max(axis=0))
+    assert (moved[1:4] > 10.0).all(), moved  # the run did move the shoulder, the elbow and the wrist
+    rep = replay(run, params, setup)
+    np.testing.assert_array_equal(rep.angle_rad[: len(angles)], angles)
+    np.testing.assert_array_equal(rep.port_pa[: len(ports)], ports)
+    other = replay(run, {**params, "wrist_pitch": params["wrist_pitch"]._replace(coulomb_nm=30.0)}, setup)
+    assert np.abs(other.angle_rad - rep.angle_rad).max() > np.radians(1.0)  # the replay does depend on the twin
+
+
+@pytest.fixture(scope="module")
+def campaigns(tmp_path_factory):
+    """Two small camera campaigns of the exercise (0.5 and 0.7 MPa): nothing hidden; the wrist's
+    Coulomb friction at 30 N·m instead of its 15."""
+    s = load(ONE_JOINT)
+    out = {}
+    for name, reality in (("none", None), ("wrist", Reality(effect="wrist_pitch:coulomb_friction", value=30.0))):
+        folder = tmp_path_factory.mktemp(name)
+        make_arm_campaign(folder, [s], (0.5, 0.7), reality, CAMERA, seed=1, duration_s=SECONDS)
+        out[name] = load_arm_campaign(folder)
+    return out
+
+
+def _gaps(c):
+    twin = twin_of(c)
+    reps = [replay(r, twin.params, twin.setup) for r in c.runs]
+    return joint_gaps([residual(r, p, c.instrument.latency_s) for r, p in zip(c.runs, reps, strict=True)], c)
+
+
+def test_nothing_hidden_is_within_the_instruments_noise(campaigns):
+    for g in _gaps(campaigns["none"]):
+        assert 0.8 < g.angle_floors < 1.25, g  # the camera's 0.2 deg, no more (the replay adds nothing)
+        assert 0.8 < g.pressure_floors < 1.25, g
+
+
+def test_a_hidden_effect_is_located_to_its_joint(campaigns):
+    c = campaigns["wrist"]
+    gaps = _gaps(c)
+    worst = max(gaps, key=lambda g: g.floors)
+    assert worst.joint == "wrist_pitch" and worst.floors > SIGNIFICANT
+    twin = twin_of(c)
+    from gap.arm_effects import Candidate
+
+    cands = [Candidate(e, "wrist_pitch") for e in ("coulomb_friction", "viscous_friction", "valve_lag")]
+    cands.append(Candidate("payload_mass"))
+    with _parallel(1, None) as run_jobs:
+        ranked = screen(run_jobs, c, twin, c.runs[:1], c.instrument.latency_s, cands)
+    assert ranked[0][0].name == "wrist_pitch:coulomb_friction", ranked

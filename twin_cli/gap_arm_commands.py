@@ -1,0 +1,113 @@
+"""`twin gap arm-campaign`, `twin gap arm-diagnose` and `twin gap bench --arm`: the whole arm's gap
+(docs/gap_arm.md)."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+from twin.checks import BENCH_SEEDS, DURATION_S, JOBS
+from twin.errors import UserError
+from twin_cli.args import number, place
+
+INSTRUMENTS = ("camera", "encoder")
+
+
+def register(sub) -> None:
+    """The arm's subcommands under `twin gap`."""
+    c = sub.add_parser(
+        "arm-campaign", help="rehearse an arm campaign: the twin's own scenario runs through an instrument model"
+    )
+    c.add_argument("scenarios", nargs="+", help='scenario files (model = "arm"), one run each per supply')
+    c.add_argument("--out", type=place, required=True, metavar="DIR", help="the campaign folder (made)")
+    c.add_argument(
+        "--reality",
+        metavar="EFFECT=VALUE",
+        help="hide one effect in the plant: '<joint>:<effect>=<value>' or 'arm:<effect>=<value>' "
+        "(gap/arm_effects.py); recorded under [reality] in campaign.toml",
+    )
+    c.add_argument("--supplies", default="0.5,0.6,0.7,0.8", metavar="MPA,...", help="supplies, gauge MPa")
+    c.add_argument("--instrument", choices=INSTRUMENTS, default="camera", help="the angle instrument's model")
+    c.add_argument("--duration", type=number(**DURATION_S), default=60.0, metavar="S", help="seconds a run")
+    c.add_argument("--seed", type=number(**BENCH_SEEDS), default=0, metavar="N", help="the instruments' noise")
+    c.set_defaults(func=cmd_arm_campaign)
+    d = sub.add_parser("arm-diagnose", help="diagnose an arm campaign into DIR (diagnosis.json)")
+    d.add_argument("campaign", help="folder with campaign.toml and the run files")
+    d.add_argument("--out", type=place, required=True, metavar="DIR", help="output folder (made if missing)")
+    d.add_argument("--jobs", type=number(**JOBS), default=1, metavar="N", help="parallel replays (default 1)")
+    d.add_argument("--scheduler", metavar="ADDR", help="Dask scheduler address: the replays on that cluster")
+    d.set_defaults(func=cmd_arm_diagnose)
+
+
+def add_bench_options(b) -> None:
+    """`twin gap bench`'s options for the arm's bench."""
+    b.add_argument("--arm", action="store_true", help="the arm-level bench (scenarios/arm_bench.py) instead")
+    b.add_argument(
+        "--arm-duration", type=number(**DURATION_S), default=20.0, metavar="S", help="with --arm: seconds a run"
+    )
+
+
+def _reality(text: str | None):
+    from gap.arm_campaign import Reality
+    from gap.arm_effects import candidate_named
+
+    if text is None:
+        return None
+    name, eq, value = text.partition("=")
+    try:
+        candidate_named(name.strip())
+        return Reality(effect=name.strip(), value=float(value))
+    except ValueError:
+        raise UserError(
+            f"--reality {text!r}; allowed: '<joint>:<effect>=<number>' or 'arm:<effect>=<number>' "
+            "(gap/arm_effects.py: JOINT_CATALOGUE, ARM_CATALOGUE)"
+        ) from None
+
+
+def cmd_arm_campaign(args) -> int:
+    from scenarios.arm_rehearsal import CAMERA, ENCODER, make_arm_campaign
+    from scenarios.schema import load
+
+    reality = _reality(args.reality)
+    try:
+        supplies = tuple(float(s) for s in args.supplies.split(","))
+    except ValueError:
+        raise UserError(f"--supplies {args.supplies!r}; allowed: gauge MPa, comma-separated (0.5,0.6)") from None
+    scenarios = [load(s) for s in args.scenarios]
+    for s in scenarios:
+        if s.model != "arm":
+            raise UserError(f'{s.path}: model = {s.model!r}; allowed: "arm" (an arm campaign\'s runs)')
+    instrument = CAMERA if args.instrument == "camera" else ENCODER
+    folder = make_arm_campaign(args.out, scenarios, supplies, reality, instrument, args.seed, args.duration)
+    print(f"campaign: {folder / 'campaign.toml'} ({len(scenarios) * len(supplies)} runs)")
+    return 0
+
+
+def cmd_arm_diagnose(args) -> int:
+    from gap.arm_campaign import load_arm_campaign
+    from gap.arm_diagnose import diagnose_arm
+
+    campaign = load_arm_campaign(args.campaign)
+    if Path(args.out).resolve() == campaign.folder.resolve():
+        raise UserError(f"--out {args.out}: the campaign's own folder; allowed: another folder")
+    d = diagnose_arm(campaign, args.jobs, args.scheduler)
+    Path(args.out).mkdir(parents=True, exist_ok=True)
+    (Path(args.out) / "diagnosis.json").write_text(json.dumps(d.as_dict(), indent=2, default=str))
+    print(d.line())
+    for g in d.joints:
+        print(
+            f"  {g.joint}: angle {g.angle_rms_deg:.3f} deg rms ({g.angle_floors:.1f} floors), ports "
+            f"{g.pressure_rms_kpa:.2f} kPa rms ({g.pressure_floors:.1f} floors)"
+        )
+    print(f"diagnosis: {Path(args.out) / 'diagnosis.json'}")
+    return 0
+
+
+def cmd_arm_bench(args) -> int:
+    from scenarios.arm_bench import run_arm_bench
+
+    Path(args.out).mkdir(parents=True, exist_ok=True)
+    s = run_arm_bench(Path(args.out), args.only, args.arm_duration, args.jobs, args.seeds)
+    for k in ("false_alarms", "right_joint", "right_effect", "median_withheld_shrink"):
+        print(f"{k}: {s[k]}")
+    return 0
