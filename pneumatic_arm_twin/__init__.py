@@ -14,12 +14,24 @@ or a pandas DataFrame, sweep it, read a logged run, diagnose a calibration campa
     sw = pat.sweep("wrist_closed_loop_60deg", {"supply.pressure_mpa": [0.5, 0.7]}, duration_s=2.0)
     sw.summaries, sw.table(), sw.to_csv("sweep.csv")
     d = pat.diagnose("my_campaign/", out="report/")   # d.verdict, d.effect, d.details
+    plan = pat.design_runs("my_campaign/", out="next/")   # the next runs: plan.chosen, next/plan/
 
 Signals and their units are those of twin.telemetry.SIGNALS (SI: rad, Pa absolute unless
 `gauge`, N, m). This package sits above every other one (DESIGN rule 9) and is the one to import
 from a notebook; the command line (`twin`) offers the same.
 """
 
-from pneumatic_arm_twin.api import Diagnosis, Log, Run, Sweep, diagnose, read_log, run, scenario, sweep
+from pneumatic_arm_twin.api import (
+    Diagnosis,
+    Log,
+    Run,
+    Sweep,
+    design_runs,
+    diagnose,
+    read_log,
+    run,
+    scenario,
+    sweep,
+)
 
-__all__ = ["Diagnosis", "Log", "Run", "Sweep", "diagnose", "read_log", "run", "scenario", "sweep"]
+__all__ = ["Diagnosis", "Log", "Run", "Sweep", "design_runs", "diagnose", "read_log", "run", "scenario", "sweep"]

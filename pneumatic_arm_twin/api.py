@@ -220,3 +220,7 @@ def diagnose(
     top = d.which.top
     after = top.heldout_rms_deg if top else None
     return Diagnosis(d.which.verdict, top.name if top else None, d.before_rms_deg, after, d)
+
+
+# the next runs to make (twin gap design): its own module, re-exported here
+from pneumatic_arm_twin.design import design_runs  # noqa: E402, F401
