@@ -109,3 +109,16 @@ def test_one_design_round_on_a_bench_case_keeps_or_improves_its_call(tmp_path):
     if rnd["runs_added"]:
         assert len(load_campaign(tmp_path / "rounds" / "vane_leakage" / "campaign").runs) == 4 + rnd["runs_added"]
     assert s["design_round"]["exact_right_after"] == "1/1"
+
+
+def test_design_without_a_campaign_needs_a_joint_and_an_instrument(tmp_path):
+    """`twin gap design --out DIR` with neither a campaign nor --joint is refused in one line naming what
+    is allowed, before any work; so is a campaign given with --instrument."""
+    from gap.design_cli import run_design
+    from twin.errors import UserError
+
+    with pytest.raises(UserError, match=r"--joint \(one of base_yaw.*got None\) and --instrument"):
+        run_design(None, tmp_path / "out", None, "camera")
+    with pytest.raises(UserError, match="--joint, --instrument and --pressures are for before any campaign"):
+        run_design(tmp_path, tmp_path / "out", None, "camera")
+    assert not (tmp_path / "out").exists()
