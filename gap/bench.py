@@ -526,6 +526,7 @@ def summarise_round(results: list[dict]) -> dict:
     none = [r for r in done if r["kind"] == "none"]
     ambiguous = [r for r in done if r["verdict"] == "ambiguous"]
     added = [r["round"] for r in done if r["round"]["runs_added"]]
+    designed = [r for r in done if r["verdict"] != "no significant gap"]
 
     def count(rs, ok) -> str:
         return f"{sum(ok(r) for r in rs)}/{len(rs)}"
@@ -546,5 +547,6 @@ def summarise_round(results: list[dict]) -> dict:
         "runs_added_median": float(np.median([a["runs_added"] for a in added])) if added else 0.0,
         "arm_time_s_median": float(np.median([a["arm_time_s"] for a in added])) if added else 0.0,
         "arm_time_s_max": float(np.max([a["arm_time_s"] for a in added])) if added else 0.0,
-        "design_s_median": float(np.median([r["round"]["design_s"] for r in done])) if done else None,
+        # the design's wall time where it ran (a case with no significant gap has nothing to design)
+        "design_s_median": float(np.median([r["round"]["design_s"] for r in designed])) if designed else None,
     }
