@@ -223,7 +223,7 @@ def replay(run: ArmRun, params: dict[str, JointParams], setup: ArmSetup, t_end_s
     return Replay(np.arange(n_ticks + 1) * TICK_S, angle, port)
 
 
-def _benchmark(duration_s: float = 10.0) -> None:
+def main(duration_s: float = 10.0) -> None:
     """Replay cost per simulated second against the plant's own stepping in the same process."""
     from gap.arm_campaign import JOINTS
 
@@ -254,4 +254,4 @@ def _benchmark(duration_s: float = 10.0) -> None:
 
 
 if __name__ == "__main__":
-    _benchmark()
+    main()

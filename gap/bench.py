@@ -24,6 +24,7 @@ from tqdm import tqdm
 
 from gap import protocols, synth
 from gap.campaign import load_campaign
+from gap.design_round import design_round as run_design_round
 from gap.diagnose import diagnose
 from gap.effects import BY_NAME, CATALOGUE
 from gap.result import Diagnosis
@@ -258,10 +259,13 @@ def run_bench(
     chamber_pressures: bool | None = None,
     only: str | None = None,
     variant: Variant = Variant(),
+    design_round: bool = False,
 ) -> dict:
     """Every case diagnosed blind; `chamber_pressures` None: as the case's setting cycles, else
     forced; `only`: the cases named in its comma-separated list (`none*`: every name that starts so);
-    `variant`: settings the bench does not use by default."""
+    `variant`: settings the bench does not use by default; `design_round`: each case's diagnosis
+    proposes runs (gap.design), played on the same hidden reality and diagnosed again
+    (gap.design_round), its scores beside the first."""
     check_only(only, quick)
     check_variant(variant)
     t0 = time.perf_counter()
@@ -274,17 +278,23 @@ def run_bench(
             continue  # the case keeps its index: its protocol, instrument and seeds do not depend on the selection
         folder = out / "campaigns" / case.name
         try:
-            r = run_case(case, i, folder, pressures, chamber_pressures, jobs, variant)
+            r = run_case(case, i, folder, pressures, chamber_pressures, jobs, variant, design_round)
         except BaseException:
             shutil.rmtree(folder, ignore_errors=True)  # unfinished, as bench.json says: what a stopped bench keeps
+            shutil.rmtree(out / "rounds" / case.name, ignore_errors=True)
             raise
         results.append(r)
         summary = summarise(results, quick, chamber_pressures, time.perf_counter() - t0, variant)
+        if design_round:
+            summary["design_round"] = summarise_round(results)
         write_atomic(
             out / "bench.json",
             json.dumps(summary, indent=1, default=lambda x: None if isinstance(x, float) and math.isnan(x) else str(x)),
         )  # after every case, whole: a long run killed keeps what it did
-    return summarise(results, quick, chamber_pressures, time.perf_counter() - t0, variant)
+    summary = summarise(results, quick, chamber_pressures, time.perf_counter() - t0, variant)
+    if design_round:
+        summary["design_round"] = summarise_round(results)
+    return summary
 
 
 def run_case(
@@ -295,14 +305,17 @@ def run_case(
     chamber_pressures: bool | None,
     jobs: int,
     variant: Variant = Variant(),
+    design_round: bool = False,
 ) -> dict:
-    """The i-th case's campaign made in `folder` and diagnosed blind: its setting and scores."""
+    """The i-th case's campaign made in `folder` and diagnosed blind: its setting and scores (with
+    `design_round`, also the scores after one round of designed runs, in `folder`/../../rounds/case)."""
     proto, inst, with_p = make_case_campaign(case, i, folder, pressures, chamber_pressures, variant)
     catalogue = tuple(e for e in CATALOGUE if e.name not in case.exclude)
     t_diag = time.perf_counter()
-    diag = diagnose(load_campaign(folder), catalogue=catalogue, n_jobs=jobs, progress=False)
+    campaign = load_campaign(folder)
+    diag = diagnose(campaign, catalogue=catalogue, n_jobs=jobs, progress=False)
     t_diag = time.perf_counter() - t_diag
-    return {
+    r = {
         "case": case.name,
         "kind": case.kind,
         "protocol": proto,
@@ -313,6 +326,30 @@ def run_case(
         "diagnose_s": t_diag,
         **scores(case, diag),
     }
+    if design_round:
+        rounds = folder.parent.parent / "rounds" / case.name
+        r["round"] = round_of(case, 100 + i + variant.seeds, campaign, diag, rounds, inst, with_p, jobs)
+    return r
+
+
+def round_of(case: Case, seed: int, campaign, diag: Diagnosis, folder: Path, inst, with_p: bool, jobs: int) -> dict:
+    """One design round on the case's hidden reality (gap.design_round): its cost and the scores after."""
+    catalogue = tuple(e for e in CATALOGUE if e.name not in case.exclude)
+    reality = synth.wrist_params()._replace(**case.reality)
+    again, cost = run_design_round(
+        campaign,
+        diag,
+        folder,
+        reality,
+        inst,
+        with_p,
+        catalogue,
+        seed,
+        jobs,
+        case.rig_spring_nm_per_rad,
+        case.rig_load_nm,
+    )
+    return {**cost, **scores(case, again if again is not None else diag)}
 
 
 def make_case_campaign(
@@ -476,3 +513,39 @@ def summarise(
 
 def _rate_of(flags: list[bool]) -> float | None:
     return sum(flags) / len(flags) if flags else None
+
+
+def summarise_round(results: list[dict]) -> dict:
+    """The scores after one design round beside the first diagnosis's, over the cases so far: other
+    forms given their family, false alarms, ambiguous verdicts resolved (no longer ambiguous after the
+    round; and right where the case is scored), and what the rounds cost."""
+    done = [r for r in results if "round" in r]
+    form = [r for r in done if r["kind"] == "form"]
+    exact = [r for r in done if r["kind"] in ("single", "pair")]
+    none = [r for r in done if r["kind"] == "none"]
+    ambiguous = [r for r in done if r["verdict"] == "ambiguous"]
+    added = [r["round"] for r in done if r["round"]["runs_added"]]
+    designed = [r for r in done if r["verdict"] != "no significant gap"]
+
+    def count(rs, ok) -> str:
+        return f"{sum(ok(r) for r in rs)}/{len(rs)}"
+
+    return {
+        "forms_right_before": count(form, lambda r: r["top1"]),
+        "forms_right_after": count(form, lambda r: r["round"]["top1"]),
+        "exact_right_before": count(exact, lambda r: r["top1"]),
+        "exact_right_after": count(exact, lambda r: r["round"]["top1"]),
+        "false_alarms_before": count(none, lambda r: r["verdict"] != "no significant gap"),
+        "false_alarms_after": count(none, lambda r: r["round"]["verdict"] != "no significant gap"),
+        "ambiguous_before": len(ambiguous),
+        "ambiguous_resolved": count(ambiguous, lambda r: r["round"]["verdict"] != "ambiguous"),
+        "ambiguous_resolved_right": count(
+            ambiguous, lambda r: r["round"]["verdict"] != "ambiguous" and r["round"].get("top1", True)
+        ),
+        "cases_with_runs_added": len(added),
+        "runs_added_median": float(np.median([a["runs_added"] for a in added])) if added else 0.0,
+        "arm_time_s_median": float(np.median([a["arm_time_s"] for a in added])) if added else 0.0,
+        "arm_time_s_max": float(np.max([a["arm_time_s"] for a in added])) if added else 0.0,
+        # the design's wall time where it ran (a case with no significant gap has nothing to design)
+        "design_s_median": float(np.median([r["round"]["design_s"] for r in designed])) if designed else None,
+    }

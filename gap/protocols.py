@@ -125,6 +125,38 @@ def library(supply_mpa: float) -> dict[str, Protocol]:
     }
 
 
+# The design library (gap.design proposes runs from it): the library above and runs made to tell
+# parts of the joint apart, each inside the wrist's +-90 deg from a start at 0 at every supply of the
+# paper. Not in `library`: the diagnosis's tolerance is the worst of the library's protocols, and these
+# are measured apart (`python -m gap.protocols --design`, DESIGN_TOLERANCE_DEG below), under it.
+# Slow constant-speed runs: a partial opening held long (0.75 / 0.85 of full: set points 3.8 / 4.3 bar,
+# both under the brake's full release, 4.75 bar, so a motor-fed brake drags and the joint crawls),
+# up and back down at the same opening.
+SLOW_075 = Protocol("slow_075", (Segment(1.2, +1, 0.75), _stop(0.3), Segment(1.2, -1, 0.75)))
+SLOW_085 = Protocol("slow_085", (Segment(1.0, +1, 0.85), _stop(0.3), Segment(1.0, -1, 0.85)))
+# Pressure-only: the valves driven both ways while the brake holds the joint (its holding torque,
+# 100 N·m, is above the motor's stall torque at every supply): the chambers fill and empty through
+# the valves and hoses, the joint does not turn (what turns it is the brake slipping)
+HELD = Protocol("held", (Segment(0.5, +1, None, False), _stop(0.3), Segment(0.5, -1, None, False)))
+# Short pulses: four 0.3 s moves at full opening with braked pauses, two each way: the run is mostly
+# starts and stops (the brake's release and engagement, the valves' dead times, breakaway)
+PULSES = Protocol("pulses", tuple(s for d in (+1, +1, -1, -1) for s in (Segment(0.3, d), _stop(0.3))))
+# Dwell, then move: long braked dwells between short moves (each start from a joint that rested long)
+DWELL_THEN_MOVE = Protocol(
+    "dwell_then_move", (Segment(0.3, +1), _stop(1.0), Segment(0.3, +1), _stop(1.0), Segment(0.6, -1))
+)
+# Partial openings below the staircase's: steps at 0.8 and 0.85 (4.1 / 4.3 bar), braked between
+LOW_STEPS = Protocol(
+    "low_steps", (Segment(0.4, +1, 0.8), _stop(0.25), Segment(0.4, +1, 0.85), _stop(0.25), Segment(0.6, -1, 0.9))
+)
+DESIGN_PROTOCOLS = (SLOW_075, SLOW_085, HELD, PULSES, DWELL_THEN_MOVE, LOW_STEPS)
+
+
+def design_library(supply_mpa: float) -> dict[str, Protocol]:
+    """The library (`library`) and the runs made to tell parts apart (DESIGN_PROTOCOLS) at `supply_mpa`."""
+    return {**library(supply_mpa), **{p.name: p for p in DESIGN_PROTOCOLS}}
+
+
 def measure_tolerance(pressures_mpa=(0.5, 0.6, 0.7, 0.8)) -> dict[str, dict]:
     """Replay vs plant per protocol: rms and max |difference| of the angle (deg) and rms of the
     chamber pressures (kPa) over the given supplies, nominal wrist, no instrument noise."""

@@ -18,6 +18,7 @@ or a pandas DataFrame, sweep it, read a logged run, diagnose a calibration campa
     d = pat.diagnose("my_campaign/", out="report/")   # d.verdict, d.effect, d.details
     d = pat.diagnose(pat.synthetic_campaign(seed=1))  # a campaign made by the plant, in memory
     # sweep(..., scheduler="tcp://host:8786") and diagnose(..., scheduler=...) run on a Dask cluster
+    plan = pat.design_runs("my_campaign/", out="next/")   # the next runs: plan.chosen, next/plan/
 
 The notebook docs/example.ipynb walks through a run, a sweep, a diagnosis and the plots.
 
@@ -41,6 +42,7 @@ from pneumatic_arm_twin.api import (
     sweep,
     synthetic_campaign,
 )
+from pneumatic_arm_twin.design import design_runs
 
 __all__ = [
     "Campaign",
@@ -49,6 +51,7 @@ __all__ = [
     "Run",
     "Study",
     "Sweep",
+    "design_runs",
     "diagnose",
     "make_campaign",
     "read_log",

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import json
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -74,13 +75,22 @@ def run_case(case: Case, folder: Path, duration_s: float, jobs: int, seed: int) 
     return out
 
 
-def run_arm_bench(out: Path, only: str | None = None, duration_s: float = 20.0, jobs: int = 1, seed: int = 0) -> dict:
-    """Every case (or those named in `only`, comma-separated), each its campaign in out/campaigns."""
+def run_arm_bench(
+    out: Path,
+    only: str | None = None,
+    duration_s: float = 20.0,
+    jobs: int = 1,
+    seed: int = 0,
+    report: Callable[[str], None] | None = None,
+) -> dict:
+    """Every case (or those named in `only`, comma-separated), each its campaign in out/campaigns;
+    `report` is given each case's line as it ends (the command line prints it)."""
     names = [n.strip() for n in only.split(",")] if only else [c.name for c in CASES]
     rows = []
     for i, case in enumerate(c for c in CASES if c.name in names):
         rows.append(run_case(case, out / "campaigns" / case.name, duration_s, jobs, seed + i))
-        print(rows[-1]["line"], f"[{case.name}]", flush=True)
+        if report is not None:
+            report(f"{rows[-1]['line']} [{case.name}]")
     none = [r for r in rows if "false_alarm" in r]
     hidden = [r for r in rows if "truth" in r]
     shrinks = [r["shrink"] for r in hidden if r["shrink"] is not None]

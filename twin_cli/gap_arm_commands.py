@@ -107,7 +107,9 @@ def cmd_arm_bench(args) -> int:
     from scenarios.arm_bench import run_arm_bench
 
     Path(args.out).mkdir(parents=True, exist_ok=True)
-    s = run_arm_bench(Path(args.out), args.only, args.arm_duration, args.jobs, args.seeds)
+    s = run_arm_bench(
+        Path(args.out), args.only, args.arm_duration, args.jobs, args.seeds, report=lambda line: print(line, flush=True)
+    )
     for k in ("false_alarms", "right_joint", "right_effect", "median_withheld_shrink"):
         print(f"{k}: {s[k]}")
     return 0

@@ -10,7 +10,7 @@ from twin_cli import gap_arm_commands
 from twin_cli.args import number, place
 from twin_cli.figures import figure_lines
 
-BENCH_OUTPUTS = ("campaigns", "bench.json")  # what `gap bench` writes into DIR, replacing an earlier bench's
+BENCH_OUTPUTS = ("campaigns", "rounds", "bench.json")  # what `gap bench` writes into DIR, replacing an earlier bench's
 
 
 def register(subparsers) -> None:
@@ -87,8 +87,35 @@ def register(subparsers) -> None:
     ):
         b.add_argument(flag, type=number(**spec), default=0, metavar=meta, help=text)
     gap_arm_commands.add_bench_options(b)
+    b.add_argument(
+        "--design-round",
+        action="store_true",
+        help="after each diagnosis, play the runs `twin gap design` proposes on the same hidden reality, add them "
+        "and diagnose again (DIR/rounds/CASE: the plan, its played files, the extended campaign)",
+    )
     b.set_defaults(func=cmd_bench)
     gap_arm_commands.register(sub)
+    register_design(sub)
+
+
+INSTRUMENTS = ("encoder", "camera")  # gap.synth.ENCODER, gap.synth.CAMERA
+
+
+def register_design(sub) -> None:
+    g = sub.add_parser(
+        "design",
+        help="the next runs to make: from a campaign's diagnosis, or before any campaign the smallest one that "
+        "tells every catalogue family apart (DIR/plan, design.md, design.json, predicted.png)",
+    )
+    g.add_argument(
+        "campaign", nargs="?", help="folder with campaign.toml and the run files (omit: before any campaign)"
+    )
+    g.add_argument("--out", type=place, required=True, metavar="DIR", help="output folder (made if missing)")
+    g.add_argument("--joint", help="before any campaign: the joint under test (assets.JOINTS)")
+    g.add_argument("--instrument", choices=INSTRUMENTS, help="before any campaign: the reference instrument")
+    g.add_argument("--pressures", action="store_true", help="before any campaign: chamber-pressure transducers too")
+    g.add_argument("--jobs", type=number(**JOBS), default=2, metavar="N", help="parallel replays (default 2)")
+    g.set_defaults(func=cmd_design)
 
 
 def cmd_diagnose(args) -> int:
@@ -131,6 +158,7 @@ def cmd_bench(args) -> int:
             chamber_pressures=False if args.angle_only else None,
             only=args.only,
             variant=variant,
+            design_round=args.design_round,
         )
 
     with OutputLock([args.out]):
@@ -138,4 +166,22 @@ def cmd_bench(args) -> int:
             args.out, bench_into, "the bench's results", replaces=BENCH_OUTPUTS, keep_on_stop=True
         )
     print("\n".join(figure_lines({k: v for k, v in summary.items() if k != "cases"})))
+    return 0
+
+
+def cmd_design(args) -> int:
+    # on use: at the top, the libraries take `twin --help` from 0.45 to 2.2 s
+    from gap.design_cli import run_design
+
+    d, folder = run_design(args.campaign, args.out, args.joint, args.instrument, args.pressures, args.jobs)
+    for k, p in enumerate(d.chosen, 1):
+        print(f"{k}. {p.protocol}: {len(p.runs)} runs, {p.arm_time_s:.1f} s of arm time")
+    if not d.chosen:
+        print("no run proposed (nothing to tell apart)")
+    told = len(d.separation) - len(d.unseparated)
+    print(
+        f"pairs told apart: {told}/{len(d.separation)}"
+        + (f"; not: {', '.join(d.unseparated)}" if d.unseparated else "")
+    )
+    print(f"plan: {folder / 'design.md'}")
     return 0
