@@ -27,13 +27,15 @@ what each term changes against a linear line.
   the wall at the line's `temperature_k` (the hose is a heat sink that stays at room temperature).
 - wave speed: from the local state, c = sqrt(k p / rho); nothing fitted.
 
-Discretisation: a conservative finite-volume scheme, N cells of length dx = L / N. Cell averages
+Discretisation: a conservative finite-volume scheme, N - 2 cells of length dx = L / (N - 1) between
+the two ends' half-cell plenums. Cell averages
 of (rho, rho u, E); at each face the HLLC approximate Riemann solver (Toro, Riemann Solvers and
 Numerical Methods for Fluid Dynamics, 3rd ed., 2009, sec. 10.4, Davis' wave speeds) of states
 reconstructed linearly from the cells' primitive variables (rho, u, p) with van Leer's limiter
 (MUSCL, second order in space, first order in the cells next to the ends), Heun's two-stage SSP Runge-Kutta
 in time (second order), sub-steps at a Courant number <= COURANT of the fastest wave the last
-sub-step saw. Friction, heat and the inlet and end flows are split after each sub-step (Lie). Mass
+sub-step saw. The valve's flow into the inlet plenum is a source inside each stage; friction, heat
+and the far end's leak and volume change are split after each sub-step (Lie). Mass
 and energy are conserved to round-off: every face's flux leaves one cell and enters the next.
 
 Ends: each end is a plenum, half a cell of the line (the far one with the end volume beside it)
