@@ -21,6 +21,7 @@ import time
 import numpy as np
 
 from benchmarks.stats import spread
+from pneumatics import gas_line
 from pneumatics._jit import njit
 from pneumatics.chamber import chamber_pressure_rate
 from pneumatics.gas import AIR
@@ -62,6 +63,16 @@ def _line_steps(row: np.ndarray, steps: int) -> float:
     return x[int(row[0])]
 
 
+@njit(cache=False)
+def _gas_line_steps(row: np.ndarray, steps: int) -> float:
+    x = gas_line.initial_line_state(row, ATM)
+    end = gas_line.FarEnd(END_M3, 0.0, 0.0, 0.0, 0.0)
+    for i in range(steps):
+        up = SUPPLY_PA if (i // SWITCH_STEPS) % 2 == 0 else ATM
+        gas_line.advance_from_orifice(x, row, DT, up, VALVE_M2, FLUX, K, end)
+    return gas_line.far_end_pressure(x, row)
+
+
 def _per_step_ns(run, steps: int) -> float:
     t0 = time.perf_counter()
     run(steps)
@@ -84,6 +95,22 @@ def main(argv: list[str] | None = None) -> dict:
     for row in cases.values():
         _line_steps(row, 10)  # compile
     report = {}
+    for length in (0.3, 3.0, 8.0):  # the finite-amplitude line (pneumatics/gas_line.py), full law
+        row = gas_line.line_row(length, BORE, T, R, K, MU, gas_line.segments_for(length, c))
+        _gas_line_steps(row, 10)
+        base, line, ratio = [], [], []
+        for _ in range(args.rounds):
+            b = _per_step_ns(lambda n, ln=length: _pi_section_steps(ln, n), steps)
+            w = _per_step_ns(lambda n, r=row: _gas_line_steps(r, n), steps)
+            base.append(b)
+            line.append(w)
+            ratio.append(w / b)
+        report[f"{length:g} m, finite-amplitude line (gas_line)"] = {
+            "segments": int(row[0]),
+            "pi_section_ns_per_step": spread(base),
+            "line_ns_per_step": spread(line),
+            "line_over_pi_section": spread(ratio),
+        }
     for (length, unsteady), row in cases.items():
         base, line, ratio = [], [], []
         for _ in range(args.rounds):

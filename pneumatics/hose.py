@@ -11,7 +11,7 @@ import math
 
 import numpy as np
 
-from pneumatics import line as _line
+from pneumatics import gas_line as _line
 from pneumatics.darcy import (
     BLASIUS_LAMINAR_RE,
     friction_factor,
@@ -38,7 +38,7 @@ __all__ = [
     "reynolds_number",
 ]
 
-LINE_STEP_S = 0.5e-3  # `line_response`'s longest step: the plant's physics step
+LINE_STEP_S = 0.5e-3  # `line_response`'s longest step (the line sub-steps it at its Courant number)
 
 
 def line_response(
@@ -60,12 +60,15 @@ def line_response(
     inlet = np.asarray(inlet_pa, dtype=float)
     _check_line_arguments(length_m, bore_m, end_volume_m3, times, inlet, temperature_k)
     c = _line.wave_speed(temperature_k, AIR.r_j_per_kg_k, AIR.k)
-    row = _line.line_row(
-        length_m, bore_m, temperature_k, AIR.r_j_per_kg_k, AIR.k, AIR.mu_pa_s, _line.segments_for(length_m, c)
-    )
+    cells = max(LINE_RESPONSE_MIN_CELLS, _line.segments_for(length_m, c, LINE_RESPONSE_BAND_HZ))
+    row = _line.line_row(length_m, bore_m, temperature_k, AIR.r_j_per_kg_k, AIR.k, AIR.mu_pa_s, cells)
     return _line.far_end_series(row, end_volume_m3, times, inlet, LINE_STEP_S)
 
 
+# `line_response`'s grid, finer than the plant's (it runs offline): within ~0.005 bar rms of a grid
+# four times as fine on 1-8 m steps of 3 and 7 bar (docs/air_lines.md, grid convergence)
+LINE_RESPONSE_BAND_HZ = 200.0
+LINE_RESPONSE_MIN_CELLS = 60
 LINE_LENGTH_M = (0.3, 100.0)  # the lengths the line is checked over (docs/air_lines.md)
 LINE_BORE_M = (1.0e-3, 50.0e-3)  # and the bores
 LINE_TEMPERATURE_K = (200.0, 400.0)  # air as an ideal gas of constant viscosity (pneumatics.gas.AIR)
