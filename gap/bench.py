@@ -209,7 +209,7 @@ def single_cases() -> list[Case]:
             ("conductance_error",),
             truth={"conductance_error": 0.6},
         ),
-        Case("heat", "single", {"polytropic_n": 1.05}, ("heat_exchange",), truth={"heat_exchange": 1.05}),
+        Case("heat", "single", {"wall_heat_scale": 0.05}, ("heat_exchange",), truth={"heat_exchange": 0.05}),
         Case("droop", "single", {"supply_droop_pa_s_per_kg": 2e7}, ("supply_droop",), truth={"supply_droop": 2e7}),
         Case(
             "inertia",

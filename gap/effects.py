@@ -165,14 +165,20 @@ CATALOGUE: tuple[Effect, ...] = (
         family="valve",
         equation="valve areas x scale",
     ),
+    # the heat the air exchanges with its walls (pneumatics/heat.py): the twin's chambers and hoses
+    # follow the energy balance with film coefficients from correlations (a vane cell's and a duct's,
+    # not checked on such a motor, docs/air_chambers.md), so what the real walls do is their scale:
+    # 0 (adiabatic) to 10 times, log grid. Below ~0.3 the joint's motion departs from the nominal
+    # (the 8 m hoses' gas otherwise nears the wall's temperature within tenths of a second)
     Effect(
         "heat_exchange",
-        "heat exchange (polytropic exponent)",
-        "polytropic_n",
-        1.0,
-        1.4,
+        "heat exchange (wall heat-transfer scale)",
+        "wall_heat_scale",
+        0.0,
+        10.0,
+        log=True,
         family="thermal",
-        equation="chamber law with n in 1..1.4",
+        equation="walls' film coefficients (vane cell, hose) x scale; 0 adiabatic",
     ),
     Effect(
         "supply_droop",

@@ -636,9 +636,9 @@ def test_verdict_rules_refuse_a_pair_at_nominal_flag_bounds_and_name_only_a_fami
     from gap.run import verdict_line
 
     p0 = synth.wrist_params()
-    at_nominal = Candidate("vane_leakage+heat_exchange", ["vane_leakage", "heat_exchange"], [], [4e-7, 1.4])
+    at_nominal = Candidate("vane_leakage+heat_exchange", ["vane_leakage", "heat_exchange"], [], [4e-7, 1.0])
     assert verdict.off_nominal(at_nominal, p0) == [True, False]
-    moved = Candidate("vane_leakage+heat_exchange", ["vane_leakage", "heat_exchange"], [], [4e-7, 1.2])
+    moved = Candidate("vane_leakage+heat_exchange", ["vane_leakage", "heat_exchange"], [], [4e-7, 0.5])
     assert verdict.off_nominal(moved, p0) == [True, True]
     assert verdict.at_bounds(Candidate("coulomb_friction", ["coulomb_friction"], [], [60.0])) == ["high"]
     assert verdict.at_bounds(Candidate("coulomb_friction", ["coulomb_friction"], [], [31.0])) == [None]
