@@ -91,13 +91,16 @@ def test_reality_is_the_as_built_arm_by_default_and_the_predictor_stays_nominal(
     )
     assert not refusal
     stops = tuple(controller.arm.drive_stops()[0])  # the rig's +-90 deg: where a prediction stops
-    np.testing.assert_array_equal(controller.params[0], params_row(nominal, dt_s=controller.dt, stops=stops))
+    # the predictor: the nominal parameters with the paper's chamber law (DESIGN rule 2)
+    np.testing.assert_array_equal(
+        controller.params[0], params_row(paper_model(nominal), dt_s=controller.dt, stops=stops)
+    )
     assert not np.array_equal(plant.params[0], controller.params[0])
 
 
 def test_reality_can_be_the_nominal_twin_for_a_self_check():
     s = parse(RIG + '[reality]\narm = "nominal"\n')
-    assert reality_params(s) == {"wrist_pitch": load_joint_params(assets.joint_param_path("wrist_pitch"))}
+    assert reality_params(s) == {"wrist_pitch": paper_model(load_joint_params(assets.joint_param_path("wrist_pitch")))}
 
 
 @pytest.mark.parametrize(
