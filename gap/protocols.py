@@ -26,14 +26,16 @@ import numpy as np
 # of stop 20 (the plant's air by ROS2; with stop 17's Heun: 0.046, 0.033, 0.043, 0.151, 0.108 deg
 # and 0.33, 0.49, 0.35, 0.88, 0.68 kPa). tests/test_gap.py measures them again and fails when the
 # physics has moved them: re-run the command and copy its figures.
+# measured with the chambers' energy balance in plant and replay (the polytropic law's, before:
+# 0.04, 0.016, 0.032, 0.152, 0.036 deg; 0.26, 0.23, 0.34, 0.8, 0.33 kPa)
 TOLERANCE_DEG = {
-    "paper_60": 0.04,
-    "staircase": 0.016,
-    "back_and_forth": 0.032,
-    "stop_and_go": 0.152,
+    "paper_60": 0.035,
+    "staircase": 0.024,
+    "back_and_forth": 0.029,
+    "stop_and_go": 0.089,
     "reversal": 0.036,
 }
-TOLERANCE_KPA = {"paper_60": 0.26, "staircase": 0.23, "back_and_forth": 0.34, "stop_and_go": 0.8, "reversal": 0.33}
+TOLERANCE_KPA = {"paper_60": 0.67, "staircase": 0.57, "back_and_forth": 0.63, "stop_and_go": 1.24, "reversal": 0.44}
 TOLERANCE_FACTOR = 2.0  # the tolerance is twice the measured rms (room for what the campaigns vary)
 
 
