@@ -37,7 +37,7 @@ from control.open_loop import open_loop_duration
 from control.pid import CLOSED, DEFAULT_GAINS, IDLE, OPEN, PidGains, control_step, gains_row
 from control.predicted_load import B_CLEARANCE, B_RADIUS, B_REACH, LOAD_UPDATE_RAD, N_BOUND, advance_load
 from control.predictor import predict_step
-from pneumatics import AIR, Gas, JointParams, load_joint_params, params_row
+from pneumatics import AIR, Gas, JointParams, load_joint_params, paper_model, params_row
 from pneumatics import params as P
 from pneumatics.joint import C_BRAKE_RELEASE, N_COMMAND, R_OMEGA, R_THETA, initial_rigid_state, initial_state
 from pneumatics.motor import least_displacement_per_rad
@@ -56,7 +56,8 @@ class ArmController:
 
     start_angles_rad: the start pose in drive angles, {joint: rad} or a sequence in `joints` order.
     xml_path: the MJCF Pinocchio reads (assets.ARM_XML for the arm and its scene, assets.WRIST_RIG_XML).
-    predictor_params: the predictor's JointParams per joint (default: the parameter files).
+    predictor_params: the predictor's JointParams per joint (default: the parameter files), taken with
+        the paper's chamber law whatever their own (`pneumatics.params.paper_model`).
     mode: "closed_loop" (PID on the prediction) or "open_loop" (valve open for a nominal time).
     min_rotation_rad: smaller requested rotations are refused (paper Sec. IV: 20 deg).
     move_timeout_s: a move not finished by then is stopped, braked and reported as a fault.
@@ -91,7 +92,9 @@ class ArmController:
         for j in self.joints:
             if j not in params:
                 params[j] = load_joint_params(assets.joint_param_path(j))
-        self.joint_params = {j: params[j] for j in self.joints}
+        # the predictor is the paper's model of each joint (DESIGN rule 2): the same parameters, the
+        # paper's chamber law (`paper_model`)
+        self.joint_params = {j: paper_model(params[j]) for j in self.joints}
         # the rows keep the valves' and brakes' lag factors for the predictor's step, the control period,
         # and each drive's end stops: a prediction stops where the joint does
         stops = self.arm.drive_stops()
@@ -115,8 +118,8 @@ class ArmController:
         if bad:
             raise MotionRefused(f"start pose: {', '.join(bad)} is not a number; allowed: a finite drive angle in rad")
         atm = gas.p_atm_pa
-        self.y = np.vstack([initial_rigid_state(a, atm) for a in start])
-        self.x = np.vstack([initial_state(atm, True) for _ in start])
+        self.y = np.vstack([initial_rigid_state(a, atm, gas.t_supply_k) for a in start])
+        self.x = np.vstack([initial_state(atm, True, 0.0, gas.t_supply_k) for _ in start])
         self.commands = np.zeros((n, N_COMMAND))
         self._make_tables(start)
         # the load's tangent between Pinocchio's looks (control/predicted_load.py)

@@ -57,8 +57,8 @@ def open_loop_duration(
 ) -> float:
     """Valve-open time (s) after which the nominal one-joint model, started at rest with its brake
     engaged, reaches `target_rad`. ValueError if it does not within `max_s` (too little air)."""
-    y = initial_rigid_state(start_rad, params_row[P.GAS_P_ATM])
-    x = initial_state(params_row[P.GAS_P_ATM], brake_engaged=True)
+    y = initial_rigid_state(start_rad, params_row[P.GAS_P_ATM], params_row[P.GAS_T])
+    x = initial_state(params_row[P.GAS_P_ATM], True, 0.0, params_row[P.GAS_T])
     t = _duration(
         y,
         x,

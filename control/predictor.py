@@ -25,15 +25,16 @@ from pneumatics._jit import borrowed, njit
 from pneumatics.joint import (
     R_OMEGA,
     R_OMEGA_M,
-    R_PA_MOTOR,
     R_PA_VALVE,
     R_PB_MOTOR,
-    R_PB_VALVE,
     R_QM,
+    R_TA_VALVE,
+    R_TB_MOTOR,
     R_THETA,
     S_BRAKE,
     S_DIR,
     advance_discrete,
+    air_settled,
     single_joint_step,
 )
 from pneumatics.reducer import is_rigid
@@ -43,8 +44,7 @@ from pneumatics.reducer import is_rigid
 def predictor_at_rest(y: np.ndarray, x: np.ndarray, command: np.ndarray, p: np.ndarray) -> bool:
     """True when nothing can change the joint's prediction this tick: standing still (a non-rigid
     reducer's motor too, inside its gap), brake fully engaged and commanded so, no direction valve
-    open or pending, all air at atmosphere."""
-    atm = p[P.GAS_P_ATM]
+    open or pending, all air at atmosphere and at its walls' temperature."""
     return (
         y[R_OMEGA] == 0.0
         and (
@@ -54,10 +54,7 @@ def predictor_at_rest(y: np.ndarray, x: np.ndarray, command: np.ndarray, p: np.n
         and command[0] == 0.0
         and command[2] == 0.0
         and x[S_BRAKE] >= 0.999999
-        and abs(y[R_PA_VALVE] - atm) < 1e-6
-        and abs(y[R_PA_MOTOR] - atm) < 1e-6
-        and abs(y[R_PB_VALVE] - atm) < 1e-6
-        and abs(y[R_PB_MOTOR] - atm) < 1e-6
+        and air_settled(y[R_PA_VALVE : R_PB_MOTOR + 1], y[R_TA_VALVE : R_TB_MOTOR + 1], p)
     )
 
 

@@ -124,8 +124,8 @@ def replay_run(
     n_steps = int(t_end_s / dt_s + 1e-9)
     atm = p[P.GAS_P_ATM]
     t_out, th_out, om_out, pa_out, pb_out = _trajectory(n_steps + 1, theta0_rad, atm)
-    x = initial_state(atm, True, 0.0)
-    y = initial_rigid_state(theta0_rad, atm)
+    x = initial_state(atm, True, 0.0, p[P.GAS_T])
+    y = initial_rigid_state(theta0_rad, atm, p[P.GAS_T])
     cmd = np.zeros(N_COMMAND)
     row = 0
     for k in range(n_steps):

@@ -19,7 +19,7 @@ from pneumatics.motor import (
     wrap_motor_angle,
 )
 from pneumatics.orifice import critical_pressure_ratio, flow_function, orifice_mass_flow, orifice_mass_flow_between
-from pneumatics.params import JointParams, ParameterError, load_joint_params, params_row, validated
+from pneumatics.params import JointParams, ParameterError, load_joint_params, paper_model, params_row, validated
 from pneumatics.reducer import transmitted_torque
 from pneumatics.valves import dead_time_step, lag_toward, proportional_valve_target, solenoid_step, valve_opening
 
@@ -51,6 +51,7 @@ __all__ = [
     "load_joint_params",
     "orifice_mass_flow",
     "orifice_mass_flow_between",
+    "paper_model",
     "params_row",
     "proportional_valve_target",
     "reducer_output_torque",

@@ -30,19 +30,21 @@ supply it began with, the four pressures at its start, its first stage and ROS2'
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 
 from pneumatics import params as P
 from pneumatics._jit import njit
 from pneumatics.brake import brake_feed_gauge_pa, brake_holding_torque, brake_mean, brake_step, brake_target
-from pneumatics.chamber import chamber_pressure_rate
+from pneumatics.chamber import carried_temperature, chamber_energy_rates, chamber_pressure_rate
 from pneumatics.friction import coulomb_viscous_torque, reducer_output_torque, stribeck_excess
-from pneumatics.gas import isentropic_temperature
+from pneumatics.gas import AIR, isentropic_temperature
+from pneumatics.heat import duct_heat_transfer_coefficient, vane_chamber_heat_transfer_coefficient
 from pneumatics.hose import hose_mass_flow_with, hose_volume
 from pneumatics.integrators import ROS2_GAMMA, rk4_increment, ros2_increment, ros2_inverse, secant_slope
 from pneumatics.motor import chamber_geometry, vane_torque
-from pneumatics.orifice import orifice_mass_flow_with
+from pneumatics.orifice import orifice_mass_flow_between, orifice_mass_flow_with
 from pneumatics.reducer import (
     damping,
     inertia_split,
@@ -86,7 +88,13 @@ S_PAIR_K = S_PAIR_START + 4  # ROS2's first stage, the same four
 S_PAIR_MA = S_PAIR_K + 4  # ROS2's (I - g h W)^-1 for port A's (valve node, motor node), row-major: 4 columns
 S_PAIR_MB = S_PAIR_MA + 4  # the same for port B
 S_PAIR_LEAK = S_PAIR_MB + 4  # g h times the vane leak's coupling of the motor nodes (A's on B, B's on A)
-N_STATE = S_PAIR_LEAK + 2
+# the four nodes' gas temperatures (K; the energy balance's state, `chamber_heat` = 1: with the
+# paper's law they stay at the supply temperature), in the S_PA_VALVE.. order
+S_TA_VALVE, S_TA_MOTOR, S_TB_VALVE, S_TB_MOTOR = range(S_PAIR_LEAK + 2, S_PAIR_LEAK + 6)
+S_PAIR_T_START = S_TA_VALVE + 4  # the four temperatures at the air step's start
+S_PAIR_T_K = S_PAIR_T_START + 4  # ROS2's first stage of the four
+S_PAIR_T_M = S_PAIR_T_K + 4  # ROS2's 1 / (1 - g h W) of each temperature's own slope
+N_STATE = S_PAIR_T_M + 4
 
 # commands the platform sends to a joint (a float64 row)
 C_DIRECTION, C_PV_SET_GAUGE_PA, C_BRAKE_RELEASE = range(3)
@@ -94,11 +102,15 @@ N_COMMAND = 3
 
 
 @njit
-def initial_state(p_atm_pa: float, brake_engaged: bool = True, theta_rad: float = 0.0) -> np.ndarray:
-    """A joint at rest at `theta_rad`: every node at atmospheric pressure, valves closed, brake as
-    given, the motor side at the joint's angle (an untwisted reducer)."""
+def initial_state(
+    p_atm_pa: float, brake_engaged: bool = True, theta_rad: float = 0.0, t_k: float = AIR.t_supply_k
+) -> np.ndarray:
+    """A joint at rest at `theta_rad`: every node at atmospheric pressure and the gas's temperature
+    `t_k` (its walls'), valves closed, brake as given, the motor side at the joint's angle (an
+    untwisted reducer)."""
     x = np.zeros(N_STATE)
     x[S_PA_VALVE] = x[S_PA_MOTOR] = x[S_PB_VALVE] = x[S_PB_MOTOR] = p_atm_pa
+    x[S_TA_VALVE] = x[S_TA_MOTOR] = x[S_TB_VALVE] = x[S_TB_MOTOR] = t_k
     x[S_BRAKE] = 1.0 if brake_engaged else 0.0
     x[S_QM] = theta_rad
     return x
@@ -122,6 +134,36 @@ def effective_supply(
     upstream = regulated_pressure(supply_pa, valve_gauge_pa, p[P.GAS_P_ATM])
     draw = max(0.0, orifice_mass_flow_with(upstream, p_node_pa, area, p[P.CHOKED_FLUX], p[P.GAS_K]))
     return max(p[P.GAS_P_ATM], supply_pa - p[P.DROOP] * draw)
+
+
+class AirRates(NamedTuple):
+    """Rates of a joint's four air nodes (valve and motor end of port A's hose, then port B's), the
+    motor's volume slope, and ROS2's W (pneumatics/integrators.py): the rates' slopes against the
+    state, each flow's slope taken as its secant (`secant_slope`)."""
+
+    dpa_valve: float  # Pa/s
+    dpa_motor: float
+    dpb_valve: float
+    dpb_motor: float
+    dta_valve: float  # K/s (0 with the paper's law)
+    dta_motor: float
+    dtb_valve: float
+    dtb_motor: float
+    slope: float  # dV_A/dphi at the motor's angle, m^3/rad
+    wa00: float  # port A's (valve node, motor node) pressure block of W, row-major
+    wa01: float
+    wa10: float
+    wa11: float
+    wb00: float  # port B's
+    wb01: float
+    wb10: float
+    wb11: float
+    leak_a: float  # the vane leak's coupling: A's rate against B's pressure
+    leak_b: float  # B's against A's
+    wt_a_valve: float  # each temperature's rate against itself (<= 0)
+    wt_a_motor: float
+    wt_b_valve: float
+    wt_b_motor: float
 
 
 @njit(inline="always")
@@ -150,7 +192,22 @@ def _hose_flow(p_valve: float, p_motor: float, supply_pa: float, p: np.ndarray) 
 
 
 @njit(inline="always")
-def _pressure_rates_slope_and_w(
+def _supplied_pressure(
+    pa_valve: float, pb_valve: float, direction: float, valve_gauge_pa: float, supply_pa: float, p: np.ndarray
+) -> tuple[float, float]:
+    # (the pressure the proportional valve delivers, absolute; its inlet's area)
+    opening = valve_opening(valve_gauge_pa, p[P.K_U], p[P.DEAD_ZONE])
+    supplied_node = pa_valve if direction > 0.0 else pb_valve
+    p_s = regulated_pressure(
+        effective_supply(supply_pa, valve_gauge_pa, opening, direction, supplied_node, p),
+        valve_gauge_pa,
+        p[P.GAS_P_ATM],
+    )
+    return p_s, p[P.A_IN] * p[P.COND_SCALE] * opening
+
+
+@njit(inline="always")
+def _polytropic_rates(
     pa_valve: float,
     pa_motor: float,
     pb_valve: float,
@@ -161,24 +218,16 @@ def _pressure_rates_slope_and_w(
     valve_gauge_pa: float,
     supply_pa: float,
     p: np.ndarray,
-) -> tuple[float, float, float, float, float, float, float, float, float, float, float, float, float, float, float]:
-    # `pressure_rates`, the motor's volume slope dV_A/dphi at phi_motor (m^3/rad), which it computes
-    # anyway, and ROS2's W (pneumatics/integrators.py): the 2 x 2 blocks for port A's and port B's
-    # (valve node, motor node), then the vane leak's coupling of the two motor nodes (A's rate
-    # against B's pressure, B's against A's): the rates' slopes against the pressures, each flow's
-    # slope taken as its secant (`secant_slope`). What a caller does not use the compiler drops.
+) -> AirRates:
+    # `air_rates` by the paper's polytropic law (chamber_heat = 0): every flow at the supply
+    # temperature, the temperatures' rates 0. The W blocks: a node's rate n/V (R T m_in - p dV/dt)
+    # with m_in = sum of g (p_other - p) has the slope -n/V (R T sum g + dV/dt) against its own
+    # pressure and n/V R T g against another's.
     r = p[P.GAS_R]
     t_s = p[P.GAS_T]
     n = p[P.POLY_N]
     atm = p[P.GAS_P_ATM]
-    opening = valve_opening(valve_gauge_pa, p[P.K_U], p[P.DEAD_ZONE])
-    supplied_node = pa_valve if direction > 0.0 else pb_valve
-    p_s = regulated_pressure(
-        effective_supply(supply_pa, valve_gauge_pa, opening, direction, supplied_node, p),
-        valve_gauge_pa,
-        p[P.GAS_P_ATM],
-    )
-    inlet_area = p[P.A_IN] * p[P.COND_SCALE] * opening
+    p_s, inlet_area = _supplied_pressure(pa_valve, pb_valve, direction, valve_gauge_pa, supply_pa, p)
     m_a_valve = _port_valve_flow(pa_valve, direction > 0.0, p_s, inlet_area, p)
     m_b_valve = _port_valve_flow(pb_valve, direction < 0.0, p_s, inlet_area, p)
     g_a_valve = secant_slope(m_a_valve, (p_s if direction > 0.0 else atm) - pa_valve)
@@ -208,22 +257,27 @@ def _pressure_rates_slope_and_w(
         w_a = -n / v_a_node * (rt * (g_a_valve + g_leak) + dv_a)
         w_b = -n / v_b_node * (rt * (g_b_valve + g_leak) - dv_a)
         leak_a, leak_b = n / v_a_node * rt * g_leak, n / v_b_node * rt * g_leak
-        return da, da, db, db, slope, w_a, 0.0, 0.0, w_a, w_b, 0.0, 0.0, w_b, leak_a, leak_b
+        return AirRates(
+            da, da, db, db, 0.0, 0.0, 0.0, 0.0, slope, w_a, 0.0, 0.0, w_a, w_b, 0.0, 0.0, w_b, leak_a, leak_b, 0.0,
+            0.0, 0.0, 0.0,
+        )  # fmt: skip
 
     m_a_hose = _hose_flow(pa_valve, pa_motor, p_s, p)
     m_b_hose = _hose_flow(pb_valve, pb_motor, p_s, p)
     g_a_hose = secant_slope(m_a_hose, pa_valve - pa_motor)
     g_b_hose = secant_slope(m_b_hose, pb_valve - pb_motor)
-    # a node's rate n/V (R T m_in - p dV/dt) with m_in = sum of g (p_other - p): its slope against its
-    # own pressure -n/V (R T sum g + dV/dt), against another's n/V R T g
     n_rt_valve = n * rt / half_hose
     n_a_motor = n / (v_a + half_hose)
     n_b_motor = n / (v_b + half_hose)
-    return (
+    return AirRates(
         chamber_pressure_rate(pa_valve, half_hose, 0.0, m_a_valve - m_a_hose, t_s, r, n),
         chamber_pressure_rate(pa_motor, v_a + half_hose, dv_a, m_a_hose - m_leak, t_s, r, n),
         chamber_pressure_rate(pb_valve, half_hose, 0.0, m_b_valve - m_b_hose, t_s, r, n),
         chamber_pressure_rate(pb_motor, v_b + half_hose, -dv_a, m_b_hose + m_leak, t_s, r, n),
+        0.0,
+        0.0,
+        0.0,
+        0.0,
         slope,
         -n_rt_valve * (g_a_valve + g_a_hose),
         n_rt_valve * g_a_hose,
@@ -235,7 +289,259 @@ def _pressure_rates_slope_and_w(
         -n_b_motor * (rt * (g_b_hose + g_leak) - dv_a),
         n_a_motor * rt * g_leak,
         n_b_motor * rt * g_leak,
+        0.0,
+        0.0,
+        0.0,
+        0.0,
     )
+
+
+class _NodeFlows(NamedTuple):
+    """A node's flows summed for its energy balance: net mass in (kg/s), sum m T over all of them
+    and over the inflows (K kg/s), the outflows (kg/s, <= 0)."""
+
+    mass: float
+    temperature_flow: float
+    temperature_inflow: float
+    outflow: float
+
+
+@njit(inline="always")
+def _node_flows(m1: float, t1: float, m2: float, t2: float, m3: float, t3: float) -> _NodeFlows:
+    # up to three flows into a node (+ in), each with its `carried_temperature`
+    f_in = (m1 * t1 if m1 > 0.0 else 0.0) + (m2 * t2 if m2 > 0.0 else 0.0) + (m3 * t3 if m3 > 0.0 else 0.0)
+    m_out = min(m1, 0.0) + min(m2, 0.0) + min(m3, 0.0)
+    return _NodeFlows(m1 + m2 + m3, m1 * t1 + m2 * t2 + m3 * t3, f_in, m_out)
+
+
+@njit(inline="always")
+def _wall_conductance(
+    p_pa: float,
+    t_k: float,
+    hose_flow_kg_s: float,
+    hose_area_m2: float,
+    cell_volume_m3: float,
+    omega_motor: float,
+    p: np.ndarray,
+) -> float:
+    # hA (W/K) between a node's gas and its walls at the supply temperature: `hose_area_m2` of hose
+    # wall past which the gas moves at the hose's mean speed (Dittus-Boelter on its bore,
+    # pneumatics/heat.py), and `cell_volume_m3` of motor chamber (the vane cell's correlation on the
+    # rotor's speed, the cell's wall area per volume), times the row's wall_heat_scale
+    scale = p[P.WALL_HEAT]
+    if scale == 0.0:
+        return 0.0
+    r = p[P.GAS_R]
+    k = p[P.GAS_K]
+    t_w = p[P.GAS_T]
+    bore = p[P.HOSE_D]
+    speed = hose_flow_kg_s * r * t_k / (p_pa * (0.25 * math.pi * bore * bore))
+    ha = duct_heat_transfer_coefficient(speed, p_pa, t_k, t_w, bore, r, k) * hose_area_m2
+    if cell_volume_m3 > 0.0:
+        h_cell = vane_chamber_heat_transfer_coefficient(omega_motor, p_pa, t_k, t_w, p[P.STATOR], p[P.CELL_D_H], r, k)
+        ha += h_cell * p[P.CELL_AREA_PER_V] * cell_volume_m3
+    return scale * ha
+
+
+@njit(inline="always")
+def _node_energy(
+    p_pa: float, t_k: float, volume: float, dv: float, flows: _NodeFlows, conductance_w_k: float, p: np.ndarray
+) -> tuple[float, float, float]:
+    # (dp/dt, dT/dt, W's temperature diagonal) of a node by the energy balance, heat hA (T_w - T)
+    # from its wall at the supply temperature T_w. The diagonal is the slope of dT/dt against T with
+    # the pressure, the flows and hA held and the outflows carrying T,
+    # R/(pV) (k F_in - 2 T M_in + 2 (k - 1) T M_out) + (k - 1)/(pV) (hA (T_w - 2 T) - p dV/dt)
+    # (F_in the inflows' sum m T, M_in and M_out their and the outflows' mass), clipped at 0: a
+    # rising slope is left explicit (ROS2 is second order with any W)
+    r = p[P.GAS_R]
+    k = p[P.GAS_K]
+    t_w = p[P.GAS_T]
+    rates = chamber_energy_rates(
+        p_pa, t_k, volume, dv, flows.mass, flows.temperature_flow, conductance_w_k * (t_w - t_k), r, k
+    )
+    m_in = flows.mass - flows.outflow
+    slope = (
+        r * (k * flows.temperature_inflow - 2.0 * t_k * m_in + 2.0 * (k - 1.0) * t_k * flows.outflow)
+        + (k - 1.0) * (conductance_w_k * (t_w - 2.0 * t_k) - p_pa * dv)
+    ) / (p_pa * volume)
+    return rates.dp_dt_pa_s, rates.dt_dt_k_s, min(slope, 0.0)
+
+
+@njit(inline="always")
+def _energy_rates(
+    pa_valve: float,
+    pa_motor: float,
+    pb_valve: float,
+    pb_motor: float,
+    ta_valve: float,
+    ta_motor: float,
+    tb_valve: float,
+    tb_motor: float,
+    phi_motor: float,
+    omega_motor: float,
+    direction: float,
+    valve_gauge_pa: float,
+    supply_pa: float,
+    p: np.ndarray,
+) -> AirRates:
+    # `air_rates` by the energy balance (chamber_heat = 1; pneumatics/chamber.py). Each flow at its
+    # upstream side's temperature: the supply's and the atmosphere's the supply temperature, a
+    # node's its own (`carried_temperature`); the orifices at the upstream gas's temperature
+    # (`orifice_mass_flow_between`), the hose's friction at its two ends' mean. Heat from walls at
+    # the supply temperature (`_wall_conductance`). W's pressure blocks as the polytropic law's with
+    # n = k and each flow's own carried temperature, k/V R T_i g_i.
+    r = p[P.GAS_R]
+    k = p[P.GAS_K]
+    t_s = p[P.GAS_T]
+    atm = p[P.GAS_P_ATM]
+    p_s, inlet_area = _supplied_pressure(pa_valve, pb_valve, direction, valve_gauge_pa, supply_pa, p)
+    a_source = p_s if direction > 0.0 else atm
+    a_area = inlet_area if direction > 0.0 else p[P.A_EX] * p[P.COND_SCALE]
+    b_source = p_s if direction < 0.0 else atm
+    b_area = inlet_area if direction < 0.0 else p[P.A_EX] * p[P.COND_SCALE]
+    m_a_valve = orifice_mass_flow_between(a_source, pa_valve, a_area, t_s, ta_valve, r, k)
+    m_b_valve = orifice_mass_flow_between(b_source, pb_valve, b_area, t_s, tb_valve, r, k)
+    t_a_valve = carried_temperature(m_a_valve, t_s, ta_valve)
+    t_b_valve = carried_temperature(m_b_valve, t_s, tb_valve)
+    g_a_valve = secant_slope(m_a_valve, a_source - pa_valve)
+    g_b_valve = secant_slope(m_b_valve, b_source - pb_valve)
+
+    v_a, v_b, slope = chamber_geometry(
+        phi_motor, p[P.STATOR], p[P.ROTOR], p[P.VANE_L], p[P.N_VANES], p[P.DEAD_V], p[P.HALF_PITCH_V]
+    )
+    dv_a = slope * omega_motor
+    # A -> B past the vanes, at the upstream chamber's temperature
+    m_leak = orifice_mass_flow_between(pa_motor, pb_motor, p[P.LEAK_A], ta_motor, tb_motor, r, k)
+    t_leak = carried_temperature(m_leak, ta_motor, tb_motor)
+    g_leak = secant_slope(m_leak, pa_motor - pb_motor)
+    # a leak in port A's hose (a fault) vents at the hose's valve end
+    m_hose_leak = orifice_mass_flow_between(pa_valve, atm, p[P.HOSE_LEAK_A], ta_valve, t_s, r, k)
+    t_hose_leak = carried_temperature(-m_hose_leak, t_s, ta_valve)
+    g_hose_leak = secant_slope(m_hose_leak, pa_valve - atm)
+    hose_v = hose_volume(p[P.HOSE_L], p[P.HOSE_D])
+    hose_wall = math.pi * p[P.HOSE_D] * p[P.HOSE_L]
+
+    if p[P.HOSE_LOSS] == 0.0:
+        # one node per port: motor chamber + porting + the whole hose, its gas moving at the valve's flow
+        v_a_node = v_a + hose_v
+        v_b_node = v_b + hose_v
+        fa = _node_flows(m_a_valve, t_a_valve, -m_hose_leak, t_hose_leak, -m_leak, t_leak)
+        fb = _node_flows(m_b_valve, t_b_valve, m_leak, t_leak, 0.0, 0.0)
+        ha = _wall_conductance(pa_motor, ta_motor, m_a_valve, hose_wall, v_a, omega_motor, p)
+        hb = _wall_conductance(pb_motor, tb_motor, m_b_valve, hose_wall, v_b, omega_motor, p)
+        da, dta, wta = _node_energy(pa_motor, ta_motor, v_a_node, dv_a, fa, ha, p)
+        db, dtb, wtb = _node_energy(pb_motor, tb_motor, v_b_node, -dv_a, fb, hb, p)
+        w_a = -k / v_a_node * (r * (t_a_valve * g_a_valve + t_hose_leak * g_hose_leak + t_leak * g_leak) + dv_a)
+        w_b = -k / v_b_node * (r * (t_b_valve * g_b_valve + t_leak * g_leak) - dv_a)
+        leak_a, leak_b = k / v_a_node * r * t_leak * g_leak, k / v_b_node * r * t_leak * g_leak
+        return AirRates(
+            da, da, db, db, dta, dta, dtb, dtb, slope, w_a, 0.0, 0.0, w_a, w_b, 0.0, 0.0, w_b, leak_a, leak_b, wta,
+            wta, wtb, wtb,
+        )  # fmt: skip
+
+    half_hose = 0.5 * hose_v
+    half_wall = 0.5 * hose_wall
+    r_g = p[P.GAS_R]
+    m_a_hose = hose_mass_flow_with(
+        pa_valve, pa_motor, 0.5 * (ta_valve + ta_motor), r_g, p[P.HOSE_K_LAMINAR], p[P.HOSE_LAMINAR_LIMIT],
+        p[P.HOSE_K_BLASIUS],
+    )  # fmt: skip
+    m_b_hose = hose_mass_flow_with(
+        pb_valve, pb_motor, 0.5 * (tb_valve + tb_motor), r_g, p[P.HOSE_K_LAMINAR], p[P.HOSE_LAMINAR_LIMIT],
+        p[P.HOSE_K_BLASIUS],
+    )  # fmt: skip
+    t_a_hose = carried_temperature(m_a_hose, ta_valve, ta_motor)  # into the motor node
+    t_b_hose = carried_temperature(m_b_hose, tb_valve, tb_motor)
+    g_a_hose = secant_slope(m_a_hose, pa_valve - pa_motor)
+    g_b_hose = secant_slope(m_b_hose, pb_valve - pb_motor)
+    v_a_motor = v_a + half_hose
+    v_b_motor = v_b + half_hose
+    fav = _node_flows(m_a_valve, t_a_valve, -m_hose_leak, t_hose_leak, -m_a_hose, t_a_hose)
+    fam = _node_flows(m_a_hose, t_a_hose, -m_leak, t_leak, 0.0, 0.0)
+    fbv = _node_flows(m_b_valve, t_b_valve, -m_b_hose, t_b_hose, 0.0, 0.0)
+    fbm = _node_flows(m_b_hose, t_b_hose, m_leak, t_leak, 0.0, 0.0)
+    dav, dtav, wtav = _node_energy(
+        pa_valve, ta_valve, half_hose, 0.0, fav,
+        _wall_conductance(pa_valve, ta_valve, m_a_hose, half_wall, 0.0, omega_motor, p), p,
+    )  # fmt: skip
+    dam, dtam, wtam = _node_energy(
+        pa_motor, ta_motor, v_a_motor, dv_a, fam,
+        _wall_conductance(pa_motor, ta_motor, m_a_hose, half_wall, v_a, omega_motor, p), p,
+    )  # fmt: skip
+    dbv, dtbv, wtbv = _node_energy(
+        pb_valve, tb_valve, half_hose, 0.0, fbv,
+        _wall_conductance(pb_valve, tb_valve, m_b_hose, half_wall, 0.0, omega_motor, p), p,
+    )  # fmt: skip
+    dbm, dtbm, wtbm = _node_energy(
+        pb_motor, tb_motor, v_b_motor, -dv_a, fbm,
+        _wall_conductance(pb_motor, tb_motor, m_b_hose, half_wall, v_b, omega_motor, p), p,
+    )  # fmt: skip
+    kr_valve = k * r / half_hose
+    k_a_motor = k / v_a_motor
+    k_b_motor = k / v_b_motor
+    return AirRates(
+        dav,
+        dam,
+        dbv,
+        dbm,
+        dtav,
+        dtam,
+        dtbv,
+        dtbm,
+        slope,
+        -kr_valve * (t_a_valve * g_a_valve + t_hose_leak * g_hose_leak + t_a_hose * g_a_hose),
+        kr_valve * t_a_hose * g_a_hose,
+        k_a_motor * r * t_a_hose * g_a_hose,
+        -k_a_motor * (r * (t_a_hose * g_a_hose + t_leak * g_leak) + dv_a),
+        -kr_valve * (t_b_valve * g_b_valve + t_b_hose * g_b_hose),
+        kr_valve * t_b_hose * g_b_hose,
+        k_b_motor * r * t_b_hose * g_b_hose,
+        -k_b_motor * (r * (t_b_hose * g_b_hose + t_leak * g_leak) - dv_a),
+        k_a_motor * r * t_leak * g_leak,
+        k_b_motor * r * t_leak * g_leak,
+        wtav,
+        wtam,
+        wtbv,
+        wtbm,
+    )
+
+
+@njit(inline="always")
+def air_rates(
+    pa_valve: float,
+    pa_motor: float,
+    pb_valve: float,
+    pb_motor: float,
+    ta_valve: float,
+    ta_motor: float,
+    tb_valve: float,
+    tb_motor: float,
+    phi_motor: float,
+    omega_motor: float,
+    direction: float,
+    valve_gauge_pa: float,
+    supply_pa: float,
+    p: np.ndarray,
+) -> AirRates:
+    """Rates of the four node pressures (Pa/s) and temperatures (K/s), the motor's volume slope and
+    ROS2's W (`AirRates`), paper eq. 7 rows 3-4 with the hose on both ports, by the row's chamber
+    law: the paper's polytropic one (chamber_heat = 0; the temperatures stay at the supply's) or
+    the energy balance (1).
+
+    Pressures absolute, temperatures in K, in the order valve node A, motor node A, valve node B,
+    motor node B. `direction` +1 pressurises port A (motor turns positive), -1 port B, 0 exhausts
+    both. `valve_gauge_pa` is the proportional valve's output pressure P_v: the pressure it
+    delivers (capped by the absolute `supply_pa`) and, through u = k_u P_v, its opening (paper
+    Sec. IV). What a caller does not use the compiler drops.
+    """
+    if p[P.CHAMBER_HEAT] == 0.0:
+        return _polytropic_rates(
+            pa_valve, pa_motor, pb_valve, pb_motor, phi_motor, omega_motor, direction, valve_gauge_pa, supply_pa, p
+        )
+    return _energy_rates(
+        pa_valve, pa_motor, pb_valve, pb_motor, ta_valve, ta_motor, tb_valve, tb_motor, phi_motor, omega_motor,
+        direction, valve_gauge_pa, supply_pa, p,
+    )  # fmt: skip
 
 
 @njit(inline="always")
@@ -251,16 +557,14 @@ def pressure_rates(
     supply_pa: float,
     p: np.ndarray,
 ) -> tuple[float, float, float, float]:
-    """Rates (Pa/s) of the four node pressures, paper eq. 7 rows 3-4 with the hose on both ports.
-
-    `direction` +1 pressurises port A (motor turns positive), -1 port B, 0 exhausts both.
-    `valve_gauge_pa` is the proportional valve's output pressure P_v: the pressure it delivers
-    (capped by the absolute `supply_pa`) and, through u = k_u P_v, its opening (paper Sec. IV).
-    """
-    r = _pressure_rates_slope_and_w(
-        pa_valve, pa_motor, pb_valve, pb_motor, phi_motor, omega_motor, direction, valve_gauge_pa, supply_pa, p
-    )
-    return r[0], r[1], r[2], r[3]
+    """The four node pressures' rates (Pa/s) of `air_rates`, every node's gas at the supply
+    temperature (where the energy balance's gas settles: its walls' temperature)."""
+    t_s = p[P.GAS_T]
+    r = air_rates(
+        pa_valve, pa_motor, pb_valve, pb_motor, t_s, t_s, t_s, t_s, phi_motor, omega_motor, direction,
+        valve_gauge_pa, supply_pa, p,
+    )  # fmt: skip
+    return r.dpa_valve, r.dpa_motor, r.dpb_valve, r.dpb_motor
 
 
 @njit
@@ -280,7 +584,7 @@ def joint_torque(pa_motor: float, pb_motor: float, phi_motor: float, omega_joint
 
 @njit(inline="always")
 def _vane_torque_at(pa_motor: float, pb_motor: float, slope: float) -> float:
-    # `vane_torque` from the volume slope dV_A/dphi at its angle (`_pressure_rates_slope_and_w` has it)
+    # `vane_torque` from the volume slope dV_A/dphi at its angle (`air_rates` has it)
     if pa_motor == pb_motor:
         return 0.0
     return (pa_motor - pb_motor) * slope
@@ -402,19 +706,46 @@ def advance_brake(
     )
 
 
+@njit(inline="always")
+def air_settled(pressures: np.ndarray, temperatures: np.ndarray, p: np.ndarray) -> bool:
+    """True when the four nodes' air (their pressures and temperatures, each in the S_PA_VALVE..
+    order) is at atmospheric pressure and at its walls' temperature: a still joint whose valves
+    are shut stays so."""
+    atm = p[P.GAS_P_ATM]
+    t_w = p[P.GAS_T]
+    for c in range(4):  # noqa: SIM110 (a loop, not all() of a generator: compiled code)
+        if abs(pressures[c] - atm) >= 1e-6 or abs(temperatures[c] - t_w) >= 1e-6:
+            return False
+    return True
+
+
 @njit
 def at_rest(x: np.ndarray, omega: float, p: np.ndarray) -> bool:
-    """True when the joint stands (nearly) still, its air is all at atmosphere and its direction valve is
-    closed: nothing can change its pressures. (A joint moving without air still pumps it.)"""
-    atm = p[P.GAS_P_ATM]
+    """True when the joint stands (nearly) still, its air is all at atmosphere and at its walls'
+    temperature and its direction valve is closed: nothing can change its air. (A joint moving
+    without air still pumps it; warm or cold air at atmosphere still exchanges heat and flows.)"""
     return (
         x[S_DIR] == 0.0
         and abs(omega) < p[P.STICK_SPEED]
-        and abs(x[S_PA_VALVE] - atm) < 1e-6
-        and abs(x[S_PA_MOTOR] - atm) < 1e-6
-        and abs(x[S_PB_VALVE] - atm) < 1e-6
-        and abs(x[S_PB_MOTOR] - atm) < 1e-6
+        and air_settled(x[S_PA_VALVE : S_PB_MOTOR + 1], x[S_TA_VALVE : S_TB_MOTOR + 1], p)
     )
+
+
+@njit(inline="always")
+def _air_rates_of(
+    x: np.ndarray,
+    phi_motor: float,
+    omega_motor: float,
+    direction: float,
+    valve_gauge_pa: float,
+    supply_pa: float,
+    p: np.ndarray,
+) -> AirRates:
+    # `air_rates` at the air of a joint's state row x (S_* columns)
+    return air_rates(
+        x[S_PA_VALVE], x[S_PA_MOTOR], x[S_PB_VALVE], x[S_PB_MOTOR], x[S_TA_VALVE], x[S_TA_MOTOR], x[S_TB_VALVE],
+        x[S_TB_MOTOR], phi_motor, omega_motor, direction, valve_gauge_pa, supply_pa, p,
+    )  # fmt: skip
 
 
 @njit(inline="always")
@@ -480,6 +811,7 @@ def advance_air_pair(
         torque = joint_torque(x[S_PA_MOTOR], x[S_PB_MOTOR], ratio * theta, omega, p)
         for c in range(4):
             x[S_PA_VALVE + c] += dt_s * x[S_PAIR_K + c]
+            x[S_TA_VALVE + c] += dt_s * x[S_PAIR_T_K + c]
         x[S_PAIR] = 2.0
         return torque
     x[S_PAIR] = 0.0
@@ -487,25 +819,37 @@ def advance_air_pair(
         return joint_torque(x[S_PA_MOTOR], x[S_PB_MOTOR], ratio * theta, omega, p)
     a_m = x[S_PA_MOTOR]
     b_m = x[S_PB_MOTOR]
-    f = _pressure_rates_slope_and_w(
-        x[S_PA_VALVE], a_m, x[S_PB_VALVE], b_m, ratio * theta, ratio * omega, direction, valve_gauge_pa, supply_pa, p
-    )
-    ma = ros2_inverse(f[5], f[6], f[7], f[8], 2.0 * dt_s)
-    mb = ros2_inverse(f[9], f[10], f[11], f[12], 2.0 * dt_s)
-    leak = (ROS2_GAMMA * 2.0 * dt_s * f[13], ROS2_GAMMA * 2.0 * dt_s * f[14])
-    k = _ros2_solve(ma, mb, leak, (f[0], f[1], f[2], f[3]), p[P.HOSE_LOSS] == 0.0)
+    f = _air_rates_of(x, ratio * theta, ratio * omega, direction, valve_gauge_pa, supply_pa, p)
+    ma = ros2_inverse(f.wa00, f.wa01, f.wa10, f.wa11, 2.0 * dt_s)
+    mb = ros2_inverse(f.wb00, f.wb01, f.wb10, f.wb11, 2.0 * dt_s)
+    leak = (ROS2_GAMMA * 2.0 * dt_s * f.leak_a, ROS2_GAMMA * 2.0 * dt_s * f.leak_b)
+    k = _ros2_solve(ma, mb, leak, (f.dpa_valve, f.dpa_motor, f.dpb_valve, f.dpb_motor), p[P.HOSE_LOSS] == 0.0)
     for c in range(4):
         x[S_PAIR_START + c] = x[S_PA_VALVE + c]
         x[S_PAIR_K + c] = k[c]
         x[S_PAIR_MA + c] = ma[c]
         x[S_PAIR_MB + c] = mb[c]
         x[S_PA_VALVE + c] += dt_s * k[c]
+    gh = ROS2_GAMMA * 2.0 * dt_s
+    for c, (rate, w) in enumerate(
+        (
+            (f.dta_valve, f.wt_a_valve),
+            (f.dta_motor, f.wt_a_motor),
+            (f.dtb_valve, f.wt_b_valve),
+            (f.dtb_motor, f.wt_b_motor),
+        )
+    ):
+        m = 1.0 / (1.0 - gh * w)
+        x[S_PAIR_T_START + c] = x[S_TA_VALVE + c]
+        x[S_PAIR_T_M + c] = m
+        x[S_PAIR_T_K + c] = m * rate
+        x[S_TA_VALVE + c] += dt_s * x[S_PAIR_T_K + c]
     x[S_PAIR_LEAK] = leak[0]
     x[S_PAIR_LEAK + 1] = leak[1]
     x[S_PAIR_DIR] = direction
     x[S_PAIR_SUPPLY] = supply_pa
     x[S_PAIR] = 1.0
-    return _through_reducer(_vane_torque_at(a_m, b_m, f[4]), ratio * theta, omega, p)
+    return _through_reducer(_vane_torque_at(a_m, b_m, f.slope), ratio * theta, omega, p)
 
 
 @njit
@@ -517,30 +861,22 @@ def finish_air_pair(x: np.ndarray, theta: float, omega: float, dt_s: float, p: n
     if x[S_PAIR] != 2.0:
         return
     ratio = p[P.RATIO]
-    f = _pressure_rates_slope_and_w(
-        x[S_PA_VALVE],
-        x[S_PA_MOTOR],
-        x[S_PB_VALVE],
-        x[S_PB_MOTOR],
-        ratio * theta,
-        ratio * omega,
-        x[S_PAIR_DIR],
-        x[S_PV],
-        x[S_PAIR_SUPPLY],
-        p,
-    )
+    f = _air_rates_of(x, ratio * theta, ratio * omega, x[S_PAIR_DIR], x[S_PV], x[S_PAIR_SUPPLY], p)
     # ROS2's second stage, (I - g h W) k2 = f - 2 k1, with the first stage's matrix
     r = (
-        f[0] - 2.0 * x[S_PAIR_K],
-        f[1] - 2.0 * x[S_PAIR_K + 1],
-        f[2] - 2.0 * x[S_PAIR_K + 2],
-        f[3] - 2.0 * x[S_PAIR_K + 3],
+        f.dpa_valve - 2.0 * x[S_PAIR_K],
+        f.dpa_motor - 2.0 * x[S_PAIR_K + 1],
+        f.dpb_valve - 2.0 * x[S_PAIR_K + 2],
+        f.dpb_motor - 2.0 * x[S_PAIR_K + 3],
     )
     ma = (x[S_PAIR_MA], x[S_PAIR_MA + 1], x[S_PAIR_MA + 2], x[S_PAIR_MA + 3])
     mb = (x[S_PAIR_MB], x[S_PAIR_MB + 1], x[S_PAIR_MB + 2], x[S_PAIR_MB + 3])
     k2 = _ros2_solve(ma, mb, (x[S_PAIR_LEAK], x[S_PAIR_LEAK + 1]), r, p[P.HOSE_LOSS] == 0.0)
     for c in range(4):
         x[S_PA_VALVE + c] = x[S_PAIR_START + c] + ros2_increment(2.0 * dt_s, x[S_PAIR_K + c], k2[c])
+    for c, rate in enumerate((f.dta_valve, f.dta_motor, f.dtb_valve, f.dtb_motor)):
+        k2_t = x[S_PAIR_T_M + c] * (rate - 2.0 * x[S_PAIR_T_K + c])
+        x[S_TA_VALVE + c] = x[S_PAIR_T_START + c] + ros2_increment(2.0 * dt_s, x[S_PAIR_T_K + c], k2_t)
     x[S_PAIR] = 0.0
 
 
@@ -604,12 +940,7 @@ def stop_or_turn(
 
 @njit
 def _motor_side_rates(
-    a_v: float,
-    a_m: float,
-    b_v: float,
-    b_m: float,
-    q_m: float,
-    w_m: float,
+    y: tuple[float, float, float, float, float, float, float, float, float, float],
     theta: float,
     omega: float,
     direction: float,
@@ -621,23 +952,27 @@ def _motor_side_rates(
     j_motor: float,
     slide_m: float,
     p: np.ndarray,
-) -> tuple[float, float, float, float, float, float, float]:
-    # rates of the four node pressures and the motor side (q_m, w_m), and the transmitted torque
+) -> tuple[float, float, float, float, float, float, float, float, float, float, float]:
+    # rates of y (the four node pressures, their temperatures, the motor side q_m, w_m) and the
+    # transmitted torque
     ratio = p[P.RATIO]
+    q_m, w_m = y[8], y[9]
     phi = ratio * q_m
     tau_t = transmitted_torque(q_m - theta, w_m - omega, half_gap, k, c)
-    r = _pressure_rates_slope_and_w(a_v, a_m, b_v, b_m, phi, ratio * w_m, direction, valve, supply_pa, p)
+    r = air_rates(y[0], y[1], y[2], y[3], y[4], y[5], y[6], y[7], phi, ratio * w_m, direction, valve, supply_pa, p)
     # `motor_side_drive`, from the geometry the rates took at the same angle
-    drive, held = _motor_side_drive_of(_rippled(_vane_torque_at(a_m, b_m, r[4]), phi, p), w_m, slide_m, tau_t, p)
-    if held:
-        return r[0], r[1], r[2], r[3], 0.0, 0.0, tau_t
-    return r[0], r[1], r[2], r[3], w_m, (drive - tau_t) / j_motor, tau_t
+    drive, held = _motor_side_drive_of(_rippled(_vane_torque_at(y[1], y[3], r.slope), phi, p), w_m, slide_m, tau_t, p)
+    dq, dw = (0.0, 0.0) if held else (w_m, (drive - tau_t) / j_motor)
+    return (
+        r.dpa_valve, r.dpa_motor, r.dpb_valve, r.dpb_motor, r.dta_valve, r.dta_motor, r.dtb_valve, r.dtb_motor, dq,
+        dw, tau_t,
+    )  # fmt: skip
 
 
 @njit
 def _motor_side_stage(
-    y0: tuple[float, float, float, float, float, float],
-    rates: tuple[float, float, float, float, float, float, float],
+    y0: tuple[float, float, float, float, float, float, float, float, float, float],
+    rates: tuple[float, float, float, float, float, float, float, float, float, float, float],
     c: float,
     theta: float,
     omega: float,
@@ -650,26 +985,15 @@ def _motor_side_stage(
     j_motor: float,
     slide_m: float,
     p: np.ndarray,
-) -> tuple[float, float, float, float, float, float, float]:
-    # `_motor_side_rates` at the state y0 + c * rates (the four pressures, q_m, w_m): an RK4 stage
+) -> tuple[float, float, float, float, float, float, float, float, float, float, float]:
+    # `_motor_side_rates` at the state y0 + c * rates: an RK4 stage
+    y = (
+        y0[0] + c * rates[0], y0[1] + c * rates[1], y0[2] + c * rates[2], y0[3] + c * rates[3],
+        y0[4] + c * rates[4], y0[5] + c * rates[5], y0[6] + c * rates[6], y0[7] + c * rates[7],
+        y0[8] + c * rates[8], y0[9] + c * rates[9],
+    )  # fmt: skip
     return _motor_side_rates(
-        y0[0] + c * rates[0],
-        y0[1] + c * rates[1],
-        y0[2] + c * rates[2],
-        y0[3] + c * rates[3],
-        y0[4] + c * rates[4],
-        y0[5] + c * rates[5],
-        theta,
-        omega,
-        direction,
-        valve,
-        supply_pa,
-        k,
-        damping_nms,
-        half_gap,
-        j_motor,
-        slide_m,
-        p,
+        y, theta, omega, direction, valve, supply_pa, k, damping_nms, half_gap, j_motor, slide_m, p
     )
 
 
@@ -706,31 +1030,35 @@ def advance_motor_side(
     h = dt_s / n
     valve = valve_gauge_pa
     direction = x[S_DIR]
-    a_v = x[S_PA_VALVE]
-    a_m = x[S_PA_MOTOR]
-    b_v = x[S_PB_VALVE]
-    b_m = x[S_PB_MOTOR]
-    q = x[S_QM]
-    w = x[S_OMEGA_M]
+    y = (
+        x[S_PA_VALVE], x[S_PA_MOTOR], x[S_PB_VALVE], x[S_PB_MOTOR], x[S_TA_VALVE], x[S_TA_MOTOR], x[S_TB_VALVE],
+        x[S_TB_MOTOR], x[S_QM], x[S_OMEGA_M],
+    )  # fmt: skip
     impulse = 0.0
     for i in range(n):
         th0 = theta + omega * (i * h)
         th1 = theta + omega * ((i + 0.5) * h)
         th2 = theta + omega * ((i + 1) * h)
-        w0 = w
+        w0 = y[9]
         s = _slide_direction(w0, p)
-        k1 = _motor_side_rates(a_v, a_m, b_v, b_m, q, w, th0, omega, direction, valve, supply_pa, k, c, half, j_m, s, p)
-        y0 = (a_v, a_m, b_v, b_m, q, w)
-        k2 = _motor_side_stage(y0, k1, 0.5 * h, th1, omega, direction, valve, supply_pa, k, c, half, j_m, s, p)
-        k3 = _motor_side_stage(y0, k2, 0.5 * h, th1, omega, direction, valve, supply_pa, k, c, half, j_m, s, p)
-        k4 = _motor_side_stage(y0, k3, h, th2, omega, direction, valve, supply_pa, k, c, half, j_m, s, p)
-        a_v += rk4_increment(h, k1[0], k2[0], k3[0], k4[0])
-        a_m += rk4_increment(h, k1[1], k2[1], k3[1], k4[1])
-        b_v += rk4_increment(h, k1[2], k2[2], k3[2], k4[2])
-        b_m += rk4_increment(h, k1[3], k2[3], k3[3], k4[3])
-        q += rk4_increment(h, k1[4], k2[4], k3[4], k4[4])
-        w += rk4_increment(h, k1[5], k2[5], k3[5], k4[5])
-        impulse += rk4_increment(h, k1[6], k2[6], k3[6], k4[6])
+        k1 = _motor_side_rates(y, th0, omega, direction, valve, supply_pa, k, c, half, j_m, s, p)
+        k2 = _motor_side_stage(y, k1, 0.5 * h, th1, omega, direction, valve, supply_pa, k, c, half, j_m, s, p)
+        k3 = _motor_side_stage(y, k2, 0.5 * h, th1, omega, direction, valve, supply_pa, k, c, half, j_m, s, p)
+        k4 = _motor_side_stage(y, k3, h, th2, omega, direction, valve, supply_pa, k, c, half, j_m, s, p)
+        y = (
+            y[0] + rk4_increment(h, k1[0], k2[0], k3[0], k4[0]),
+            y[1] + rk4_increment(h, k1[1], k2[1], k3[1], k4[1]),
+            y[2] + rk4_increment(h, k1[2], k2[2], k3[2], k4[2]),
+            y[3] + rk4_increment(h, k1[3], k2[3], k3[3], k4[3]),
+            y[4] + rk4_increment(h, k1[4], k2[4], k3[4], k4[4]),
+            y[5] + rk4_increment(h, k1[5], k2[5], k3[5], k4[5]),
+            y[6] + rk4_increment(h, k1[6], k2[6], k3[6], k4[6]),
+            y[7] + rk4_increment(h, k1[7], k2[7], k3[7], k4[7]),
+            y[8] + rk4_increment(h, k1[8], k2[8], k3[8], k4[8]),
+            y[9] + rk4_increment(h, k1[9], k2[9], k3[9], k4[9]),
+        )
+        impulse += rk4_increment(h, k1[10], k2[10], k3[10], k4[10])
+        a_m, b_m, q, w = y[1], y[3], y[8], y[9]
         if s != 0.0 and s * w < 0.0:
             phi = ratio * q
             q, w = stop_or_turn(
@@ -740,31 +1068,40 @@ def advance_motor_side(
             tau_t = transmitted_torque(q - th2, w - omega, half, k, c)
             if motor_side_drive(a_m, b_m, ratio * q, w, 0.0, tau_t, p)[1]:
                 w = 0.0
-    x[S_PA_VALVE] = a_v
-    x[S_PA_MOTOR] = a_m
-    x[S_PB_VALVE] = b_v
-    x[S_PB_MOTOR] = b_m
-    x[S_QM] = q
-    x[S_OMEGA_M] = w
+        y = (y[0], y[1], y[2], y[3], y[4], y[5], y[6], y[7], q, w)
+    x[S_PA_VALVE] = y[0]
+    x[S_PA_MOTOR] = y[1]
+    x[S_PB_VALVE] = y[2]
+    x[S_PB_MOTOR] = y[3]
+    x[S_TA_VALVE] = y[4]
+    x[S_TA_MOTOR] = y[5]
+    x[S_TB_VALVE] = y[6]
+    x[S_TB_MOTOR] = y[7]
+    x[S_QM] = y[8]
+    x[S_OMEGA_M] = y[9]
     return impulse / dt_s
 
 
 # --- the joint as a one-degree-of-freedom body: the paper's eq. 7 in full -------------------
 # Rigid-body state of the one-joint model: angle (rad), speed (rad/s), the four node pressures,
 # then the motor side of the reducer on the joint side (motor angle / ratio, rad; rad/s): with
-# the paper's rigid reducer it is slaved to the joint (q_m = theta, w_m = w).
+# the paper's rigid reducer it is slaved to the joint (q_m = theta, w_m = w); then the four nodes'
+# gas temperatures (K; constant, the supply's, with the paper's chamber law).
 R_THETA, R_OMEGA, R_PA_VALVE, R_PA_MOTOR, R_PB_VALVE, R_PB_MOTOR, R_QM, R_OMEGA_M = range(8)
-N_RIGID = 8
+R_TA_VALVE, R_TA_MOTOR, R_TB_VALVE, R_TB_MOTOR = range(8, 12)
+N_RIGID = 12
 
 
 @njit
-def initial_rigid_state(theta_rad: float, p_atm_pa: float) -> np.ndarray:
-    """One-joint state (R_* columns) at rest at `theta_rad`, air at atmosphere, reducer untwisted:
-    where the predictor (control/) and the replay of a run (gap/) start."""
+def initial_rigid_state(theta_rad: float, p_atm_pa: float, t_k: float = AIR.t_supply_k) -> np.ndarray:
+    """One-joint state (R_* columns) at rest at `theta_rad`, air at atmosphere and at the gas's
+    temperature `t_k` (its walls'), reducer untwisted: where the predictor (control/) and the replay
+    of a run (gap/) start."""
     y = np.zeros(N_RIGID)
     y[R_THETA] = theta_rad
     y[R_QM] = theta_rad
     y[R_PA_VALVE] = y[R_PA_MOTOR] = y[R_PB_VALVE] = y[R_PB_MOTOR] = p_atm_pa
+    y[R_TA_VALVE] = y[R_TA_MOTOR] = y[R_TB_VALVE] = y[R_TB_MOTOR] = t_k
     return y
 
 
@@ -818,20 +1155,12 @@ def _rates(
         phi = ratio * y[R_QM]
         tau_t = transmitted_torque(y[R_QM] - theta, y[R_OMEGA_M] - omega, 0.5 * p[P.BACKLASH], k, damping(k, j_m))
         w_motor = ratio * y[R_OMEGA_M]
-    rates = _pressure_rates_slope_and_w(
-        y[R_PA_VALVE],
-        y[R_PA_MOTOR],
-        y[R_PB_VALVE],
-        y[R_PB_MOTOR],
-        phi,
-        w_motor,
-        direction,
-        valve_gauge_pa,
-        supply_pa,
-        p,
-    )
+    rates = air_rates(
+        y[R_PA_VALVE], y[R_PA_MOTOR], y[R_PB_VALVE], y[R_PB_MOTOR], y[R_TA_VALVE], y[R_TA_MOTOR], y[R_TB_VALVE],
+        y[R_TB_MOTOR], phi, w_motor, direction, valve_gauge_pa, supply_pa, p,
+    )  # fmt: skip
     # the motor's vane torque from the geometry the rates took at the same angle (`joint_torque`)
-    t_rippled = _rippled(_vane_torque_at(y[R_PA_MOTOR], y[R_PB_MOTOR], rates[4]), phi, p)
+    t_rippled = _rippled(_vane_torque_at(y[R_PA_MOTOR], y[R_PB_MOTOR], rates.slope), phi, p)
     drive = tau_t  # a non-rigid gear's transmitted torque
     if rigid:
         # a joint held sliding keeps its gear's efficiency (forward or back-driven) with its friction
@@ -861,10 +1190,14 @@ def _rates(
         else:
             out[R_QM] = y[R_OMEGA_M]
             out[R_OMEGA_M] = (motor_drive - tau_t) / j_m
-    out[R_PA_VALVE] = rates[0]
-    out[R_PA_MOTOR] = rates[1]
-    out[R_PB_VALVE] = rates[2]
-    out[R_PB_MOTOR] = rates[3]
+    out[R_PA_VALVE] = rates.dpa_valve
+    out[R_PA_MOTOR] = rates.dpa_motor
+    out[R_PB_VALVE] = rates.dpb_valve
+    out[R_PB_MOTOR] = rates.dpb_motor
+    out[R_TA_VALVE] = rates.dta_valve
+    out[R_TA_MOTOR] = rates.dta_motor
+    out[R_TB_VALVE] = rates.dtb_valve
+    out[R_TB_MOTOR] = rates.dtb_motor
     return joint_held, motor_held
 
 

@@ -24,6 +24,7 @@ from pydantic_core import PydanticCustomError
 
 from pneumatics.fields import MISSING, TABLE, TEXT, Problem, first_problem, number, number_check, read_toml
 from pneumatics.gas import AIR, Gas
+from pneumatics.heat import vane_cell
 from pneumatics.hose import hose_constants
 from pneumatics.motor import half_pitch_volume
 from pneumatics.orifice import choked_flux
@@ -44,6 +45,10 @@ class JointParams(NamedTuple):
     n_vanes: float
     dead_volume_m3: float  # porting volume of each motor port
     rotor_inertia_kg_m2: float  # rotor + wave generator, motor side
+    # the law of the air in every node (motor chambers and hose ends): 1, the energy balance, each
+    # node's gas temperature a state, heat to its wall (pneumatics/chamber.py, heat.py); 0, the
+    # paper's polytropic law with polytropic_n, every flow at the supply temperature (eq. 7)
+    chamber_heat: float
     # [reducer]
     ratio: float  # motor angle / joint angle
     efficiency_forward: float
@@ -77,11 +82,14 @@ class JointParams(NamedTuple):
     stribeck_speed_rad_s: float = 0.05
     valve_dead_zone: float = 0.0  # fraction of the valve stroke before the port opens
     conductance_scale: float = 1.0  # real valve conductance / nominal
-    polytropic_n: float = 1.4  # 1.4: adiabatic (paper); lower: heat exchange
+    polytropic_n: float = 1.4  # the paper's law (chamber_heat = 0): 1.4 adiabatic (paper); lower: heat exchange
     ripple_fraction: float = 0.0  # torque ripple amplitude with motor angle, fraction of torque
     supply_droop_pa_s_per_kg: float = 0.0  # supply pressure lost per kg/s drawn
     hose_leak_area_m2: float = 0.0  # a leak to atmosphere in port A's hose (a fault)
     valve_set_dead_time_s: float = 0.0  # the proportional valve's set point takes effect this late
+    # the energy balance's (chamber_heat = 1) walls exchange this multiple of their correlations' heat
+    # (the vane cell's and the hose's film coefficients, pneumatics/heat.py): 0 adiabatic
+    wall_heat_scale: float = 1.0
     # the reducer's transmission (pneumatics/reducer.py). The nominal twin keeps the paper's rigid
     # reducer (eq. 6: M_o = i M_i, both 0). A size-17 strain-wave gear (the wrist's LHS-17-120)
     # is far from rigid, though: Harmonic Drive's CSF-17 catalogue gives a torsional stiffness
@@ -109,6 +117,7 @@ SPEC: dict[str, FieldSpec] = {
     "n_vanes": FieldSpec("motor", 2, 12, "vanes", whole=True),
     "dead_volume_m3": FieldSpec("motor", 1e-8, 1e-2, "m^3"),
     "rotor_inertia_kg_m2": FieldSpec("motor", 0.0, 1.0, "kg·m^2"),
+    "chamber_heat": FieldSpec("motor", 0.0, 1.0, "0 or 1"),
     "ratio": FieldSpec("reducer", 1.0, 10_000.0, "-"),
     "efficiency_forward": FieldSpec("reducer", 0.05, 1.0, "-"),
     "efficiency_backward": FieldSpec("reducer", 0.05, 1.0, "-"),
@@ -148,6 +157,10 @@ SPEC: dict[str, FieldSpec] = {
     "supply_droop_pa_s_per_kg": FieldSpec("effects", 0.0, 1e9, "Pa·s/kg"),
     "hose_leak_area_m2": FieldSpec("effects", 0.0, 1e-4, "m^2"),
     "valve_set_dead_time_s": FieldSpec("effects", 0.0, 1.0, "s"),
+    # 0 (adiabatic walls) to 10 times the correlations: a film coefficient from a correlation is
+    # good to tens of percent, and the vane cell's has not been checked on such a motor
+    # (docs/air_chambers.md); the range leaves an order of magnitude either way of it
+    "wall_heat_scale": FieldSpec("effects", 0.0, 10.0, "-"),
     # 0.2 rad (11 deg) of lost motion and 0.1 rad/N·m (10 N·m/rad, 500x softer than a size-17
     # strain-wave gear) are far beyond any reducer in service: room for worn or badly fitted gears
     "reducer_backlash_rad": FieldSpec("effects", 0.0, 0.2, "rad"),
@@ -251,7 +264,7 @@ def check_related(params: JointParams, field_at: Callable[[str], str]) -> JointP
             f"reducer_compliance_rad_per_nm = {params.reducer_compliance_rad_per_nm:g}); "
             "allowed: a rotor inertia > 0 (the motor side is a body of its own)"
         )
-    for field in ("hose_loss", "brake_fed_by_motor"):
+    for field in ("hose_loss", "brake_fed_by_motor", "chamber_heat"):
         value = getattr(params, field)
         if value not in (0.0, 1.0):
             raise ParameterError(f"{field_at(field)} = {value:g}; allowed: 0 or 1")
@@ -279,6 +292,9 @@ DERIVED = (
     "hose_laminar_limit_kg_s",
     "hose_k_blasius",
     "choked_flux_s_m",
+    # the motor's vane cell (`heat.vane_cell`): its wall area per volume, its hydraulic diameter
+    "cell_area_per_volume_1_m",
+    "cell_hydraulic_diameter_m",
     # the lags' factors for steps of lag_dt_s (`valves.lag_factors`; NaN: a row for no one step)
     "lag_dt_s",
     "valve_decay",
@@ -303,6 +319,7 @@ def _derived(params: JointParams, gas: Gas, dt_s: float) -> tuple[float, ...]:
         half_pitch_volume(params.stator_radius_m, params.rotor_radius_m, params.vane_length_m, params.n_vanes),
         *hose_constants(params.hose_length_m, params.hose_diameter_m, gas.mu_pa_s),
         choked_flux(gas.t_supply_k, gas.r_j_per_kg_k, gas.k),
+        *vane_cell(params.stator_radius_m, params.rotor_radius_m, params.vane_length_m, params.n_vanes),
         dt_s,
         *lags,
     )
@@ -346,6 +363,7 @@ VANE_L = _COLUMNS["vane_length_m"]
 N_VANES = _COLUMNS["n_vanes"]
 DEAD_V = _COLUMNS["dead_volume_m3"]
 ROTOR_J = _COLUMNS["rotor_inertia_kg_m2"]
+CHAMBER_HEAT = _COLUMNS["chamber_heat"]
 RATIO = _COLUMNS["ratio"]
 ETA_F = _COLUMNS["efficiency_forward"]
 ETA_B = _COLUMNS["efficiency_backward"]
@@ -376,6 +394,7 @@ RIPPLE = _COLUMNS["ripple_fraction"]
 DROOP = _COLUMNS["supply_droop_pa_s_per_kg"]
 HOSE_LEAK_A = _COLUMNS["hose_leak_area_m2"]
 PV_DEAD_TIME = _COLUMNS["valve_set_dead_time_s"]
+WALL_HEAT = _COLUMNS["wall_heat_scale"]
 BACKLASH = _COLUMNS["reducer_backlash_rad"]
 COMPLIANCE = _COLUMNS["reducer_compliance_rad_per_nm"]
 GAS_R = _COLUMNS["gas_r_j_per_kg_k"]
@@ -388,6 +407,8 @@ HOSE_K_LAMINAR = _COLUMNS["hose_k_laminar"]
 HOSE_LAMINAR_LIMIT = _COLUMNS["hose_laminar_limit_kg_s"]
 HOSE_K_BLASIUS = _COLUMNS["hose_k_blasius"]
 CHOKED_FLUX = _COLUMNS["choked_flux_s_m"]
+CELL_AREA_PER_V = _COLUMNS["cell_area_per_volume_1_m"]
+CELL_D_H = _COLUMNS["cell_hydraulic_diameter_m"]
 LAG_DT = _COLUMNS["lag_dt_s"]
 VALVE_DECAY = _COLUMNS["valve_decay"]
 VALVE_MEAN_GAIN = _COLUMNS["valve_mean_gain"]
@@ -398,3 +419,12 @@ BRAKE_OFF_MEAN_GAIN = _COLUMNS["brake_release_mean_gain"]
 STOP_LOW = _COLUMNS["stop_low_rad"]
 STOP_HIGH = _COLUMNS["stop_high_rad"]
 N_COLUMNS = len(_COLUMNS)
+
+
+def paper_model(params: JointParams) -> JointParams:
+    """The paper's model of the same joint (eq. 1-7): its chambers' polytropic law, every flow at the
+    supply temperature, no heat to the walls (chamber_heat = 0, with the joint's polytropic_n:
+    1.4, the paper's adiabatic assumption 1, unless set). What the controller's predictor
+    integrates (DESIGN rule 2: the predictor is the paper's model; the plant and the gap replay the
+    best physics; beyond that they differ only in configuration, this one field)."""
+    return params._replace(chamber_heat=0.0)

@@ -26,7 +26,7 @@ import assets
 from control.arm_model import ArmModel
 from gap.replay import DT_S, replay_run
 from gap.synth import SAMPLE_PERIOD_S, Motion, simulate_run
-from pneumatics import JointParams, load_joint_params, params_row
+from pneumatics import JointParams, load_joint_params, paper_model, params_row
 from pneumatics.as_built import load_as_built
 
 JOINT = "wrist_pitch"
@@ -50,9 +50,10 @@ PAPER = {
 
 
 def wrist_models() -> tuple[JointParams, JointParams]:
-    """(nominal, as-built) parameters of the wrist: the predictor's and reality's."""
+    """(nominal, as-built) parameters of the wrist: the predictor's (the paper's model of the joint
+    file, `paper_model`) and reality's (the joint file's physics with the as-built effects)."""
     nominal = load_joint_params(assets.joint_param_path(JOINT))
-    return nominal, load_as_built(nominal, assets.as_built_path(JOINT))
+    return paper_model(nominal), load_as_built(nominal, assets.as_built_path(JOINT))
 
 
 def rig_inertia(params: JointParams) -> float:

@@ -35,7 +35,7 @@ from pydantic.dataclasses import dataclass
 
 import assets
 from assets import JOINTS
-from pneumatics import JointParams, load_joint_params
+from pneumatics import JointParams, load_joint_params, paper_model
 from pneumatics.as_built import load_as_built
 from pneumatics.fields import (
     FLAG,
@@ -646,11 +646,12 @@ def nominal_params(joints: tuple[str, ...]) -> dict[str, JointParams]:
 
 def reality_params(scenario: Scenario, joints: tuple[str, ...] | None = None) -> dict[str, JointParams]:
     """Reality's base parameters per joint (every joint of the scenario's model, or `joints`): the
-    as-built arm (nominal + assets/as_built/), or with `[reality] arm = "nominal"` the predictor's
-    own nominal model (a self-check)."""
+    as-built arm (nominal + assets/as_built/, with the joint files' physics: the chambers' energy
+    balance), or with `[reality] arm = "nominal"` the predictor's own nominal model, the paper's
+    (`paper_model` of the joint files: a self-check)."""
     base = nominal_params(scenario.joints if joints is None else joints)
     if scenario.reality.arm == "nominal":
-        return base
+        return {j: paper_model(p) for j, p in base.items()}
     return {j: load_as_built(p, assets.as_built_path(j)) for j, p in base.items()}
 
 

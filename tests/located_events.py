@@ -15,6 +15,14 @@ smooth inside a mode, and the switches are located as events (DESIGN rule 8):
 The motor side's dry friction is the gear's efficiency (`joint_torque`: eta_f driving, 1/eta_b
 back-driven), with the same stuck band as `joint.motor_side_drive`.
 
+The air: with the paper's chamber law (chamber_heat = 0) the kernel's `pressure_rates`; with the
+energy balance (chamber_heat = 1) `energy_air_rates` below, written apart from the kernel's rate
+function, in the conserved quantities: each node's mass and internal energy change by the flows,
+each carrying c_p T of the gas it leaves, by the wall's heat and by the work p dV/dt, and p, T
+follow from m, U and V (the kernel writes dp/dt, dT/dt directly, pneumatics/chamber.py). It shares
+with the kernel only the laws of the parts: the orifice at its upstream gas's temperature, the
+hose's friction, the motor's geometry, the film coefficients, the valve's opening and pressure.
+
 Valves are continuous here: the proportional valve's output is a first-order lag of its set point
 integrated as a state, the direction valve switches exactly `solenoid_delay_s` after its command,
 the brake's engagement lags toward the target its air gives, as a state. Commands are held from
@@ -33,13 +41,112 @@ from scipy.optimize import brentq
 from pneumatics import params as P
 from pneumatics.brake import brake_feed_gauge_pa, brake_target
 from pneumatics.friction import stribeck_excess
-from pneumatics.joint import joint_torque, pressure_rates
+from pneumatics.heat import duct_heat_transfer_coefficient, vane_chamber_heat_transfer_coefficient
+from pneumatics.hose import hose_mass_flow
+from pneumatics.joint import effective_supply, joint_torque, pressure_rates
+from pneumatics.motor import chamber_geometry
+from pneumatics.orifice import orifice_mass_flow_between
 from pneumatics.reducer import damping, inertia_split, is_rigid, stiffness, transmitted_torque
-from pneumatics.valves import proportional_valve_target
+from pneumatics.valves import proportional_valve_target, regulated_pressure, valve_opening
 
 # state of the reference: angle, speed, four node pressures, valve output (gauge), brake engagement,
-# motor side (joint side of the gear: angle, speed)
-THETA, OMEGA, PA_V, PA_M, PB_V, PB_M, PV, BRAKE, QM, WM = range(10)
+# motor side (joint side of the gear: angle, speed), the four nodes' gas temperatures
+THETA, OMEGA, PA_V, PA_M, PB_V, PB_M, PV, BRAKE, QM, WM, TA_V, TA_M, TB_V, TB_M = range(14)
+N = 14
+
+
+def energy_air_rates(
+    p: np.ndarray,
+    pressures: np.ndarray,
+    temperatures: np.ndarray,
+    phi: float,
+    w_motor: float,
+    direction: float,
+    valve_gauge_pa: float,
+    supply_pa: float,
+) -> tuple[np.ndarray, np.ndarray]:
+    """(dp/dt, dT/dt) of the four nodes (valve end and motor end of port A's hose, then B's) by the
+    energy balance, from each node's mass and energy budget (module docstring)."""
+    r, k, t_w, atm = p[P.GAS_R], p[P.GAS_K], p[P.GAS_T], p[P.GAS_P_ATM]
+    cv = r / (k - 1.0)
+    cp = cv + r
+    two_nodes = p[P.HOSE_LOSS] != 0.0
+    v_a, v_b, slope = chamber_geometry(
+        phi, p[P.STATOR], p[P.ROTOR], p[P.VANE_L], p[P.N_VANES], p[P.DEAD_V], p[P.HALF_PITCH_V]
+    )
+    hose_v = math.pi / 4.0 * p[P.HOSE_D] ** 2 * p[P.HOSE_L]
+    hose_wall = math.pi * p[P.HOSE_D] * p[P.HOSE_L]
+    dv_a = slope * w_motor
+    if two_nodes:
+        volumes = np.array([hose_v / 2, v_a + hose_v / 2, hose_v / 2, v_b + hose_v / 2])
+        dvol = np.array([0.0, dv_a, 0.0, -dv_a])
+    else:  # one node per port: the motor node holds the chamber and the whole hose
+        volumes = np.array([v_a + hose_v, v_a + hose_v, v_b + hose_v, v_b + hose_v])
+        dvol = np.array([dv_a, dv_a, -dv_a, -dv_a])
+    mass_rate = np.zeros(4)
+    energy_rate = np.zeros(4)  # dU/dt before the work
+
+    def flow(m_into_b: float, a: int | None, b: int | None, t_outside: float) -> None:
+        # m_into_b kg/s from node a (None: outside at t_outside) to node b (None: outside); the
+        # enthalpy carried is c_p T of the side the gas leaves
+        upstream = a if m_into_b > 0 else b
+        t_from = temperatures[upstream] if upstream is not None else t_outside
+        for node, sign in ((a, -1.0), (b, 1.0)):
+            if node is not None:
+                mass_rate[node] += sign * m_into_b
+                energy_rate[node] += sign * cp * m_into_b * t_from
+
+    opening = valve_opening(valve_gauge_pa, p[P.K_U], p[P.DEAD_ZONE])
+    supplied = pressures[0] if direction > 0 else pressures[2]
+    p_s = regulated_pressure(
+        effective_supply(supply_pa, valve_gauge_pa, opening, direction, supplied, p), valve_gauge_pa, atm
+    )
+    inlet = p[P.A_IN] * p[P.COND_SCALE] * opening
+    exhaust = p[P.A_EX] * p[P.COND_SCALE]
+    valve_a, valve_b = 0, 2  # the nodes the valves feed (the motor nodes themselves with one node a port)
+    motor_a, motor_b = (1, 3) if two_nodes else (0, 2)
+    valve_flows = []
+    for node, on in ((valve_a, direction > 0), (valve_b, direction < 0)):
+        source, area = (p_s, inlet) if on else (atm, exhaust)
+        m = orifice_mass_flow_between(source, pressures[node], area, t_w, temperatures[node], r, k)
+        flow(m, None, node, t_w)
+        valve_flows.append(m)
+    # port A's hose leak (at its valve end) and the vane leak A -> B
+    m = orifice_mass_flow_between(pressures[valve_a], atm, p[P.HOSE_LEAK_A], temperatures[valve_a], t_w, r, k)
+    flow(m, valve_a, None, t_w)
+    m = orifice_mass_flow_between(
+        pressures[motor_a], pressures[motor_b], p[P.LEAK_A], temperatures[motor_a], temperatures[motor_b], r, k
+    )
+    flow(m, motor_a, motor_b, t_w)
+    hose_flows = valve_flows  # one node a port: the gas in the hose moves at the valve's flow
+    if two_nodes:
+        hose_flows = []
+        for a, b in ((valve_a, motor_a), (valve_b, motor_b)):
+            t_mean = 0.5 * (temperatures[a] + temperatures[b])
+            hose_flows.append(
+                hose_mass_flow(pressures[a], pressures[b], t_mean, p[P.HOSE_L], p[P.HOSE_D], r, p[P.GAS_MU])
+            )
+            flow(hose_flows[-1], a, b, t_w)
+    # the wall's heat at the supply temperature, times the scale: the hose's wall (half of it a node
+    # with two nodes a port, all of it with one) at the hose's mean speed, and the motor chamber's by
+    # the vane cell's correlation
+    heat = np.zeros(4)
+    wall = hose_wall / 2 if two_nodes else hose_wall
+    for node, port in ((0, 0), (1, 0), (2, 1), (3, 1)):
+        pr, tk = pressures[node], temperatures[node]
+        speed = hose_flows[port] * r * tk / (pr * math.pi / 4.0 * p[P.HOSE_D] ** 2)
+        ha = duct_heat_transfer_coefficient(speed, pr, tk, t_w, p[P.HOSE_D], r, k) * wall
+        if node in (motor_a, motor_b):
+            h_cell = vane_chamber_heat_transfer_coefficient(w_motor, pr, tk, t_w, p[P.STATOR], p[P.CELL_D_H], r, k)
+            ha += h_cell * p[P.CELL_AREA_PER_V] * (v_a if port == 0 else v_b)
+        heat[node] = p[P.WALL_HEAT] * ha * (t_w - tk)
+    # U = c_v m T = p V / (k - 1): dp/dt = ((k - 1) dU/dt - p dV/dt) / V; T = p V / (m R)
+    dp = ((k - 1.0) * (energy_rate + heat - pressures * dvol) - pressures * dvol) / volumes
+    mass = pressures * volumes / (r * temperatures)
+    dt = temperatures * (dp / pressures + dvol / volumes - mass_rate / mass)
+    if not two_nodes:  # the valve node is the motor node: both columns follow it
+        dp[1], dp[3], dt[1], dt[3] = dp[0], dp[2], dt[0], dt[2]
+    return dp, dt
 
 
 @dataclass(frozen=True)
@@ -61,6 +168,8 @@ class Solution:
     p_b: np.ndarray
     brake: np.ndarray  # engagement, 0 released .. 1 engaged
     stops: list[float]  # times at which the joint came to rest (located)
+    t_a: np.ndarray  # motor-end gas temperature of port A, K
+    t_b: np.ndarray
 
 
 class _Joint:
@@ -124,7 +233,7 @@ def _rates(
 ) -> np.ndarray:
     p = j.p
     s, s_m = modes
-    out = np.zeros(10)
+    out = np.zeros(N)
     limit = j.dry_limit(y, y[OMEGA])
     if s != 0.0:
         out[THETA] = y[OMEGA]
@@ -137,9 +246,14 @@ def _rates(
             out[QM] = y[WM]
             out[WM] = (j.motor_drive(y, s_m) - j.tau_t(y)) / j.j_m
         phi, w_motor = j.ratio * y[QM], j.ratio * y[WM]
-    out[PA_V : PB_M + 1] = pressure_rates(
-        y[PA_V], y[PA_M], y[PB_V], y[PB_M], phi, w_motor, direction, y[PV], j.supply, p
-    )
+    if p[P.CHAMBER_HEAT] == 0.0:
+        out[PA_V : PB_M + 1] = pressure_rates(
+            y[PA_V], y[PA_M], y[PB_V], y[PB_M], phi, w_motor, direction, y[PV], j.supply, p
+        )
+    else:
+        out[PA_V : PB_M + 1], out[TA_V : TB_M + 1] = energy_air_rates(
+            p, y[PA_V : PB_M + 1], y[TA_V : TB_M + 1], phi, w_motor, direction, y[PV], j.supply
+        )
     target = proportional_valve_target(valve_set, j.supply - p[P.GAS_P_ATM])
     out[PV] = (target - y[PV]) / p[P.VALVE_TAU] if p[P.VALVE_TAU] > 0.0 else 0.0
     feed = brake_feed_gauge_pa(p[P.BRAKE_FED_BY_MOTOR], j.supply, y[PA_M], y[PB_M], p[P.GAS_P_ATM])
@@ -262,11 +376,12 @@ def solve(
     joint = _Joint(np.asarray(p, dtype=float), inertia_kg_m2, load_nm, supply_pa)
     modes = _Modes(joint)
     atm = p[P.GAS_P_ATM]
-    y = np.array([theta0_rad, 0.0, atm, atm, atm, atm, 0.0, 1.0, theta0_rad, 0.0])
+    t_w = p[P.GAS_T]
+    y = np.array([theta0_rad, 0.0, atm, atm, atm, atm, 0.0, 1.0, theta0_rad, 0.0, t_w, t_w, t_w, t_w])
     mode = modes.decide(y, 0.0, 0.0)
     ts, ys, stops = [], [], []
     segments = _breakpoints(commands, p[P.SOLENOID_DELAY], t_end_s)
-    atol = np.array([1e-10, 1e-9, 1e-3, 1e-3, 1e-3, 1e-3, 1e-3, 1e-10, 1e-10, 1e-9])
+    atol = np.array([1e-10, 1e-9, 1e-3, 1e-3, 1e-3, 1e-3, 1e-3, 1e-10, 1e-10, 1e-9, 1e-6, 1e-6, 1e-6, 1e-6])
     for (t0, direction, valve_set, release), (t1, *_rest) in zip(segments, segments[1:], strict=False):
         t = t0
         while t1 - t > 1e-12:
@@ -297,4 +412,6 @@ def solve(
     y_all = np.concatenate(ys, axis=1)
     _, first = np.unique(t_all, return_index=True)
     t_all, y_all = t_all[first], y_all[:, first]
-    return Solution(t_all, y_all[THETA], y_all[OMEGA], y_all[PA_M], y_all[PB_M], y_all[BRAKE], stops)
+    return Solution(
+        t_all, y_all[THETA], y_all[OMEGA], y_all[PA_M], y_all[PB_M], y_all[BRAKE], stops, y_all[TA_M], y_all[TB_M]
+    )

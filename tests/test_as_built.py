@@ -11,7 +11,15 @@ import numpy as np
 import pytest
 
 import assets
-from pneumatics import AIR, ParameterError, chamber_volumes, load_joint_params, orifice_mass_flow, params_row
+from pneumatics import (
+    AIR,
+    ParameterError,
+    chamber_volumes,
+    load_joint_params,
+    orifice_mass_flow,
+    paper_model,
+    params_row,
+)
 from pneumatics.as_built import SOURCES, load_as_built, load_as_built_effects
 from pneumatics.joint import (
     S_DIR,
@@ -83,13 +91,16 @@ def test_reality_is_the_as_built_arm_by_default_and_the_predictor_stays_nominal(
     )
     assert not refusal
     stops = tuple(controller.arm.drive_stops()[0])  # the rig's +-90 deg: where a prediction stops
-    np.testing.assert_array_equal(controller.params[0], params_row(nominal, dt_s=controller.dt, stops=stops))
+    # the predictor: the nominal parameters with the paper's chamber law (DESIGN rule 2)
+    np.testing.assert_array_equal(
+        controller.params[0], params_row(paper_model(nominal), dt_s=controller.dt, stops=stops)
+    )
     assert not np.array_equal(plant.params[0], controller.params[0])
 
 
 def test_reality_can_be_the_nominal_twin_for_a_self_check():
     s = parse(RIG + '[reality]\narm = "nominal"\n')
-    assert reality_params(s) == {"wrist_pitch": load_joint_params(assets.joint_param_path("wrist_pitch"))}
+    assert reality_params(s) == {"wrist_pitch": paper_model(load_joint_params(assets.joint_param_path("wrist_pitch")))}
 
 
 @pytest.mark.parametrize(
@@ -107,8 +118,9 @@ def test_vane_passing_vents_the_pockets_air_as_the_analytic_balance_says():
     model, and B's side gains p_B dV/(R T) from nowhere. With n = 1 the nodes' air is exactly
     p V / (R T), so over a steady run at constant speed
         (mass in at A) - (mass out at B) - (mass stored) = sum over passings (p_A - p_B) dV / (R T),
-    which holds here to 1 %. The vented share of what enters A is what docs/validation/air.md quotes."""
-    p = load_joint_params(assets.joint_param_path("wrist_pitch"))._replace(polytropic_n=1.0)
+    which holds here to 1 %. The vented share of what enters A is what docs/validation/air.md quotes.
+    (The paper's law, `paper_model`: with n = 1 its nodes stay at the supply temperature.)"""
+    p = paper_model(load_joint_params(assets.joint_param_path("wrist_pitch")))._replace(polytropic_n=1.0)
     row = params_row(p)
     r, t_s, atm = AIR.r_j_per_kg_k, AIR.t_supply_k, AIR.p_atm_pa
     supply = atm + 0.6e6

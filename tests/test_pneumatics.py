@@ -54,6 +54,7 @@ from pneumatics.joint import (
     advance_brake,
     advance_discrete,
     effective_supply,
+    initial_rigid_state,
     initial_state,
     single_joint_step,
 )
@@ -424,7 +425,7 @@ def _one_joint(
     """The one-joint model (pneumatics.joint.single_joint_step, as the predictor and the gap
     replay run it) under commands held from t = command(t); the state at every step."""
     p = params_row(params)
-    y = y0.copy() if y0 is not None else np.array([0.0, 0.0, P_ATM, P_ATM, P_ATM, P_ATM, 0.0, 0.0])
+    y = y0.copy() if y0 is not None else initial_rigid_state(0.0, P_ATM)
     x = initial_state(P_ATM, brake_engaged=True)
     n = int(round(seconds / dt))
     out = np.empty((n + 1, N_RIGID))
@@ -487,7 +488,8 @@ def test_two_mass_oscillation_has_the_analytic_frequency(compliance: float) -> N
         dead_volume_m3=1e-2,  # 10 l per port: the air's spring is 1e-5 of the gear's, its torque noise
     )
     k = 1.0 / compliance
-    y0 = np.array([0.0, 0.0, P_ATM, P_ATM, P_ATM, P_ATM, 0.01, 0.0])  # motor side 0.01 rad ahead
+    y0 = initial_rigid_state(0.0, P_ATM)
+    y0[R_QM] = 0.01  # motor side 0.01 rad ahead
     h = _one_joint(free, 0.3, lambda t: (0.0, 0.0, 1.0), P_ATM, y0, inertia=RIG_J + J_MOTOR)
     twist = h[:, R_QM] - h[:, R_THETA]
     t = np.arange(len(h)) * 1e-3
@@ -533,7 +535,8 @@ def test_reversal_through_backlash_loses_the_gap() -> None:
             return (0.0, 0.0, 0.0)
         return (1.0 if t < t_rev else -1.0 if t < t_hold else 0.0, 6e5, 1.0 if t < t_hold else 0.0)
 
-    y0 = np.array([0.0, 0.0, P_ATM, P_ATM, P_ATM, P_ATM, 0.5 * gap, 0.0])  # motor on the forward flank
+    y0 = initial_rigid_state(0.0, P_ATM)
+    y0[R_QM] = 0.5 * gap  # motor on the forward flank
     rigid = _one_joint(WRIST, 1.6, command, supply, inertia=RIG_J + J_MOTOR)
     lash = _one_joint(
         WRIST._replace(reducer_backlash_rad=gap, reducer_compliance_rad_per_nm=1e-5),

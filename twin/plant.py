@@ -100,7 +100,7 @@ class Plant:
         self._geom_ids: dict[str, int] = {}
         for i in range(len(joints)):
             self._set_drive_tendon(i)
-        self.air = np.vstack([J.initial_state(gas.p_atm_pa) for _ in joints])
+        self.air = np.vstack([J.initial_state(gas.p_atm_pa, t_k=gas.t_supply_k) for _ in joints])
         self.commands = np.zeros((len(joints), J.N_COMMAND))
         self.supply_pa = gas.p_atm_pa + 0.5e6
         self.sensor_bias_pa = np.zeros(len(joints))
