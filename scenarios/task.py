@@ -37,6 +37,7 @@ from control import ArmController, MotionRefused
 from pneumatics.joint import C_BRAKE_RELEASE, C_DIRECTION, C_PV_SET_GAUGE_PA
 from scenarios.ik import drive_to_qpos, rim_target
 from scenarios.operator import GlobalCamera, Operator
+from scenarios.plan import CLEAR_M
 from scenarios.schema import Scenario
 from scenarios.string import Disc, believed_discs
 from twin.plant import Plant
@@ -109,6 +110,8 @@ class TaskController:
         self._backing_out = False  # ... and after it, on the way out (the press's move reversed)
         self._repressing = False  # ... and out of a press he saw off, before he presses again
         self._came_in_again: set[int] = set()  # discs on which he backed off from touching distance once
+        self._retreating = False  # he saw something he does not believe: backing off to CLEAR_M to look again
+        self._stopped_on: set[int] = set()  # discs on which he stopped and backed off so
         self._skip_press = False  # the operator gave up the coming press
         self._stop: _StopDrive | None = None
         self._stopped_after: set[int] = set()  # back-off targets after which the stop drive was tried
@@ -181,6 +184,7 @@ class TaskController:
             or not self.reached[k]
             or self._backing_out
             or self._repressing
+            or self._retreating
             or self.operator is None
             or not (self._is_standoff(k) or self._is_press(k))
         ):
@@ -216,6 +220,13 @@ class TaskController:
             self._repressing = False
             self._issue(self.k, self.scenario.targets[self.k].dwell_s)
             self._review_from_s = math.inf  # set when this press is done
+            self.reached[self.k] = False
+            return
+        if self._retreating:
+            # backed off from a look he did not believe: in again, to look afresh
+            self._retreating = False
+            self._issue(self.k, dwell_s=0.0, pressed=True)
+            self._review_from_s = math.inf
             self.reached[self.k] = False
             return
         if self.k >= 0 and self.operator is not None and self._is_press(self.k):
@@ -260,7 +271,9 @@ class TaskController:
             )
             if verdict is None:
                 return  # waiting to see the arm at rest
-            if not verdict and self._is_approach(self.k):
+            if self.operator.implausible:
+                verdict = self._stop_and_back_off(t, target)
+            elif not verdict and self._is_approach(self.k):
                 verdict = self._close_in(t, target)
             if verdict:
                 self._issue(self.k, dwell_s=0.0)
@@ -335,6 +348,30 @@ class TaskController:
         mujoco.mj_kinematics(self.model, d)
         return d.site("brush_tip").xpos.copy()
 
+    def _stop_and_back_off(self, t: float, target) -> bool:
+        """He saw the arm too far from the platform's belief to correct it near the rim
+        (`Operator.implausible`): True to back off to CLEAR_M and come in again, looking at each
+        standoff, the first time on a disc; the second time he leaves the disc unpressed (on a
+        target with no press to come, he goes on). Already clear of the string, he goes again."""
+        disc, why = target.brush_at_disc, self.operator.implausible
+        self.operator.implausible = ""
+        if self._standoff_m(self.k) >= CLEAR_M:  # already clear of the string: he goes there again from here
+            self._notes.append(f"t = {t:.3f} s: disc_{disc}: operator stops ({why}), clear of the string")
+            return True
+        self._closing_in = False
+        if disc not in self._stopped_on:
+            self._stopped_on.add(disc)
+            self._retreating = True
+            self._notes.append(
+                f"t = {t:.3f} s: disc_{disc}: operator stops ({why}), backs off to {CLEAR_M * 100:.0f} cm "
+                "and comes in again to look afresh"
+            )
+            return True
+        if self._is_approach(self.k):
+            self._skip_press = True
+            self._notes.append(f"t = {t:.3f} s: disc_{disc}: operator leaves the disc unpressed ({why} again)")
+        return False
+
     def _close_in(self, t: float, target) -> bool:
         """Placed at an approach: True to go there again. From the plan's standoff he closes in to
         TOUCH_STANDOFF_M and looks again; from there he presses, unless he ran out of looks with
@@ -379,7 +416,10 @@ class TaskController:
         return surface, normal
 
     def _standoff_m(self, k: int) -> float:
-        """Where target k holds the brush's face off its disc's rim (closer while closing in)."""
+        """Where target k holds the brush's face off its disc's rim (closer while closing in, clear
+        while backing off from a look he did not believe)."""
+        if self._retreating:
+            return max(self.scenario.targets[k].standoff_m, CLEAR_M)
         if self._closing_in or self._backing_out or self._repressing:
             return TOUCH_STANDOFF_M
         return self.scenario.targets[k].standoff_m

@@ -16,7 +16,7 @@ import pytest
 
 import assets
 from scenarios.cleaning import CONTACT_N, _covered_arc_m, disc_contacts
-from scenarios.ik import disc_drive_angles, drive_to_qpos
+from scenarios.ik import disc_drive_angles, disc_rim_target, drive_to_qpos, tool_drive_angles
 from scenarios.operator import CAMERA, GlobalCamera, Operator, brush_face_m
 from scenarios.pinhole import camera_of
 from scenarios.schema import Operator as OperatorParams
@@ -447,3 +447,76 @@ def test_the_back_off_from_touching_distance_draws_the_brush_out_of_the_rim_firs
     )
     back_off = next(steps for steps, t in plans if t > out_at)  # the plan's, once out to 2 cm
     assert len(back_off) == 2 and set(back_off[0]) < set(back_off[1]), back_off
+
+
+def _operator_looking_at(scene, drive: dict[str, float], stroke_m: float = 0.0):
+    """The operator and his cameras with the arm standing at `drive` (kinematics only) and the
+    brush's head pushed `stroke_m` into its carrier; one frame taken at t = 0."""
+    d = mujoco.MjData(scene)
+    for j, q in drive_to_qpos(drive).items():
+        d.joint(j).qpos[0] = q
+    d.joint("brush_stroke").qpos[0] = -stroke_m
+    mujoco.mj_forward(scene, d)
+    camera = GlobalCamera(scene, d, OperatorParams())
+    camera.capture(0.0)
+    return Operator(scene, camera, OperatorParams(), np.random.default_rng(0))
+
+
+def _platform(drive: dict[str, float]):
+    from control import ArmController
+    from scenarios.schema import nominal_params
+
+    return ArmController(
+        drive, xml_path=assets.ARM_XML, joints=assets.JOINTS, predictor_params=nominal_params(assets.JOINTS)
+    )
+
+
+def test_the_operator_reads_the_base_yaw_from_the_overhead_view_and_resets_it(scene):
+    """The arm turned 6.5 deg past where the platform believes it (the yaw a string turned 6 deg
+    left unnoticed): the operator reads the yaw off his two views to within a third of a degree and
+    sets the platform's belief to it; a belief right to the noise of his reading he leaves."""
+    drive = tool_drive_angles(scene, disc_rim_target(scene, 1, 0.05), 0.0)
+    truth = {**drive, "base_yaw": drive["base_yaw"] + math.radians(6.5)}
+    operator = _operator_looking_at(scene, truth)
+    platform = _platform(drive)
+    assert operator.review(5.0, 0.0, 1, 0.05, platform, aim=False) is True
+    yaw = platform.predicted_angles()[platform.joints.index("base_yaw")]
+    assert abs(yaw - truth["base_yaw"]) < math.radians(0.35)
+    assert any("base_yaw seen" in e for e in operator.log), operator.log
+    assert operator.review(5.0, 0.0, 1, 0.05, _platform(truth), aim=False) is False  # nothing to reset
+
+
+def test_the_operator_stops_at_a_pose_too_far_off_to_correct_at_the_rim(scene):
+    """The elbow seen 25 deg off the platform's belief (beyond any drift between two looks), or the
+    shoulder 8 deg off with the brush 2 cm from the rim (going to the target again would move it 7 cm
+    into the rim): he sets the belief to what he sees and flags the look, and the task stops and
+    backs off clear of the string before it goes there. The elbow 4 deg off 12 cm clear of the rim,
+    or the shoulder 8 deg off the other way (the brush to go away from the rim), he only corrects."""
+    drive = tool_drive_angles(scene, disc_rim_target(scene, 2, 0.05), 0.0)
+    for joint, off_deg, standoff_m, stops in (
+        ("elbow_pitch", 25.0, 0.12, True),
+        ("shoulder_pitch", -8.0, 0.02, True),
+        ("elbow_pitch", 4.0, 0.12, False),
+        ("shoulder_pitch", 8.0, 0.02, False),
+    ):
+        operator = _operator_looking_at(scene, drive)
+        platform = _platform({**drive, joint: drive[joint] + math.radians(off_deg)})
+        assert operator.review(5.0, 0.0, 2, standoff_m, platform, aim=True) is True
+        assert bool(operator.implausible) is stops, (joint, off_deg, operator.log)
+        believed = platform.predicted_angles()[platform.joints.index(joint)]
+        assert abs(believed - drive[joint]) < math.radians(2.0)  # the belief is what he sees
+
+
+def test_a_head_seen_pushed_in_with_its_face_off_the_rim_is_not_pressed_again(scene):
+    """The head seen pushed 4.5 cm into its carrier (2 cm more than planned) with the brush's face
+    4 cm clear of disc 3's rim: nothing can push it, the picture is misread; he backs out without
+    pressing again. With the face on the rim the same stroke is an over-press he corrects."""
+    from scenarios.plan import PRESS_M
+
+    clear = _operator_looking_at(scene, disc_drive_angles(scene, 3, 0.04 + 0.045), stroke_m=0.045)
+    assert clear.review_press(5.0, 0.0, 3, PRESS_M) is False
+    assert "not believed, the operator backs out" in clear.log[-1], clear.log
+    assert not clear.aim_offset_m.any()
+    on_rim = _operator_looking_at(scene, disc_drive_angles(scene, 3, -0.045), stroke_m=0.045)
+    assert on_rim.review_press(5.0, 0.0, 3, PRESS_M) is True
+    assert on_rim.aim_offset_m @ np.array([-1.0, 0.0, 0.0]) > 0.015  # moved out along the rim's normal
