@@ -126,21 +126,41 @@ class GlobalCamera:
     A frame is recorded as the world points it shows (twin/camera_frames.py, also from the run
     loop's compiled ticks: `compiled_state`); its picture is made when the operator looks at it."""
 
-    def __init__(self, model: mujoco.MjModel, data: mujoco.MjData, params: OperatorParams):
+    def __init__(
+        self,
+        model: mujoco.MjModel,
+        data: mujoco.MjData,
+        params: OperatorParams,
+        noise_px: float = 0.0,
+        seed: int = 0,
+    ):
         self.data = data
+        # the pictures' noise ([reality] camera_noise_px: the operator does not know it): each point's
+        # place off by a normal draw of this s.d. in each direction, before it is cut to whole pixels;
+        # drawn from `seed` and the frame's number, so a frame is the same whenever it is made
+        self.noise_px, self.seed = float(noise_px), int(seed)
         self.pinhole: Pinhole = camera_of(model, data, CAMERA, params.width_px, params.height_px)  # fixed to the world
         self.period_s = 1.0 / params.camera_fps
-        self.rim_px = np.floor(self.pinhole.project(disc_rims_m(model)))
-        # the discs' outlines, left and right ends: what the operator finds the string by (the string
-        # does not move: one picture of it serves the run)
-        self.disc_ends_px = np.floor([silhouette_ends_px(self.pinhole, disc) for disc in discs_of(model)])
+        still = self._noise(-1)  # the string does not move: one picture of it serves the run
+        self.rim_px = self._pixels(self.pinhole.project(disc_rims_m(model)), still)
+        # the discs' outlines, left and right ends: what the operator finds the string by
+        ends = np.array([silhouette_ends_px(self.pinhole, disc) for disc in discs_of(model)])
+        self.disc_ends_px = self._pixels(ends, still)
         self.overhead: Pinhole = camera_of(model, data, OVERHEAD, params.width_px, params.height_px)
-        self.top_disc_ends_px = np.floor(silhouette_ends_px(self.overhead, discs_of(model)[0]))
+        self.top_disc_ends_px = self._pixels(silhouette_ends_px(self.overhead, discs_of(model)[0]), still)
         body = [mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, b) for b in ("brush_head", *ARM_POINTS)]
         self.body_ids = np.array(body, dtype=np.int64)
         self.site_ids = np.array([mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, "brush_tip")], dtype=np.int64)
         self.clock = np.array([0.0, self.period_s, 0.0])  # next frame due, period, frames taken
         self.rows = np.zeros((FRAMES_KEPT, row_size(len(self.body_ids), len(self.site_ids))))
+
+    def _noise(self, frame: int) -> np.random.Generator | None:
+        """The draws of frame number `frame` (-1: the picture of the string); None without noise."""
+        return np.random.default_rng([self.seed, 2, frame + 1]) if self.noise_px > 0 else None
+
+    def _pixels(self, uv: np.ndarray, noise: np.random.Generator | None) -> np.ndarray:
+        """Picture coordinates as seen: the noise added, cut to whole pixels."""
+        return np.floor(uv if noise is None else uv + noise.normal(0.0, self.noise_px, np.shape(uv)))
 
     def sight_string(self) -> Sighting:
         """The string as found in the picture (scenarios/sighting.py), the disc type being known."""
@@ -174,7 +194,9 @@ class GlobalCamera:
         r = self.rows[i % FRAMES_KEPT]
         face = r[1:4] + BRUSH_HALF_LENGTH_M * r[4:7]  # brush_face_m of the recorded head
         points = np.array([face, r[7:10], r[10:13], r[13:16], r[16:19]])
-        seen, from_above = np.floor(self.pinhole.project(points)), np.floor(self.overhead.project(points[1:]))
+        noise = self._noise(i)
+        seen = self._pixels(self.pinhole.project(points), noise)
+        from_above = self._pixels(self.overhead.project(points[1:]), noise)
         return Frame(float(r[0]), seen[0], self.rim_px, seen[1:], from_above)
 
     @property
@@ -212,6 +234,7 @@ class Operator:
         self.press_looks = 0  # corrections of the press on the disc under way
         self.last_miss_m = 0.0  # how far off the brush's face he last saw it (m)
         self.implausible = ""  # why his last look is not to be believed ('' : it is): he stops and backs off
+        self._last_set: dict[str, float] = {}  # the joints he set the belief of at his last look, as seen
         # he finds the string in the picture first (its discs' outlines and the known disc type): the
         # plan is made for the string he found, and what a pixel is at the string is his scale
         self.sighting: Sighting = camera.sight_string()
@@ -399,10 +422,27 @@ class Operator:
         believed = dict(zip(platform.joints, platform.predicted_angles(), strict=True))
         noise = self.reading_noise_rad(frame)
         worst = max(seen_pose, key=lambda j: abs(seen_pose[j] - believed[j]) / noise[j])
-        if self.looks < MAX_LOOKS and abs(seen_pose[worst] - believed[worst]) > noise[worst]:
+        off = [j for j in seen_pose if abs(seen_pose[j] - believed[j]) > noise[j]]
+        # a joint he set last time and sees where it was, the platform having been sent to correct
+        # it, does not move by so little (a small move under friction is a fraction of the one
+        # commanded): he sets the belief and lets the joint be, instead of sending it again and again
+        # (2 deg of base yaw re-read 116 times with friction 1.3 times the files')
+        stuck = [j for j in off if j in self._last_set and abs(seen_pose[j] - self._last_set[j]) <= noise[j]]
+        if not off:
+            self._last_set = {}
+        elif len(stuck) == len(off):
+            for joint, angle in seen_pose.items():
+                platform.reference(joint, angle)
+            self._last_set = {}
+            self.log.append(
+                f"t = {now_s:.2f} s: disc_{disc}: {', '.join(stuck)} seen where set last time: the platform does "
+                "not move it so little; belief set, left there"
+            )
+        elif self.looks < MAX_LOOKS and off:
             self.implausible = self.implausible_pose(seen_pose, believed, disc, standoff_m)
             for joint, angle in seen_pose.items():
                 platform.reference(joint, angle)
+            self._last_set = {j: seen_pose[j] for j in off}
             self.looks += 1
             self.log.append(
                 f"t = {now_s:.2f} s: disc_{disc}: {worst} seen at {math.degrees(seen_pose[worst]):.1f} deg, "

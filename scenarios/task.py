@@ -61,11 +61,17 @@ TOUCH_STANDOFF_M = 0.02
 PRESS_MISS_M = 0.02
 
 
+def scenario_camera(scenario: Scenario, plant: Plant) -> GlobalCamera:
+    """The operator's cameras in the scene, as sharp as [reality] makes them (the same pictures of
+    the string each time it is built)."""
+    return GlobalCamera(plant.model, plant.data, scenario.operator, scenario.reality.camera_noise_px, scenario.seed)
+
+
 def platform_string(scenario: Scenario, plant: Plant) -> list[Disc]:
     """The string as the platform sees it: the operator finds it in his camera's picture
     (scenarios/sighting.py); without him, the platform knows only where the scene file puts it."""
     if scenario.control.strategy == "operator":
-        return GlobalCamera(plant.model, plant.data, scenario.operator).sight_string().discs
+        return scenario_camera(scenario, plant).sight_string().discs
     return list(believed_discs())
 
 
@@ -103,7 +109,7 @@ class TaskController:
         # scene file's string): where the task places the brush and expects the rim's reaction
         self.discs = list(discs) if discs is not None else platform_string(scenario, plant)
         self._plant = plant if self.strategy == "true_angle" else None  # the bound's only window on the truth
-        self.camera = GlobalCamera(plant.model, plant.data, scenario.operator) if self.strategy == "operator" else None
+        self.camera = scenario_camera(scenario, plant) if self.strategy == "operator" else None
         self.operator = Operator(plant.model, self.camera, scenario.operator, rng) if self.camera else None
         self._review_from_s = math.nan
         self._closing_in = False  # the operator's extra stop at TOUCH_STANDOFF_M before a press is under way
