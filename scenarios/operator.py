@@ -291,9 +291,11 @@ class Operator:
         there again from where it is, the brush would move into the rim further than a press does."""
         joint = max(seen, key=lambda j: abs(seen[j] - believed[j]))
         off = seen[joint] - believed[joint]
-        _, normal = self.sighting.discs[disc - 1].rim_facing()
-        move = carrier_m(self.model, believed) - carrier_m(self.model, {**believed, **seen})
-        inwards = float(-move @ normal)
+        inwards = 0.0  # off the string (disc 0): no rim to go into
+        if disc:
+            _, normal = self.sighting.discs[disc - 1].rim_facing()
+            move = carrier_m(self.model, believed) - carrier_m(self.model, {**believed, **seen})
+            inwards = float(-move @ normal)
         if abs(off) <= IMPLAUSIBLE_RAD and inwards <= standoff_m + PRESS_M:
             return ""
         return (
@@ -407,11 +409,12 @@ class Operator:
     def review(
         self, now_s: float, done_s: float, disc: int, standoff_m: float, platform, aim: bool = True
     ) -> bool | None:
-        """Look at the brush standing off `disc`, and set the platform's belief of the pose to the
-        picture's (`platform.reference(joint, angle)`). None: still waiting for a picture of the
-        arm at rest; True: the belief was reset or the aim moved, go there again; False: close
-        enough (or out of looks). With `aim` False (the brush well clear of the string, on its
-        way) he only resets the belief: placing the brush to a centimetre matters before a press."""
+        """Look at the brush standing off `disc` (0: the arm at a pose off the string, the plan's
+        last), and set the platform's belief of the pose to the picture's
+        (`platform.reference(joint, angle)`). None: still waiting for a picture of the arm at rest;
+        True: the belief was reset or the aim moved, go there again; False: close enough (or out of
+        looks). With `aim` False (the brush well clear of the string, on its way) he only resets the
+        belief: placing the brush to a centimetre matters before a press."""
         frame = self.camera.seen(now_s, self._latency_s, done_s)
         if frame is None:
             return None
@@ -435,7 +438,7 @@ class Operator:
                 platform.reference(joint, angle)
             self._last_set = {}
             self.log.append(
-                f"t = {now_s:.2f} s: disc_{disc}: {', '.join(stuck)} seen where set last time: the platform does "
+                f"t = {now_s:.2f} s: {_where(disc)}: {', '.join(stuck)} seen where set last time: the platform does "
                 "not move it so little; belief set, left there"
             )
         elif self.looks < MAX_LOOKS and off:
@@ -445,7 +448,7 @@ class Operator:
             self._last_set = {j: seen_pose[j] for j in off}
             self.looks += 1
             self.log.append(
-                f"t = {now_s:.2f} s: disc_{disc}: {worst} seen at {math.degrees(seen_pose[worst]):.1f} deg, "
+                f"t = {now_s:.2f} s: {_where(disc)}: {worst} seen at {math.degrees(seen_pose[worst]):.1f} deg, "
                 f"platform believed {math.degrees(believed[worst]):.1f} deg: pose re-read"
                 + (f"; {self.implausible}: the operator stops" if self.implausible else "")
             )
@@ -477,3 +480,8 @@ class Operator:
             f"(x {error[0] * 100:+.1f}, z {error[2] * 100:+.1f} cm): aim moved"
         )
         return True
+
+
+def _where(disc: int) -> str:
+    """What a look is at, in the log: a disc, or the plan's final pose."""
+    return f"disc_{disc}" if disc else "final pose"

@@ -304,8 +304,9 @@ def run_scenario(
         reached, active = controller.targets_finished(), controller.target_in_force(targets)
     pending = tuple(faults.pending) if cut_short else ()
     arrays = telemetry.arrays()
+    finished = task.finished_s[-1] if task and task.reached and task.reached[-1] else math.nan
     verdicts = (
-        judge(scenario, arrays, plant.joints, telemetry.bodies, plant.model, targets, reached, pending)
+        judge(scenario, arrays, plant.joints, telemetry.bodies, plant.model, targets, reached, pending, finished)
         if len(telemetry)
         else []
     )
@@ -313,7 +314,6 @@ def run_scenario(
         verdicts = [replace(v, passed=False) if v.kind == "max_error_deg" else v for v in verdicts]
     events = list(getattr(controller, "events", []))
     discs = disc_contacts(plant.model, arrays) if scenario.model == "arm" and len(telemetry) else []
-    finished = task.finished_s[-1] if task and task.reached and task.reached[-1] else math.nan
     return Result(
         scenario,
         telemetry,

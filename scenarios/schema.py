@@ -69,8 +69,11 @@ ARM_ONLY_CRITERIA = (
     "disc_force_n",
     "disc_brushed_m",
     "max_drop_m",
-)  # need the brush, the discs, the payload
-TARGET_CRITERIA = ("final_error_deg", "max_error_deg")  # judged against the targets: need one
+    "task_time_s",
+    "contact_after_plan_n",
+)  # need the brush, the discs, the payload, the task's plan
+# judged against the targets or the plan's end: need one
+TARGET_CRITERIA = ("final_error_deg", "max_error_deg", "task_time_s", "contact_after_plan_n")
 FAULT_KINDS = ("supply_lost", "hose_leak", "valve_stuck_open", "brake_fails", "sensor_bias")
 # a fault's value: (low, high, unit) per kind that has one
 FAULT_VALUES = {
@@ -91,6 +94,8 @@ CRITERIA = (
     "max_drop_m",
     "max_travel_deg",
     "prediction_error_deg",
+    "task_time_s",
+    "contact_after_plan_n",
 )
 # who keeps the arm on its task (scenarios/task.py): the predictor alone; the predictor re-referenced
 # at the shoulder's end stop after every disc; the operator correcting by eye through the global
@@ -542,7 +547,7 @@ def _needs_a_plan(s: Scenario, where: str, c: Criterion) -> None:
         )
     if c.kind not in TARGET_CRITERIA:
         return
-    targeted = {j for t in s.targets for j in (JOINTS if t.brush_at_disc else t.angles_deg)}
+    targeted = {j for t in s.targets for j in (JOINTS if t.brush_at_disc or t.clean_string else t.angles_deg)}
     if not targeted:
         raise _fail(
             s.path,

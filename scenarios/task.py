@@ -192,7 +192,7 @@ class TaskController:
             or self._repressing
             or self._retreating
             or self.operator is None
-            or not (self._is_standoff(k) or self._is_press(k))
+            or not (self._is_looked_at(k) or self._is_press(k))
         ):
             return time_s
         return self.operator.review_due_s(self._review_from_s)
@@ -263,7 +263,7 @@ class TaskController:
             self._issue(self.k, dwell_s=0.0, pressed=True)
             self.reached[self.k] = False
             return
-        if self.k >= 0 and self.operator is not None and self._is_standoff(self.k):
+        if self.k >= 0 and self.operator is not None and self._is_looked_at(self.k):
             # he looks wherever the brush stands clear of a disc (not only before a press): a drift
             # left until the next press has by then rammed a disc on the way
             target = self.scenario.targets[self.k]
@@ -271,7 +271,7 @@ class TaskController:
                 t,
                 self._review_from_s,
                 target.brush_at_disc,
-                self._standoff_m(self.k),
+                self._standoff_m(self.k) if target.brush_at_disc else math.inf,
                 self.controller,
                 aim=self._is_approach(self.k),
             )
@@ -361,7 +361,7 @@ class TaskController:
         target with no press to come, he goes on). Already clear of the string, he goes again."""
         disc, why = target.brush_at_disc, self.operator.implausible
         self.operator.implausible = ""
-        if self._standoff_m(self.k) >= CLEAR_M:  # already clear of the string: he goes there again from here
+        if not disc or self._standoff_m(self.k) >= CLEAR_M:  # already clear of the string: he goes again from here
             self._notes.append(f"t = {t:.3f} s: disc_{disc}: operator stops ({why}), clear of the string")
             return True
         self._closing_in = False
@@ -433,6 +433,10 @@ class TaskController:
     def _aimed(self, k: int) -> dict[str, float]:
         t = self.scenario.targets[k]
         nominal = self.targets[k]
+        if self.operator is not None and k == len(self.targets) - 1 and not t.brush_at_disc:
+            # the plan's last target with the operator: the whole pose the plan leaves the arm in
+            # (each joint's latest target), so that what he corrects at his look there is moved back
+            return {j: q for target in self.targets for j, q in target.items()}
         if self.operator is None or not t.brush_at_disc:
             return dict(nominal)
         standoff = self._standoff_m(k)
@@ -483,6 +487,12 @@ class TaskController:
         """A target pressing the brush into a disc's rim."""
         t = self.scenario.targets[k]
         return bool(t.brush_at_disc and t.standoff_m < 0)
+
+    def _is_looked_at(self, k: int) -> bool:
+        """A target the operator looks at the arm after: every one holding the brush clear of a disc,
+        and the plan's last (the pose the arm is left in: a drift over the retreat, 4 deg of shoulder
+        in the shipped run, would stay)."""
+        return self._is_standoff(k) or k == len(self.targets) - 1
 
     def _is_standoff(self, k: int) -> bool:
         """A target holding the brush clear of a disc (in the camera's plane: base yaw at zero)."""
