@@ -17,6 +17,9 @@ it struck before the cut; the rest are listed as not judged.
     max_drop_m       after the first fault, the payload never fell more than `max` m below where it was
     max_travel_deg   after the first fault, `joint` turned no more than `max` deg
     prediction_error_deg  |true - predicted| of `joint` (every predicted joint) over the run <= max
+    task_time_s      when the plan's last target was finished (s) lies in min..max; never: fails
+    contact_after_plan_n  the brush's peak force on anything after the plan's last target was
+                     finished is <= max N (the arm left leaning on a disc); the plan never finished: fails
 """
 
 from __future__ import annotations
@@ -44,6 +47,7 @@ class Verdict:
 
 DISC_KINDS = ("disc_contact_s", "disc_force_n", "disc_brushed_m")
 AFTER_FAULT_KINDS = ("max_drop_m", "max_travel_deg")  # measured from the first fault on
+PLAN_END_KINDS = ("final_error_deg", "task_time_s", "contact_after_plan_n")  # judged once the plan is done
 
 
 def _deg(x):
@@ -59,6 +63,7 @@ def judge(
     requested: list[dict[str, float]] | None = None,
     reached: list[bool] | None = None,
     pending: tuple[Fault, ...] = (),
+    finished_s: float = math.nan,
 ) -> list[Verdict]:
     """One verdict per criterion of the scenario (per joint or disc where it names none; at least one
     each: a criterion with nothing to judge fails). `requested`: the scenario's targets in rad;
@@ -66,7 +71,8 @@ def judge(
     refused cannot pass it. `reached`: per scenario target, whether it was finished; None: the run
     was not cut short, and everything is judged (a disc the plan never got to fails). `pending`: the
     faults a run cut short stopped before; the final errors are then not judged, nor, if the first
-    fault is among them, what is measured after it."""
+    fault is among them, what is measured after it. `finished_s`: when the plan's last target was
+    finished (NaN: it was not)."""
     first_fault_pending = bool(pending) and min(f.at_s for f in pending) <= min(f.at_s for f in scenario.faults)
     out = []
     contacts = disc_contacts(model, arrays) if any(c.kind in DISC_KINDS for c in scenario.criteria) else []
@@ -74,8 +80,11 @@ def judge(
         if c.kind in DISC_KINDS:
             out.extend(_judge_discs(c, scenario, contacts, reached))
         else:
-            verdicts = _judge_one(c, scenario, arrays, joints, bodies, model, requested)
-            if reached is not None and c.kind == "final_error_deg" and not (reached and reached[-1]):
+            if c.kind in PLAN_END_KINDS[1:]:
+                verdicts = [_judge_plan_end(c, arrays, finished_s)]
+            else:
+                verdicts = _judge_one(c, scenario, arrays, joints, bodies, model, requested)
+            if reached is not None and c.kind in PLAN_END_KINDS and not (reached and reached[-1]):
                 verdicts = [replace(v, passed=False, judged=False) for v in verdicts]
             if (pending and c.kind == "final_error_deg") or (first_fault_pending and c.kind in AFTER_FAULT_KINDS):
                 verdicts = [replace(v, passed=False, judged=False) for v in verdicts]  # the fault is still to come
@@ -109,6 +118,18 @@ def _judge_discs(
         passed = judged and bool(math.isfinite(value) and _within(value, c))
         out.append(Verdict(c.kind, f"disc_{dc.disc}", value, _limit(c), passed, judged))
     return out
+
+
+def _judge_plan_end(c: Criterion, a: dict, finished_s: float) -> Verdict:
+    """The task's time, or the brush's peak force after the plan's end (0 if nothing touched it
+    since); NaN, and so failed, when the plan never finished."""
+    if c.kind == "task_time_s":
+        value = finished_s
+    else:
+        after = a["time_s"] > finished_s
+        value = float(np.max(a["brush_force_n"][after], initial=0.0)) if math.isfinite(finished_s) else math.nan
+    subject = "plan" if c.kind == "task_time_s" else "brush"
+    return Verdict(c.kind, subject, value, _limit(c), bool(math.isfinite(value) and _within(value, c)))
 
 
 def _within(value: float, c: Criterion) -> bool:

@@ -79,6 +79,17 @@ def tool_drive_angles(model: mujoco.MjModel, tip_target: np.ndarray, tool_pitch_
     }
 
 
+def carrier_m(model: mujoco.MjModel, drive: dict[str, float]) -> np.ndarray:
+    """Where brush_tip stands (world) at these drive angles (rad): the forward counterpart of
+    `tool_drive_angles`, the tool roll left out (it turns the brush about its own axis)."""
+    shoulder, l1, l2, lt = arm_lengths(model)
+    s, f, tool = drive["shoulder_pitch"], drive["elbow_pitch"], drive["elbow_pitch"] + drive["wrist_pitch"]
+    radial = shoulder[0] + l1 * math.cos(s) + l2 * math.cos(f) + lt * math.cos(tool)
+    z = shoulder[2] + l1 * math.sin(s) + l2 * math.sin(f) + lt * math.sin(tool)
+    yaw = drive["base_yaw"]
+    return np.array([radial * math.cos(yaw), radial * math.sin(yaw), z])
+
+
 def disc_drive_angles(model: mujoco.MjModel, disc: int, standoff_m: float = -0.006) -> dict[str, float]:
     """Drive angles for the brush on disc `disc`'s rim: the tool level where the arm reaches,
     else tilted in 5 deg steps (up to 45 deg, up or down: the top and the bottom discs), with

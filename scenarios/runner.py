@@ -190,7 +190,7 @@ def build_plant(scenario: Scenario) -> Plant:
     try:
         plant = Plant(
             model_path(scenario),
-            joint_params=joint_params_for(base, scenario.reality),
+            joint_params=joint_params_for(base, scenario.reality, scenario.reality.friction_ratio),
             joints=scenario.joints,
             keyframe="home" if scenario.start_pose == "home" else None,
         )
@@ -198,7 +198,14 @@ def build_plant(scenario: Scenario) -> Plant:
         raise ScenarioError(f"{scenario.path}: [reality] {e}") from None
     m, d = plant.model, plant.data
     if scenario.model == "arm":
-        m.body("payload").mass[0] = max(scenario.payload_kg, 1e-6)
+        real = scenario.reality  # what the arm really carries and is; the controller is told [payload]
+        m.body("payload").mass[0] = max(scenario.payload_kg * real.payload_mass_ratio, 1e-6)
+        payload = m.body("payload")
+        payload.ipos[:] += real.payload_com_m
+        if any(real.payload_com_m):  # the compiler marked the centre as the body's origin: no longer
+            m.body_sameframe[payload.id] = 0
+        spring = m.joint("brush_stroke").id  # rate and preload (rate x springref) together
+        m.jnt_stiffness[spring] *= real.brush_spring_ratio
     for joint, deg in scenario.start_angles_deg.items():
         d.joint(joint).qpos[0] = math.radians(deg)
     mujoco.mj_forward(m, d)
@@ -297,8 +304,9 @@ def run_scenario(
         reached, active = controller.targets_finished(), controller.target_in_force(targets)
     pending = tuple(faults.pending) if cut_short else ()
     arrays = telemetry.arrays()
+    finished = task.finished_s[-1] if task and task.reached and task.reached[-1] else math.nan
     verdicts = (
-        judge(scenario, arrays, plant.joints, telemetry.bodies, plant.model, targets, reached, pending)
+        judge(scenario, arrays, plant.joints, telemetry.bodies, plant.model, targets, reached, pending, finished)
         if len(telemetry)
         else []
     )
@@ -306,7 +314,6 @@ def run_scenario(
         verdicts = [replace(v, passed=False) if v.kind == "max_error_deg" else v for v in verdicts]
     events = list(getattr(controller, "events", []))
     discs = disc_contacts(plant.model, arrays) if scenario.model == "arm" and len(telemetry) else []
-    finished = task.finished_s[-1] if task and task.reached and task.reached[-1] else math.nan
     return Result(
         scenario,
         telemetry,

@@ -8,7 +8,9 @@ A file with an unknown field, a wrong type or a value out of range is refused wi
 field (`supply.pressure_mpa`, `criteria[2].max`), the value and what is allowed.
 
 The tables: top level (name, description, model, seed, duration_s), [start], [payload], [supply],
-[reality] and [predictor] (with [reality.effects.<joint>]: JointParams fields on top of the arm),
+[reality] and [predictor] (with [reality.effects.<joint>]: JointParams fields on top of the arm;
+[reality] also holds what the arm really carries and is apart from what the platform is told:
+payload mass and centre, brush spring, friction, the cameras' noise),
 [control], [operator], and the arrays of tables [[targets]], [[faults]] and [[criteria]].
 
 Beyond each field's own range, the file must agree with the model and with itself (refused
@@ -67,8 +69,11 @@ ARM_ONLY_CRITERIA = (
     "disc_force_n",
     "disc_brushed_m",
     "max_drop_m",
-)  # need the brush, the discs, the payload
-TARGET_CRITERIA = ("final_error_deg", "max_error_deg")  # judged against the targets: need one
+    "task_time_s",
+    "contact_after_plan_n",
+)  # need the brush, the discs, the payload, the task's plan
+# judged against the targets or the plan's end: need one
+TARGET_CRITERIA = ("final_error_deg", "max_error_deg", "task_time_s", "contact_after_plan_n")
 FAULT_KINDS = ("supply_lost", "hose_leak", "valve_stuck_open", "brake_fails", "sensor_bias")
 # a fault's value: (low, high, unit) per kind that has one
 FAULT_VALUES = {
@@ -89,6 +94,8 @@ CRITERIA = (
     "max_drop_m",
     "max_travel_deg",
     "prediction_error_deg",
+    "task_time_s",
+    "contact_after_plan_n",
 )
 # who keeps the arm on its task (scenarios/task.py): the predictor alone; the predictor re-referenced
 # at the shoulder's end stop after every disc; the operator correcting by eye through the global
@@ -96,6 +103,8 @@ CRITERIA = (
 # controller fed the plant's true angles
 STRATEGIES = ("sensorless", "rereference", "operator", "true_angle")
 ARMS = ("as_built", "nominal")
+# [reality] fields of the arm's scene only (the rig carries no payload, brush or camera), at their defaults
+ARM_REALITY = ("payload_mass_ratio", "payload_com_m", "brush_spring_ratio", "camera_noise_px")
 # the [supply] fields each kind reads (`scenarios.supply.supply_profile`); steps start from pressure_mpa
 SUPPLY_FIELDS = {
     "constant": ("pressure_mpa",),
@@ -162,11 +171,23 @@ class Model:
     effects: Annotated[dict[str, JointParamsSubset], AfterValidator(_set_fields)] = field(default_factory=dict)
 
 
+COM_OFFSET_M = number(-0.1, 0.1, "m")  # within the 0.137 m payload block (assets/arm.xml)
+
+
 @dataclass(frozen=True, config=TABLE)
 class Reality(Model):
     # reality's base: the as-built arm (assets/as_built/) or the nominal twin for a self-check (the
     # predictor is always nominal)
     arm: choice(*ARMS) = "as_built"
+    # what the arm really is and carries, apart from what the platform is told: the controller's
+    # load model takes [payload] mass_kg, the payload's centre where assets/arm.xml puts it, the
+    # brush spring's rate and the joints' friction from the files; the operator believes his picture
+    # as sharp as its pixels (ARM_REALITY: the fields the rig has not)
+    payload_mass_ratio: number(0.5, 2.0) = 1.0  # the payload's true mass over [payload] mass_kg
+    payload_com_m: tuple[COM_OFFSET_M, COM_OFFSET_M, COM_OFFSET_M] = (0.0, 0.0, 0.0)  # its centre moved, tool frame
+    brush_spring_ratio: number(0.25, 4.0) = 1.0  # the head spring's true rate (and preload) over the MJCF's
+    friction_ratio: number(0.0, 5.0) = 1.0  # every joint's true Coulomb, viscous and Stribeck friction over its file's
+    camera_noise_px: number(0.0, 10.0, "px") = 0.0  # the cameras' pixel noise: s.d. of each point's place, per frame
 
 
 @dataclass(frozen=True, config=TABLE)
@@ -388,6 +409,10 @@ def _check_read(s: Scenario, doc: dict) -> None:
     if s.model != "arm" and "payload" in doc:
         for key, value in doc["payload"].items():
             raise _fail(s.path, f"payload.{key}", value, "no [payload] with model = 'wrist_rig' (the rig carries none)")
+    for key in ARM_REALITY:
+        if s.model != "arm" and key in doc.get("reality", {}):
+            rig = f"no reality.{key} with model = 'wrist_rig' (the rig has none)"
+            raise _fail(s.path, f"reality.{key}", doc["reality"][key], rig)
     if s.model != "arm" and "string" in doc:
         for key, value in doc["string"].items():
             raise _fail(s.path, f"string.{key}", value, "no [string] with model = 'wrist_rig' (the rig has none)")
@@ -406,7 +431,8 @@ def _check_effects(s: Scenario) -> None:
         if not joints:
             continue
         base = reality_params(s, joints) if table == "reality" else nominal_params(joints)
-        for joint, params in joint_params_for(base, model).items():
+        ratio = s.reality.friction_ratio if table == "reality" else 1.0
+        for joint, params in joint_params_for(base, model, ratio).items():
             try:
                 check_related(params, _effect_at(s.path, f"{table}.effects.{joint}"))
             except ParameterError as e:
@@ -521,7 +547,7 @@ def _needs_a_plan(s: Scenario, where: str, c: Criterion) -> None:
         )
     if c.kind not in TARGET_CRITERIA:
         return
-    targeted = {j for t in s.targets for j in (JOINTS if t.brush_at_disc else t.angles_deg)}
+    targeted = {j for t in s.targets for j in (JOINTS if t.brush_at_disc or t.clean_string else t.angles_deg)}
     if not targeted:
         raise _fail(
             s.path,
@@ -655,11 +681,18 @@ def reality_params(scenario: Scenario, joints: tuple[str, ...] | None = None) ->
     return {j: load_as_built(p, assets.as_built_path(j)) for j, p in base.items()}
 
 
-def joint_params_for(base: dict[str, JointParams], model: Model) -> dict[str, JointParams]:
-    """The joints' parameters with this model's configuration applied (hose loss, effects)."""
+def joint_params_for(base: dict[str, JointParams], model: Model, friction_ratio: float = 1.0) -> dict[str, JointParams]:
+    """The joints' parameters with this model's configuration applied (hose loss, effects), their
+    friction (Coulomb, viscous, Stribeck) then scaled by `friction_ratio` (reality's)."""
     out = {}
+    ratio = friction_ratio
     for joint, params in base.items():
         params = params._replace(hose_loss=1.0 if model.hose_loss else 0.0)
         params = params._replace(**model.effects.get(joint, {}))
+        params = params._replace(
+            coulomb_nm=params.coulomb_nm * ratio,
+            viscous_nm_s=params.viscous_nm_s * ratio,
+            stribeck_excess_nm=params.stribeck_excess_nm * ratio,
+        )
         out[joint] = params
     return out

@@ -56,6 +56,19 @@ def rays(pinhole: Pinhole, pixels: np.ndarray) -> np.ndarray:
     return world / np.linalg.norm(world, axis=1, keepdims=True)
 
 
+def triangulate(front: Pinhole, front_px: np.ndarray, top: Pinhole, top_px: np.ndarray) -> np.ndarray:
+    """World points (k, 3) seen at pixel coordinates (k, 2) in both views (whole pixels: their
+    middles taken): the midpoint of the shortest segment between the two rays through each."""
+    a = rays(front, np.asarray(front_px, dtype=float) + 0.5)
+    b = rays(top, np.asarray(top_px, dtype=float) + 0.5)
+    w = front.position_m - top.position_m
+    ab, aw, bw = np.sum(a * b, axis=1), a @ w, b @ w
+    denominator = np.maximum(1.0 - ab * ab, 1e-12)  # the views look across each other: never parallel
+    s = (ab * bw - aw) / denominator  # along the front ray
+    t = (bw - ab * aw) / denominator  # along the top ray
+    return 0.5 * (front.position_m + s[:, None] * a + top.position_m + t[:, None] * b)
+
+
 def silhouette_ends_px(pinhole: Pinhole, disc: Disc, samples: int = 360) -> np.ndarray:
     """(2, 2): the picture's leftmost and rightmost points of the disc's rim (its shed's outline)."""
     a = np.linspace(0.0, 2 * np.pi, samples, endpoint=False)

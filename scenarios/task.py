@@ -37,6 +37,7 @@ from control import ArmController, MotionRefused
 from pneumatics.joint import C_BRAKE_RELEASE, C_DIRECTION, C_PV_SET_GAUGE_PA
 from scenarios.ik import drive_to_qpos, rim_target
 from scenarios.operator import GlobalCamera, Operator
+from scenarios.plan import CLEAR_M
 from scenarios.schema import Scenario
 from scenarios.string import Disc, believed_discs
 from twin.plant import Plant
@@ -60,11 +61,17 @@ TOUCH_STANDOFF_M = 0.02
 PRESS_MISS_M = 0.02
 
 
+def scenario_camera(scenario: Scenario, plant: Plant) -> GlobalCamera:
+    """The operator's cameras in the scene, as sharp as [reality] makes them (the same pictures of
+    the string each time it is built)."""
+    return GlobalCamera(plant.model, plant.data, scenario.operator, scenario.reality.camera_noise_px, scenario.seed)
+
+
 def platform_string(scenario: Scenario, plant: Plant) -> list[Disc]:
     """The string as the platform sees it: the operator finds it in his camera's picture
     (scenarios/sighting.py); without him, the platform knows only where the scene file puts it."""
     if scenario.control.strategy == "operator":
-        return GlobalCamera(plant.model, plant.data, scenario.operator).sight_string().discs
+        return scenario_camera(scenario, plant).sight_string().discs
     return list(believed_discs())
 
 
@@ -102,13 +109,15 @@ class TaskController:
         # scene file's string): where the task places the brush and expects the rim's reaction
         self.discs = list(discs) if discs is not None else platform_string(scenario, plant)
         self._plant = plant if self.strategy == "true_angle" else None  # the bound's only window on the truth
-        self.camera = GlobalCamera(plant.model, plant.data, scenario.operator) if self.strategy == "operator" else None
+        self.camera = scenario_camera(scenario, plant) if self.strategy == "operator" else None
         self.operator = Operator(plant.model, self.camera, scenario.operator, rng) if self.camera else None
         self._review_from_s = math.nan
         self._closing_in = False  # the operator's extra stop at TOUCH_STANDOFF_M before a press is under way
         self._backing_out = False  # ... and after it, on the way out (the press's move reversed)
         self._repressing = False  # ... and out of a press he saw off, before he presses again
         self._came_in_again: set[int] = set()  # discs on which he backed off from touching distance once
+        self._retreating = False  # he saw something he does not believe: backing off to CLEAR_M to look again
+        self._stopped_on: set[int] = set()  # discs on which he stopped and backed off so
         self._skip_press = False  # the operator gave up the coming press
         self._stop: _StopDrive | None = None
         self._stopped_after: set[int] = set()  # back-off targets after which the stop drive was tried
@@ -181,8 +190,9 @@ class TaskController:
             or not self.reached[k]
             or self._backing_out
             or self._repressing
+            or self._retreating
             or self.operator is None
-            or not (self._is_standoff(k) or self._is_press(k))
+            or not (self._is_looked_at(k) or self._is_press(k))
         ):
             return time_s
         return self.operator.review_due_s(self._review_from_s)
@@ -218,6 +228,13 @@ class TaskController:
             self._review_from_s = math.inf  # set when this press is done
             self.reached[self.k] = False
             return
+        if self._retreating:
+            # backed off from a look he did not believe: in again, to look afresh
+            self._retreating = False
+            self._issue(self.k, dwell_s=0.0, pressed=True)
+            self._review_from_s = math.inf
+            self.reached[self.k] = False
+            return
         if self.k >= 0 and self.operator is not None and self._is_press(self.k):
             # he looks at the press as he looks at every standoff; if it is off, he backs out to
             # touching distance (out of the rim first, wrist held) and presses again from there: a
@@ -246,7 +263,7 @@ class TaskController:
             self._issue(self.k, dwell_s=0.0, pressed=True)
             self.reached[self.k] = False
             return
-        if self.k >= 0 and self.operator is not None and self._is_standoff(self.k):
+        if self.k >= 0 and self.operator is not None and self._is_looked_at(self.k):
             # he looks wherever the brush stands clear of a disc (not only before a press): a drift
             # left until the next press has by then rammed a disc on the way
             target = self.scenario.targets[self.k]
@@ -254,13 +271,15 @@ class TaskController:
                 t,
                 self._review_from_s,
                 target.brush_at_disc,
-                self._standoff_m(self.k),
+                self._standoff_m(self.k) if target.brush_at_disc else math.inf,
                 self.controller,
                 aim=self._is_approach(self.k),
             )
             if verdict is None:
                 return  # waiting to see the arm at rest
-            if not verdict and self._is_approach(self.k):
+            if self.operator.implausible:
+                verdict = self._stop_and_back_off(t, target)
+            elif not verdict and self._is_approach(self.k):
                 verdict = self._close_in(t, target)
             if verdict:
                 self._issue(self.k, dwell_s=0.0)
@@ -335,6 +354,30 @@ class TaskController:
         mujoco.mj_kinematics(self.model, d)
         return d.site("brush_tip").xpos.copy()
 
+    def _stop_and_back_off(self, t: float, target) -> bool:
+        """He saw the arm too far from the platform's belief to correct it near the rim
+        (`Operator.implausible`): True to back off to CLEAR_M and come in again, looking at each
+        standoff, the first time on a disc; the second time he leaves the disc unpressed (on a
+        target with no press to come, he goes on). Already clear of the string, he goes again."""
+        disc, why = target.brush_at_disc, self.operator.implausible
+        self.operator.implausible = ""
+        if not disc or self._standoff_m(self.k) >= CLEAR_M:  # already clear of the string: he goes again from here
+            self._notes.append(f"t = {t:.3f} s: disc_{disc}: operator stops ({why}), clear of the string")
+            return True
+        self._closing_in = False
+        if disc not in self._stopped_on:
+            self._stopped_on.add(disc)
+            self._retreating = True
+            self._notes.append(
+                f"t = {t:.3f} s: disc_{disc}: operator stops ({why}), backs off to {CLEAR_M * 100:.0f} cm "
+                "and comes in again to look afresh"
+            )
+            return True
+        if self._is_approach(self.k):
+            self._skip_press = True
+            self._notes.append(f"t = {t:.3f} s: disc_{disc}: operator leaves the disc unpressed ({why} again)")
+        return False
+
     def _close_in(self, t: float, target) -> bool:
         """Placed at an approach: True to go there again. From the plan's standoff he closes in to
         TOUCH_STANDOFF_M and looks again; from there he presses, unless he ran out of looks with
@@ -379,7 +422,10 @@ class TaskController:
         return surface, normal
 
     def _standoff_m(self, k: int) -> float:
-        """Where target k holds the brush's face off its disc's rim (closer while closing in)."""
+        """Where target k holds the brush's face off its disc's rim (closer while closing in, clear
+        while backing off from a look he did not believe)."""
+        if self._retreating:
+            return max(self.scenario.targets[k].standoff_m, CLEAR_M)
         if self._closing_in or self._backing_out or self._repressing:
             return TOUCH_STANDOFF_M
         return self.scenario.targets[k].standoff_m
@@ -387,6 +433,10 @@ class TaskController:
     def _aimed(self, k: int) -> dict[str, float]:
         t = self.scenario.targets[k]
         nominal = self.targets[k]
+        if self.operator is not None and k == len(self.targets) - 1 and not t.brush_at_disc:
+            # the plan's last target with the operator: the whole pose the plan leaves the arm in
+            # (each joint's latest target), so that what he corrects at his look there is moved back
+            return {j: q for target in self.targets for j, q in target.items()}
         if self.operator is None or not t.brush_at_disc:
             return dict(nominal)
         standoff = self._standoff_m(k)
@@ -437,6 +487,12 @@ class TaskController:
         """A target pressing the brush into a disc's rim."""
         t = self.scenario.targets[k]
         return bool(t.brush_at_disc and t.standoff_m < 0)
+
+    def _is_looked_at(self, k: int) -> bool:
+        """A target the operator looks at the arm after: every one holding the brush clear of a disc,
+        and the plan's last (the pose the arm is left in: a drift over the retreat, 4 deg of shoulder
+        in the shipped run, would stay)."""
+        return self._is_standoff(k) or k == len(self.targets) - 1
 
     def _is_standoff(self, k: int) -> bool:
         """A target holding the brush clear of a disc (in the camera's plane: base yaw at zero)."""

@@ -16,7 +16,7 @@ import pytest
 
 import assets
 from scenarios.cleaning import CONTACT_N, _covered_arc_m, disc_contacts
-from scenarios.ik import disc_drive_angles, drive_to_qpos
+from scenarios.ik import disc_drive_angles, disc_rim_target, drive_to_qpos, tool_drive_angles
 from scenarios.operator import CAMERA, GlobalCamera, Operator, brush_face_m
 from scenarios.pinhole import camera_of
 from scenarios.schema import Operator as OperatorParams
@@ -447,3 +447,205 @@ def test_the_back_off_from_touching_distance_draws_the_brush_out_of_the_rim_firs
     )
     back_off = next(steps for steps, t in plans if t > out_at)  # the plan's, once out to 2 cm
     assert len(back_off) == 2 and set(back_off[0]) < set(back_off[1]), back_off
+
+
+def _operator_looking_at(scene, drive: dict[str, float], stroke_m: float = 0.0):
+    """The operator and his cameras with the arm standing at `drive` (kinematics only) and the
+    brush's head pushed `stroke_m` into its carrier; one frame taken at t = 0."""
+    d = mujoco.MjData(scene)
+    for j, q in drive_to_qpos(drive).items():
+        d.joint(j).qpos[0] = q
+    d.joint("brush_stroke").qpos[0] = -stroke_m
+    mujoco.mj_forward(scene, d)
+    camera = GlobalCamera(scene, d, OperatorParams())
+    camera.capture(0.0)
+    return Operator(scene, camera, OperatorParams(), np.random.default_rng(0))
+
+
+def _platform(drive: dict[str, float]):
+    from control import ArmController
+    from scenarios.schema import nominal_params
+
+    return ArmController(
+        drive, xml_path=assets.ARM_XML, joints=assets.JOINTS, predictor_params=nominal_params(assets.JOINTS)
+    )
+
+
+def test_the_operator_reads_the_base_yaw_from_the_overhead_view_and_resets_it(scene):
+    """The arm turned 6.5 deg past where the platform believes it (the yaw a string turned 6 deg
+    left unnoticed): the operator reads the yaw off his two views to within a third of a degree and
+    sets the platform's belief to it; a belief right to the noise of his reading he leaves."""
+    drive = tool_drive_angles(scene, disc_rim_target(scene, 1, 0.05), 0.0)
+    truth = {**drive, "base_yaw": drive["base_yaw"] + math.radians(6.5)}
+    operator = _operator_looking_at(scene, truth)
+    platform = _platform(drive)
+    assert operator.review(5.0, 0.0, 1, 0.05, platform, aim=False) is True
+    yaw = platform.predicted_angles()[platform.joints.index("base_yaw")]
+    assert abs(yaw - truth["base_yaw"]) < math.radians(0.35)
+    assert any("base_yaw seen" in e for e in operator.log), operator.log
+    assert operator.review(5.0, 0.0, 1, 0.05, _platform(truth), aim=False) is False  # nothing to reset
+
+
+def test_the_operator_stops_at_a_pose_too_far_off_to_correct_at_the_rim(scene):
+    """The elbow seen 25 deg off the platform's belief (beyond any drift between two looks), or the
+    shoulder 8 deg off with the brush 2 cm from the rim (going to the target again would move it 7 cm
+    into the rim): he sets the belief to what he sees and flags the look, and the task stops and
+    backs off clear of the string before it goes there. The elbow 4 deg off 12 cm clear of the rim,
+    or the shoulder 8 deg off the other way (the brush to go away from the rim), he only corrects."""
+    drive = tool_drive_angles(scene, disc_rim_target(scene, 2, 0.05), 0.0)
+    for joint, off_deg, standoff_m, stops in (
+        ("elbow_pitch", 25.0, 0.12, True),
+        ("shoulder_pitch", -8.0, 0.02, True),
+        ("elbow_pitch", 4.0, 0.12, False),
+        ("shoulder_pitch", 8.0, 0.02, False),
+    ):
+        operator = _operator_looking_at(scene, drive)
+        platform = _platform({**drive, joint: drive[joint] + math.radians(off_deg)})
+        assert operator.review(5.0, 0.0, 2, standoff_m, platform, aim=True) is True
+        assert bool(operator.implausible) is stops, (joint, off_deg, operator.log)
+        believed = platform.predicted_angles()[platform.joints.index(joint)]
+        assert abs(believed - drive[joint]) < math.radians(2.0)  # the belief is what he sees
+
+
+def test_a_head_seen_pushed_in_with_its_face_off_the_rim_is_not_pressed_again(scene):
+    """The head seen pushed 4.5 cm into its carrier (2 cm more than planned) with the brush's face
+    4 cm clear of disc 3's rim: nothing can push it, the picture is misread; he backs out without
+    pressing again. With the face on the rim the same stroke is an over-press he corrects."""
+    from scenarios.plan import PRESS_M
+
+    clear = _operator_looking_at(scene, disc_drive_angles(scene, 3, 0.04 + 0.045), stroke_m=0.045)
+    assert clear.review_press(5.0, 0.0, 3, PRESS_M) is False
+    assert "not believed, the operator backs out" in clear.log[-1], clear.log
+    assert not clear.aim_offset_m.any()
+    on_rim = _operator_looking_at(scene, disc_drive_angles(scene, 3, -0.045), stroke_m=0.045)
+    assert on_rim.review_press(5.0, 0.0, 3, PRESS_M) is True
+    assert on_rim.aim_offset_m @ np.array([-1.0, 0.0, 0.0]) > 0.015  # moved out along the rim's normal
+
+
+REALITY = "payload_mass_ratio = 1.1\npayload_com_m = [0.02, 0.0, 0.0]\nbrush_spring_ratio = 1.4\nfriction_ratio = 1.3\n"
+
+
+def _shipped_with(reality: str, table: str = "reality"):
+    """The shipped cleaning scenario with these lines added to its [reality] (or [predictor]) table."""
+    from scenarios.schema import parse
+
+    text = (ROOT / "scenarios" / "insulator_cleaning.toml").read_text()
+    assert f"[{table}]\n" in text
+    return parse(text.replace(f"[{table}]\n", f"[{table}]\n{reality}"), "x.toml")
+
+
+def test_reality_differs_from_what_the_platform_is_told():
+    """[reality] payload 10 % heavier with its centre 2 cm further out along the tool, the brush
+    spring 1.4 times stiffer, friction 1.3 times: the plant has them, the platform's controller keeps
+    the files' and [payload]'s. With the tool level, MuJoCo's gravity torque on the wrist exceeds the
+    controller's (Pinocchio, 20 kg at
+    the MJCF's centre) by 2 kg x g x 0.10 m (the payload's centre off the wrist axis, assets/arm.xml)
+    plus 22 kg x g x 0.02 m."""
+    from scenarios import controllers
+    from scenarios.runner import build_plant, plan
+    from scenarios.schema import joint_params_for, nominal_params, reality_params
+
+    scenario = _shipped_with(REALITY)
+    plant = build_plant(scenario)
+    m = plant.model
+    assert m.body("payload").mass[0] == pytest.approx(22.0)
+    assert m.jnt_stiffness[m.joint("brush_stroke").id] == pytest.approx(1.4 * 800.0)
+    base = reality_params(scenario)
+    for joint, params in plant.joint_params.items():
+        assert params.coulomb_nm == pytest.approx(1.3 * base[joint].coulomb_nm)
+        assert params.viscous_nm_s == pytest.approx(1.3 * base[joint].viscous_nm_s)
+    planned, _, targets = plan(scenario, plant)
+    predictor = joint_params_for(nominal_params(planned.joints), planned.predictor)
+    assert predictor["shoulder_pitch"].coulomb_nm == nominal_params(("shoulder_pitch",))["shoulder_pitch"].coulomb_nm
+    controller, refusal = controllers.build(planned, plant, predictor, targets)
+    assert not refusal
+    assert controller.arm.head_spring.force_n(0.025) == pytest.approx(10.0 + 800.0 * 0.025)  # the MJCF's spring
+    # level tool: shoulder up, forearm and tool horizontal
+    drive = {"base_yaw": 0.0, "shoulder_pitch": math.pi / 2, "elbow_pitch": 0.0, "wrist_pitch": 0.0, "tool_roll": 0.0}
+    d = mujoco.MjData(m)
+    for j, q in drive_to_qpos(drive).items():
+        d.joint(j).qpos[0] = q
+    mujoco.mj_forward(m, d)
+    truth = d.qfrc_bias[m.joint("wrist_pitch").dofadr[0]]
+    believed = controller.arm.load_torques(np.array([drive[j] for j in controller.arm.joints]))
+    wrist = controller.arm.joints.index("wrist_pitch")
+    g = -m.opt.gravity[2]
+    expected = 2.0 * g * 0.10 + 22.0 * g * 0.02
+    spring = d.qfrc_spring[m.joint("wrist_pitch").dofadr[0]]  # the wrist's counterbalance, in both
+    assert abs(truth - spring) - abs(believed[wrist]) == pytest.approx(expected, rel=0.02)
+
+
+def test_reality_fields_are_refused_with_the_field_and_what_is_allowed():
+    """Out of range, in [predictor] (the platform's belief has none of them) or on the rig: refused
+    in one line naming the file, the field, the value and what is allowed."""
+    from scenarios.schema import ScenarioError, parse
+
+    with pytest.raises(
+        ScenarioError, match=r"x.toml: reality.payload_mass_ratio = 3.0 is not allowed; allowed: a number in 0.5..2$"
+    ):
+        _shipped_with("payload_mass_ratio = 3.0\n")
+    with pytest.raises(
+        ScenarioError,
+        match=r"x.toml: reality.payload_com_m\[1\] = 0.5 is not allowed; allowed: a number in -0.1..0.1 m$",
+    ):
+        _shipped_with("payload_com_m = [0.0, 0.5, 0.0]\n")
+    with pytest.raises(ScenarioError, match=r"x.toml: reality.camera_noise_px = -1 is not allowed"):
+        _shipped_with("camera_noise_px = -1\n")
+    with pytest.raises(ScenarioError, match=r"x.toml: predictor.brush_spring_ratio is not a known field"):
+        _shipped_with("brush_spring_ratio = 1.2\n", table="predictor")
+    rig = 'model = "wrist_rig"\nduration_s = 1.0\n[reality]\ncamera_noise_px = 1.0\n'
+    with pytest.raises(
+        ScenarioError, match=r"x.toml: reality.camera_noise_px = 1.0 is not allowed; allowed: no reality"
+    ):
+        parse(rig, "x.toml")
+    assert parse('model = "wrist_rig"\nduration_s = 1.0\n[reality]\nfriction_ratio = 1.3\n', "x.toml")
+
+
+def test_a_stiffer_real_brush_spring_presses_harder_than_the_platform_expects():
+    """brush_spring_ratio = 1.4: pressed 25 mm into disc 4 with the arm held, the plant's head gives
+    1.4 (10 N + 800 N/m x 25 mm) = 42 N, against the 30 N the platform's model expects."""
+    scenario = _shipped_with("brush_spring_ratio = 1.4\n")
+    from scenarios.runner import build_plant
+
+    m = build_plant(scenario).model
+    samples = []
+    hold_arm_at(m, disc_drive_angles(m, 4, -0.025), then=lambda m, d: samples.append(axial_contact_force(m, d)))
+    assert np.mean(samples) == pytest.approx(1.4 * (10.0 + 800.0 * 0.025), rel=0.05)
+
+
+def test_the_cameras_noise_is_drawn_per_frame_from_the_seed(scene):
+    """camera_noise_px = 2: each point of a picture moves by a normal draw of 2 px before it is cut
+    to whole pixels (the spread of the moves: sqrt(2^2 + 1/6) px), the same frame gives the same
+    picture whenever it is made, another seed another."""
+    d = hold_arm_at(scene, disc_drive_angles(scene, 3, 0.05), seconds=0.002)
+
+    def camera(noise, seed):
+        c = GlobalCamera(scene, d, OperatorParams(), noise, seed)
+        c.capture(0.0)
+        return c
+
+    clean, noisy, again, other = camera(0.0, 1), camera(2.0, 1), camera(2.0, 1), camera(2.0, 2)
+    moved = np.concatenate(
+        [(noisy.disc_ends_px - clean.disc_ends_px).ravel(), (noisy.frames[0].arm_px - clean.frames[0].arm_px).ravel()]
+    )
+    assert np.std(moved) == pytest.approx(math.sqrt(4.0 + 1.0 / 6.0), rel=0.3)
+    assert np.array_equal(noisy.frames[0].arm_top_px, again.frames[0].arm_top_px)
+    assert np.array_equal(noisy.disc_ends_px, again.disc_ends_px)
+    assert not np.array_equal(noisy.disc_ends_px, other.disc_ends_px)
+
+
+def test_a_joint_the_platform_does_not_move_so_little_is_left_where_it_is(scene):
+    """The base yaw seen 2.5 deg off: he sets the belief and sends the arm again; the platform
+    believes it went (its prediction arrives) but he sees the yaw where it was (a small move under
+    friction 1.3 times the files' is a fraction of the one commanded): he sets the belief once more
+    and lets it be, instead of sending it again (116 looks in one run before)."""
+    drive = tool_drive_angles(scene, disc_rim_target(scene, 1, 0.12), 0.0)
+    truth = {**drive, "base_yaw": drive["base_yaw"] - math.radians(2.5)}
+    operator = _operator_looking_at(scene, truth)
+    platform = _platform(drive)
+    assert operator.review(5.0, 0.0, 1, 0.12, platform, aim=False) is True  # set, sent again
+    platform.reference("base_yaw", drive["base_yaw"])  # the prediction arrived; the arm did not move
+    assert operator.review(6.0, 0.0, 1, 0.12, platform, aim=False) is False
+    assert "left there" in operator.log[-1], operator.log
+    yaw = platform.predicted_angles()[platform.joints.index("base_yaw")]
+    assert abs(yaw - truth["base_yaw"]) < math.radians(0.5)

@@ -118,13 +118,16 @@ def test_the_plan_is_made_for_the_string_the_operator_found():
 
 
 @pytest.mark.parametrize(
-    "moved", [{"y_m": 0.08}, {"yaw_deg": 6.0}, {"tilt_deg": 5.0}], ids=["y 8 cm", "yaw 6 deg", "tilt 5 deg"]
+    "moved",
+    [{"y_m": 0.08}, {"tilt_deg": 5.0}, {"y_m": 0.08, "yaw_deg": 6.0, "tilt_deg": 5.0}],
+    ids=["y 8 cm", "tilt 5 deg", "y, yaw and tilt"],
 )
 def test_a_displaced_string_is_cleaned_where_it_stands(moved):
     """The operator cleans the top disc of a 6-disc string with a 17 cm pitch, 7 cm further and 8 cm
     lower than the scene file's, and moved once more as `moved` says: pressed in the 15-55 N band
-    for the dwell, judged from MuJoCo's contacts on the scene as built. (All of these at once gave
-    59 N at disc 1: not yet in the band.)"""
+    for the dwell, judged from MuJoCo's contacts on the scene as built. Moved every way at once, the
+    base yaw stopped 6.5 deg short of the plan and disc 1 was pressed at 59 N while the operator did
+    not read the yaw; he now reads it off the overhead view and sets the platform's belief to it."""
     placement = {"x_m": 0.82, "top_z_m": 1.17, "discs": 6, "pitch_m": 0.17} | moved
     scenario = with_overrides(load("insulator_cleaning"), {f"string.{k}": v for k, v in placement.items()})
     result = run_scenario(scenario, duration_s=26.0)
@@ -133,6 +136,8 @@ def test_a_displaced_string_is_cleaned_where_it_stands(moved):
     assert 15.0 < disc1.peak_n < 55.0, disc1
     assert disc1.contact_s > 0.8, disc1
     assert any("string found: 6 discs" in e for e in result.events)
+    if "yaw_deg" in moved:
+        assert any("disc_1: base_yaw seen" in e for e in result.events), result.events
 
 
 def test_a_string_table_is_checked_like_any_other():
