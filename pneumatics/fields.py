@@ -27,6 +27,10 @@ MISSING = "<missing>"  # the value of a field the file does not give
 TABLE = ConfigDict(extra="forbid")  # every table refuses keys it does not know
 
 
+class ParameterError(ValueError):
+    """A parameter file is missing, malformed, or holds a value outside its allowed range."""
+
+
 class Allowed(NamedTuple):
     """What a field allows, in words (kept in the field's Annotated metadata)."""
 

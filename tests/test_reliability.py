@@ -1,0 +1,128 @@
+"""Any user, any disk, any signal: what the twin promises where it meets its environment (README,
+"Reliability"). An unprivileged user or a read-only install still runs every command; a full disk
+at an output ends in one line naming the file; two names for one file share one lock; a stopped
+sweep keeps its finished runs; an unreadable input is refused in one line; a run too short to judge
+is not PASSED."""
+
+from __future__ import annotations
+
+import logging
+import os
+import shutil
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parent.parent
+HEAVY = ("numba", "numpy", "mujoco", "rerun", "scipy", "pinocchio", "matplotlib")  # what --help must not load
+
+
+# --- any user: an unwritable home, a read-only install ------------------------------------------
+def read_only_tree() -> list[str] | None:
+    """A command prefix that runs its command with the source tree read-only at its own path (a
+    bind mount in a mount namespace of its own, so nothing outside sees it), or None where that
+    cannot be done (not root, no `unshare`)."""
+    if not hasattr(os, "geteuid") or os.geteuid() != 0 or not shutil.which("unshare"):
+        return None
+    script = 'mount --bind "$1" "$1" && mount -o remount,ro,bind "$1" && shift && exec "$@"'
+    prefix = ["unshare", "--mount", "sh", "-c", script, "sh", str(ROOT)]
+    probe = subprocess.run([*prefix, "sh", "-c", f"! touch {ROOT}/.twin-ro-probe"], capture_output=True)
+    return prefix if probe.returncode == 0 else None
+
+
+def seed_private_cache(tmp: Path) -> Path:
+    """The private fallback cache under `tmp` that the child will choose, holding what this
+    process's cache holds for the current sources (so the child loads the compiled laws instead of
+    spending half a minute compiling them again; it compiles what is missing)."""
+    import scenarios.runner  # noqa: F401 - every law the run compiles, so their cache keys are known
+    from pneumatics import _jit
+
+    private = tmp / f"pneumatic-arm-twin-{os.getuid()}"
+    private.mkdir(mode=0o700)
+    if _jit._CACHE_ROOT is not None:
+        for key in set(_jit._cache_keys.values()):
+            if (Path(_jit._CACHE_ROOT) / key).is_dir():
+                shutil.copytree(Path(_jit._CACHE_ROOT) / key, private / key)
+    return private
+
+
+def test_a_user_who_can_write_neither_home_nor_install_runs_the_twin(tmp_path):
+    """HOME is a file (nothing can be made under it, by root neither) and the source tree is
+    mounted read-only: `--version` and `--help` load nothing heavy, and a run caches the compiled
+    laws in a private folder in the temporary folder, which it says once, then passes. Before, every
+    command ended in numba's "cannot cache function 'lag_factors': no locator available"."""
+    home = tmp_path / "home"
+    home.write_text("not a folder")
+    tmp = tmp_path / "tmp"
+    tmp.mkdir()
+    private = seed_private_cache(tmp)
+    prefix = read_only_tree() or []
+    env = {k: v for k, v in os.environ.items() if k not in ("NUMBA_CACHE_DIR", "XDG_CACHE_HOME", "TWIN_JIT_CACHE")}
+    env.update(HOME=str(home), TMPDIR=str(tmp), PYTHONPATH=str(ROOT), MPLCONFIGDIR=str(tmp / "mpl"))
+
+    def twin(*args: str, importtime: bool = False) -> subprocess.CompletedProcess:
+        python = [sys.executable, *(["-X", "importtime"] if importtime else []), "-m", "twin_cli.cli"]
+        return subprocess.run([*prefix, *python, *args], env=env, cwd=tmp, capture_output=True, text=True)
+
+    for args in (["--version"], ["--help"], ["run", "--help"], ["gap", "diagnose", "--help"]):
+        proc = twin(*args, importtime=True)
+        assert proc.returncode == 0, proc.stderr[-2000:]
+        loaded = {line.split("|")[-1].strip().split(".")[0] for line in proc.stderr.splitlines() if "|" in line}
+        assert not loaded & set(HEAVY), (args, loaded & set(HEAVY))
+    scenario = ROOT / "scenarios" / "wrist_closed_loop_60deg.toml"
+    proc = twin("run", str(scenario), "--duration", "0.3", "--json")
+    assert proc.returncode in (0, 1) and "Traceback" not in proc.stderr, proc.stderr[-2000:]
+    said = [line for line in proc.stderr.splitlines() if "compiled-code cache" in line]
+    assert len(said) == 1 and str(private) in said[0] and str(home) in said[0], proc.stderr
+    assert list(private.iterdir())  # the cache is there
+    if prefix:  # nothing was written into the read-only tree (the mount would have refused it)
+        assert not (ROOT / ".twin-ro-probe").exists()
+
+
+def test_the_cache_falls_back_to_a_private_folder_then_to_memory(tmp_path, monkeypatch, caplog):
+    """cache_root: the user's cache if it can be written; else a folder of the user's own in the
+    temporary folder, never one someone else made or can write (numba loads pickled code from it);
+    else None, compiling in memory, said once and inherited by child processes silently."""
+    from pneumatics import _jit
+
+    afile = tmp_path / "afile"
+    afile.write_text("")
+    for name in ("NUMBA_CACHE_DIR", "XDG_CACHE_HOME", "TWIN_JIT_CACHE"):
+        monkeypatch.delenv(name, raising=False)
+    monkeypatch.setenv("HOME", str(tmp_path / "home"))
+    assert _jit.cache_root() == str(tmp_path / "home" / ".cache" / "pneumatic-arm-twin")
+    monkeypatch.setenv("HOME", str(afile))
+    shared = tmp_path / "shared"
+    shared.mkdir()
+    monkeypatch.setattr(tempfile, "tempdir", str(shared))
+    private = shared / f"pneumatic-arm-twin-{os.getuid()}"
+    with caplog.at_level(logging.WARNING):
+        assert _jit.cache_root() == str(private)
+    assert private.stat().st_mode & 0o777 == 0o700 and "caching it in" in caplog.text
+    private.chmod(0o777)  # someone else could write it: not used
+    if os.geteuid() == 0:
+        private.chmod(0o700)
+        os.chown(private, 65534, 65534)  # made by someone else: not used
+    caplog.clear()
+    with caplog.at_level(logging.WARNING):
+        assert _jit.cache_root() is None
+        assert os.environ["TWIN_JIT_CACHE"] == _jit.IN_MEMORY
+        assert _jit.cache_root() is None  # a second time (a child process): nothing said
+    assert len(caplog.records) == 1 and "compiling in memory" in caplog.text
+
+
+def test_without_a_cache_folder_the_laws_compile_in_memory(monkeypatch):
+    from pneumatics import _jit
+
+    if _jit.NO_JIT:
+        pytest.skip("TWIN_NO_JIT=1: nothing is compiled")
+    monkeypatch.setattr(_jit, "_CACHE_ROOT", None)
+
+    def twice(x):
+        return 2.0 * x
+
+    compiled = _jit.njit(twice)
+    assert compiled(1.5) == 3.0 and type(compiled._cache).__name__ == "NullCache"
