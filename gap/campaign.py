@@ -271,6 +271,9 @@ def _campaign_file(folder: str | Path) -> tuple[Path, str, CampaignFile]:
     if problem:
         raise GapError(f"{folder}: {problem}; allowed: a campaign folder (campaign.toml and one file per run)")
     path = folder / "campaign.toml" if folder.is_dir() else folder
+    problem = input_problem(path)
+    if problem:
+        raise GapError(f"{path}: {problem}; allowed: a campaign file this user can read")
     if not path.is_file():
         raise GapError(
             f"{path}: no such campaign file (a campaign is a folder with campaign.toml and one file per run)"

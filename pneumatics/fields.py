@@ -192,7 +192,7 @@ def read_toml(path: Path, error: type[Exception], what: str) -> tuple[dict, str]
     missing, unreadable or not TOML."""
     problem = input_problem(path)
     if problem:
-        raise error(f"{path}: {problem}; allowed: a {what} on disk")
+        raise error(f"{path}: {problem}; allowed: a readable {what} on disk")
     try:
         text = path.read_text(encoding="utf-8-sig")  # a byte-order mark at the start allowed (an editor's)
     except FileNotFoundError:

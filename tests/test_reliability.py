@@ -6,6 +6,7 @@ is not PASSED."""
 
 from __future__ import annotations
 
+import json
 import logging
 import os
 import shutil
@@ -126,3 +127,79 @@ def test_without_a_cache_folder_the_laws_compile_in_memory(monkeypatch):
 
     compiled = _jit.njit(twice)
     assert compiled(1.5) == 3.0 and type(compiled._cache).__name__ == "NullCache"
+
+
+# --- unreadable inputs --------------------------------------------------------------------------
+PROBE = """
+import contextlib, io, json, sys
+from twin_cli.cli import main
+said = []
+for argv in json.loads(sys.argv[1]):
+    err = io.StringIO()
+    with contextlib.redirect_stderr(err), contextlib.redirect_stdout(io.StringIO()):
+        code = main(argv)
+    said.append([code, err.getvalue()])
+print(json.dumps(said))
+"""
+
+
+def as_a_user_bound_by_permissions() -> list[str]:
+    """A command prefix under which file permissions hold: none for a user, and for root a
+    child without the capabilities that let root read any file (setpriv), or a skip."""
+    if not hasattr(os, "geteuid") or os.geteuid() != 0:
+        return []
+    if not shutil.which("setpriv"):
+        pytest.skip("root without setpriv: permissions do not bind root here")
+    caps = "-dac_override,-dac_read_search"
+    return ["setpriv", f"--bounding-set={caps}", f"--inh-caps={caps}"]
+
+
+def test_inputs_this_user_cannot_read_are_refused_in_one_line(tmp_path):
+    """A campaign's run file, its campaign.toml, a campaign folder that cannot be searched, a
+    scenario, an MCAP log, a model and a recording that this user may not read are each refused
+    with exit 2 and one line naming the file and the cause (the run file, and campaign.toml in an
+    unsearchable folder, ended in PermissionError tracebacks)."""
+    from test_inputs import RIG, campaign
+
+    prefix = as_a_user_bound_by_permissions()
+    open_run = campaign(tmp_path / "run_unreadable")
+    (open_run / "a.csv").chmod(0)
+    toml = campaign(tmp_path / "toml_unreadable")
+    (toml / "campaign.toml").chmod(0)
+    shut = campaign(tmp_path / "shut")
+    scenario = tmp_path / "s.toml"
+    scenario.write_text(RIG)
+    mcap, model, rrd = tmp_path / "run.mcap", tmp_path / "arm.xml", tmp_path / "run.rrd"
+    for f in (scenario, mcap, model, rrd):
+        f.write_text("")
+        f.chmod(0)
+    out = tmp_path / "out"
+    probes = {
+        str(open_run / "a.csv"): ["gap", "diagnose", str(open_run), "--out", str(out)],
+        str(toml / "campaign.toml"): ["gap", "diagnose", str(toml), "--out", str(out)],
+        str(shut / "campaign.toml"): ["gap", "diagnose", str(shut), "--out", str(out)],
+        str(scenario): ["run", str(scenario)],
+        str(mcap): ["plot", str(mcap), "--out", str(tmp_path / "a.png")],
+        f"--model {model}": [
+            "replay",
+            str(tmp_path / "x.mcap"),
+            "--rrd",
+            str(rrd.with_name("y.rrd")),
+            "--model",
+            str(model),
+        ],
+        str(rrd): ["view", str(rrd)],
+    }
+    shut.chmod(0o600)  # the folder's entries cannot be looked up
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    argvs = json.dumps(list(probes.values()))
+    try:
+        proc = subprocess.run([*prefix, sys.executable, "-c", PROBE, argvs], env=env, capture_output=True, text=True)
+    finally:
+        shut.chmod(0o755)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    for (needle, argv), (code, err) in zip(probes.items(), json.loads(proc.stdout), strict=True):
+        lines = err.strip().splitlines()
+        assert code == 2 and len(lines) == 1, (argv, code, err)
+        assert needle in lines[0] and "Permission denied" in lines[0], (argv, lines[0])
+    assert not out.exists()
