@@ -169,14 +169,17 @@ def parse_grid(items: list[str], where: str = "--set") -> dict[str, list]:
 
 
 def summary_row(summary: dict) -> dict[str, object]:
-    """One run's summary as flat columns: its overrides (`set.<field>`), the run's outcome, per
-    joint `<joint>.<quantity>` (degrees), per criterion `<kind>[<subject>].value|passed`."""
+    """One run's summary as flat columns: its overrides (`set.<field>`), the run's outcome and the
+    criteria it was cut short before (`not_judged`, `;`-separated), per joint `<joint>.<quantity>`
+    (degrees), per criterion `<kind>[<subject>].value|passed` (passed empty where not judged)."""
     row: dict[str, object] = {f"set.{k}": v for k, v in summary.get("overrides", {}).items()}
     row |= {k: summary.get(k) for k in ("scenario", "seed", "passed", "duration_s", "error", "refused")}
+    row["not_judged"] = "; ".join(summary.get("not_judged", []))
     for joint, values in summary.get("joints", {}).items():
         row |= {f"{joint}.{k}": v for k, v in values.items()}
     for c in summary.get("criteria", []):
-        row |= {f"{c['kind']}[{c['subject']}].value": c["value"], f"{c['kind']}[{c['subject']}].passed": c["passed"]}
+        passed = c["passed"] if c.get("judged", True) else None
+        row |= {f"{c['kind']}[{c['subject']}].value": c["value"], f"{c['kind']}[{c['subject']}].passed": passed}
     return row
 
 

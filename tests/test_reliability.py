@@ -203,3 +203,29 @@ def test_inputs_this_user_cannot_read_are_refused_in_one_line(tmp_path):
         assert code == 2 and len(lines) == 1, (argv, code, err)
         assert needle in lines[0] and "Permission denied" in lines[0], (argv, lines[0])
     assert not out.exists()
+
+
+# --- runs cut short -------------------------------------------------------------------------------
+def test_a_run_too_short_to_judge_is_not_passed_and_a_cut_sweep_says_what_was_not_judged(tmp_path, capsys):
+    """`twin run --duration 1e-4` judged nothing and printed "PASSED"; now it says NOT JUDGED and
+    exits 1. A sweep cut before the plan's end names, in its table, the criteria it did not judge
+    (column not_judged, their passed cells empty) and passes a run only on what it judged."""
+    import csv
+
+    from twin_cli.cli import main
+
+    text = (ROOT / "scenarios" / "wrist_closed_loop_60deg.toml").read_text()
+    only_final = tmp_path / "final.toml"
+    only_final.write_text(text)
+    assert main(["run", str(only_final), "--duration", "1e-4"]) == 1
+    out = capsys.readouterr().out
+    assert "NOT JUDGED (cut short before any criterion could be judged)" in out and "PASSED" not in out
+    both = tmp_path / "both.toml"  # a criterion judged at any time beside one judged at the plan's end
+    both.write_text(text + '\n[[criteria]]\nkind = "prediction_error_deg"\njoint = "wrist_pitch"\nmax = 90.0\n')
+    table = tmp_path / "sweep.csv"
+    for scenario in (only_final, both):
+        main(["sweep", str(scenario), "--workers", "1", "--duration", "0.3", "--out", str(tmp_path / "sweep.json")])
+        (row,) = csv.DictReader(table.open())
+        assert row["not_judged"] == "final_error_deg[wrist_pitch]" and row["final_error_deg[wrist_pitch].passed"] == ""
+        assert row["passed"] == str(scenario == both)  # the judged criterion held; nothing judged is no pass
+        assert "1 cut short with criteria not judged" in capsys.readouterr().out

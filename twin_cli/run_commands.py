@@ -144,9 +144,19 @@ def cmd_run(args) -> int:
     return 2 if log_errors else 0 if result.passed else 1
 
 
+def run_state(summary: dict) -> str:
+    """PASSED, FAILED, or NOT JUDGED (cut short before any criterion could be judged); a pass with
+    criteria not judged says how many."""
+    left = summary.get("not_judged", [])
+    if not summary["passed"] and left and len(left) == len(summary["criteria"]) and not summary.get("error"):
+        return "NOT JUDGED (cut short before any criterion could be judged)"
+    if summary["passed"] and left:
+        return f"PASSED the criteria judged ({len(left)} of {len(summary['criteria'])} not judged: cut short)"
+    return "PASSED" if summary["passed"] else "FAILED"
+
+
 def print_summary(summary: dict) -> None:
-    state = "PASSED" if summary["passed"] else "FAILED"
-    print(f"{summary['scenario']}: {state} after {summary['duration_s']:.2f} s simulated")
+    print(f"{summary['scenario']}: {run_state(summary)} after {summary['duration_s']:.2f} s simulated")
     if summary.get("error"):
         print(f"  stopped: {summary['error']}")
     if summary.get("refused"):
@@ -174,6 +184,8 @@ def print_summary(summary: dict) -> None:
     if summary.get("faults_not_applied"):
         late = ", ".join(summary["faults_not_applied"])
         print(f"  not applied (after the cut, what depends on it not judged): {late}")
+    if summary.get("not_judged"):
+        print(f"  not judged (cut short before they were reached): {', '.join(summary['not_judged'])}")
     if summary.get("not_reached"):
         left = summary["not_reached"]
         discs = sorted({t.split("(")[1].rstrip(")") for t in left if "(" in t}, key=lambda d: int(d.split("_")[1]))
@@ -199,16 +211,18 @@ def cmd_sweep(args) -> int:
     with OutputLock([args.out, table]):
         results = sweep(scenario, parse_grid(args.set), args.monte_carlo, args.workers, args.scheduler, args.duration)
         passed = sum(r["passed"] for r in results)
+        cut = sum(bool(r.get("not_judged")) for r in results)
+        cut_note = f", {cut} cut short with criteria not judged (column not_judged)" if cut else ""
         if args.out:
             saved = keep_result(
                 args.out, lambda place: write_atomic(place, json.dumps(results, indent=2)), "the sweep's summaries"
             )
             rows = keep_result(table_path(saved), lambda place: write_csv(results, place), "the sweep's table")
-            print(f"{len(results)} runs, {passed} passed; summaries in {saved}, one row per run in {rows}")
+            print(f"{len(results)} runs, {passed} passed{cut_note}; summaries in {saved}, one row per run in {rows}")
         else:
             json.dump(results, sys.stdout, indent=2)
             print()
-            print(f"{len(results)} runs, {passed} passed", file=sys.stderr)
+            print(f"{len(results)} runs, {passed} passed{cut_note}", file=sys.stderr)
     return 0 if passed == len(results) else 1
 
 
