@@ -229,3 +229,51 @@ def test_a_run_too_short_to_judge_is_not_passed_and_a_cut_sweep_says_what_was_no
         assert row["not_judged"] == "final_error_deg[wrist_pitch]" and row["final_error_deg[wrist_pitch].passed"] == ""
         assert row["passed"] == str(scenario == both)  # the judged criterion held; nothing judged is no pass
         assert "1 cut short with criteria not judged" in capsys.readouterr().out
+
+
+# --- one lock per file, whatever its name -------------------------------------------------------
+def test_no_alias_lets_two_runs_write_one_file_or_folder(tmp_path, monkeypatch, capsys):
+    """Through a symbolic link to the file, to a folder above it, `..`, a relative path, or (as
+    root) a bind mount of its folder, a second writer meets the first one's lock. Before, the lock
+    was keyed by the path as given: two runs through a link both wrote, and one's log was lost."""
+    from twin.errors import UserError
+    from twin.outputs import OutputLock
+    from twin_cli.cli import main
+
+    real = tmp_path / "real"
+    real.mkdir()
+    (tmp_path / "folder_link").symlink_to(real)
+    (real / "run.mcap").write_bytes(b"")
+    (tmp_path / "file_link.mcap").symlink_to(real / "run.mcap")
+    (real / "sub").mkdir()
+    monkeypatch.chdir(tmp_path)
+    aliases = [
+        tmp_path / "folder_link" / "run.mcap",
+        tmp_path / "file_link.mcap",
+        real / "sub" / ".." / "run.mcap",
+        Path("real/run.mcap"),
+        tmp_path / "folder_link",  # the folder itself, as --out DIR
+    ]
+    mounted = tmp_path / "mounted"
+    if hasattr(os, "geteuid") and os.geteuid() == 0 and shutil.which("mount"):
+        mounted.mkdir()
+        if subprocess.run(["mount", "--bind", str(real), str(mounted)], capture_output=True).returncode == 0:
+            aliases.append(mounted / "run.mcap")  # the same folder under another path, no link to resolve
+    try:
+        for alias in aliases:
+            first = real if alias.name == "folder_link" else real / "run.mcap"
+            with (
+                OutputLock([first]),
+                pytest.raises(UserError, match="another run is writing this file now"),
+                OutputLock([alias]),
+            ):
+                pass
+        with OutputLock([real / "run.mcap"]):  # and the command line says so in one line, exit 2
+            scenario = ROOT / "scenarios" / "wrist_closed_loop_60deg.toml"
+            assert main(["run", str(scenario), "--mcap", str(tmp_path / "file_link.mcap")]) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and "another run is writing this file now" in err[0], err
+    finally:
+        if mounted / "run.mcap" in aliases:
+            subprocess.run(["umount", str(mounted)], check=True)
+    assert (real / "run.mcap").read_bytes() == b""  # the refused run wrote nothing

@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import contextlib
 import errno
-import fcntl
 import os
 import shutil
 import sys
@@ -19,6 +18,8 @@ import tempfile
 import time
 from collections.abc import Callable, Iterable
 from pathlib import Path
+
+from filelock import lock_descriptor
 
 from pneumatics.paths import is_special, path_problem
 from twin.errors import UserError
@@ -177,8 +178,12 @@ def keep_result(path: Path, write: Callable[[Path], object], what: str) -> Path:
 
 class OutputLock:
     """Exclusive locks on output places for the life of a run: a second run writing the same
-    file is refused at once (UserError). The lock is an flock on a hidden file beside the output
-    (`.NAME.lock`), so a killed run's lock dies with its process."""
+    file or folder is refused at once (UserError), whatever name it reaches it by. The lock is
+    taken on a hidden file beside the output's real place (`.NAME.lock` beside the path with every
+    symbolic link resolved), so a symbolic link to the file or to a folder above it, `..`, a
+    relative path and a bind mount of the folder all meet one lock file. It is locked with
+    filelock's primitive (flock on Unix, LockFileEx on Windows), so a killed run's lock dies with
+    its process, and removed when the run ends."""
 
     def __init__(self, paths: Iterable[Path | None]):
         self.paths = [Path(p) for p in paths if p is not None]
@@ -186,7 +191,8 @@ class OutputLock:
 
     @staticmethod
     def lock_path(path: Path) -> Path:
-        return path.parent / f".{path.name}.lock"
+        real = Path(path).resolve()  # the place itself, by whichever name it was given
+        return real.parent / f".{real.name}.lock"
 
     def __enter__(self) -> OutputLock:
         try:
@@ -203,14 +209,15 @@ class OutputLock:
         while True:
             fd = os.open(lock, os.O_RDWR | os.O_CREAT, 0o644)
             try:
-                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-            except OSError as e:
+                taken = lock_descriptor(fd, blocking=False)
+            except BaseException:
                 os.close(fd)
-                if e.errno in (errno.EWOULDBLOCK, errno.EAGAIN):
-                    raise UserError(
-                        f"{path}: another run is writing this file now; allowed: a file no other run is writing"
-                    ) from None
                 raise
+            if not taken:
+                os.close(fd)
+                raise UserError(
+                    f"{path}: another run is writing this file now; allowed: a file no other run is writing"
+                )
             try:
                 same = os.stat(lock).st_ino == os.fstat(fd).st_ino
             except FileNotFoundError:
@@ -224,7 +231,7 @@ class OutputLock:
 
     def release(self) -> None:
         for lock, fd in self._held:
-            with contextlib.suppress(OSError):
+            with contextlib.suppress(OSError):  # Windows keeps an open file: it stays, unlocked
                 os.unlink(lock)
             os.close(fd)
         self._held.clear()
