@@ -720,7 +720,7 @@ def test_a_result_whose_place_fails_after_the_work_is_saved_elsewhere(tmp_path, 
         return results
 
     monkeypatch.setattr(scenarios.sweep, "sweep", sweep)
-    assert main(["sweep", str(s), "--out", str(out)]) == 0
+    assert main(["sweep", str(s), "--out", str(out)]) == 2  # kept elsewhere: the place asked for failed
     captured = capsys.readouterr()
     saved = Path(captured.err.strip().split(" instead")[0].split("saved them to ")[1])
     assert saved.parent == tmp_path and json.loads(saved.read_text()) == results

@@ -13,6 +13,7 @@ import shutil
 import subprocess
 import sys
 import tempfile
+import warnings
 from pathlib import Path
 
 import pytest
@@ -277,3 +278,128 @@ def test_no_alias_lets_two_runs_write_one_file_or_folder(tmp_path, monkeypatch, 
         if mounted / "run.mcap" in aliases:
             subprocess.run(["umount", str(mounted)], check=True)
     assert (real / "run.mcap").read_bytes() == b""  # the refused run wrote nothing
+
+
+# --- a full disk at any output ------------------------------------------------------------------
+@pytest.fixture
+def small_disk(tmp_path):
+    """`fill(free_bytes)`: a real small file system (tmpfs, as root) filled to leave that much
+    free, its folder returned; skipped where one cannot be mounted."""
+    disk = tmp_path / "disk"
+    disk.mkdir()
+    mounted = (
+        hasattr(os, "geteuid")
+        and os.geteuid() == 0
+        and subprocess.run(
+            ["mount", "-t", "tmpfs", "-o", "size=4m", "tmpfs", str(disk)], capture_output=True
+        ).returncode
+        == 0
+    )
+    if not mounted:
+        pytest.skip("a small file system needs root to mount (tmpfs)")
+
+    def fill(free_bytes: int) -> Path:
+        with open(disk / ".filler", "wb") as f:
+            f.write(b"\0" * max(shutil.disk_usage(disk).free - free_bytes, 0))
+        return disk
+
+    try:
+        yield fill
+    finally:
+        subprocess.run(["umount", "-l", str(disk)], check=True)
+
+
+def errors_of(err: str) -> list[str]:
+    """What a command said on stderr besides its progress bars (tqdm's, rewritten in place)."""
+    lines = [line for line in err.replace("\r", "\n").splitlines() if line.strip() and "it/s]" not in line]
+    assert "Traceback" not in err and all(line.startswith("twin: ") for line in lines), err
+    return lines
+
+
+def test_a_full_disk_under_the_logs_names_each_damaged_one_and_never_calls_it_written(small_disk, capsys):
+    """Both logs of a run on a disk that fills during it: exit 2, the run's summary printed, and
+    each log either whole (rerun's footer, the MCAP's) or named as not written whole in one line
+    with the cause; it is kept. Before, the .rrd was reported written though it had no footer."""
+    from twin.mcap_log import read_mcap
+    from twin_cli.cli import main
+
+    disk = small_disk(96 * 1024)
+    rrd, mcap = disk / "run.rrd", disk / "run.mcap"
+    scenario = ROOT / "scenarios" / "wrist_closed_loop_60deg.toml"
+    assert main(["run", str(scenario), "--duration", "3", "--rrd", str(rrd), "--mcap", str(mcap)]) == 2
+    out, err = capsys.readouterr()
+    assert "wrist_closed_loop_60deg: PASSED" in out
+    failed = errors_of(err)
+    assert failed and all("No space left on device" in line for line in failed)
+    import rerun as rr
+
+    for path, label in ((rrd, "rerun recording"), (mcap, "MCAP log")):
+        assert path.exists()  # kept: what it holds is readable up to the cut
+        said_damaged = any(line.startswith(f"twin: error: {path}:") for line in failed)
+        assert (f"{label}: {path} NOT written whole" in out) == said_damaged
+        if not said_damaged:  # said to be written: it is whole
+            if path == rrd:
+                with warnings.catch_warnings():
+                    warnings.simplefilter("error")
+                    rr.chunk.RrdReader(rrd)
+            else:
+                assert read_mcap(mcap)[1]["recovery"]["complete"]
+    assert any(line.startswith(f"twin: error: {rrd}: damaged") for line in failed)
+
+
+def test_a_full_disk_under_a_table_or_a_picture_keeps_it_elsewhere_and_exits_2(
+    small_disk, tmp_path, monkeypatch, capsys
+):
+    """`twin sweep --out` and `twin plot --out` on a full disk: the result is saved in the working
+    folder instead, said in one line naming the place asked for and the cause, exit 2."""
+    from twin_cli.cli import main
+
+    scenario = ROOT / "scenarios" / "wrist_closed_loop_60deg.toml"
+    mcap = tmp_path / "run.mcap"
+    assert main(["run", str(scenario), "--duration", "0.5", "--mcap", str(mcap)]) == 1
+    disk = small_disk(0)
+    work = tmp_path / "work"
+    work.mkdir()
+    monkeypatch.chdir(work)
+    capsys.readouterr()
+    for argv, asked in (
+        (
+            ["sweep", str(scenario), "--duration", "0.3", "--workers", "1", "--out", str(disk / "s.json")],
+            disk / "s.json",
+        ),
+        (["plot", str(mcap), "--out", str(disk / "a.png")], disk / "a.png"),
+    ):
+        assert main(argv) == 2
+        said = errors_of(capsys.readouterr().err)
+        assert all(str(asked) in line or str(asked.with_suffix(".csv")) in line for line in said), said
+        assert all("No space left on device" in line for line in said)
+        kept = [Path(line.split("saved them to ")[1].split(" instead")[0]) for line in said]
+        assert kept and all(p.parent == work and p.stat().st_size > 0 for p in kept)
+    assert not [p for p in disk.iterdir() if p.name != ".filler"]  # nothing half-written left there
+
+
+def test_a_full_disk_under_a_replay_or_a_report_folder_names_the_file_and_keeps_the_rest(small_disk, tmp_path, capsys):
+    """`twin replay --rrd` says its recording is damaged; `twin gap diagnose --out` (and through the
+    same publish_folder, `twin paper`, `twin study`, `twin gap bench`) names the file it could not
+    write, removes it (cut short) and keeps the files written before it beside DIR; exit 2."""
+    from test_inputs import campaign
+
+    from twin_cli.cli import main
+
+    scenario = ROOT / "scenarios" / "wrist_closed_loop_60deg.toml"
+    mcap = tmp_path / "run.mcap"
+    assert main(["run", str(scenario), "--duration", "2", "--mcap", str(mcap)]) == 0
+    disk = small_disk(40 * 1024)
+    capsys.readouterr()
+    assert main(["replay", str(mcap), "--rrd", str(disk / "r.rrd")]) == 2
+    (line,) = errors_of(capsys.readouterr().err)
+    assert f"{disk / 'r.rrd'}: damaged" in line and "No space left on device" in line
+    (disk / "r.rrd").unlink()
+    assert main(["gap", "diagnose", str(campaign(tmp_path / "c")), "--out", str(disk / "diag"), "--jobs", "1"]) == 2
+    (line,) = errors_of(capsys.readouterr().err)
+    assert "could not be written (No space left on device)" in line, line
+    failed = Path(line.split("twin: error: ")[1].split(": could not")[0])
+    kept = Path(line.split(" are kept in ")[1])
+    assert failed.parent == disk / "diag" and not failed.exists()
+    assert (kept / "diagnosis.json").stat().st_size > 0 and not (kept / failed.name).exists()
+    json.loads((kept / "diagnosis.json").read_text())  # what is kept is whole

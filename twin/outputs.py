@@ -223,9 +223,10 @@ class OutputLock:
             except FileNotFoundError:
                 same = False
             if same:  # else the holder removed it between our open and our lock: take the new one
-                os.ftruncate(fd, 0)
-                os.write(fd, f"{os.getpid()}\n".encode())
                 self._held.append((lock, fd))
+                with contextlib.suppress(OSError):  # who holds it, for a person looking; a full disk leaves it empty
+                    os.ftruncate(fd, 0)
+                    os.write(fd, f"{os.getpid()}\n".encode())
                 return
             os.close(fd)
 
@@ -284,6 +285,10 @@ def publish_folder(
     staging.chmod(0o777 & ~_umask())  # a folder like any other once it is kept
     try:
         result = work(staging)
+    except OSError as e:  # the work could not write one of its files (a full disk, a quota, ...)
+        with shielded():
+            failure = _write_failed(e, staging, out, what)
+        raise failure from None
     except BaseException as e:
         if keep_on_stop and stop_behind(e) is not None and any(p.is_file() for p in staging.rglob("*")):
             with shielded():  # a second signal does not cut the move short
@@ -293,6 +298,36 @@ def publish_folder(
             shutil.rmtree(staging, ignore_errors=True)
         raise
     return result, _move_in(staging, out, what)
+
+
+def _write_failed(e: OSError, staging: Path, out: Path, what: str) -> UserError:
+    """The one-line error for a work that failed writing into `staging`: the file it was writing
+    (the error's own, else the last one written to: the work writes its files one after another)
+    is cut short, so it is removed; the files written before it are kept beside `out` under a
+    visible name, which the error says."""
+    files = sorted((p for p in staging.rglob("*") if p.is_file()), key=lambda p: p.stat().st_mtime_ns)
+    named = Path(e.filename) if e.filename else None
+    damaged = named if named is not None and named.is_relative_to(staging) else (files[-1] if files else None)
+    cause = e.strerror or str(e)
+    if damaged is None:  # it failed before any file was written
+        shutil.rmtree(staging, ignore_errors=True)
+        return UserError(f"{out}: could not write {what} ({cause}); nothing was written")
+    where = out / damaged.relative_to(staging)
+    with contextlib.suppress(OSError):
+        damaged.unlink()
+    kept = [p for p in files if p != damaged]
+    if not kept:
+        shutil.rmtree(staging, ignore_errors=True)
+        return UserError(f"{where}: could not be written ({cause}), the first of {what}; nothing else was written")
+    folder = staging.with_name(f"{out.name}-saved-{time.strftime('%Y%m%d-%H%M%S')}-{os.getpid()}")
+    try:
+        staging.rename(folder)
+    except OSError:
+        folder = staging
+    return UserError(
+        f"{where}: could not be written ({cause}), so it is not there (cut short, removed); "
+        f"{what} written before it ({len(kept)} files) are kept in {folder}"
+    )
 
 
 def _move_in(staging: Path, out: Path, what: str) -> Path:

@@ -137,7 +137,7 @@ def cmd_run(args) -> int:
         print_summary(summary)
     for label, path in (("rerun recording", args.rrd), ("MCAP log", args.mcap)):
         if path:
-            state = " NOT written (the error below)" if Path(path) in log_errors else ""
+            state = " NOT written whole (the error below)" if Path(path) in log_errors else ""
             print(f"{label}: {path}{state}", file=sys.stderr if args.json else sys.stdout)
     for e in log_errors.values():  # the summary above is the run's result; a log that failed is said after it
         print(f"twin: error: {e}", file=sys.stderr)
@@ -223,6 +223,8 @@ def cmd_sweep(args) -> int:
             json.dump(results, sys.stdout, indent=2)
             print()
             print(f"{len(results)} runs, {passed} passed{cut_note}", file=sys.stderr)
+    if args.out and (saved != args.out or rows != table):
+        return 2  # kept elsewhere, as said: the place asked for failed
     return 0 if passed == len(results) else 1
 
 
