@@ -37,6 +37,7 @@ from control.experiments import (
 from pneumatics.as_built import load_as_built_effects
 from scenarios.paper_report import write_plots, write_report
 from scenarios.paper_validation import KINDS, OPEN_S, PAPER, PRESSURES_MPA, rig_inertia, validation_run, wrist_models
+from twin.outputs import write_atomic
 from twin.plant import Plant
 
 P_ATM_PA = 101_325.0
@@ -243,21 +244,31 @@ def as_built_table() -> list[dict]:
     ]
 
 
+# the control experiments, in the order they run; each takes `quick`
+EXPERIMENTS = {
+    "random_supply": random_supply_run,
+    "minimum_rotation": minimum_rotation,
+    "closed_vs_open_loop": closed_against_open,
+    "error_vs_pressure": error_vs_pressure,
+}
+PARTIAL = "paper.partial.json"  # the experiments finished so far, while the others run
+
+
 def reproduce(out_dir: str | Path, quick: bool = False) -> Path:
     """Run every experiment, write paper.json, report.md and the plots; returns the report's path.
-    `quick` shortens the control experiments (fewer angles and supplies), not the validation."""
+    `quick` shortens the control experiments (fewer angles and supplies), not the validation.
+    After each experiment, PARTIAL holds every result so far (marked partial, with the experiments
+    not yet run): what a stopped reproduction keeps. It is removed once paper.json is written."""
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     validation, series = prediction_validation()
-    results = {
-        "as_built": as_built_table(),
-        "prediction_error": validation,
-        "random_supply": random_supply_run(quick),
-        "minimum_rotation": minimum_rotation(quick),
-        "closed_vs_open_loop": closed_against_open(quick),
-        "error_vs_pressure": error_vs_pressure(quick),
-        "quick": quick,
-    }
+    results = {"as_built": as_built_table(), "prediction_error": validation}
+    for name, experiment in EXPERIMENTS.items():
+        left = [n for n in EXPERIMENTS if n not in results]
+        write_atomic(out / PARTIAL, json.dumps({**results, "partial": True, "not_run": left}, indent=2, default=float))
+        results[name] = experiment(quick)
+    results["quick"] = quick
     (out / "paper.json").write_text(json.dumps({**results, "validation_series": series}, indent=2, default=float))
+    (out / PARTIAL).unlink()
     write_plots(results, series, out)
     return write_report(results, out)

@@ -9,10 +9,13 @@ from __future__ import annotations
 import json
 import logging
 import os
+import re
 import shutil
+import signal
 import subprocess
 import sys
 import tempfile
+import time
 import warnings
 from pathlib import Path
 
@@ -403,3 +406,69 @@ def test_a_full_disk_under_a_replay_or_a_report_folder_names_the_file_and_keeps_
     assert failed.parent == disk / "diag" and not failed.exists()
     assert (kept / "diagnosis.json").stat().st_size > 0 and not (kept / failed.name).exists()
     json.loads((kept / "diagnosis.json").read_text())  # what is kept is whole
+
+
+# --- a stopped sweep keeps its finished runs ------------------------------------------------------
+def test_sigterm_to_a_sweep_keeps_the_runs_it_finished_as_a_partial_table(tmp_path):
+    """`twin sweep --out` sent SIGTERM after its first runs: exit 143, and what it says is where
+    they are: NAME.partial.json and NAME.partial.csv (a column partial) beside --out, holding every
+    run that finished; no NAME.json, which would pass for the whole sweep. Before, nothing was kept
+    and it said "the logs written so far are kept"."""
+    import csv
+
+    scenario = ROOT / "scenarios" / "wrist_closed_loop_60deg.toml"
+    out = tmp_path / "s.json"
+    argv = ["sweep", str(scenario), "--monte-carlo", "8", "--workers", "1", "--out", str(out)]
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "twin_cli.cli", *argv], env=env, cwd=tmp_path, stderr=subprocess.PIPE, text=True
+    )
+    seen = ""
+    try:
+        while not re.search(r"\| [2-7]/8", seen):  # tqdm's bar: two runs or more finished
+            char = proc.stderr.read(1)
+            assert char, seen
+            seen += char
+        proc.send_signal(signal.SIGTERM)
+        rest = proc.communicate(timeout=120)[1]
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    said = [line for line in (seen + rest).replace("\r", "\n").splitlines() if line.startswith("twin:")]
+    assert proc.returncode == 143 and "Traceback" not in rest, rest
+    partial, table = tmp_path / "s.partial.json", tmp_path / "s.partial.csv"
+    kept = json.loads(partial.read_text())
+    assert said[0] == (
+        f"twin: stopped; the {len(kept)} of 8 runs that finished are in {partial} and, one row per run "
+        f"(column partial), {table} (partial: the sweep did not end)"
+    )
+    assert said[1] == "twin: terminated (SIGTERM)" and len(said) == 2
+    rows = list(csv.DictReader(table.open()))
+    assert 2 <= len(kept) == len(rows) < 8 and all(r["partial"] == "True" for r in rows)
+    assert [r["seed"] for r in rows] == [str(k["seed"]) for k in kept]
+    assert not out.exists() and not (tmp_path / "s.csv").exists()
+
+
+def test_sigterm_to_paper_keeps_the_experiments_it_finished_marked_partial(tmp_path):
+    """`twin paper` sent SIGTERM once its validation is done: exit 143, DIR/paper.partial.json holds
+    the validation and names the experiments not run, and the stop says where. Before, the
+    staging folder was removed and nothing was kept."""
+    out = tmp_path / "paper"
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    command = [sys.executable, "-m", "twin_cli.cli", "paper", "--quick", "--out", str(out)]
+    proc = subprocess.Popen(command, cwd=tmp_path, env=env, stderr=subprocess.PIPE, stdout=subprocess.DEVNULL)
+    try:
+        deadline = time.monotonic() + 120
+        while not list(tmp_path.glob(".paper.partial-*/paper.partial.json")) and proc.poll() is None:
+            assert time.monotonic() < deadline, "the validation did not finish"
+            time.sleep(0.05)
+        proc.send_signal(signal.SIGTERM)
+        err = proc.communicate(timeout=120)[1].decode()
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    assert proc.returncode == 143 and "Traceback" not in err, err
+    assert f"(paper.partial.json, partial) finished so far are in {out}" in err
+    kept = json.loads((out / "paper.partial.json").read_text())
+    assert kept["partial"] is True and kept["prediction_error"] and kept["not_run"][-1] == "error_vs_pressure"
+    assert not (out / "paper.json").exists()

@@ -70,10 +70,12 @@ def main(argv: list[str] | None = None) -> int:
         stop = stop_behind(e)  # also a stop that compiled code turned into a SystemError
         if stop is None:
             raise
+        # what a stopped command kept, where it keeps something it does not say itself (its logs)
+        kept = f"; {args.kept_on_stop}" if getattr(args, "kept_on_stop", "") else ""
         if isinstance(stop, Terminated):
-            print("twin: terminated (SIGTERM); the logs written so far are kept", file=sys.stderr)
+            print(f"twin: terminated (SIGTERM){kept}", file=sys.stderr)
             return 128 + signal.SIGTERM
-        print("twin: interrupted; the logs written so far are kept", file=sys.stderr)
+        print(f"twin: interrupted{kept}", file=sys.stderr)
         return 130
 
 

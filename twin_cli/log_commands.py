@@ -29,7 +29,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         type=Path,
         help="MJCF the run used (default: the shipped model its scenario names, or whose bodies match)",
     )
-    p.set_defaults(func=cmd_replay)
+    p.set_defaults(func=cmd_replay, kept_on_stop="the recording written so far is kept")
 
 
 def check_rrd(path: Path) -> None:
