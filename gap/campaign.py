@@ -29,9 +29,9 @@ what is wrong (GapError).
 
 from __future__ import annotations
 
+import codecs
 import csv
 import functools
-import io
 import math
 import re
 from dataclasses import dataclass, field
@@ -62,6 +62,7 @@ MAX_TIME_STEP_S = 1.0
 # The replay integrates at 1 ms and the effect search replays each run thousands of times; the
 # paper's longest run is 30 s. Longer runs are refused rather than left to run for hours (assumed).
 MAX_RUN_DURATION_S = 600.0
+CHUNK_ROWS = 65_536  # a run file's rows converted and checked at a time (a few MB of text; 1 min at 1 kHz)
 # A run filed under supply_mpa must have had that supply: a regulator holds it within a few kPa;
 # beyond this the run belongs to another pressure (assumed, 1/6 of the paper's 0.5-0.8 MPa steps).
 SUPPLY_TOLERANCE_MPA = 0.05
@@ -212,15 +213,24 @@ def _check_run(run: Run, where: str, joint: str) -> None:
             f"allowed: {lo - ANGLE_MARGIN_DEG:.1f}..{hi + ANGLE_MARGIN_DEG:.1f} deg "
             f"(assets/arm.xml range +- {ANGLE_MARGIN_DEG:g} deg)"
         )
-    steps = np.diff(run.time_s)
-    if steps.size and steps.max() > MAX_TIME_STEP_S:
-        k = int(np.argmax(steps))
-        raise GapError(
-            f"{run.path}: time_s jumps from {run.time_s[k]:g} to {run.time_s[k + 1]:g} s (relative to the first row); "
-            f"allowed: steps of at most {MAX_TIME_STEP_S:g} s"
-        )
+    jump = _first_jump(run.time_s)
+    if jump is not None:
+        raise _jump_error(str(run.path), run.time_s, jump)
     if run.time_s[-1] > MAX_RUN_DURATION_S:
         raise GapError(f"{run.path}: lasts {run.time_s[-1]:g} s; allowed: at most {MAX_RUN_DURATION_S:g} s a run")
+
+
+def _first_jump(t_rel: np.ndarray) -> int | None:
+    """The first row after which time steps by more than MAX_TIME_STEP_S (a hole), or None."""
+    over = np.flatnonzero(np.diff(t_rel) > MAX_TIME_STEP_S)
+    return int(over[0]) if over.size else None
+
+
+def _jump_error(where: str, t_rel: np.ndarray, k: int) -> GapError:
+    return GapError(
+        f"{where}: time_s jumps from {t_rel[k]:g} to {t_rel[k + 1]:g} s (relative to the first row); "
+        f"allowed: steps of at most {MAX_TIME_STEP_S:g} s"
+    )
 
 
 def _toml_line(text: str, needle: str, occurrence: int = 0) -> int:
@@ -350,42 +360,98 @@ def read_run_file(path: Path, supply_mpa: float, start_rad: float, where: str = 
     return _read_csv_run(path, supply_mpa, start_rad, joint)
 
 
-def _csv_text(path: Path) -> str:
-    """The run file's text: UTF-8, a byte-order mark at its start allowed (a spreadsheet's export)."""
-    data = path.read_bytes()
-    try:
-        return data.decode("utf-8-sig")
-    except UnicodeDecodeError as e:
-        line = data.count(b"\n", 0, e.start) + 1
-        raise GapError(
-            f"{path}:{line}: byte 0x{data[e.start]:02x} is not UTF-8 text ({e.reason}); allowed: a UTF-8 (or ASCII) CSV"
-        ) from None
+def _not_utf8(path: Path) -> GapError:
+    """Where the run file stops being UTF-8 text: its line and byte, found by decoding it again in
+    pieces (it is never held whole)."""
+    decoder = codecs.getincrementaldecoder("utf-8-sig")()
+    line = 1
+    with open(path, "rb") as f:
+        while piece := f.read(1 << 16):
+            try:
+                decoder.decode(piece)
+            except UnicodeDecodeError as e:  # e.object: the few bytes held back from before, then piece
+                line += e.object.count(b"\n", 0, e.start)
+                return GapError(
+                    f"{path}:{line}: byte 0x{e.object[e.start]:02x} is not UTF-8 text ({e.reason}); "
+                    "allowed: a UTF-8 (or ASCII) CSV"
+                )
+            line += piece.count(b"\n")
+    return GapError(f"{path}: not UTF-8 text; allowed: a UTF-8 (or ASCII) CSV")
 
 
-def _read_csv_rows(path: Path) -> tuple[list[str], dict[str, tuple[str, ...]], list[int], str]:
-    """The header, each column's texts up to the first row with a wrong number of fields, the rows'
-    line numbers, and that row's refusal ("" if none). Blank lines are skipped, their lines counted."""
-    reader = csv.reader(io.StringIO(_csv_text(path), newline=""))
-    try:
-        header = next(reader, None)
-        if header is None:
-            raise GapError(f"{path}:1: empty run file; expected a header with {', '.join(REQUIRED_COLUMNS)}")
-        header = [h.strip() for h in header]
-        _check_header(path, header)
-        rows, lines, cut = [], [], ""
-        for row in reader:
-            if row and len(row) != len(header):
-                cut = f"{path}:{reader.line_num}: {len(row)} fields, the header has {len(header)}"
-                break
-            if row:
-                rows.append(row)
-                lines.append(reader.line_num)
-    except csv.Error as e:  # e.g. a field over the csv module's limit (131072 characters), a NUL
-        raise GapError(
-            f"{path}:{reader.line_num}: not readable as CSV ({e}); allowed: comma-separated numbers, one row a line"
-        ) from None
+def _read_csv_columns(path: Path) -> dict[str, np.ndarray]:
+    """The run file's columns by name, read as a stream: CHUNK_ROWS rows at a time are converted to
+    numbers and checked, and the file is refused (GapError) at the first chunk that holds a refused
+    row (its earliest, as a row-by-row reader would find it: the earliest row, and in it the first
+    column, then the checks in order) or that ends past MAX_RUN_DURATION_S, so a file far too long
+    costs its first 600 s to refuse, not its whole length. Blank lines are skipped, their lines
+    counted; a row with a wrong number of fields ends the reading (refused once the rows before it
+    are checked). UTF-8 text, a byte-order mark at its start allowed (a spreadsheet's export)."""
+    chunks: list[dict[str, np.ndarray]] = []
+    rows, lines, cut = [], [], ""
+    with open(path, encoding="utf-8-sig", newline="") as f:
+        reader = csv.reader(f)
+        try:
+            header = next(reader, None)
+            if header is None:
+                raise GapError(f"{path}:1: empty run file; expected a header with {', '.join(REQUIRED_COLUMNS)}")
+            header = [h.strip() for h in header]
+            _check_header(path, header)
+            for row in reader:
+                if row and len(row) != len(header):
+                    cut = f"{path}:{reader.line_num}: {len(row)} fields, the header has {len(header)}"
+                    break
+                if row:
+                    rows.append(row)
+                    lines.append(reader.line_num)
+                if len(rows) == CHUNK_ROWS:
+                    chunks.append(_checked_chunk(path, header, rows, lines, chunks))
+                    rows, lines = [], []
+        except csv.Error as e:  # e.g. a field over the csv module's limit (131072 characters), a NUL
+            raise GapError(
+                f"{path}:{reader.line_num}: not readable as CSV ({e}); allowed: comma-separated numbers, one row a line"
+            ) from None
+        except UnicodeDecodeError:
+            raise _not_utf8(path) from None
+    if rows or not chunks:
+        chunks.append(_checked_chunk(path, header, rows, lines, chunks))
+    if cut:
+        raise GapError(cut)
+    return {h: np.concatenate([c[h] for c in chunks]) for h in header}
+
+
+def _checked_chunk(
+    path: Path, header: list[str], rows: list[list[str]], lines: list[int], before: list[dict[str, np.ndarray]]
+) -> dict[str, np.ndarray]:
+    """One chunk of rows as columns of numbers; GapError at its first refused row, or where it runs
+    past MAX_RUN_DURATION_S from the file's first row (`before`: the chunks already read)."""
     columns = dict(zip(header, zip(*rows, strict=True), strict=True)) if rows else dict.fromkeys(header, ())
-    return header, columns, lines, cut
+    a, refusals = {}, []
+    for order, h in enumerate(header):
+        a[h], found = _column(h, columns[h])
+        refusals += [(k, order, m) for k, m in found]
+    t = a["time_s"]
+    if before and t.size and not t[0] > before[-1]["time_s"][-1]:  # the row check below sees this chunk only
+        previous = before[-1]["time_s"][-1]
+        message = f"time_s = {t[0]:g} does not increase (previous {previous:g}); allowed: time strictly increasing"
+        refusals.append((0, len(header), message))
+    refusals += [(k, len(header) + order, m) for order, (k, m) in enumerate(_row_checks(a))]
+    if refusals:
+        k, _, message = min(refusals)
+        raise GapError(f"{path}:{lines[k]}: {message}")
+    first = before[0]["time_s"][0] if before else (t[0] if t.size else 0.0)
+    t_rel = np.r_[before[-1]["time_s"][-1] if before else first, t] - first  # with the row before the chunk
+    jump = _first_jump(t_rel)
+    if jump is not None:
+        raise _jump_error(str(path), t_rel, jump)
+    over = np.flatnonzero(t - first > MAX_RUN_DURATION_S)
+    if over.size:
+        k = int(over[0])
+        raise GapError(
+            f"{path}:{lines[k]}: time_s = {t[k]:g} is {t[k] - first:g} s after the first row; "
+            f"allowed: runs of at most {MAX_RUN_DURATION_S:g} s (the file is refused here, not read on)"
+        )
+    return a
 
 
 def _check_header(path: Path, header: list[str]) -> None:
@@ -468,23 +534,6 @@ def _row_checks(a: dict[str, np.ndarray]) -> list[tuple[int, str]]:
                 lambda k, h=h, p=p: f"{h} = {p[k]:g}; allowed: absolute Pa above 0 and below {MAX_ABS_PRESSURE_PA:g}",
             )
     return found
-
-
-def _read_csv_columns(path: Path) -> dict[str, np.ndarray]:
-    """The run file's columns by name; GapError at the first refused row (as a row-by-row reader
-    would find it: the earliest row, and in it the first column, then the checks in order)."""
-    header, columns, lines, cut = _read_csv_rows(path)
-    a, refusals = {}, []
-    for order, h in enumerate(header):
-        a[h], found = _column(h, columns[h])
-        refusals += [(k, order, m) for k, m in found]
-    refusals += [(k, len(header) + order, m) for order, (k, m) in enumerate(_row_checks(a))]
-    if refusals:
-        k, _, message = min(refusals)
-        raise GapError(f"{path}:{lines[k]}: {message}")
-    if cut:
-        raise GapError(cut)
-    return a
 
 
 def _read_csv_run(path: Path, supply_mpa: float, start_rad: float, joint: str) -> Run:
