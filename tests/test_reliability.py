@@ -492,8 +492,7 @@ def test_a_run_file_is_read_as_a_stream_and_refused_where_it_passes_600_s(tmp_pa
 def test_a_long_run_is_fitted_on_its_first_window_and_the_report_says_so(tmp_path):
     """Runs longer than FIT_WINDOW_S keep their first FIT_WINDOW_S seconds for the fit (each
     whole from its start, the state campaign.toml declares) and remember their length; the
-    report's words say how many and how long. 16 runs of 600 s at 1 kHz rows: loaded in 4 s and
-    diagnosed in 48 s, 0.6 GB, on 2 busy cores (README, "Reliability")."""
+    report's words say how many and how long (the cost: benchmarks/bench_long_runs.py)."""
     from test_inputs import campaign
 
     from gap.campaign import FIT_WINDOW_S, load_campaign
