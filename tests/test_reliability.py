@@ -418,7 +418,7 @@ def test_sigterm_to_a_sweep_keeps_the_runs_it_finished_as_a_partial_table(tmp_pa
 
     scenario = ROOT / "scenarios" / "wrist_closed_loop_60deg.toml"
     out = tmp_path / "s.json"
-    argv = ["sweep", str(scenario), "--monte-carlo", "8", "--workers", "1", "--out", str(out)]
+    argv = ["sweep", str(scenario), "--monte-carlo", "8", "--workers", "1", "--duration", "4", "--out", str(out)]
     env = dict(os.environ, PYTHONPATH=str(ROOT))
     proc = subprocess.Popen(
         [sys.executable, "-m", "twin_cli.cli", *argv], env=env, cwd=tmp_path, stderr=subprocess.PIPE, text=True
