@@ -13,21 +13,28 @@ from benchmarks.bench_sweep import bench_sweep
 from benchmarks.bench_twin import bench_twin
 
 
-def run_all(quick: bool = False) -> dict:
+def run_all(quick: bool = False, finished: dict | None = None) -> dict:
+    """Every benchmark's figures by name; `finished`, if given, is filled as each one ends (what a
+    `twin bench` stopped by Ctrl-C or SIGTERM prints)."""
+    finished = {} if finished is None else finished
     if quick:
-        return {
-            "twin": bench_twin(seconds=1.0, rounds=1),
-            "plant": bench_plant(seconds=0.3, rounds=1),
-            "control": bench_control(n_ticks=300, rounds=1),
-            "logging": bench_logging(seconds=1.0, rounds=1),
-            "sweep": bench_sweep(points=2, duration_s=0.5, repeats=1),
-            "gap": bench_gap(jobs=2, rounds=1),
+        benches = {
+            "twin": lambda: bench_twin(seconds=1.0, rounds=1),
+            "plant": lambda: bench_plant(seconds=0.3, rounds=1),
+            "control": lambda: bench_control(n_ticks=300, rounds=1),
+            "logging": lambda: bench_logging(seconds=1.0, rounds=1),
+            "sweep": lambda: bench_sweep(points=2, duration_s=0.5, repeats=1),
+            "gap": lambda: bench_gap(jobs=2, rounds=1),
         }
-    return {
-        "twin": bench_twin(),
-        "plant": bench_plant(),
-        "control": bench_control(),
-        "logging": bench_logging(),
-        "sweep": bench_sweep(),
-        "gap": bench_gap(),
-    }
+    else:
+        benches = {
+            "twin": bench_twin,
+            "plant": bench_plant,
+            "control": bench_control,
+            "logging": bench_logging,
+            "sweep": bench_sweep,
+            "gap": bench_gap,
+        }
+    for name, bench in benches.items():
+        finished[name] = bench()
+    return finished

@@ -49,10 +49,10 @@ from gap.campaign import (
     MAX_TIME_STEP_S,
     GapError,
     _column,
-    _csv_text,
     _first,
     _inside,
     _toml_line,
+    csv_text,
     joint_ranges_rad,
 )
 from pneumatics.fields import FLAG, MISSING, REAL, TABLE, TEXT, choice, first_problem, number, read_toml
@@ -274,7 +274,7 @@ def _check_header(path: Path, header: list[str]) -> None:
 
 def _rows(path: Path) -> tuple[list[str], dict[str, tuple[str, ...]], list[int]]:
     """The header and each column's texts, with the rows' line numbers (blank lines skipped)."""
-    reader = csv.reader(io.StringIO(_csv_text(path), newline=""))
+    reader = csv.reader(io.StringIO(csv_text(path), newline=""))
     try:
         header = [h.strip() for h in next(reader, [])]
         if not header:

@@ -804,6 +804,7 @@ def result_of(
         campaign=str(campaign.folder),
         joint=campaign.joint,
         runs=[r.name for r in campaign.runs],
+        windowed={r.name: r.recorded_s for r in campaign.runs if r.recorded_s is not None},
         twin=TwinFacts(twin.params.hose_loss, twin.inertia),
         folds="leave one supply pressure out" if len(supplies(campaign)) > 1 else "alternating split",
         instrument=instrument.describe(campaign.instrument, twin.nuisance, latency_s, campaign.runs),

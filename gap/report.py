@@ -10,6 +10,7 @@ from pathlib import Path
 import numpy as np
 from matplotlib.figure import Figure
 
+from gap.campaign import FIT_WINDOW_S
 from gap.diagnose import SPREAD_START_DEG
 from gap.effects import FAMILY_VARIATIONS, IN_TWIN_VARIATIONS, NOT_IN_CATALOGUE
 from gap.instrument import InstrumentFacts
@@ -150,6 +151,7 @@ def _header(diag: Diagnosis) -> list[str]:
         f"# Sim-to-real gap diagnosis: {diag.campaign}",
         "",
         f"Joint `{diag.joint}`, {len(diag.runs)} runs, validation: {diag.folds}.",
+        *([window_line(diag.windowed)] if diag.windowed else []),
         _instrument_line(diag.instrument),
         f"Nominal twin residual {diag.before_rms_deg:.2f} deg rms (95% CI {lo:.2f}..{hi:.2f}); "
         f"noise floor {nf.floor_deg:.2f} deg (measurement noise {nf.measurement_deg:.3f} deg, "
@@ -162,6 +164,15 @@ def _header(diag: Diagnosis) -> list[str]:
         f"## Verdict: **{diag.which.verdict}**",
         "",
     ]
+
+
+def window_line(windowed: dict[str, float]) -> str:
+    """How runs longer than the fit's window were fitted (gap.campaign.FIT_WINDOW_S)."""
+    longest = max(windowed.values())
+    return (
+        f"{len(windowed)} runs are longer than {FIT_WINDOW_S:g} s (up to {longest:.0f} s recorded): each was fitted "
+        f"on its first {FIT_WINDOW_S:g} s, from the start campaign.toml declares; the rest of them was not replayed."
+    )
 
 
 def _nearest(nb) -> str:

@@ -140,6 +140,7 @@ class Diagnosis:
     how_far: dict[str, dict[str, PressureError]]
     replays: int
     timing_s: Timing
+    windowed: dict[str, float]  # run -> its recorded length, for runs fitted on their first FIT_WINDOW_S only
     residuals: Residuals = field(metadata=PRIVATE, repr=False)
     out: Path | None = field(default=None, metadata=PRIVATE)  # where the report was written
 

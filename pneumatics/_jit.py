@@ -11,14 +11,23 @@ named after a hash of its own source and of every module it imports from a packa
 compiles code, followed down through their imports (`_cache_key`): an edit to any of them starts
 a fresh cache for that module. Each module's own imports say what it depends on; this file names
 no package but its own.
+
+Where the cache goes: NUMBA_CACHE_DIR if set, else the user's cache folder (XDG_CACHE_HOME or
+~/.cache, then pneumatic-arm-twin). A user whose home cannot be written (a container user with
+HOME=/nonexistent, a read-only install run by someone else) gets a private folder of their own in
+the system's temporary folder instead, and if that cannot be made either, the laws are compiled in
+memory for this process only (a few seconds more at each start); either is said once on stderr.
 """
 
 from __future__ import annotations
 
 import hashlib
+import logging
 import os
 import re
+import stat
 import sys
+import tempfile
 from pathlib import Path
 
 NO_JIT = os.environ.get("TWIN_NO_JIT") == "1"
@@ -73,6 +82,66 @@ def _cache_key(module_name: str) -> str:
     return _cache_keys[module_name]
 
 
+IN_MEMORY = "in-memory"  # TWIN_JIT_CACHE's value once a process found no folder to cache in
+
+
+def _writable(folder: Path) -> bool:
+    """Can this process make `folder` and write a file in it? (As numba itself checks.)"""
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+        tempfile.TemporaryFile(dir=folder).close()
+        return True
+    except OSError:
+        return False
+
+
+def _private(folder: Path) -> bool:
+    """Is `folder` (made here if missing) this user's own, which no one else can write? Numba loads
+    pickled code from its cache: a folder in the shared temporary folder that someone else made or
+    can write would let them run code as this user."""
+    try:
+        folder.mkdir(mode=0o700, exist_ok=True)
+        st = folder.lstat()
+    except OSError:
+        return False
+    mine = not hasattr(os, "getuid") or st.st_uid == os.getuid()
+    return stat.S_ISDIR(st.st_mode) and mine and not st.st_mode & 0o022 and _writable(folder)
+
+
+def _user_cache() -> Path | None:
+    """The user's cache folder for the package (XDG_CACHE_HOME or ~/.cache), or None if there is
+    no home to find it in."""
+    xdg = os.environ.get("XDG_CACHE_HOME", "")
+    if os.path.isabs(xdg):  # the XDG spec: a relative value is ignored
+        return Path(xdg) / "pneumatic-arm-twin"
+    try:
+        return Path.home() / ".cache" / "pneumatic-arm-twin"
+    except (RuntimeError, KeyError):  # no HOME and no entry in the password database
+        return None
+
+
+def cache_root() -> str | None:
+    """The folder numba caches compiled laws in (module docstring), or None: compile in memory.
+    A fallback is said once on stderr; processes this one starts inherit the choice through the
+    environment (NUMBA_CACHE_DIR, TWIN_JIT_CACHE) and say nothing."""
+    if os.environ.get("TWIN_JIT_CACHE") == IN_MEMORY:
+        return None
+    chosen = os.environ.get("NUMBA_CACHE_DIR")
+    wanted = Path(chosen) if chosen else _user_cache()
+    if wanted is not None and _writable(wanted):
+        return str(wanted)
+    user = os.getuid() if hasattr(os, "getuid") else "user"  # Windows: the temporary folder is per user
+    private = Path(tempfile.gettempdir()) / f"pneumatic-arm-twin-{user}"
+    said = f"cannot write the compiled-code cache in {wanted or 'a home folder (none is set)'}"
+    log = logging.getLogger(__name__)
+    if _private(private):
+        log.warning("twin: %s; caching it in %s instead", said, private)
+        return str(private)
+    log.warning("twin: %s, nor in %s; compiling in memory (each start takes a few seconds more)", said, private)
+    os.environ["TWIN_JIT_CACHE"] = IN_MEMORY
+    return None
+
+
 if NO_JIT:
 
     def njit(fn=None, **_kwargs):
@@ -87,10 +156,9 @@ if NO_JIT:
         return array
 
 else:
-    _CACHE_ROOT = os.environ.get("NUMBA_CACHE_DIR") or str(
-        Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache")) / "pneumatic-arm-twin"
-    )
-    os.environ["NUMBA_CACHE_DIR"] = _CACHE_ROOT  # numba caches only with a folder configured
+    _CACHE_ROOT = cache_root()
+    if _CACHE_ROOT is not None:
+        os.environ["NUMBA_CACHE_DIR"] = _CACHE_ROOT  # numba caches only with a folder configured
     import numba
     from numba import types
     from numba.core import cgutils
@@ -100,6 +168,8 @@ else:
         # numba reads its cache folder when the function is decorated: point it at the module's own
         module = fn.__module__
         _compiling_packages.add(module.partition(".")[0])
+        if options.get("cache") and _CACHE_ROOT is None:
+            options = {**options, "cache": False}  # no folder to cache in: compiled in memory
         if options.get("cache"):
             numba.config.CACHE_DIR = os.path.join(_CACHE_ROOT, _cache_key(module))
         return numba.njit(**options)(fn)

@@ -27,6 +27,10 @@ MISSING = "<missing>"  # the value of a field the file does not give
 TABLE = ConfigDict(extra="forbid")  # every table refuses keys it does not know
 
 
+class ParameterError(ValueError):
+    """A parameter file is missing, malformed, or holds a value outside its allowed range."""
+
+
 class Allowed(NamedTuple):
     """What a field allows, in words (kept in the field's Annotated metadata)."""
 
@@ -188,7 +192,7 @@ def read_toml(path: Path, error: type[Exception], what: str) -> tuple[dict, str]
     missing, unreadable or not TOML."""
     problem = input_problem(path)
     if problem:
-        raise error(f"{path}: {problem}; allowed: a {what} on disk")
+        raise error(f"{path}: {problem}; allowed: a readable {what} on disk")
     try:
         text = path.read_text(encoding="utf-8-sig")  # a byte-order mark at the start allowed (an editor's)
     except FileNotFoundError:

@@ -22,17 +22,23 @@ import numpy as np
 from pydantic import BaseModel, Field, ValidationError, create_model
 from pydantic_core import PydanticCustomError
 
-from pneumatics.fields import MISSING, TABLE, TEXT, Problem, first_problem, number, number_check, read_toml
+from pneumatics.fields import (
+    MISSING,
+    TABLE,
+    TEXT,
+    ParameterError,
+    Problem,
+    first_problem,
+    number,
+    number_check,
+    read_toml,
+)
 from pneumatics.gas import AIR, Gas
 from pneumatics.heat import vane_cell
 from pneumatics.hose import hose_constants
 from pneumatics.motor import half_pitch_volume
 from pneumatics.orifice import choked_flux
 from pneumatics.valves import lag_factors
-
-
-class ParameterError(ValueError):
-    """A parameter file is missing, malformed, or holds a value outside its allowed range."""
 
 
 class JointParams(NamedTuple):

@@ -45,6 +45,14 @@ def is_special(path: Path) -> bool:
 
 
 def input_problem(path: Path) -> str | None:
-    """Why `path` cannot be read as an input file (`path_problem`, or something there that is not a
-    regular file: a pipe, a device, a socket), or None: it may still be missing or a folder."""
-    return path_problem(path) or (NOT_REGULAR if is_special(path) else None)
+    """Why `path` cannot be read as an input file (`path_problem`, something there that is not a
+    regular file: a pipe, a device, a socket, or a file this user may not read), or None: it may
+    still be missing or a folder."""
+    problem = path_problem(path) or (NOT_REGULAR if is_special(path) else None)
+    if problem or not Path(path).is_file():
+        return problem
+    try:
+        open(path, "rb").close()  # what the permissions (and root's capabilities) allow, as the reader will meet it
+    except OSError as e:
+        return f"cannot be read ({e.strerror})"
+    return None

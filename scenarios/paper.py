@@ -39,6 +39,7 @@ from control.experiments import (
 from pneumatics.as_built import load_as_built_effects
 from scenarios.paper_report import write_plots, write_report
 from scenarios.paper_validation import KINDS, OPEN_S, PAPER, PRESSURES_MPA, rig_inertia, validation_run, wrist_models
+from twin.outputs import write_atomic
 from twin.plant import Plant
 
 P_ATM_PA = 101_325.0
@@ -246,36 +247,43 @@ def as_built_table() -> list[dict]:
     ]
 
 
+# the control experiments, in the order they run; each takes `quick`
+EXPERIMENTS = {
+    "random_supply": random_supply_run,
+    "minimum_rotation": minimum_rotation,
+    "closed_vs_open_loop": closed_against_open,
+    "error_vs_pressure": error_vs_pressure,
+}
+PARTIAL = "paper.partial.json"  # the experiments finished so far, while the others run
+
+
 def reproduce(out_dir: str | Path, quick: bool = False, progress: bool = False) -> Path:
     """Run every experiment, write paper.json, report.md and the plots; returns the report's path.
     `quick` shortens the control experiments (fewer angles and supplies), not the validation;
-    `progress` shows a bar of the experiments on stderr."""
+    `progress` shows a bar of the experiments on stderr. After each experiment, PARTIAL holds every
+    result so far (marked partial, with the experiments not yet run): what a stopped reproduction
+    keeps. It is removed once paper.json is written."""
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    stages = {
-        "prediction_error": prediction_validation,
-        "as_built": as_built_table,
-        "random_supply": lambda: random_supply_run(quick),
-        "minimum_rotation": lambda: minimum_rotation(quick),
-        "closed_vs_open_loop": lambda: closed_against_open(quick),
-        "error_vs_pressure": lambda: error_vs_pressure(quick),
-    }
-    done = {}
-    with tqdm(total=len(stages), desc="paper", unit="experiment", file=sys.stderr, disable=not progress) as bar:
-        for name, stage in stages.items():
+    with tqdm(
+        total=2 + len(EXPERIMENTS), desc="paper", unit="experiment", file=sys.stderr, disable=not progress
+    ) as bar:
+        bar.set_postfix_str("prediction error")
+        validation, series = prediction_validation()
+        bar.update()
+        bar.set_postfix_str("as built")
+        results = {"as_built": as_built_table(), "prediction_error": validation}
+        bar.update()
+        for name, experiment in EXPERIMENTS.items():
+            left = [n for n in EXPERIMENTS if n not in results]
+            write_atomic(
+                out / PARTIAL, json.dumps({**results, "partial": True, "not_run": left}, indent=2, default=float)
+            )
             bar.set_postfix_str(name.replace("_", " "))
-            done[name] = stage()
+            results[name] = experiment(quick)
             bar.update()
-    validation, series = done["prediction_error"]
-    results = {
-        "as_built": done["as_built"],
-        "prediction_error": validation,
-        "random_supply": done["random_supply"],
-        "minimum_rotation": done["minimum_rotation"],
-        "closed_vs_open_loop": done["closed_vs_open_loop"],
-        "error_vs_pressure": done["error_vs_pressure"],
-        "quick": quick,
-    }
+    results["quick"] = quick
     (out / "paper.json").write_text(json.dumps({**results, "validation_series": series}, indent=2, default=float))
+    (out / PARTIAL).unlink()
     write_plots(results, series, out)
     return write_report(results, out)

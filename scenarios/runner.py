@@ -95,7 +95,14 @@ class Result:
 
     @property
     def passed(self) -> bool:
-        return not self.error and all(v.passed for v in self.verdicts if v.judged)
+        """No error, and every criterion judged held; a run cut short before it could judge any of
+        its criteria has not passed (nothing was shown to hold)."""
+        judged = [v for v in self.verdicts if v.judged]
+        return not self.error and (bool(judged) or not self.verdicts) and all(v.passed for v in judged)
+
+    def not_judged(self) -> list[str]:
+        """The criteria a run cut short did not reach, as 'kind[subject]' (the sweep table's names)."""
+        return [f"{v.kind}[{v.subject}]" for v in self.verdicts if not v.judged]
 
     def _final_target(self, joint: str, logged: float) -> float:
         """The target in force for `joint` at the end: the controller's own set point as the last
@@ -140,6 +147,7 @@ class Result:
             "joints": joints,
             "criteria": as_dicts(self.verdicts),
             "not_reached": self._not_reached(),
+            "not_judged": self.not_judged(),
             "finished_s": None if not math.isfinite(self.finished_s) else round(self.finished_s, 3),
             "discs": [_disc_row(d, self.verdicts) for d in self.discs],
             "faults_not_applied": [

@@ -49,12 +49,12 @@ def run_study(
     duration_s: float | None = None,
     scenario_path: Path = SCENARIO,
     progress: bool = True,
+    finished: dict[int, dict] | None = None,
 ) -> list[dict]:
-    """Every run's summary (sweep order: strategy, supply, seed)."""
+    """Every run's summary (sweep order: strategy, supply, seed); `finished` as sweep's."""
     grid = {"control.strategy": list(strategies), "supply.pressure_mpa": list(supplies_mpa)}
-    return sweep(
-        load(scenario_path), grid, monte_carlo=seeds, workers=workers, duration_s=duration_s, progress=progress
-    )
+    how = {"workers": workers, "duration_s": duration_s, "progress": progress, "finished": finished}
+    return sweep(load(scenario_path), grid, monte_carlo=seeds, **how)
 
 
 def cleaned(summary: dict) -> int:

@@ -20,6 +20,7 @@ from __future__ import annotations
 import csv
 import io
 import itertools
+import json
 import multiprocessing
 import threading
 import tomllib
@@ -89,13 +90,17 @@ def sweep(
     duration_s: float | None = None,
     progress: bool = True,
     fork: bool = True,
+    finished: dict[int, dict] | None = None,
 ) -> list[dict]:
     """Run every point; returns one summary per point, in the points' order.
 
     workers 0 means all local cores. With `scheduler` (a Dask scheduler address) the points run on
     that cluster instead (needs the `cluster` extra: dask[distributed]). `fork=False` makes the
-    local workers joblib's (loky) processes, each starting cold.
+    local workers joblib's (loky) processes, each starting cold. `finished`, if given, is filled
+    with each summary as its run ends (point index -> summary): what a sweep stopped by Ctrl-C or
+    SIGTERM has to keep.
     """
+    finished = {} if finished is None else finished
     check_number("monte_carlo", monte_carlo, **MONTE_CARLO)
     check_number("workers", workers, **WORKERS)
     if duration_s is not None:
@@ -103,12 +108,19 @@ def sweep(
     points = sweep_points(scenario, grid or {}, monte_carlo)
     n_jobs = min(workers or joblib.cpu_count(), len(points))
     if not scheduler and n_jobs > 1 and fork and _can_fork():
-        return _on_forked_workers(n_jobs, scenario, points, duration_s, progress)
+        return _on_forked_workers(n_jobs, scenario, points, duration_s, progress, finished)
     jobs = (joblib.delayed(_run_point)(scenario, p, duration_s) for p in points)
     if scheduler:
-        return _on_dask(scheduler, jobs, len(points), progress)
+        return _on_dask(scheduler, jobs, len(points), progress, finished)
     results = joblib.Parallel(n_jobs=n_jobs, return_as="generator")(jobs)
-    return list(tqdm(results, total=len(points), disable=not progress, desc="sweep"))
+    return _collected(results, len(points), progress, finished)
+
+
+def _collected(results: Iterable[dict], n_points: int, progress: bool, finished: dict[int, dict]) -> list[dict]:
+    """The summaries of an in-order stream of results, each recorded in `finished` as it comes."""
+    for i, summary in enumerate(tqdm(results, total=n_points, disable=not progress, desc="sweep")):
+        finished[i] = summary
+    return [finished[i] for i in range(n_points)]
 
 
 def _can_fork() -> bool:
@@ -118,28 +130,29 @@ def _can_fork() -> bool:
     return "fork" in multiprocessing.get_all_start_methods() and not others
 
 
-def _on_forked_workers(n_jobs: int, scenario: Scenario, points: list[dict], duration_s, progress: bool) -> list[dict]:
+def _on_forked_workers(
+    n_jobs: int, scenario: Scenario, points: list[dict], duration_s, progress: bool, finished: dict[int, dict]
+) -> list[dict]:
     """The points on `n_jobs` processes forked from this one after `warm_up`, in the points' order."""
     warm_up(scenario)
     with ProcessPoolExecutor(n_jobs, mp_context=multiprocessing.get_context("fork")) as pool:
         # the workers are forked at the first submit, before any thread (the pool's, tqdm's) starts
-        futures = [pool.submit(_run_point, scenario, p, duration_s) for p in points]
+        futures = {pool.submit(_run_point, scenario, p, duration_s): i for i, p in enumerate(points)}
         try:
-            for _ in tqdm(as_completed(futures), total=len(points), disable=not progress, desc="sweep"):
-                pass
-            return [f.result() for f in futures]
+            for f in tqdm(as_completed(futures), total=len(points), disable=not progress, desc="sweep"):
+                finished[futures[f]] = f.result()
+            return [finished[i] for i in range(len(points))]
         except BaseException:
             pool.shutdown(wait=True, cancel_futures=True)
             raise
 
 
-def _on_dask(scheduler: str, jobs: Iterable, n_points: int, progress: bool) -> list[dict]:
+def _on_dask(scheduler: str, jobs: Iterable, n_points: int, progress: bool, finished: dict[int, dict]) -> list[dict]:
     """The jobs on the Dask cluster at `scheduler`, through joblib's Dask backend."""
     client = dask_client(scheduler)
     try:
         with joblib.parallel_config(backend="dask"):
-            results = joblib.Parallel(return_as="generator")(jobs)
-            return list(tqdm(results, total=n_points, disable=not progress, desc="sweep"))
+            return _collected(joblib.Parallel(return_as="generator")(jobs), n_points, progress, finished)
     finally:
         client.close()
 
@@ -169,14 +182,19 @@ def parse_grid(items: list[str], where: str = "--set") -> dict[str, list]:
 
 
 def summary_row(summary: dict) -> dict[str, object]:
-    """One run's summary as flat columns: its overrides (`set.<field>`), the run's outcome, per
-    joint `<joint>.<quantity>` (degrees), per criterion `<kind>[<subject>].value|passed`."""
+    """One run's summary as flat columns: its overrides (`set.<field>`), the run's outcome and the
+    criteria it was cut short before (`not_judged`, `;`-separated), per joint `<joint>.<quantity>`
+    (degrees), per criterion `<kind>[<subject>].value|passed` (passed empty where not judged)."""
     row: dict[str, object] = {f"set.{k}": v for k, v in summary.get("overrides", {}).items()}
     row |= {k: summary.get(k) for k in ("scenario", "seed", "passed", "duration_s", "error", "refused")}
+    if "partial" in summary:  # a stopped sweep's table of the runs it finished
+        row["partial"] = summary["partial"]
+    row["not_judged"] = "; ".join(summary.get("not_judged", []))
     for joint, values in summary.get("joints", {}).items():
         row |= {f"{joint}.{k}": v for k, v in values.items()}
     for c in summary.get("criteria", []):
-        row |= {f"{c['kind']}[{c['subject']}].value": c["value"], f"{c['kind']}[{c['subject']}].passed": c["passed"]}
+        passed = c["passed"] if c.get("judged", True) else None
+        row |= {f"{c['kind']}[{c['subject']}].value": c["value"], f"{c['kind']}[{c['subject']}].passed": passed}
     return row
 
 
@@ -197,6 +215,23 @@ def write_csv(results: list[dict], path: str | Path) -> Path:
     writer.writerows({k: "" if v is None else v for k, v in row.items()} for row in rows)
     write_atomic(path, text.getvalue())
     return path
+
+
+def partial_path(json_path: str | Path) -> Path:
+    """Where a stopped sweep whose summaries were to go to `json_path` keeps those of the runs it
+    finished: beside it, NAME.partial.json (its table, by table_path, NAME.partial.csv)."""
+    json_path = Path(json_path)
+    return json_path.with_name(f"{json_path.stem}.partial{json_path.suffix or '.json'}")
+
+
+def write_summaries(results: list[dict], json_path: str | Path, partial: bool = False) -> tuple[Path, Path]:
+    """The summaries as JSON at `json_path` and their table beside it (table_path), both whole
+    (write_atomic); `partial` (a stopped sweep's finished runs) adds a column partial = True to
+    the table. Returns both paths."""
+    json_path = Path(json_path)
+    write_atomic(json_path, json.dumps(results, indent=2))
+    rows = [{**r, "partial": True} for r in results] if partial else results
+    return json_path, write_csv(rows, table_path(json_path))
 
 
 def table_path(json_path: str | Path) -> Path:

@@ -432,7 +432,7 @@ def test_a_good_small_campaign_loads(tmp_path):
         (
             TOML,
             [f"{k * 0.5:.1f},0,0,0,601325,0.0,," for k in range(1300)],
-            ["a.csv", "lasts 649.5 s", "allowed: at most 600 s"],
+            ["a.csv:1203", "time_s = 600.5 is 600.5 s after the first row", "allowed: runs of at most 600 s"],
         ),
         (TOML, edit_row(1, "p_a_pa", "-5000"), ["a.csv:3", "p_a_pa = -5000", "allowed: absolute Pa above 0"]),
         (TOML, edit_row(1, "supply_pa", "-1"), ["a.csv:3", "supply_pa = -1", "allowed"]),
@@ -721,7 +721,7 @@ def test_a_result_whose_place_fails_after_the_work_is_saved_elsewhere(tmp_path, 
         return results
 
     monkeypatch.setattr(scenarios.sweep, "sweep", sweep)
-    assert main(["sweep", str(s), "--out", str(out)]) == 0
+    assert main(["sweep", str(s), "--out", str(out)]) == 2  # kept elsewhere: the place asked for failed
     captured = capsys.readouterr()
     saved = Path(captured.err.strip().split(" instead")[0].split("saved them to ")[1])
     assert saved.parent == tmp_path and json.loads(saved.read_text()) == results

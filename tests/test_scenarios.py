@@ -208,17 +208,18 @@ def test_a_rig_run_cut_short_is_judged_on_the_target_in_force(capsys, tmp_path):
     at the cut, the targets not finished listed, and the final error not judged (as on the arm)."""
     path = tmp_path / "rig.toml"
     path.write_text(load("wrist_random_supply").text)  # 45 deg reached at 1.08 s, held 2 s; then 0 deg
-    assert twin_main(["run", str(path), "--json", "--duration", "3"]) == 0
+    assert twin_main(["run", str(path), "--json", "--duration", "3"]) == 1  # nothing judged: not a pass
     summary = json.loads(capsys.readouterr().out)
     assert summary["joints"]["wrist_pitch"]["target_deg"] == 45.0
     assert summary["not_reached"] == ["target 1", "target 2", "target 3", "target 4"]
     assert [(c["kind"], c["judged"], c["passed"]) for c in summary["criteria"]] == [("final_error_deg", False, False)]
-    assert twin_main(["run", str(path), "--json", "--duration", "4.5"]) == 0
+    assert twin_main(["run", str(path), "--json", "--duration", "4.5"]) == 1
     summary = json.loads(capsys.readouterr().out)
     assert summary["joints"]["wrist_pitch"]["target_deg"] == 0.0 and summary["not_reached"][0] == "target 2"
     path.write_text(load("wrist_closed_loop_60deg").text)  # arrives at 1.25 s
-    assert twin_main(["run", str(path), "--duration", "1"]) == 0
-    assert "[----] final_error_deg" in capsys.readouterr().out
+    assert twin_main(["run", str(path), "--duration", "1"]) == 1
+    out = capsys.readouterr().out
+    assert "[----] final_error_deg" in out and "NOT JUDGED (cut short before any criterion could be judged)" in out
     assert twin_main(["run", str(path), "--json", "--duration", "2"]) == 0  # arrived: judged
     summary = json.loads(capsys.readouterr().out)
     assert summary["duration_s"] == 2.0  # not the plant clock's sum of steps, 1.9999999999998352
@@ -263,7 +264,7 @@ def test_a_fault_after_the_cut_is_said_and_what_depends_on_it_not_judged(capsys,
         + "[[faults]]\nkind = 'brake_fails'\nat_s = 5.0\njoint = 'wrist_pitch'\n"
         + "[[criteria]]\nkind = 'max_travel_deg'\njoint = 'wrist_pitch'\nmax = 1.0\n"
     )
-    assert twin_main(["run", str(path), "--duration", "2"]) == 0
+    assert twin_main(["run", str(path), "--duration", "2"]) == 1  # nothing judged: not a pass
     out = capsys.readouterr().out
     assert "not applied (after the cut, what depends on it not judged): brake_fails wrist_pitch at 5 s" in out
     assert "[----] final_error_deg" in out and "[----] max_travel_deg" in out

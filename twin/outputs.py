@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import contextlib
 import errno
-import fcntl
 import logging
 import os
 import shutil
@@ -19,6 +18,8 @@ import tempfile
 import time
 from collections.abc import Callable, Iterable
 from pathlib import Path
+
+from filelock import lock_descriptor
 
 from pneumatics.paths import is_special, path_problem
 from twin.errors import UserError
@@ -179,8 +180,12 @@ def keep_result(path: Path, write: Callable[[Path], object], what: str) -> Path:
 
 class OutputLock:
     """Exclusive locks on output places for the life of a run: a second run writing the same
-    file is refused at once (UserError). The lock is an flock on a hidden file beside the output
-    (`.NAME.lock`), so a killed run's lock dies with its process."""
+    file or folder is refused at once (UserError), whatever name it reaches it by. The lock is
+    taken on a hidden file beside the output's real place (`.NAME.lock` beside the path with every
+    symbolic link resolved), so a symbolic link to the file or to a folder above it, `..`, a
+    relative path and a bind mount of the folder all meet one lock file. It is locked with
+    filelock's primitive (flock on Unix, LockFileEx on Windows), so a killed run's lock dies with
+    its process, and removed when the run ends."""
 
     def __init__(self, paths: Iterable[Path | None]):
         self.paths = [Path(p) for p in paths if p is not None]
@@ -188,7 +193,8 @@ class OutputLock:
 
     @staticmethod
     def lock_path(path: Path) -> Path:
-        return path.parent / f".{path.name}.lock"
+        real = Path(path).resolve()  # the place itself, by whichever name it was given
+        return real.parent / f".{real.name}.lock"
 
     def __enter__(self) -> OutputLock:
         try:
@@ -205,28 +211,30 @@ class OutputLock:
         while True:
             fd = os.open(lock, os.O_RDWR | os.O_CREAT, 0o644)
             try:
-                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-            except OSError as e:
+                taken = lock_descriptor(fd, blocking=False)
+            except BaseException:
                 os.close(fd)
-                if e.errno in (errno.EWOULDBLOCK, errno.EAGAIN):
-                    raise UserError(
-                        f"{path}: another run is writing this file now; allowed: a file no other run is writing"
-                    ) from None
                 raise
+            if not taken:
+                os.close(fd)
+                raise UserError(
+                    f"{path}: another run is writing this file now; allowed: a file no other run is writing"
+                )
             try:
                 same = os.stat(lock).st_ino == os.fstat(fd).st_ino
             except FileNotFoundError:
                 same = False
             if same:  # else the holder removed it between our open and our lock: take the new one
-                os.ftruncate(fd, 0)
-                os.write(fd, f"{os.getpid()}\n".encode())
                 self._held.append((lock, fd))
+                with contextlib.suppress(OSError):  # who holds it, for a person looking; a full disk leaves it empty
+                    os.ftruncate(fd, 0)
+                    os.write(fd, f"{os.getpid()}\n".encode())
                 return
             os.close(fd)
 
     def release(self) -> None:
         for lock, fd in self._held:
-            with contextlib.suppress(OSError):
+            with contextlib.suppress(OSError):  # Windows keeps an open file: it stays, unlocked
                 os.unlink(lock)
             os.close(fd)
         self._held.clear()
@@ -279,6 +287,10 @@ def publish_folder(
     staging.chmod(0o777 & ~_umask())  # a folder like any other once it is kept
     try:
         result = work(staging)
+    except OSError as e:  # the work could not write one of its files (a full disk, a quota, ...)
+        with shielded():
+            failure = _write_failed(e, staging, out, what)
+        raise failure from None
     except BaseException as e:
         if keep_on_stop and stop_behind(e) is not None and any(p.is_file() for p in staging.rglob("*")):
             with shielded():  # a second signal does not cut the move short
@@ -288,6 +300,36 @@ def publish_folder(
             shutil.rmtree(staging, ignore_errors=True)
         raise
     return result, _move_in(staging, out, what)
+
+
+def _write_failed(e: OSError, staging: Path, out: Path, what: str) -> UserError:
+    """The one-line error for a work that failed writing into `staging`: the file it was writing
+    (the error's own, else the last one written to: the work writes its files one after another)
+    is cut short, so it is removed; the files written before it are kept beside `out` under a
+    visible name, which the error says."""
+    files = sorted((p for p in staging.rglob("*") if p.is_file()), key=lambda p: p.stat().st_mtime_ns)
+    named = Path(e.filename) if e.filename else None
+    damaged = named if named is not None and named.is_relative_to(staging) else (files[-1] if files else None)
+    cause = e.strerror or str(e)
+    if damaged is None:  # it failed before any file was written
+        shutil.rmtree(staging, ignore_errors=True)
+        return UserError(f"{out}: could not write {what} ({cause}); nothing was written")
+    where = out / damaged.relative_to(staging)
+    with contextlib.suppress(OSError):
+        damaged.unlink()
+    kept = [p for p in files if p != damaged]
+    if not kept:
+        shutil.rmtree(staging, ignore_errors=True)
+        return UserError(f"{where}: could not be written ({cause}), the first of {what}; nothing else was written")
+    folder = staging.with_name(f"{out.name}-saved-{time.strftime('%Y%m%d-%H%M%S')}-{os.getpid()}")
+    try:
+        staging.rename(folder)
+    except OSError:
+        folder = staging
+    return UserError(
+        f"{where}: could not be written ({cause}), so it is not there (cut short, removed); "
+        f"{what} written before it ({len(kept)} files) are kept in {folder}"
+    )
 
 
 def _move_in(staging: Path, out: Path, what: str) -> Path:

@@ -35,11 +35,19 @@ from __future__ import annotations
 import json
 import logging
 import math
+import os
+import shutil
+import warnings
 from pathlib import Path
 
-import mujoco
-import numpy as np
-import rerun as rr
+# rerun reports a failed write (a full disk) in log lines of its own (its file sink, encoder and
+# recording stream), besides leaving the recording without its footer, which close() finds and
+# says in one line; the user's own RUST_LOG wins
+os.environ.setdefault("RUST_LOG", "warn,re_log_encoding=off,re_sdk::recording_stream=off")
+
+import mujoco  # noqa: E402 - after RUST_LOG, which rerun reads when it loads
+import numpy as np  # noqa: E402
+import rerun as rr  # noqa: E402
 import rerun.blueprint as rrb
 
 from twin.camera import FrameFeed
@@ -59,6 +67,9 @@ EVENTS_PATH = "events"
 
 # MuJoCo geom types we draw; others (mesh, hfield, sdf, ellipsoid) are skipped with a note.
 _GEOM = mujoco.mjtGeom
+
+
+FULL_DISK_BYTES = 1 << 20  # less free than this where a recording was cut short: the disk filled (assumed)
 
 
 class RerunLogError(UserError):
@@ -507,5 +518,25 @@ class RerunRecorder:
             self.log_frames(self._camera.frames_from(self._frames_seen, wait=True))
             if self._camera.error:  # the recording holds everything else
                 log.warning("note: no camera frames in %s: %s", self.path or "the viewer", self._camera.error)
-        self.rec.flush()
-        self.rec.disconnect()
+        try:
+            self.rec.flush()
+            self.rec.disconnect()
+        except RuntimeError:  # "File-writer thread shut down prematurely": its writes failed
+            self.rec.disconnect()
+        if self.path is not None:
+            self._check_whole()
+
+    def _check_whole(self) -> None:
+        """RerunLogError unless the file ends in rerun's footer: rerun does not raise when its
+        writes fail (a full disk), it leaves the file cut short there."""
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            try:
+                rr.chunk.RrdReader(self.path)
+                whole = not any("footer" in str(w.message) for w in caught)
+            except Exception:  # rerun's own error types: not even a readable start
+                whole = False
+        if not whole:
+            full = shutil.disk_usage(self.path.parent).free < FULL_DISK_BYTES
+            cause = "No space left on device" if full else "rerun could not finish writing it"
+            raise RerunLogError(f"{self.path}: damaged, cut short where writing failed ({cause}): no rerun footer")

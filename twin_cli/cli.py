@@ -8,8 +8,9 @@ as one line and exits with status 2, never a traceback. Ctrl-C (SIGINT) and SIGT
 and exits 130 or 143.
 
 A command imports the libraries it calls when it runs, not at its module's top: imported there
-they take `twin --help` from 0.45 s to 2.2 s (`python -X importtime -c "import twin_cli.cli"`,
-cumulative import time); what is left, 0.4 s, is numba, which pneumatics (ParameterError) loads.
+they take `twin --help` from 0.15 s to 2.2 s (`python -X importtime -c "import twin_cli.cli"`,
+cumulative import time). `twin --version` and `--help` load neither numba nor numpy
+(tests/test_reliability.py): the package pneumatics loads its compiled laws on first use.
 """
 
 from __future__ import annotations
@@ -94,10 +95,12 @@ def main(argv: list[str] | None = None) -> int:
         stop = stop_behind(e)  # also a stop that compiled code turned into a SystemError
         if stop is None:
             raise
+        # what a stopped command kept, where it keeps something it does not say itself (its logs)
+        kept = f"; {args.kept_on_stop}" if getattr(args, "kept_on_stop", "") else ""
         if isinstance(stop, Terminated):
-            print("twin: terminated (SIGTERM); the logs written so far are kept", file=sys.stderr)
+            print(f"twin: terminated (SIGTERM){kept}", file=sys.stderr)
             return 128 + signal.SIGTERM
-        print("twin: interrupted; the logs written so far are kept", file=sys.stderr)
+        print(f"twin: interrupted{kept}", file=sys.stderr)
         return 130
 
 

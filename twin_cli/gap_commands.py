@@ -120,10 +120,13 @@ def register_design(sub) -> None:
 
 def cmd_diagnose(args) -> int:
     # on use: at the top, the libraries take `twin --help` from 0.45 to 2.2 s
+    from gap.report import window_line
     from gap.run import run_diagnose, verdict_line
 
     diag = run_diagnose(args.campaign, args.out, args.model_tolerance_deg, args.jobs, scheduler=args.scheduler)
     print(verdict_line(diag))
+    if diag.windowed:
+        print(f"runs: {window_line(diag.windowed)}")
     inst = diag.instrument
     how = "estimated" if inst.latency_estimated else "declared"
     print(

@@ -10,6 +10,7 @@ import sys
 import time
 from pathlib import Path
 
+from pneumatics.paths import input_problem
 from twin.errors import UserError
 from twin.outputs import OutputLock, check_output
 from twin_cli.args import place
@@ -28,11 +29,14 @@ def register(sub: argparse._SubParsersAction) -> None:
         type=Path,
         help="MJCF the run used (default: the shipped model its scenario names, or whose bodies match)",
     )
-    p.set_defaults(func=cmd_replay)
+    p.set_defaults(func=cmd_replay, kept_on_stop="the recording written so far is kept")
 
 
 def check_rrd(path: Path) -> None:
     """Raise UserError unless `path` is a rerun recording rerun itself can read."""
+    problem = input_problem(path)
+    if problem:
+        raise UserError(f"{path}: {problem}; allowed: a readable rerun recording (.rrd)")
     if not path.is_file():
         raise UserError(f"{path}: no such file (expected a rerun recording, .rrd)")
     import rerun as rr  # on use: at the top, the libraries take `twin --help` from 0.45 to 2.2 s
@@ -50,6 +54,9 @@ def check_model(path: Path) -> None:
     """Raise UserError unless `path` is a file named .xml: what --model hands to MuJoCo, whose
     own refusals run over several lines (and a folder makes it warn of a file over 2 GB)."""
     allowed = "allowed: the MJCF (.xml) file the run used"
+    problem = input_problem(path)
+    if problem:
+        raise UserError(f"--model {path}: {problem}; {allowed}")
     if not path.exists():
         raise UserError(f"--model {path}: no such file; {allowed}")
     if not path.is_file():

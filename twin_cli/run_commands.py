@@ -11,6 +11,7 @@ from pathlib import Path
 from twin.checks import CAMERA_FPS as CAMERA_FPS_RANGE
 from twin.checks import DURATION_S, MONTE_CARLO, RECORDING_CAMERA_FPS, SEED
 from twin.outputs import OutputLock, check_output, keep_result, publish_folder, write_atomic
+from twin.signals import shielded, stop_behind
 from twin_cli.args import add_workers, number, place
 from twin_cli.figures import figure_lines
 from twin_cli.progress import ProgressLine
@@ -47,7 +48,7 @@ def _add_run(sub: argparse._SubParsersAction) -> None:
         metavar="ISO|now",
         help="the MCAP log's start, with --mcap (default 2000-01-01T00:00:00Z, deterministic; 'now': the wall clock)",
     )
-    p.set_defaults(func=cmd_run)
+    p.set_defaults(func=cmd_run, kept_on_stop="the logs written so far are kept")
 
 
 def _add_sweep(sub: argparse._SubParsersAction) -> None:
@@ -150,16 +151,26 @@ def cmd_run(args) -> int:
         print_summary(summary)
     for label, path in (("rerun recording", args.rrd), ("MCAP log", args.mcap), ("rerun viewer", args.connect)):
         if path:
-            state = " NOT written (the error below)" if Path(path) in log_errors else ""
+            state = " NOT written whole (the error below)" if Path(path) in log_errors else ""
             print(f"{label}: {path}{state}", file=sys.stderr if args.json else sys.stdout)
     for e in log_errors.values():  # the summary above is the run's result; a log that failed is said after it
         print(f"twin: error: {e}", file=sys.stderr)
     return 2 if log_errors else 0 if result.passed else 1
 
 
+def run_state(summary: dict) -> str:
+    """PASSED, FAILED, or NOT JUDGED (cut short before any criterion could be judged); a pass with
+    criteria not judged says how many."""
+    left = summary.get("not_judged", [])
+    if not summary["passed"] and left and len(left) == len(summary["criteria"]) and not summary.get("error"):
+        return "NOT JUDGED (cut short before any criterion could be judged)"
+    if summary["passed"] and left:
+        return f"PASSED the criteria judged ({len(left)} of {len(summary['criteria'])} not judged: cut short)"
+    return "PASSED" if summary["passed"] else "FAILED"
+
+
 def print_summary(summary: dict) -> None:
-    state = "PASSED" if summary["passed"] else "FAILED"
-    print(f"{summary['scenario']}: {state} after {summary['duration_s']:.2f} s simulated")
+    print(f"{summary['scenario']}: {run_state(summary)} after {summary['duration_s']:.2f} s simulated")
     if summary.get("error"):
         print(f"  stopped: {summary['error']}")
     if summary.get("refused"):
@@ -187,6 +198,8 @@ def print_summary(summary: dict) -> None:
     if summary.get("faults_not_applied"):
         late = ", ".join(summary["faults_not_applied"])
         print(f"  not applied (after the cut, what depends on it not judged): {late}")
+    if summary.get("not_judged"):
+        print(f"  not judged (cut short before they were reached): {', '.join(summary['not_judged'])}")
     if summary.get("not_reached"):
         left = summary["not_reached"]
         discs = sorted({t.split("(")[1].rstrip(")") for t in left if "(" in t}, key=lambda d: int(d.split("_")[1]))
@@ -202,39 +215,77 @@ def _cells(values, widths) -> str:
 def cmd_sweep(args) -> int:
     # on use: at the top, the libraries take `twin --help` from 0.45 to 2.2 s
     from scenarios.schema import load
-    from scenarios.sweep import parse_grid, sweep, table_path, write_csv
+    from scenarios.sweep import parse_grid, partial_path, sweep, sweep_points, table_path, write_csv
 
     scenario = load(args.scenario)
+    grid = parse_grid(args.set)
     table = None if args.out is None else table_path(args.out)
+    partial = None if args.out is None else partial_path(args.out)
     if args.out is not None:
         check_output(args.out, "--out", inputs=[Path(scenario.path)])
         check_output(table, "--out's table", inputs=[Path(scenario.path)], others={"--out": args.out})
-    with OutputLock([args.out, table]):
-        results = sweep(scenario, parse_grid(args.set), args.monte_carlo, args.workers, args.scheduler, args.duration)
+    finished: dict[int, dict] = {}
+    with OutputLock([args.out, table, partial, partial and table_path(partial)]):
+        try:
+            results = sweep(
+                scenario, grid, args.monte_carlo, args.workers, args.scheduler, args.duration, finished=finished
+            )
+        except BaseException as e:
+            if stop_behind(e) is not None:
+                with shielded():  # a second signal does not cut the keeping short
+                    _keep_finished(finished, len(sweep_points(scenario, grid, args.monte_carlo)), partial)
+            raise
         passed = sum(r["passed"] for r in results)
+        cut = sum(bool(r.get("not_judged")) for r in results)
+        cut_note = f", {cut} cut short with criteria not judged (column not_judged)" if cut else ""
         if args.out:
             saved = keep_result(
                 args.out, lambda place: write_atomic(place, json.dumps(results, indent=2)), "the sweep's summaries"
             )
             rows = keep_result(table_path(saved), lambda place: write_csv(results, place), "the sweep's table")
-            print(f"{len(results)} runs, {passed} passed; summaries in {saved}, one row per run in {rows}")
+            print(f"{len(results)} runs, {passed} passed{cut_note}; summaries in {saved}, one row per run in {rows}")
         else:
             json.dump(results, sys.stdout, indent=2)
             print()
-            print(f"{len(results)} runs, {passed} passed", file=sys.stderr)
+            print(f"{len(results)} runs, {passed} passed{cut_note}", file=sys.stderr)
+    if args.out and (saved != args.out or rows != table):
+        return 2  # kept elsewhere, as said: the place asked for failed
     return 0 if passed == len(results) else 1
+
+
+def _keep_finished(finished: dict[int, dict], planned: int, partial: Path | None) -> None:
+    """A stopped sweep's finished runs, in the points' order: at `partial` (and its table, marked
+    partial) or, without --out, on stdout; said on stderr either way."""
+    from scenarios.sweep import write_summaries
+
+    done = [finished[i] for i in sorted(finished)]
+    if not done:
+        print(f"twin: stopped before any of the {planned} runs finished; nothing to keep", file=sys.stderr)
+        return
+    if partial is None:
+        json.dump(done, sys.stdout, indent=2)
+        print()
+        print(f"twin: stopped; the {len(done)} of {planned} runs that finished are above (partial)", file=sys.stderr)
+        return
+    saved = keep_result(partial, lambda place: write_summaries(done, place, partial=True), "the finished runs")
+    print(
+        f"twin: stopped; the {len(done)} of {planned} runs that finished are in {saved} and, one row per run "
+        f"(column partial), {saved.with_suffix('.csv')} (partial: the sweep did not end)",
+        file=sys.stderr,
+    )
 
 
 def cmd_paper(args) -> int:
     # on use: at the top, the libraries take `twin --help` from 0.45 to 2.2 s
-    from scenarios.paper import reproduce
+    from scenarios.paper import PARTIAL, reproduce
 
     check_output(args.out, "--out", folder=True)
     with OutputLock([args.out]):
         report, folder = publish_folder(
             args.out,
             lambda staging: reproduce(staging, quick=args.quick, progress=sys.stderr.isatty()),
-            "the paper's experiments",
+            f"the paper's experiments ({PARTIAL}, partial)",
+            keep_on_stop=True,
         )
     print(f"paper's experiments reproduced: {folder / report.name}")
     return 0
@@ -244,11 +295,22 @@ def cmd_bench(args) -> int:
     # on use: at the top, the libraries take `twin --help` from 0.45 to 2.2 s
     from benchmarks.all import run_all
 
-    with contextlib.redirect_stdout(sys.stderr):  # the benchmarks' own chatter stays off the JSON
-        results = run_all(quick=args.quick)
-    if args.json:
+    finished: dict = {}
+    try:
+        with contextlib.redirect_stdout(sys.stderr):  # the benchmarks' own chatter stays off the JSON
+            results = run_all(quick=args.quick, finished=finished)
+    except BaseException as e:  # stopped: the benchmarks that finished, said to be partial
+        if stop_behind(e) is not None and finished:
+            with shielded():
+                _print_figures({**finished, "partial": f"stopped after {', '.join(finished)}"}, args.json)
+        raise
+    _print_figures(results, args.json)
+    return 0
+
+
+def _print_figures(results: dict, as_json: bool) -> None:
+    if as_json:
         json.dump(results, sys.stdout, indent=2)
         print()
     else:
         print("\n".join(figure_lines(results)))
-    return 0

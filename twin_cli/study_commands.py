@@ -7,7 +7,10 @@ from pathlib import Path
 
 from twin.errors import UserError
 from twin.outputs import OutputLock, check_output, publish_folder
+from twin.signals import shielded, stop_behind
 from twin_cli.args import add_workers, number, place
+
+PARTIAL = "study.partial.json"  # a stopped study's finished runs (and study.partial.csv, their table)
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -67,15 +70,26 @@ def _parse(args) -> tuple[list[str], list[float]]:
 def cmd_study_cleaning(args) -> int:
     # on use: at the top, the libraries take `twin --help` from 0.45 to 2.2 s
     from scenarios.study import run_study, table, write
+    from scenarios.sweep import write_summaries
 
     strategies, supplies = _parse(args)
     check_output(args.out, "--out", folder=True)
 
     def study_into(staging: Path) -> list:
-        return write(run_study(strategies, supplies, seeds=args.seeds, workers=args.workers), staging)
+        finished: dict[int, dict] = {}
+        try:
+            results = run_study(strategies, supplies, seeds=args.seeds, workers=args.workers, finished=finished)
+        except BaseException as e:  # stopped: the runs that finished, as a partial table
+            if stop_behind(e) is not None and finished:
+                with shielded():
+                    write_summaries([finished[i] for i in sorted(finished)], staging / PARTIAL, partial=True)
+            raise
+        return write(results, staging)
 
     with OutputLock([args.out]):
-        study_rows, folder = publish_folder(args.out, study_into, "the study")
+        study_rows, folder = publish_folder(
+            args.out, study_into, f"the study's runs ({PARTIAL}, partial)", keep_on_stop=True
+        )
     print(table(study_rows))
     print(f"{folder / 'study.json'}, {folder / 'study.csv'}, {folder / 'study.md'}, {folder / 'study.png'}")
     return 0
