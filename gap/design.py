@@ -143,15 +143,7 @@ def hypotheses_of(diag: Diagnosis, catalogue=CATALOGUE) -> tuple[list[Hypothesis
         alts = alternatives(family_members(f, catalogue), tuple(fitted))
         latency = {_describe(_change(c)): c.latency_s for c in w.ranking}
         hyps += [Hypothesis(f"{f} ({_describe(ch)})", f, ch, latency[_describe(ch)], alts) for ch in fitted]
-    stand_in = {f: next(i for i, h in enumerate(hyps) if h.family == f) for f in families}  # a family's alternatives
-    pairs = [
-        Pair(
-            f"{f} / {g}",
-            tuple((a, stand_in[g if h.family == f else f]) for a, h in enumerate(hyps) if h.family in (f, g)),
-        )
-        for i, f in enumerate(families)
-        for g in families[i + 1 :]
-    ]
+    pairs = family_pairs(hyps, families)
     if w.verdict == "ambiguous" and w.top is not None:
         top = len(hyps)
         for k, name in enumerate([w.top.name, *w.rivals]):
@@ -162,6 +154,20 @@ def hypotheses_of(diag: Diagnosis, catalogue=CATALOGUE) -> tuple[list[Hypothesis
             if k:
                 pairs.append(Pair(f"{w.top.name} / {name}", ((top, top + k), (top + k, top))))
     return hyps, pairs
+
+
+def family_pairs(hyps: list[Hypothesis], families: list[str]) -> list[Pair]:
+    """Every two families a pair: each hypothesis of one against the first of the other (its
+    stand-in, free over that family's alternatives)."""
+    stand_in = {f: next(i for i, h in enumerate(hyps) if h.family == f) for f in families}
+    return [
+        Pair(
+            f"{f} / {g}",
+            tuple((a, stand_in[g if h.family == f else f]) for a, h in enumerate(hyps) if h.family in (f, g)),
+        )
+        for i, f in enumerate(families)
+        for g in families[i + 1 :]
+    ]
 
 
 def _change(c) -> Change:
@@ -199,15 +205,7 @@ def catalogue_hypotheses(twin: Twin, latency_s: float, catalogue=CATALOGUE) -> t
     members = {f: [e for e in catalogue if e.family == f] for f in families}
     alts = {f: alternatives([e for e in members[f] if e.discrete_value is None]) for f in families}
     hyps = [Hypothesis(h.name, h.family, h.effects, h.latency_s, alts[h.family] or (h.effects,)) for h in hyps]
-    stand_in = {f: next(i for i, h in enumerate(hyps) if h.family == f) for f in families}  # a family's alternatives
-    pairs = [
-        Pair(
-            f"{f} / {g}",
-            tuple((a, stand_in[g if h.family == f else f]) for a, h in enumerate(hyps) if h.family in (f, g)),
-        )
-        for i, f in enumerate(families)
-        for g in families[i + 1 :]
-    ]
+    pairs = family_pairs(hyps, families)
     return hyps, pairs
 
 

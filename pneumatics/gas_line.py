@@ -104,7 +104,7 @@ from pneumatics._jit import njit
 from pneumatics.darcy import hose_constants, hose_resistance_with
 from pneumatics.heat import duct_heat_transfer_coefficient
 from pneumatics.integrators import secant_slope
-from pneumatics.line import N_UNSTEADY, UNSTEADY_M, UNSTEADY_N, FarEnd, LineStep, wave_speed
+from pneumatics.line import N_UNSTEADY, UNSTEADY_M, UNSTEADY_N, FarEnd, LineStep, inlet_driven_series, wave_speed
 from pneumatics.orifice import choked_flux, orifice_mass_flow_with
 
 BAND_HZ = 100.0  # the band a line resolves by default (docs/air_lines.md: accuracy per cost)
@@ -700,16 +700,5 @@ def far_end_series(
     `inlet_pa` (linear between samples) and whose far end is closed by a rigid `end_volume_m3`;
     steps of at most `max_dt_s` (`pneumatics.hose.line_response` checks the arguments)."""
     x = initial_line_state(row, inlet_pa[0])
-    out = np.empty(times_s.size)
-    out[0] = far_end_pressure(x, row)
     end = FarEnd(end_volume_m3, 0.0, 0.0, 0.0, 0.0)
-    for i in range(times_s.size - 1):
-        span = times_s[i + 1] - times_s[i]
-        steps = max(1, int(math.ceil(span / max_dt_s - 1e-9)))
-        dt = span / steps
-        for s in range(steps):
-            a = inlet_pa[i] + (inlet_pa[i + 1] - inlet_pa[i]) * s / steps
-            b = inlet_pa[i] + (inlet_pa[i + 1] - inlet_pa[i]) * (s + 1) / steps
-            advance_from_pressure(x, row, dt, a, b, end)
-        out[i + 1] = far_end_pressure(x, row)
-    return out
+    return inlet_driven_series(advance_from_pressure, far_end_pressure, x, row, end, times_s, inlet_pa, max_dt_s)

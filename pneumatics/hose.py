@@ -50,7 +50,7 @@ def line_response(
     temperature_k: float,
 ) -> np.ndarray:
     """Far-end pressure (Pa, absolute) at `times_s` of an air line with gas inertia and wall friction
-    (pneumatics/line.py) whose inlet pressure follows `inlet_pa` (Pa absolute, sampled at `times_s`,
+    (pneumatics/gas_line.py) whose inlet pressure follows `inlet_pa` (Pa absolute, sampled at `times_s`,
     linear between samples) and whose far end is closed by a rigid volume `end_volume_m3`; the line
     starts at rest at inlet_pa[0], its gas at `temperature_k`, air of pneumatics.gas.AIR.
 

@@ -351,16 +351,13 @@ def advance_from_flow(x: np.ndarray, row: np.ndarray, dt_s: float, mass_flow_kg_
 
 
 @njit
-def far_end_series(
-    row: np.ndarray, end_volume_m3: float, times_s: np.ndarray, inlet_pa: np.ndarray, max_dt_s: float
-) -> np.ndarray:
-    """The far end's pressure at `times_s` of a line, at rest at inlet_pa[0], whose inlet follows
-    `inlet_pa` (linear between samples) and whose far end is closed by a rigid `end_volume_m3`;
-    steps of at most `max_dt_s` (`pneumatics.hose.line_response` checks the arguments)."""
-    x = initial_line_state(row, inlet_pa[0])
+def inlet_driven_series(advance, far_end, x, row, end, times_s, inlet_pa, max_dt_s):
+    """The far end's pressure at `times_s` of a line in the state x whose inlet pressure follows
+    `inlet_pa` (linear between samples), stepped by `advance` (an `advance_from_pressure`) in steps
+    of at most `max_dt_s` and read by `far_end` (a `far_end_pressure`): one driver for both lines,
+    the acoustic one here and pneumatics/gas_line.py's."""
     out = np.empty(times_s.size)
-    out[0] = far_end_pressure(x, row)
-    end = FarEnd(end_volume_m3, 0.0, 0.0, 0.0, 0.0)
+    out[0] = far_end(x, row)
     for i in range(times_s.size - 1):
         span = times_s[i + 1] - times_s[i]
         steps = max(1, int(math.ceil(span / max_dt_s - 1e-9)))
@@ -368,6 +365,18 @@ def far_end_series(
         for s in range(steps):
             a = inlet_pa[i] + (inlet_pa[i + 1] - inlet_pa[i]) * s / steps
             b = inlet_pa[i] + (inlet_pa[i + 1] - inlet_pa[i]) * (s + 1) / steps
-            advance_from_pressure(x, row, dt, a, b, end)
-        out[i + 1] = far_end_pressure(x, row)
+            advance(x, row, dt, a, b, end)
+        out[i + 1] = far_end(x, row)
     return out
+
+
+@njit
+def far_end_series(
+    row: np.ndarray, end_volume_m3: float, times_s: np.ndarray, inlet_pa: np.ndarray, max_dt_s: float
+) -> np.ndarray:
+    """The far end's pressure at `times_s` of a line, at rest at inlet_pa[0], whose inlet follows
+    `inlet_pa` (linear between samples) and whose far end is closed by a rigid `end_volume_m3`;
+    steps of at most `max_dt_s` (`pneumatics.hose.line_response` checks the arguments)."""
+    x = initial_line_state(row, inlet_pa[0])
+    end = FarEnd(end_volume_m3, 0.0, 0.0, 0.0, 0.0)
+    return inlet_driven_series(advance_from_pressure, far_end_pressure, x, row, end, times_s, inlet_pa, max_dt_s)
