@@ -18,8 +18,8 @@ import argparse
 import dataclasses
 import json
 import os
-import resource
 import shutil
+import sys
 import tempfile
 import time
 from pathlib import Path
@@ -95,10 +95,19 @@ def main() -> None:
         "long_over_short": round(long_s / short_s, 2),
         "long_load_s": round(long_load, 2),
         "short_load_s": round(short_load, 2),
-        "peak_memory_mb": round(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024),
-        "load_average": [round(x, 2) for x in os.getloadavg()],
+        "peak_memory_mb": _peak_memory_mb(),
+        "load_average": [round(x, 2) for x in os.getloadavg()] if hasattr(os, "getloadavg") else None,
     }
     print(json.dumps(figures, indent=1))
+
+
+def _peak_memory_mb() -> int | None:
+    """This process's peak resident memory in MB; None where the `resource` module is missing (Windows)."""
+    if sys.platform == "win32":
+        return None
+    import resource  # Unix only: imported where it exists
+
+    return round(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024)
 
 
 if __name__ == "__main__":

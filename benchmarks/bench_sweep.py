@@ -11,7 +11,7 @@ benchmarks/bench_dask.py."""
 from __future__ import annotations
 
 import json
-import resource
+import os
 import time
 
 from joblib.externals.loky import get_reusable_executor
@@ -48,8 +48,9 @@ def start_up(scenario, loky: bool = True) -> dict[str, float]:
 
 
 def _cpu_s() -> float:
-    me, workers = resource.getrusage(resource.RUSAGE_SELF), resource.getrusage(resource.RUSAGE_CHILDREN)
-    return me.ru_utime + me.ru_stime + workers.ru_utime + workers.ru_stime
+    # os.times: this process's and its finished children's CPU seconds (the children's are 0 on Windows)
+    t = os.times()
+    return t.user + t.system + t.children_user + t.children_system
 
 
 def bench_sweep(points: int = 8, duration_s: float = 20.0, repeats: int = 3, loky: bool = True) -> dict:
