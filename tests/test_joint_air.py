@@ -34,7 +34,8 @@ from twin.plant import Plant
 P_ATM = AIR.p_atm_pa
 T_WALL = AIR.t_supply_k
 K = AIR.k
-WRIST = load_joint_params(assets.joint_param_path("wrist_pitch"))
+FILE_WRIST = load_joint_params(assets.joint_param_path("wrist_pitch"))
+WRIST = FILE_WRIST._replace(chamber_heat=1.0)  # the wrist by the energy balance
 NODES_P = [J.S_PA_VALVE, J.S_PA_MOTOR, J.S_PB_VALVE, J.S_PB_MOTOR]
 NODES_T = [J.S_TA_VALVE, J.S_TA_MOTOR, J.S_TB_VALVE, J.S_TB_MOTOR]
 
@@ -192,11 +193,13 @@ def test_a_still_motor_filled_without_heat_holds_the_energy_the_supply_brought()
 
 def test_the_predictor_takes_the_papers_law_and_the_plant_the_energy_balance_from_the_same_files() -> None:
     """DESIGN rule 2: the predictor is the paper's model (polytropic, n = 1.4, every flow at the
-    supply temperature), the plant the energy balance; one field apart."""
-    controller = ArmController({"wrist_pitch": 0.0}, assets.WRIST_RIG_XML)
-    plant = Plant(assets.WRIST_RIG_XML)
+    supply temperature) whatever the joint's parameters say; the plant takes the chamber law they
+    state (the shipped files: the paper's law until the as-built arm is recalibrated); one field apart."""
+    controller = ArmController({"wrist_pitch": 0.0}, assets.WRIST_RIG_XML, predictor_params={"wrist_pitch": WRIST})
+    plant = Plant(assets.WRIST_RIG_XML, {"wrist_pitch": WRIST})
     assert controller.params[0, P.CHAMBER_HEAT] == 0.0 and controller.params[0, P.POLY_N] == 1.4
     assert plant.params[0, P.CHAMBER_HEAT] == 1.0
+    assert Plant(assets.WRIST_RIG_XML).params[0, P.CHAMBER_HEAT] == FILE_WRIST.chamber_heat
     fields = [f for f in WRIST._fields if f != "chamber_heat"]
     assert [getattr(controller.joint_params["wrist_pitch"], f) for f in fields] == [getattr(WRIST, f) for f in fields]
 

@@ -80,8 +80,9 @@ def test_library_modules_log_rather_than_print():
 
 
 def test_verbose_shows_what_the_libraries_log(capsys):
-    assert twin_main(["run", "wrist_closed_loop_60deg", "--duration", "0.1"]) == 0
+    # a 0.1 s run judges none of its criteria: NOT JUDGED, exit 1 (README, "Reliability")
+    assert twin_main(["run", "wrist_closed_loop_60deg", "--duration", "0.1"]) == 1
     assert "s simulated, seed" not in capsys.readouterr().err
-    assert twin_main(["--verbose", "run", "wrist_closed_loop_60deg", "--duration", "0.1"]) == 0
+    assert twin_main(["--verbose", "run", "wrist_closed_loop_60deg", "--duration", "0.1"]) == 1
     assert "twin: wrist_closed_loop_60deg: 0.1 s simulated, seed" in capsys.readouterr().err
     twin_main(["run", "wrist_closed_loop_60deg", "--duration", "0.1"])  # back to warnings only

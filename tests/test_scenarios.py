@@ -277,11 +277,12 @@ def test_run_shows_progress_on_a_terminal_and_nothing_else(capsys, monkeypatch):
     """On a terminal `twin run` rewrites one line on stderr with simulated time, real-time factor
     and discs done; with --json, or when stderr is not a terminal, it writes none."""
     monkeypatch.setattr("sys.stderr.isatty", lambda: True, raising=False)
-    assert twin_main(["run", "insulator_cleaning", "--duration", "1.5"]) == 0
+    # 1.5 s of the 200 s task judges none of its criteria: NOT JUDGED, exit 1 (README, "Reliability")
+    assert twin_main(["run", "insulator_cleaning", "--duration", "1.5"]) == 1
     err = capsys.readouterr().err
     assert re.search(r"\r\s+1\.5 / 1\.5 s simulated, [0-9.]+x real time, discs 0/8", err), err
-    assert twin_main(["run", "insulator_cleaning", "--duration", "1.5", "--json"]) == 0
+    assert twin_main(["run", "insulator_cleaning", "--duration", "1.5", "--json"]) == 1
     assert "simulated" not in capsys.readouterr().err
     monkeypatch.setattr("sys.stderr.isatty", lambda: False, raising=False)
-    assert twin_main(["run", "insulator_cleaning", "--duration", "1.5"]) == 0
+    assert twin_main(["run", "insulator_cleaning", "--duration", "1.5"]) == 1
     assert "simulated," not in capsys.readouterr().err
