@@ -70,6 +70,10 @@ _GEOM = mujoco.mjtGeom
 
 
 FULL_DISK_BYTES = 1 << 20  # less free than this where a recording was cut short: the disk filled (assumed)
+# a recording's start: the arm's geometry and the blueprint, written as the sinks open (69.7 KB for
+# the wrist rig, measured); with less free than this rerun's file sink can block on its first writes
+# instead of failing, so a recording is refused before it opens
+RECORDING_START_BYTES = 80 * 1024
 
 
 class RerunLogError(UserError):
@@ -393,6 +397,13 @@ class RerunRecorder:
         starts one on this machine, else the gRPC URL of a running one, e.g.
         rerun+http://127.0.0.1:9876/proxy)."""
         where = ", ".join(str(x) for x in (self.path, viewer) if x is not None)
+        if self.path is not None:
+            free = shutil.disk_usage(self.path.parent if self.path.parent.exists() else Path.cwd()).free
+            if free < RECORDING_START_BYTES:
+                raise RerunLogError(
+                    f"{self.path}: not written: No space left on device ({free} bytes free; a recording's start "
+                    f"takes {RECORDING_START_BYTES // 1024} KB)"
+                )
         try:
             sinks = [rr.FileSink(str(self.path))] if self.path is not None else []
             if viewer == "spawn":
