@@ -279,9 +279,11 @@ def run_bench(
         folder = out / "campaigns" / case.name
         try:
             r = run_case(case, i, folder, pressures, chamber_pressures, jobs, variant, design_round)
-        except BaseException:
+        except BaseException as e:
             shutil.rmtree(folder, ignore_errors=True)  # unfinished, as bench.json says: what a stopped bench keeps
             shutil.rmtree(out / "rounds" / case.name, ignore_errors=True)
+            if isinstance(e, OSError) and not e.filename:  # a write cut short (a full disk): the case, now removed
+                raise OSError(e.errno, e.strerror or str(e), str(folder)) from e
             raise
         results.append(r)
         summary = summarise(results, quick, chamber_pressures, time.perf_counter() - t0, variant)

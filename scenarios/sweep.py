@@ -143,7 +143,10 @@ def _on_forked_workers(
                 finished[futures[f]] = f.result()
             return [finished[i] for i in range(len(points))]
         except BaseException:
-            pool.shutdown(wait=True, cancel_futures=True)
+            pool.shutdown(wait=True, cancel_futures=True)  # the runs in progress end; those not begun never do
+            for f, i in futures.items():  # what the runs in progress returned is kept with the rest
+                if f.done() and not f.cancelled() and f.exception() is None:
+                    finished.setdefault(i, f.result())
             raise
 
 

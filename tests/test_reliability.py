@@ -6,6 +6,9 @@ is not PASSED."""
 
 from __future__ import annotations
 
+import builtins
+import errno
+import io
 import json
 import logging
 import os
@@ -312,6 +315,69 @@ def small_disk(tmp_path):
         subprocess.run(["umount", "-l", str(disk)], check=True)
 
 
+class _Cut:
+    """A file opened for writing on an emulated small disk: it takes what the disk has left, then
+    fails as a full disk does, OSError(ENOSPC) naming no file; anything else goes to the file."""
+
+    def __init__(self, f, disk: dict):
+        self._f, self._disk = f, disk
+
+    def write(self, data):
+        room = self._disk["free"]
+        if len(data) > room:
+            self._f.write(data[:room])
+            self._disk["free"] = 0
+            raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+        self._disk["free"] -= len(data)
+        return self._f.write(data)
+
+    def writelines(self, lines):
+        for line in lines:
+            self.write(line)
+
+    def __getattr__(self, name):
+        return getattr(self._f, name)
+
+    def __iter__(self):
+        return iter(self._f)
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self._f.close()
+
+
+def emulated_small_disk(disk: Path, free_bytes: int, monkeypatch) -> Path:
+    """`disk`, a folder whose files (opened by Python's `open`, `Path.open`, `os.fdopen`: every
+    output of paper, study, bench, sweep and plot) share `free_bytes` and then fail with ENOSPC:
+    a full disk where none can be mounted. Writes from compiled code (rerun's) are not caught."""
+    disk.mkdir(exist_ok=True)
+    state = {"free": free_bytes}
+    real_open = io.open
+
+    def opened(file, mode="r", *args, **kwargs):
+        f = real_open(file, mode, *args, **kwargs)
+        name = os.readlink(f"/proc/self/fd/{file}") if isinstance(file, int) else os.path.realpath(file)
+        writes = any(c in mode for c in "wax+")
+        return _Cut(f, state) if writes and Path(name).is_relative_to(disk.resolve()) else f
+
+    if not Path("/proc/self/fd").is_dir():
+        pytest.skip("the emulated disk names a descriptor's file through /proc")
+    monkeypatch.setattr(io, "open", opened)
+    monkeypatch.setattr(builtins, "open", opened)
+    return disk
+
+
+@pytest.fixture(params=["tmpfs", "writer"])
+def full_disk(request, tmp_path, monkeypatch):
+    """`fill(free_bytes)`, a folder on a disk with that much left: a real small file system
+    (small_disk, where one can be mounted), and a writer that fails with ENOSPC (anywhere)."""
+    if request.param == "tmpfs":
+        return request.getfixturevalue("small_disk")
+    return lambda free_bytes: emulated_small_disk(tmp_path / "disk", free_bytes, monkeypatch)
+
+
 def errors_of(err: str) -> list[str]:
     """What a command said on stderr besides its progress bars (tqdm's, rewritten in place)."""
     lines = [line for line in err.replace("\r", "\n").splitlines() if line.strip() and "it/s]" not in line]
@@ -351,7 +417,7 @@ def test_a_full_disk_under_the_logs_names_each_damaged_one_and_never_calls_it_wr
 
 
 def test_a_full_disk_under_a_table_or_a_picture_keeps_it_elsewhere_and_exits_2(
-    small_disk, tmp_path, monkeypatch, capsys
+    full_disk, tmp_path, monkeypatch, capsys
 ):
     """`twin sweep --out` and `twin plot --out` on a full disk: the result is saved in the working
     folder instead, said in one line naming the place asked for and the cause, exit 2."""
@@ -360,7 +426,7 @@ def test_a_full_disk_under_a_table_or_a_picture_keeps_it_elsewhere_and_exits_2(
     scenario = ROOT / "scenarios" / "wrist_closed_loop_60deg.toml"
     mcap = tmp_path / "run.mcap"
     assert main(["run", str(scenario), "--duration", "0.5", "--mcap", str(mcap)]) == 1
-    disk = small_disk(0)
+    disk = full_disk(0)
     work = tmp_path / "work"
     work.mkdir()
     monkeypatch.chdir(work)
@@ -382,9 +448,8 @@ def test_a_full_disk_under_a_table_or_a_picture_keeps_it_elsewhere_and_exits_2(
 
 
 def test_a_full_disk_under_a_replay_or_a_report_folder_names_the_file_and_keeps_the_rest(small_disk, tmp_path, capsys):
-    """`twin replay --rrd` says its recording is damaged; `twin gap diagnose --out` (and through the
-    same publish_folder, `twin paper`, `twin study`, `twin gap bench`) names the file it could not
-    write, removes it (cut short) and keeps the files written before it beside DIR; exit 2."""
+    """`twin replay --rrd` says its recording is damaged; `twin gap diagnose --out` names the file it
+    could not write, removes it (cut short) and keeps the files written before it beside DIR; exit 2."""
     from test_inputs import campaign
 
     from twin_cli.cli import main
@@ -409,7 +474,133 @@ def test_a_full_disk_under_a_replay_or_a_report_folder_names_the_file_and_keeps_
     json.loads((kept / "diagnosis.json").read_text())  # what is kept is whole
 
 
+def kept_after_a_failed_write(capsys, file: Path, how: str) -> Path:
+    """The folder the one line on stderr says the files written before `file` are kept in, having
+    checked that the line names `file`, the full disk and what became of `file` (`how`)."""
+    (line,) = errors_of(capsys.readouterr().err)
+    assert line.startswith(f"twin: error: {file}: could not be written (No space left on device), so {how}; "), line
+    return Path(line.split(" are kept in ")[1])
+
+
+def test_a_full_disk_under_paper_names_the_file_and_keeps_its_earlier_version(full_disk, monkeypatch, capsys):
+    """`twin paper --out` on a disk that fills at its second partial result: exit 2, one line naming
+    paper.partial.json and saying it holds its earlier version, and the folder kept beside DIR
+    holding that version, whole, marked partial (before, the whole file was removed as cut short).
+    Stand-ins: the validation, the as-built table and the experiments return small made-up results
+    at once (the real ones take minutes); what `reproduce` writes and how the command handles the
+    write that fails are the real code under test."""
+    import scenarios.paper as paper
+    from twin_cli.cli import main
+
+    monkeypatch.setattr(paper, "prediction_validation", lambda: ({"stand_in": "validation"}, {}))
+    monkeypatch.setattr(paper, "as_built_table", lambda: [])
+    monkeypatch.setattr(
+        paper, "EXPERIMENTS", dict.fromkeys(paper.EXPERIMENTS, lambda quick: {"stand_in": "x" * 10_000})
+    )
+    disk = full_disk(8192)
+    assert main(["paper", "--quick", "--out", str(disk / "paper")]) == 2
+    kept = kept_after_a_failed_write(
+        capsys, disk / "paper" / "paper.partial.json", "it holds its earlier version, whole"
+    )
+    assert kept.parent == disk and kept.name.startswith("paper-saved-")
+    earlier = json.loads((kept / "paper.partial.json").read_text())
+    assert earlier == {
+        "as_built": [],
+        "prediction_error": {"stand_in": "validation"},
+        "partial": True,
+        "not_run": list(paper.EXPERIMENTS),
+    }
+    assert not any((disk / "paper").iterdir())  # nothing said to be written there
+
+
+def stand_in_summary(strategy: str, mpa: float, seed: int) -> dict:
+    """A cleaning run's summary with the fields the study's tables read, made up (8 discs cleaned)."""
+    disc = {"cleaned": True, "peak_force_n": 20.0, "brushed_m": 0.1}
+    overrides = {"control.strategy": strategy, "supply.pressure_mpa": mpa}
+    return {
+        "overrides": overrides,
+        "seed": seed,
+        "discs": [disc] * 8,
+        "finished_s": 30.0,
+        "joints": {"wrist_pitch": {"error_deg": 0.5}},
+    }
+
+
+def test_a_full_disk_under_study_names_the_picture_and_keeps_the_tables(full_disk, monkeypatch, capsys):
+    """`twin study cleaning --out` on a disk that fills while its picture is written: exit 2, one
+    line naming study.png as not there (Pillow removes what it could not finish), and study.json,
+    .md and .csv kept whole beside DIR (before, the last of them written, study.csv, was blamed and
+    removed as cut short). Stand-in: the runs (each a cleaning run of minutes) are made-up summaries returned at once;
+    the study's tables, its picture and the command's handling of the failed write are real."""
+    import scenarios.study as study
+    from twin_cli.cli import main
+
+    def runs(strategies, supplies, seeds, workers, finished):
+        return [stand_in_summary(s, p, k) for s in strategies for p in supplies for k in range(seeds)]
+
+    monkeypatch.setattr(study, "run_study", runs)
+    disk = full_disk(32 * 1024)
+    argv = ["study", "cleaning", "--out", str(disk / "study"), "--strategies", "sensorless", "--supplies", "0.5,0.8"]
+    assert main([*argv, "--seeds", "1", "--workers", "1"]) == 2
+    kept = kept_after_a_failed_write(capsys, disk / "study" / "study.png", "it is not there")
+    assert sorted(p.name for p in kept.iterdir()) == ["study.csv", "study.json", "study.md"]
+    assert json.loads((kept / "study.json").read_text()) == runs(["sensorless"], [0.5, 0.8], 1, 1, {})
+    assert (kept / "study.csv").read_text().count("\n") == 3  # its header and a row per supply
+    assert not any((disk / "study").iterdir())
+
+
+def test_a_full_disk_under_gap_bench_names_the_case_and_keeps_the_cases_before_it(full_disk, monkeypatch, capsys):
+    """`twin gap bench --out` on a disk that fills while its second case's campaign is written:
+    exit 2, one line naming that case's folder (removed, unfinished) and DIR's bench.json of the
+    first case kept whole beside DIR with its campaign. Stand-in: each case writes a made-up run
+    file and returns a made-up "no gap" result at once (a real case generates and diagnoses a
+    campaign, minutes); run_bench's writing and the command's handling of the failure are real."""
+    import gap.bench as bench
+    from twin_cli.cli import main
+
+    def case_run(case, i, folder, *args):
+        folder.mkdir(parents=True)
+        with open(folder / "run.csv", "w") as f:
+            f.write("time_s,angle_rad\n" + "0.000,0.0\n" * 1000)  # 11 kB
+        return {"case": case.name, "kind": "none", "verdict": "no significant gap", "instrument": "", "diagnose_s": 0.0}
+
+    monkeypatch.setattr(bench, "run_case", case_run)
+    disk = full_disk(20 * 1024)
+    assert main(["gap", "bench", "--out", str(disk / "bench"), "--quick", "--jobs", "1"]) == 2
+    (line,) = errors_of(capsys.readouterr().err)
+    first, second = bench.QUICK
+    assert line.startswith(
+        f"twin: error: {disk / 'bench' / 'campaigns' / second}: could not be written (No space left on device), "
+        "so it is not there; "
+    ), line
+    kept = Path(line.split(" are kept in ")[1])
+    assert [c["case"] for c in json.loads((kept / "bench.json").read_text())["cases"]] == [first]
+    assert [p.name for p in (kept / "campaigns").iterdir()] == [first]
+    assert not any((disk / "bench").iterdir())
+
+
 # --- a stopped sweep keeps its finished runs ------------------------------------------------------
+def sweep_stopped(cwd: Path, argv: list[str], bar: str, timeout: float) -> tuple[int, str, str, re.Match]:
+    """`twin ARGV` in a child sent SIGTERM once its progress bar on stderr matches `bar`: its exit
+    code, what it said before the signal and after, and the bar's match."""
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "twin_cli.cli", *argv], env=env, cwd=cwd, stderr=subprocess.PIPE, text=True
+    )
+    seen = ""
+    try:
+        while not (match := re.search(bar, seen)):
+            char = proc.stderr.read(1)
+            assert char, seen
+            seen += char
+        proc.send_signal(signal.SIGTERM)
+        rest = proc.communicate(timeout=timeout)[1]
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    return proc.returncode, seen, rest, match
+
+
 def test_sigterm_to_a_sweep_keeps_the_runs_it_finished_as_a_partial_table(tmp_path):
     """`twin sweep --out` sent SIGTERM after its first runs: exit 143, and what it says is where
     they are: NAME.partial.json and NAME.partial.csv (a column partial) beside --out, holding every
@@ -420,23 +611,9 @@ def test_sigterm_to_a_sweep_keeps_the_runs_it_finished_as_a_partial_table(tmp_pa
     scenario = ROOT / "scenarios" / "wrist_closed_loop_60deg.toml"
     out = tmp_path / "s.json"
     argv = ["sweep", str(scenario), "--monte-carlo", "8", "--workers", "1", "--duration", "4", "--out", str(out)]
-    env = dict(os.environ, PYTHONPATH=str(ROOT))
-    proc = subprocess.Popen(
-        [sys.executable, "-m", "twin_cli.cli", *argv], env=env, cwd=tmp_path, stderr=subprocess.PIPE, text=True
-    )
-    seen = ""
-    try:
-        while not re.search(r"\| [2-7]/8", seen):  # tqdm's bar: two runs or more finished
-            char = proc.stderr.read(1)
-            assert char, seen
-            seen += char
-        proc.send_signal(signal.SIGTERM)
-        rest = proc.communicate(timeout=120)[1]
-    finally:
-        if proc.poll() is None:
-            proc.kill()
+    code, seen, rest, _ = sweep_stopped(tmp_path, argv, r"\| [2-7]/8", 120)  # tqdm's bar: two runs or more finished
     said = [line for line in (seen + rest).replace("\r", "\n").splitlines() if line.startswith("twin:")]
-    assert proc.returncode == 143 and "Traceback" not in rest, rest
+    assert code == 143 and "Traceback" not in rest, rest
     partial, table = tmp_path / "s.partial.json", tmp_path / "s.partial.csv"
     kept = json.loads(partial.read_text())
     assert said[0] == (
@@ -448,6 +625,70 @@ def test_sigterm_to_a_sweep_keeps_the_runs_it_finished_as_a_partial_table(tmp_pa
     assert 2 <= len(kept) == len(rows) < 8 and all(r["partial"] == "True" for r in rows)
     assert [r["seed"] for r in rows] == [str(k["seed"]) for k in kept]
     assert not out.exists() and not (tmp_path / "s.csv").exists()
+
+
+def test_sigterm_to_a_sweep_on_two_workers_keeps_the_runs_it_was_waiting_for(tmp_path):
+    """`twin sweep --workers 2 --out` sent SIGTERM after its first runs: the runs in progress end
+    (they are not cut) and their results are kept with the others: at least two more than had
+    finished when it was stopped. Before, it waited for them and threw their results away."""
+    scenario = ROOT / "scenarios" / "wrist_closed_loop_60deg.toml"
+    argv = ["sweep", str(scenario), "--monte-carlo", "8", "--workers", "2", "--duration", "60"]
+    argv += ["--out", str(tmp_path / "s.json")]
+    code, _, rest, bar = sweep_stopped(tmp_path, argv, r"\| ([1-4])/8", 180)  # one to four runs finished
+    assert code == 143 and "Traceback" not in rest, rest
+    kept = json.loads((tmp_path / "s.partial.json").read_text())
+    assert int(bar[1]) + 2 <= len(kept) < 8, (bar[1], len(kept))
+    assert f"the {len(kept)} of 8 runs that finished are in {tmp_path / 's.partial.json'}" in rest
+
+
+def stopped_after(finished: dict, done: dict):
+    """Fill `finished` with `done`, then SIGTERM this process, as `timeout` or systemd would: the
+    stop arrives while the command is at work (the handler raises at the next Python line)."""
+    finished.update(done)
+    os.kill(os.getpid(), signal.SIGTERM)
+    time.sleep(5)  # not reached: the signal stops it first
+    raise AssertionError("SIGTERM did not stop the command")
+
+
+def test_sigterm_to_study_keeps_the_runs_it_finished_as_a_partial_table(tmp_path, monkeypatch, capsys):
+    """`twin study cleaning --out DIR` stopped by SIGTERM after two of its four runs: exit 143,
+    DIR/study.partial.json and .csv hold those two (column partial), the stop says where, and no
+    study.json stands for the whole study. Stand-in: the sweep of cleaning runs (minutes each)
+    records two made-up finished runs and then the process sends itself SIGTERM; the command's
+    handling of the stop and what it writes are real."""
+    import csv
+
+    import scenarios.study as study
+    from twin_cli.cli import main
+
+    done = {0: stand_in_summary("sensorless", 0.5, 0), 1: stand_in_summary("sensorless", 0.5, 1)}
+    monkeypatch.setattr(study, "sweep", lambda scenario, grid, finished, **how: stopped_after(finished, done))
+    out = tmp_path / "study"
+    argv = ["study", "cleaning", "--out", str(out), "--strategies", "sensorless", "--supplies", "0.5,0.8"]
+    assert main([*argv, "--seeds", "2", "--workers", "1"]) == 143
+    err = capsys.readouterr().err
+    assert f"the study's runs (study.partial.json, partial) finished so far are in {out}" in err, err
+    assert "twin: terminated (SIGTERM)" in err
+    assert [r["seed"] for r in json.loads((out / "study.partial.json").read_text())] == [0, 1]
+    rows = list(csv.DictReader((out / "study.partial.csv").open()))
+    assert [r["partial"] for r in rows] == ["True", "True"]
+    assert not (out / "study.json").exists()
+
+
+def test_sigterm_to_bench_prints_the_benchmarks_it_finished_marked_partial(monkeypatch, capsys):
+    """`twin bench --json` stopped by SIGTERM during its second benchmark: exit 143, and stdout
+    holds the first one's figures and `partial: stopped after twin`. Stand-in: the first
+    benchmark returns made-up figures at once and the second sends this process SIGTERM (the real
+    ones take minutes); run_all's bookkeeping and the command's handling of the stop are real."""
+    import benchmarks.all as benches
+    from twin_cli.cli import main
+
+    monkeypatch.setattr(benches, "bench_twin", lambda **kw: {"realtime_factor": 3.0})
+    monkeypatch.setattr(benches, "bench_plant", lambda **kw: stopped_after({}, {}))
+    assert main(["bench", "--quick", "--json"]) == 143
+    out, err = capsys.readouterr()
+    assert json.loads(out) == {"twin": {"realtime_factor": 3.0}, "partial": "stopped after twin"}
+    assert "twin: terminated (SIGTERM)" in err
 
 
 def test_sigterm_to_paper_keeps_the_experiments_it_finished_marked_partial(tmp_path):

@@ -14,6 +14,7 @@ import errno
 import logging
 import os
 import shutil
+import sys
 import tempfile
 import time
 from collections.abc import Callable, Iterable
@@ -130,9 +131,11 @@ def write_atomic(path: Path, data: str | bytes) -> None:
             f.flush()
             os.fsync(f.fileno())
         os.replace(tmp, path)
-    except BaseException:
+    except BaseException as e:
         with contextlib.suppress(OSError):
             os.unlink(tmp)
+        if isinstance(e, OSError) and not e.filename:  # a write's error names no file: this one's
+            raise OSError(e.errno, e.strerror or str(e), str(path)) from e
         raise
 
 
@@ -269,6 +272,38 @@ def check_replaceable(out: Path, flag: str, names: Iterable[str]) -> None:
             )
 
 
+_WRITES = os.O_WRONLY | os.O_RDWR | os.O_CREAT
+_last_written: dict[Path, Path | None] = {}  # a running work's staging folder -> the last file opened to write in it
+_hooked: list[bool] = []  # the audit hook is there (it cannot be removed: added once per process)
+
+
+def _note_writes(event: str, args: tuple) -> None:
+    """An audit hook (sys.addaudithook): the file each work last opened for writing, by any open
+    (Python's, os.open, a library's), so a write error that names no file is laid at the right one
+    even where its writer has removed it since (Pillow removes the picture it could not finish)."""
+    if event != "open" or not _last_written or isinstance(args[0], int) or not args[2] & _WRITES:
+        return
+    path = Path(os.path.abspath(os.fsdecode(args[0])))
+    for staging in list(_last_written):
+        if path.is_relative_to(staging):
+            _last_written[staging] = path
+
+
+@contextlib.contextmanager
+def _watching(staging: Path):
+    """Inside, _last_written[staging] follows the files opened for writing in `staging`; after, the
+    dict yielded holds the last one ("last")."""
+    if not _hooked:
+        sys.addaudithook(_note_writes)
+        _hooked.append(True)
+    _last_written[staging] = None
+    seen: dict[str, Path | None] = {}
+    try:
+        yield seen
+    finally:
+        seen["last"] = _last_written.pop(staging, None)
+
+
 def publish_folder(
     out: Path, work: Callable[[Path], object], what: str, replaces: Iterable[str] = (), keep_on_stop: bool = False
 ):
@@ -283,13 +318,14 @@ def publish_folder(
     out = Path(out)
     check_replaceable(out, "--out", replaces)
     out.parent.mkdir(parents=True, exist_ok=True)
-    staging = Path(tempfile.mkdtemp(prefix=f".{out.name}.partial-", dir=out.parent))
+    staging = Path(os.path.abspath(tempfile.mkdtemp(prefix=f".{out.name}.partial-", dir=out.parent)))
     staging.chmod(0o777 & ~_umask())  # a folder like any other once it is kept
     try:
-        result = work(staging)
+        with _watching(staging) as seen:
+            result = work(staging)
     except OSError as e:  # the work could not write one of its files (a full disk, a quota, ...)
         with shielded():
-            failure = _write_failed(e, staging, out, what)
+            failure = _write_failed(e, staging, out, what, seen["last"])
         raise failure from None
     except BaseException as e:
         if keep_on_stop and stop_behind(e) is not None and any(p.is_file() for p in staging.rglob("*")):
@@ -302,22 +338,28 @@ def publish_folder(
     return result, _move_in(staging, out, what)
 
 
-def _write_failed(e: OSError, staging: Path, out: Path, what: str) -> UserError:
-    """The one-line error for a work that failed writing into `staging`: the file it was writing
-    (the error's own, else the last one written to: the work writes its files one after another)
-    is cut short, so it is removed; the files written before it are kept beside `out` under a
-    visible name, which the error says."""
+def _write_failed(e: OSError, staging: Path, out: Path, what: str, last: Path | None) -> UserError:
+    """The one-line error for a work that failed writing into `staging`, `last` the file it last
+    opened for writing there. A failed write that names its file or folder left it as it was, whole
+    or absent (write_atomic's; gap bench removes the case it was making). One that does not (a plain
+    write) was writing `last`: cut short, it is removed (unless its writer already did). The files
+    written before it are kept beside `out` under a visible name, which the error says."""
     files = sorted((p for p in staging.rglob("*") if p.is_file()), key=lambda p: p.stat().st_mtime_ns)
     named = Path(e.filename) if e.filename else None
-    damaged = named if named is not None and named.is_relative_to(staging) else (files[-1] if files else None)
+    whole = named is not None and named.is_relative_to(staging)
+    damaged = named if whole else (last or (files[-1] if files else None))
     cause = e.strerror or str(e)
     if damaged is None:  # it failed before any file was written
         shutil.rmtree(staging, ignore_errors=True)
         return UserError(f"{out}: could not write {what} ({cause}); nothing was written")
     where = out / damaged.relative_to(staging)
-    with contextlib.suppress(OSError):
-        damaged.unlink()
-    kept = [p for p in files if p != damaged]
+    if not whole:
+        with contextlib.suppress(OSError):
+            damaged.unlink()
+    kept = [p for p in files if p.exists()]
+    how = "it holds its earlier version, whole" if damaged.exists() else "it is not there"
+    if not whole and damaged in files:
+        how = "it is not there (cut short, removed)"
     if not kept:
         shutil.rmtree(staging, ignore_errors=True)
         return UserError(f"{where}: could not be written ({cause}), the first of {what}; nothing else was written")
@@ -327,7 +369,7 @@ def _write_failed(e: OSError, staging: Path, out: Path, what: str) -> UserError:
     except OSError:
         folder = staging
     return UserError(
-        f"{where}: could not be written ({cause}), so it is not there (cut short, removed); "
+        f"{where}: could not be written ({cause}), so {how}; "
         f"{what} written before it ({len(kept)} files) are kept in {folder}"
     )
 
