@@ -747,3 +747,27 @@ def test_a_long_run_is_fitted_on_its_first_window_and_the_report_says_so(tmp_pat
         assert len(run.angle_rad) == len(run.time_s) == int(FIT_WINDOW_S * 1000) + 1
     line = window_line({r.name: r.recorded_s for r in loaded.runs})
     assert line.startswith(f"2 runs are longer than {FIT_WINDOW_S:g} s (up to 20 s recorded)")
+
+
+def test_a_rerun_writer_that_never_finishes_is_reported_damaged_not_waited_for(tmp_path, monkeypatch):
+    """rerun's flush can wait forever once its file writer failed (a full disk, intermittently):
+    the recording's close gives it FLUSH_TIMEOUT_S, then names the file damaged, and takes rerun's
+    exit-time shutdown off (it would wait for the same writer). The stuck flush is a stand-in: a
+    flush that blocks on an event never set."""
+    import threading
+
+    import assets
+    import twin.rerun_log as rl
+    from twin.plant import Plant
+
+    plant = Plant(assets.WRIST_RIG_XML)
+    recorder = rl.RerunRecorder(tmp_path / "r.rrd", plant.model, plant.joints, {}, camera_fps=0)
+    stuck = threading.Event()
+    monkeypatch.setattr(recorder.rec, "flush", lambda **_: stuck.wait())
+    monkeypatch.setattr(rl, "FLUSH_TIMEOUT_S", 0.5)
+    unregistered = []
+    monkeypatch.setattr(rl.rr, "unregister_shutdown", lambda: unregistered.append(True))
+    with pytest.raises(rl.RerunLogError, match=r"r\.rrd: damaged: rerun's file writer did not finish within 0\.5 s"):
+        recorder.close()
+    assert unregistered
+    stuck.set()  # the stand-in's thread ends (a real stuck writer's ends with the process)

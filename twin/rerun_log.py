@@ -37,6 +37,7 @@ import logging
 import math
 import os
 import shutil
+import threading
 import warnings
 from pathlib import Path
 
@@ -74,6 +75,32 @@ FULL_DISK_BYTES = 1 << 20  # less free than this where a recording was cut short
 # the wrist rig, measured); with less free than this rerun's file sink can block on its first writes
 # instead of failing, so a recording is refused before it opens
 RECORDING_START_BYTES = 80 * 1024
+# how long the recording's last flush may take: rerun's flush waits for its file writer, which can
+# wait forever once its writes failed (a full disk); a healthy flush of a run's last batch takes well
+# under a second (assumed margin: a slow network file system)
+FLUSH_TIMEOUT_S = 30.0
+
+
+def _within(seconds: float, work) -> bool:
+    """Run `work` in a daemon thread; whether it finished within `seconds`. rerun's flush and
+    disconnect can block forever once its file writer failed (a full disk): the run then reports
+    the recording damaged instead of hanging, and the blocked thread ends with the process."""
+    done = threading.Event()
+
+    def run() -> None:
+        try:
+            work()
+        finally:
+            done.set()
+
+    threading.Thread(target=run, name="rerun-close", daemon=True).start()
+    return done.wait(seconds)
+
+
+def _disk_cause(path: Path) -> str:
+    """Why a recording was cut short, as far as can be told: the disk's room, else rerun's writer."""
+    full = shutil.disk_usage(path.parent).free < FULL_DISK_BYTES
+    return "No space left on device" if full else "rerun could not finish writing it"
 
 
 class RerunLogError(UserError):
@@ -529,13 +556,23 @@ class RerunRecorder:
             self.log_frames(self._camera.frames_from(self._frames_seen, wait=True))
             if self._camera.error:  # the recording holds everything else
                 log.warning("note: no camera frames in %s: %s", self.path or "the viewer", self._camera.error)
-        try:
-            self.rec.flush()
-            self.rec.disconnect()
-        except RuntimeError:  # "File-writer thread shut down prematurely": its writes failed
-            self.rec.disconnect()
+        finished = _within(FLUSH_TIMEOUT_S, self._flush_and_disconnect)
+        if not finished:  # rerun's shutdown at exit would wait for the same writer: the process would hang
+            rr.unregister_shutdown()
+        if not finished and self.path is not None:
+            raise RerunLogError(
+                f"{self.path}: damaged: rerun's file writer did not finish within {FLUSH_TIMEOUT_S:g} s "
+                f"({_disk_cause(self.path)})"
+            )
         if self.path is not None:
             self._check_whole()
+
+    def _flush_and_disconnect(self) -> None:
+        try:
+            self.rec.flush(timeout_sec=FLUSH_TIMEOUT_S)
+            self.rec.disconnect()
+        except Exception:  # rerun's own errors: its file writer stopped (a full disk) or the flush timed out
+            self.rec.disconnect()
 
     def _check_whole(self) -> None:
         """RerunLogError unless the file ends in rerun's footer: rerun does not raise when its
@@ -548,6 +585,5 @@ class RerunRecorder:
             except Exception:  # rerun's own error types: not even a readable start
                 whole = False
         if not whole:
-            full = shutil.disk_usage(self.path.parent).free < FULL_DISK_BYTES
-            cause = "No space left on device" if full else "rerun could not finish writing it"
+            cause = _disk_cause(self.path)
             raise RerunLogError(f"{self.path}: damaged, cut short where writing failed ({cause}): no rerun footer")
