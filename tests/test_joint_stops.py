@@ -92,7 +92,7 @@ def check(result: dict, cycles: int = 3) -> None:
 
 
 ILL_CONDITIONED = pytest.mark.xfail(
-    strict=True, reason="energy balance: an ill-conditioned run, 0.1 deg missed (docstring); decided with the as-built recalibration (issue 34)"
+    strict=True, reason="energy balance: an ill-conditioned run, 0.1 deg missed (docstring)"
 )
 
 
