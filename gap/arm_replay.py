@@ -32,9 +32,8 @@ from gap.arm_effects import ArmSetup, apply_setup, model_defaults
 from pneumatics import JointParams
 from pneumatics import params as P
 from pneumatics._jit import borrowed, njit
-from pneumatics.joint import C_PV_SET_GAUGE_PA, S_DIR, S_PA_VALVE, S_PB_VALVE, S_PV, S_PV_SET
-from pneumatics.orifice import orifice_mass_flow_with
-from pneumatics.valves import regulated_pressure, valve_opening
+from pneumatics.joint import C_PV_SET_GAUGE_PA, S_DIR, S_PA_VALVE, S_PB_VALVE, S_PV, S_PV_SET, inlet_draw
+from pneumatics.valves import valve_opening
 from twin.kernel import MJ_STEP, _call_mj_step, finish_air_pairs, pneumatic_step
 from twin.model import SimulationError
 from twin.plant import Plant
@@ -52,7 +51,7 @@ def _mj_step_address() -> int:
 def shared_draw(x: np.ndarray, params: np.ndarray, supply_pa: float) -> float:
     """The air every joint's open inlet draws from the shared line, kg/s: through each proportional
     valve's opening from the pressure it delivers into the supplied port's valve node (as
-    pneumatics.joint.effective_supply does for one joint's own droop)."""
+    pneumatics.joint.effective_supply does for one joint's own droop: `inlet_draw`)."""
     total = 0.0
     for j in range(x.shape[0]):
         d = x[j, S_DIR]
@@ -61,11 +60,7 @@ def shared_draw(x: np.ndarray, params: np.ndarray, supply_pa: float) -> float:
         p = params[j]
         node = x[j, S_PA_VALVE] if d > 0 else x[j, S_PB_VALVE]
         opening = valve_opening(x[j, S_PV], p[P.K_U], p[P.DEAD_ZONE])
-        upstream = regulated_pressure(supply_pa, x[j, S_PV], p[P.GAS_P_ATM])
-        flow = orifice_mass_flow_with(
-            upstream, node, p[P.A_IN] * p[P.COND_SCALE] * opening, p[P.CHOKED_FLUX], p[P.GAS_K]
-        )
-        total += max(0.0, flow)
+        total += inlet_draw(supply_pa, x[j, S_PV], opening, node, p)
     return total
 
 

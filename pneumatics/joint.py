@@ -130,10 +130,18 @@ def effective_supply(
     """
     if p[P.DROOP] == 0.0 or direction == 0.0:
         return supply_pa
+    return max(p[P.GAS_P_ATM], supply_pa - p[P.DROOP] * inlet_draw(supply_pa, valve_gauge_pa, opening, p_node_pa, p))
+
+
+@njit(inline="always")
+def inlet_draw(supply_pa: float, valve_gauge_pa: float, opening: float, p_node_pa: float, p: np.ndarray) -> float:
+    """The air (kg/s) an open inlet draws from the supply line: through the proportional valve's
+    `opening` from the pressure it delivers (its set point, capped by the supply) into the supplied
+    port's valve node at `p_node_pa`; none pushed back (`effective_supply`, and a line shared by
+    several joints)."""
     area = p[P.A_IN] * p[P.COND_SCALE] * opening
     upstream = regulated_pressure(supply_pa, valve_gauge_pa, p[P.GAS_P_ATM])
-    draw = max(0.0, orifice_mass_flow_with(upstream, p_node_pa, area, p[P.CHOKED_FLUX], p[P.GAS_K]))
-    return max(p[P.GAS_P_ATM], supply_pa - p[P.DROOP] * draw)
+    return max(0.0, orifice_mass_flow_with(upstream, p_node_pa, area, p[P.CHOKED_FLUX], p[P.GAS_K]))
 
 
 class AirRates(NamedTuple):
