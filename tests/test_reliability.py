@@ -697,7 +697,9 @@ def test_sigterm_to_paper_keeps_the_experiments_it_finished_marked_partial(tmp_p
     staging folder was removed and nothing was kept."""
     out = tmp_path / "paper"
     env = dict(os.environ, PYTHONPATH=str(ROOT))
-    command = [sys.executable, "-m", "twin_cli.cli", "paper", "--quick", "--out", str(out)]
+    # not --quick: it shortens only the control experiments, and the quick ones can all end between
+    # the validation's file appearing and the signal, leaving nothing to stop (exit 0)
+    command = [sys.executable, "-m", "twin_cli.cli", "paper", "--out", str(out)]
     proc = subprocess.Popen(command, cwd=tmp_path, env=env, stderr=subprocess.PIPE, stdout=subprocess.DEVNULL)
     try:
         deadline = time.monotonic() + 120
