@@ -783,6 +783,92 @@ def _ros2_solve(
     return ua[0] + leak[0] * ma[1] * k_bm, k_am, ub[0] + leak[1] * mb[1] * k_am, k_bm
 
 
+@njit(inline="always")
+def air_substeps(dt_s: float, p: np.ndarray) -> int:
+    """How many ROS2 steps the joint's air takes over dt_s for its fill to be accurate: 1 for the arm's
+    8 m hoses at the plant's and the predictor's steps, more for a short hose (`params.AIR_STEP`)."""
+    return max(1, math.ceil(dt_s / p[P.AIR_STEP] - 1e-9))
+
+
+@njit(inline="always")
+def _ros2_matrices(
+    f: AirRates, h: float
+) -> tuple[tuple[float, float, float, float], tuple[float, float, float, float], tuple[float, float]]:
+    # ROS2's (I - g h W)^-1 of each port's pressure block and g h times the vane leak's coupling
+    return (
+        ros2_inverse(f.wa00, f.wa01, f.wa10, f.wa11, h),
+        ros2_inverse(f.wb00, f.wb01, f.wb10, f.wb11, h),
+        (ROS2_GAMMA * h * f.leak_a, ROS2_GAMMA * h * f.leak_b),
+    )
+
+
+AirState = tuple[float, float, float, float, float, float, float, float]
+
+
+@njit(inline="always")
+def _air_in(x: np.ndarray) -> AirState:
+    # the four node pressures, then their temperatures, of a joint's state row
+    return (
+        x[S_PA_VALVE], x[S_PA_MOTOR], x[S_PB_VALVE], x[S_PB_MOTOR], x[S_TA_VALVE], x[S_TA_MOTOR], x[S_TB_VALVE],
+        x[S_TB_MOTOR],
+    )  # fmt: skip
+
+
+@njit
+def _air_ros2(
+    a: AirState,
+    phi_motor: float,
+    omega_motor: float,
+    direction: float,
+    valve_gauge_pa: float,
+    supply_pa: float,
+    h: float,
+    n: int,
+    p: np.ndarray,
+) -> AirState:
+    """The air `a` (four node pressures, their temperatures) after n whole ROS2 steps of h, the motor
+    turning from phi_motor at omega_motor: a short hose's air, in the plant (`advance_air_pair`) and
+    the one-joint model (`single_joint_rk4`). The same stages as the plant's step over two physics
+    steps, with the rates of the second at the step's end."""
+    one_node = p[P.HOSE_LOSS] == 0.0
+    gh = ROS2_GAMMA * h
+    for i in range(n):
+        phi = phi_motor + omega_motor * (i * h)
+        f = air_rates(
+            a[0], a[1], a[2], a[3], a[4], a[5], a[6], a[7], phi, omega_motor, direction, valve_gauge_pa, supply_pa, p
+        )
+        ma, mb, leak = _ros2_matrices(f, h)
+        k = _ros2_solve(ma, mb, leak, (f.dpa_valve, f.dpa_motor, f.dpb_valve, f.dpb_motor), one_node)
+        m = (
+            1.0 / (1.0 - gh * f.wt_a_valve), 1.0 / (1.0 - gh * f.wt_a_motor), 1.0 / (1.0 - gh * f.wt_b_valve),
+            1.0 / (1.0 - gh * f.wt_b_motor),
+        )  # fmt: skip
+        kt = (m[0] * f.dta_valve, m[1] * f.dta_motor, m[2] * f.dtb_valve, m[3] * f.dtb_motor)
+        g = air_rates(
+            a[0] + h * k[0], a[1] + h * k[1], a[2] + h * k[2], a[3] + h * k[3], a[4] + h * kt[0], a[5] + h * kt[1],
+            a[6] + h * kt[2], a[7] + h * kt[3], phi + omega_motor * h, omega_motor, direction, valve_gauge_pa,
+            supply_pa, p,
+        )  # fmt: skip
+        k2 = _ros2_solve(
+            ma,
+            mb,
+            leak,
+            (g.dpa_valve - 2.0 * k[0], g.dpa_motor - 2.0 * k[1], g.dpb_valve - 2.0 * k[2], g.dpb_motor - 2.0 * k[3]),
+            one_node,
+        )
+        a = (
+            a[0] + ros2_increment(h, k[0], k2[0]),
+            a[1] + ros2_increment(h, k[1], k2[1]),
+            a[2] + ros2_increment(h, k[2], k2[2]),
+            a[3] + ros2_increment(h, k[3], k2[3]),
+            a[4] + ros2_increment(h, kt[0], m[0] * (g.dta_valve - 2.0 * kt[0])),
+            a[5] + ros2_increment(h, kt[1], m[1] * (g.dta_motor - 2.0 * kt[1])),
+            a[6] + ros2_increment(h, kt[2], m[2] * (g.dtb_valve - 2.0 * kt[2])),
+            a[7] + ros2_increment(h, kt[3], m[3] * (g.dtb_motor - 2.0 * kt[3])),
+        )
+    return a
+
+
 @njit
 def advance_air_pair(
     x: np.ndarray,
@@ -827,10 +913,18 @@ def advance_air_pair(
         return joint_torque(x[S_PA_MOTOR], x[S_PB_MOTOR], ratio * theta, omega, p)
     a_m = x[S_PA_MOTOR]
     b_m = x[S_PB_MOTOR]
+    if air_substeps(2.0 * dt_s, p) > 1:
+        # a short hose: its fill is faster than one ROS2 step over two physics steps follows, so the
+        # air takes whole ROS2 steps inside this one (`air_substeps`), the joint turning at omega
+        torque = joint_torque(a_m, b_m, ratio * theta, omega, p)
+        n = air_substeps(dt_s, p)
+        air = _air_ros2(_air_in(x), ratio * theta, ratio * omega, direction, valve_gauge_pa, supply_pa, dt_s / n, n, p)
+        for c in range(4):
+            x[S_PA_VALVE + c] = air[c]
+            x[S_TA_VALVE + c] = air[4 + c]
+        return torque
     f = _air_rates_of(x, ratio * theta, ratio * omega, direction, valve_gauge_pa, supply_pa, p)
-    ma = ros2_inverse(f.wa00, f.wa01, f.wa10, f.wa11, 2.0 * dt_s)
-    mb = ros2_inverse(f.wb00, f.wb01, f.wb10, f.wb11, 2.0 * dt_s)
-    leak = (ROS2_GAMMA * 2.0 * dt_s * f.leak_a, ROS2_GAMMA * 2.0 * dt_s * f.leak_b)
+    ma, mb, leak = _ros2_matrices(f, 2.0 * dt_s)
     k = _ros2_solve(ma, mb, leak, (f.dpa_valve, f.dpa_motor, f.dpb_valve, f.dpb_motor), p[P.HOSE_LOSS] == 0.0)
     for c in range(4):
         x[S_PAIR_START + c] = x[S_PA_VALVE + c]
@@ -1250,6 +1344,27 @@ def single_joint_rates(
     )
 
 
+# the one-joint state's air columns in `_air_ros2`'s order: the four pressures, then their temperatures
+_R_AIR = (R_PA_VALVE, R_PA_MOTOR, R_PB_VALVE, R_PB_MOTOR, R_TA_VALVE, R_TA_MOTOR, R_TB_VALVE, R_TB_MOTOR)
+
+
+@njit(inline="always")
+def _air_of_rigid(y: np.ndarray) -> AirState:
+    # the air of a one-joint state y, in `_air_ros2`'s order
+    return (
+        y[R_PA_VALVE], y[R_PA_MOTOR], y[R_PB_VALVE], y[R_PB_MOTOR], y[R_TA_VALVE], y[R_TA_MOTOR], y[R_TB_VALVE],
+        y[R_TB_MOTOR],
+    )  # fmt: skip
+
+
+@njit(inline="always")
+def _held_air(rates: np.ndarray, air: np.ndarray, held: bool) -> None:
+    # an RK4 stage's air rates replaced by the ROS2 step's secant `air` (`single_joint_rk4`)
+    if held:
+        for c in range(8):
+            rates[_R_AIR[c]] = air[c]
+
+
 @njit
 def single_joint_rk4(
     y: np.ndarray,
@@ -1295,27 +1410,45 @@ def single_joint_rk4(
     k3 = np.empty(N_RIGID)
     k4 = np.empty(N_RIGID)
     tmp = np.empty(N_RIGID)
+    # a short hose's air (`air_substeps`, the hose's own time `params.HOSE_TIME`) rings or diverges
+    # in RK4's explicit stages: it takes its own ROS2 steps with the motor turning at the sub-step's
+    # starting speed, and the stages see it move linearly to where they end (their air rates the
+    # secant), so RK4 gives the body the air's path and the air ROS2's result
+    air_ros2 = air_substeps(h, p) > 1 or h > p[P.HOSE_TIME]
+    air = np.empty(8)
     for _ in range(n):
         w0 = y[R_OMEGA]
         wm0 = y[R_OMEGA_M]
         s = _slide_direction(w0, p)
         s_m = s if rigid else _slide_direction(wm0, p)
+        if air_ros2:
+            m = air_substeps(h, p)
+            end = _air_ros2(
+                _air_of_rigid(y), ratio * y[R_QM], ratio * y[R_OMEGA_M], direction, valve_gauge_pa, supply_pa, h / m,
+                m, p,
+            )  # fmt: skip
+            for c in range(8):
+                air[c] = (end[c] - y[_R_AIR[c]]) / h
         _rates(y, direction, valve_gauge_pa, supply_pa, load_torque_nm, inertia_kg_m2, brake_engagement, s, s_m, p, k1)
+        _held_air(k1, air, air_ros2)
         for i in range(N_RIGID):
             tmp[i] = y[i] + 0.5 * h * k1[i]
         _rates(
             tmp, direction, valve_gauge_pa, supply_pa, load_torque_nm, inertia_kg_m2, brake_engagement, s, s_m, p, k2
         )
+        _held_air(k2, air, air_ros2)
         for i in range(N_RIGID):
             tmp[i] = y[i] + 0.5 * h * k2[i]
         _rates(
             tmp, direction, valve_gauge_pa, supply_pa, load_torque_nm, inertia_kg_m2, brake_engagement, s, s_m, p, k3
         )
+        _held_air(k3, air, air_ros2)
         for i in range(N_RIGID):
             tmp[i] = y[i] + h * k3[i]
         _rates(
             tmp, direction, valve_gauge_pa, supply_pa, load_torque_nm, inertia_kg_m2, brake_engagement, s, s_m, p, k4
         )
+        _held_air(k4, air, air_ros2)
         for i in range(N_RIGID):
             y[i] += rk4_increment(h, k1[i], k2[i], k3[i], k4[i])
         if s != 0.0 and s * y[R_OMEGA] < 0.0:

@@ -35,7 +35,7 @@ from pneumatics.fields import (
 )
 from pneumatics.gas import AIR, Gas
 from pneumatics.heat import vane_cell
-from pneumatics.hose import hose_constants
+from pneumatics.hose import hose_constants, hose_mass_flow_with, hose_volume
 from pneumatics.motor import half_pitch_volume
 from pneumatics.orifice import choked_flux
 from pneumatics.valves import lag_factors
@@ -127,11 +127,11 @@ SPEC: dict[str, FieldSpec] = {
     "ratio": FieldSpec("reducer", 1.0, 10_000.0, "-"),
     "efficiency_forward": FieldSpec("reducer", 0.05, 1.0, "-"),
     "efficiency_backward": FieldSpec("reducer", 0.05, 1.0, "-"),
-    # from 2 m: the model's air in a shorter hose moves faster than its steps follow. Measured on the
-    # wrist rig (0.5-1.0 MPa, 1.5 s of a 60 deg move, 1 ms control period): with 2-50 mm bores the
-    # predictor's integration goes to NaN below ~0.5 m and the plant's (MuJoCo's BADCTRL) below
-    # ~0.3 m; a 1 mm bore diverges at 1 m too and runs from 2 m. The arm's hoses are 8 m.
-    "hose_length_m": FieldSpec("hose", 2.0, 100.0, "m"),
+    # from 0.3 m (a valve mounted at the motor): a short hose's air moves faster than the plant's and
+    # the predictor's steps, and the kernels then sub-step it by ROS2 (`air_step_s`, `hose_time_s`
+    # below; docs/air_lines.md, "Short hoses"). Below 0.3 m the pi-section stops being a hose: its
+    # L/c (0.9 ms) is under the control period. The arm's hoses are 8 m.
+    "hose_length_m": FieldSpec("hose", 0.3, 100.0, "m"),
     "hose_diameter_m": FieldSpec("hose", 1e-3, 0.05, "m"),
     "hose_loss": FieldSpec("hose", 0.0, 1.0, "0 or 1"),
     "inlet_area_m2": FieldSpec("valves", 1e-8, 1e-3, "m^2"),
@@ -301,6 +301,10 @@ DERIVED = (
     # the motor's vane cell (`heat.vane_cell`): its wall area per volume, its hydraulic diameter
     "cell_area_per_volume_1_m",
     "cell_hydraulic_diameter_m",
+    # the longest step of the air's ROS2 for its fill to be accurate, and the hose's own time, under
+    # which an explicit step of the one-joint model diverges (`_air_times`)
+    "air_step_s",
+    "hose_time_s",
     # the lags' factors for steps of lag_dt_s (`valves.lag_factors`; NaN: a row for no one step)
     "lag_dt_s",
     "valve_decay",
@@ -326,9 +330,51 @@ def _derived(params: JointParams, gas: Gas, dt_s: float) -> tuple[float, ...]:
         *hose_constants(params.hose_length_m, params.hose_diameter_m, gas.mu_pa_s),
         choked_flux(gas.t_supply_k, gas.r_j_per_kg_k, gas.k),
         *vane_cell(params.stator_radius_m, params.rotor_radius_m, params.vane_length_m, params.n_vanes),
+        *_air_times(params, gas),
         dt_s,
         *lags,
     )
+
+
+# The pressure and the step ratio `_air_times` reads its times at: the paper's lowest supply, 0.5 MPa gauge
+# (the ratios hardly move with it), and ROS2 steps of at most 1/8 of the fill's time: measured on the
+# wrist rig filling a 0.3 m x 4 mm hose (tests/test_plant.py against LSODA), steps of 1/5 of it left
+# 2.2 % of the chamber pressure, 1/11 0.75 %; the arm's 8 m hoses (fill 36 ms) keep one step per 1 ms
+AIR_TIMES_PA = 101_325.0 + 0.5e6
+AIR_STEPS_PER_FILL = 8.0
+
+
+def _air_times(params: JointParams, gas: Gas) -> tuple[float, float]:
+    """(air_step_s, hose_time_s) of a joint: its air's time scales, from its parameters alone.
+
+    The fill's time: a hose end (half the hose's volume) filled through the slower of the valve's
+    choked inlet and the hose at the flow (the inlet's, or less if the hose carries less at half the
+    pressure), V / (k R T g) with g their conductance per Pa (the inlet's
+    A * choked flux; the hose's secant on its Blasius or laminar branch, `hose_constants`). ROS2 takes
+    steps of at most 1/AIR_STEPS_PER_FILL of it: its error goes as (h / tau)^2, and its W damps the
+    faster modes, not their accuracy.
+    The hose's time: the two ends evening out through the hose at that flow, V / (2 k R T g_hose). An
+    explicit step (the one-joint model's RK4) longer than it rings and diverges (a 0.5 m x 4 mm hose
+    at 1 ms, a 50 mm bore from 0.5 m, a 1 mm bore from 1 m); the kernels then take the air by ROS2.
+    Without the hose loss the hose's two ends are one node: its time does not bound the step."""
+    half = 0.5 * hose_volume(params.hose_length_m, params.hose_diameter_m)
+    krt = gas.k * gas.r_j_per_kg_k * gas.t_supply_k
+    inlet = params.inlet_area_m2 * params.conductance_scale * choked_flux(gas.t_supply_k, gas.r_j_per_kg_k, gas.k)
+    k_laminar, laminar_limit, k_blasius = hose_constants(params.hose_length_m, params.hose_diameter_m, gas.mu_pa_s)
+    r_t = gas.r_j_per_kg_k * gas.t_supply_k
+    # the flow: the inlet's, or what the hose carries at a drop of half the pressure if that is less
+    flow = min(
+        inlet * AIR_TIMES_PA,
+        hose_mass_flow_with(
+            AIR_TIMES_PA, 0.5 * AIR_TIMES_PA, gas.t_supply_k, gas.r_j_per_kg_k, k_laminar, laminar_limit, k_blasius
+        ),
+    )
+    rho = AIR_TIMES_PA / r_t
+    drop = flow / (k_laminar * rho) if flow <= laminar_limit else flow**1.75 / (k_blasius * rho)
+    hose = flow / drop
+    if params.hose_loss == 0.0:
+        return 2.0 * half / (krt * inlet) / AIR_STEPS_PER_FILL, math.inf
+    return half / (krt * min(inlet, hose)) / AIR_STEPS_PER_FILL, half / (2.0 * krt * hose)
 
 
 # where the joint stops: its drive angle's end stops (rad), a property of the arm, not of the air
@@ -415,6 +461,8 @@ HOSE_K_BLASIUS = _COLUMNS["hose_k_blasius"]
 CHOKED_FLUX = _COLUMNS["choked_flux_s_m"]
 CELL_AREA_PER_V = _COLUMNS["cell_area_per_volume_1_m"]
 CELL_D_H = _COLUMNS["cell_hydraulic_diameter_m"]
+AIR_STEP = _COLUMNS["air_step_s"]
+HOSE_TIME = _COLUMNS["hose_time_s"]
 LAG_DT = _COLUMNS["lag_dt_s"]
 VALVE_DECAY = _COLUMNS["valve_decay"]
 VALVE_MEAN_GAIN = _COLUMNS["valve_mean_gain"]
