@@ -30,7 +30,7 @@ from dataclasses import asdict, dataclass, replace
 import mujoco
 import numpy as np
 
-from scenarios.cleaning import DiscContact, disc_contacts
+from scenarios.cleaning import DiscContact, disc_contacts, physics_force_n
 from scenarios.schema import Criterion, Fault, Scenario
 from scenarios.string import discs_of
 
@@ -127,7 +127,7 @@ def _judge_plan_end(c: Criterion, a: dict, finished_s: float) -> Verdict:
         value = finished_s
     else:
         after = a["time_s"] > finished_s
-        value = float(np.max(a["brush_force_n"][after], initial=0.0)) if math.isfinite(finished_s) else math.nan
+        value = float(np.max(physics_force_n(a)[after], initial=0.0)) if math.isfinite(finished_s) else math.nan
     subject = "plan" if c.kind == "task_time_s" else "brush"
     return Verdict(c.kind, subject, value, _limit(c), bool(math.isfinite(value) and _within(value, c)))
 
@@ -194,7 +194,7 @@ def _judge_one(c: Criterion, scenario: Scenario, a: dict, joints, bodies, model,
             verdicts.append(Verdict(c.kind, f"disc_{disc}", value, _limit(c), _within(value, c)))
         return verdicts
     if c.kind == "contact_force_n":
-        value = float(np.max(a["brush_force_n"]))
+        value = float(np.max(physics_force_n(a)))  # at the physics rate
         return [Verdict(c.kind, "brush", value, _limit(c), _within(value, c))]
     if c.kind == "max_drop_m":
         z = a["body_pos_m"][after_fault, bodies.index("payload"), 2]
