@@ -26,9 +26,10 @@ from pathlib import Path
 import numpy as np
 from matplotlib.figure import Figure
 
-from scenarios.schema import load
+from scenarios.runner import build_plant, plan
+from scenarios.schema import ScenarioError, load, with_overrides
 from scenarios.study import SCENARIO, cleaned
-from scenarios.sweep import sweep
+from scenarios.sweep import child_seeds, sweep
 
 MAX_FORCE_N = 150.0  # no run above this, anywhere (issue 37)
 ALL_CLEANED_SHARE = 0.95  # the share of runs that must clean every disc (issue 37)
@@ -71,6 +72,7 @@ class Row:
     task_time_s: float  # median time the plan was finished (inf: a run never finished it)
     rim_share_min: float  # the least rim coverage of any disc in any run (0..1)
     top_share_min: float  # the least top-face coverage of any disc in any run (0..1)
+    refused: bool = False  # the plan cannot be made (the string out of the arm's reach): not run
 
 
 def cases_named(labels) -> list[tuple[str, dict]]:
@@ -90,11 +92,38 @@ def run_robustness(
     progress: bool = True,
     finished: dict[int, dict] | None = None,
 ) -> list[dict]:
-    """Every run's summary with its case's label (`case`), in CASES' order then the seeds'."""
+    """Every run's summary with its case's label (`case`), in CASES' order then the seeds'. A case
+    whose plan cannot be made (the string out of the arm's reach) is not run: each of its seeds
+    counts as a failed run that cleaned nothing, its reason in `refused`."""
     chosen = list(CASES) if cases is None else cases
+    scenario = load(scenario_path)
+    unplanned = {label: _unplannable(scenario, o) for label, o in chosen}
+    runnable = [o for label, o in chosen if not unplanned[label]]
     how = {"workers": workers, "duration_s": duration_s, "progress": progress, "finished": finished}
-    results = sweep(load(scenario_path), monte_carlo=seeds, cases=[o for _, o in chosen], **how)
-    return [{"case": case_of(r["overrides"]), **r} for r in results]
+    ran = iter(sweep(scenario, monte_carlo=seeds, cases=runnable, **how) if runnable else [])
+    out = []
+    for label, o in chosen:
+        for seed in child_seeds(scenario.seed, seeds):
+            if unplanned[label]:
+                out.append(_refused(label, {**o, "seed": seed}, unplanned[label]))
+            else:
+                out.append({"case": label, **next(ran)})
+    return out
+
+
+def _unplannable(scenario, overrides: dict) -> str:
+    """Why the plan cannot be made for the case (its string out of the brush's reach), or ""."""
+    case = with_overrides(scenario, overrides)
+    try:
+        plan(case, build_plant(case))
+    except ScenarioError as e:
+        return str(e).split(": ", 1)[-1]
+    return ""
+
+
+def _refused(label: str, overrides: dict, why: str) -> dict:
+    """A run's summary for a case whose plan cannot be made: nothing cleaned, nothing finished."""
+    return {"case": label, "overrides": overrides, "passed": False, "refused": why, "finished_s": None}
 
 
 def case_of(overrides: dict) -> str:
@@ -105,10 +134,16 @@ def case_of(overrides: dict) -> str:
 
 def largest_force_n(summary: dict) -> float:
     """A run's largest contact force (N): its contact_force_n criterion's value where it has one
-    (every contact at the physics rate), else its discs' peaks."""
-    judged = [c["value"] for c in summary["criteria"] if c["kind"] == "contact_force_n" and c["value"] is not None]
-    peaks = [d["peak_force_n"] for d in summary["discs"] if d["peak_force_n"] is not None]
+    (every contact at the physics rate), else its discs' peaks (0: not run)."""
+    criteria = summary.get("criteria", [])
+    judged = [c["value"] for c in criteria if c["kind"] == "contact_force_n" and c["value"] is not None]
+    peaks = [d["peak_force_n"] for d in summary.get("discs", []) if d["peak_force_n"] is not None]
     return max(judged + peaks, default=0.0)
+
+
+def all_cleaned(summary: dict) -> bool:
+    """The run cleaned every disc of its string (a run not made cleaned none)."""
+    return bool(summary.get("discs")) and cleaned(summary) == len(summary["discs"])
 
 
 def rows(results: list[dict]) -> list[Row]:
@@ -118,17 +153,18 @@ def rows(results: list[dict]) -> list[Row]:
     out = []
     for case in sorted(groups, key=LABELS.index):
         runs = groups[case]
-        discs = [d for r in runs for d in r["discs"]]
+        discs = [d for r in runs for d in r.get("discs", [])]
         out.append(
             Row(
                 case,
                 len(runs),
-                float(np.mean([cleaned(r) == len(r["discs"]) for r in runs])),
+                float(np.mean([all_cleaned(r) for r in runs])),
                 float(np.mean([bool(r["passed"]) for r in runs])),
                 max(largest_force_n(r) for r in runs),
                 float(np.median([math.inf if r["finished_s"] is None else r["finished_s"] for r in runs])),
-                min((d.get("rim_share", 0.0) for d in discs), default=0.0),
-                min((d.get("top_share", 0.0) for d in discs), default=0.0),
+                min((d["rim_share"] for d in discs), default=0.0),
+                min((d["top_share"] for d in discs), default=0.0),
+                any(r.get("refused") and "discs" not in r for r in runs),
             )
         )
     return out
@@ -141,7 +177,7 @@ def goals(results: list[dict]) -> dict[str, float]:
     shipped = [t for r, t in zip(results, times, strict=True) if r["case"] == SHIPPED]
     return {
         "runs": len(results),
-        "all_cleaned": float(np.mean([cleaned(r) == len(r["discs"]) for r in results])),
+        "all_cleaned": float(np.mean([all_cleaned(r) for r in results])),
         "peak_force_n": max(largest_force_n(r) for r in results),
         "task_time_s": float(np.median(times)),
         "shipped_task_time_s": float(np.median(shipped)) if shipped else math.nan,
@@ -161,6 +197,8 @@ def table(study_rows: list[Row], figures: dict[str, float]) -> str:
     ]
     for r in study_rows:
         force = f"**{r.peak_force_n:.0f}**" if r.peak_force_n > MAX_FORCE_N else f"{r.peak_force_n:.0f}"
+        if r.refused:
+            force = "out of reach: not run"
         lines.append(
             f"| {r.case} | {r.runs} | {r.all_cleaned:.0%} | {r.passed:.0%} | {force} | {_time(r.task_time_s)} "
             f"| {r.rim_share_min:.0%} | {r.top_share_min:.0%} |"
