@@ -222,6 +222,10 @@ def plot(study_rows: list[Row], figures: dict[str, float], path: Path) -> None:
     colour = ["tab:blue" if r.all_cleaned == 1.0 else "tab:red" for r in study_rows]
     ax1.barh(y, [r.peak_force_n for r in study_rows], color=colour)
     ax1.axvline(MAX_FORCE_N, color="k", lw=1, ls="--")
+    for k, r in enumerate(study_rows):
+        if r.peak_force_n == 0.0:  # no bar to see: say why
+            why = "out of reach: not run" if r.refused else "nothing touched"
+            ax1.text(5.0, k, why, va="center", fontsize=6, color="tab:red")
     finite = [r.task_time_s if math.isfinite(r.task_time_s) else 0.0 for r in study_rows]
     ax2.barh(y, finite, color=colour)
     ax2.axvline(figures["shipped_task_time_s"], color="k", lw=1, ls="--")
