@@ -6,6 +6,7 @@ smoke run."""
 from __future__ import annotations
 
 from benchmarks.bench_control import bench_control
+from benchmarks.bench_force_rate import bench_force_rate
 from benchmarks.bench_gap import bench_gap
 from benchmarks.bench_logging import bench_logging
 from benchmarks.bench_plant import bench_plant
@@ -21,6 +22,7 @@ def run_all(quick: bool = False, finished: dict | None = None) -> dict:
         benches = {
             "twin": lambda: bench_twin(seconds=1.0, rounds=1),
             "plant": lambda: bench_plant(seconds=0.3, rounds=1),
+            "force_rate": lambda: bench_force_rate(steps=500, rounds=3),
             "control": lambda: bench_control(n_ticks=300, rounds=1),
             "logging": lambda: bench_logging(seconds=1.0, rounds=1),
             "sweep": lambda: bench_sweep(points=2, duration_s=0.5, repeats=1),
@@ -30,6 +32,7 @@ def run_all(quick: bool = False, finished: dict | None = None) -> dict:
         benches = {
             "twin": bench_twin,
             "plant": bench_plant,
+            "force_rate": bench_force_rate,
             "control": bench_control,
             "logging": bench_logging,
             "sweep": bench_sweep,

@@ -9,6 +9,9 @@
                      unbroken min..max s (scenarios/cleaning.py: from MuJoCo's contacts)
     disc_force_n     the brush's peak force on the disc lies in min..max N (untouched: fails)
     disc_brushed_m   the length of the disc's rim the brush's face covered lies in min..max m
+    disc_rim_share   the share (0..1) of the disc's rim circumference the face went over with the
+                     force in the brush's band (scenarios/cleaning.py) lies in min..max
+    disc_top_share   the same of the disc's top face (the annulus from the cap to the rim)
 
 A run cut short (`twin run --duration`) judges a disc only if every press target on it was
 finished in time, the final errors only if the plan's last target was and every fault has struck,
@@ -30,7 +33,7 @@ from dataclasses import asdict, dataclass, replace
 import mujoco
 import numpy as np
 
-from scenarios.cleaning import DiscContact, disc_contacts
+from scenarios.cleaning import DiscContact, disc_contacts, physics_force_n
 from scenarios.schema import Criterion, Fault, Scenario
 from scenarios.string import discs_of
 
@@ -45,7 +48,7 @@ class Verdict:
     judged: bool = True  # False: the run was cut short before this criterion's targets were reached
 
 
-DISC_KINDS = ("disc_contact_s", "disc_force_n", "disc_brushed_m")
+DISC_KINDS = ("disc_contact_s", "disc_force_n", "disc_brushed_m", "disc_rim_share", "disc_top_share")
 AFTER_FAULT_KINDS = ("max_drop_m", "max_travel_deg")  # measured from the first fault on
 PLAN_END_KINDS = ("final_error_deg", "task_time_s", "contact_after_plan_n")  # judged once the plan is done
 
@@ -113,7 +116,13 @@ def _judge_discs(
     for dc in contacts:
         if c.disc and dc.disc != c.disc:
             continue
-        value = {"disc_contact_s": dc.contact_s, "disc_force_n": dc.peak_n, "disc_brushed_m": dc.brushed_m}[c.kind]
+        value = {
+            "disc_contact_s": dc.contact_s,
+            "disc_force_n": dc.peak_n,
+            "disc_brushed_m": dc.brushed_m,
+            "disc_rim_share": dc.rim_share,
+            "disc_top_share": dc.top_share,
+        }[c.kind]
         judged = disc_reached(scenario, dc.disc, reached)
         passed = judged and bool(math.isfinite(value) and _within(value, c))
         out.append(Verdict(c.kind, f"disc_{dc.disc}", value, _limit(c), passed, judged))
@@ -127,7 +136,7 @@ def _judge_plan_end(c: Criterion, a: dict, finished_s: float) -> Verdict:
         value = finished_s
     else:
         after = a["time_s"] > finished_s
-        value = float(np.max(a["brush_force_n"][after], initial=0.0)) if math.isfinite(finished_s) else math.nan
+        value = float(np.max(physics_force_n(a)[after], initial=0.0)) if math.isfinite(finished_s) else math.nan
     subject = "plan" if c.kind == "task_time_s" else "brush"
     return Verdict(c.kind, subject, value, _limit(c), bool(math.isfinite(value) and _within(value, c)))
 
@@ -194,7 +203,7 @@ def _judge_one(c: Criterion, scenario: Scenario, a: dict, joints, bodies, model,
             verdicts.append(Verdict(c.kind, f"disc_{disc}", value, _limit(c), _within(value, c)))
         return verdicts
     if c.kind == "contact_force_n":
-        value = float(np.max(a["brush_force_n"]))
+        value = float(np.max(physics_force_n(a)))  # at the physics rate
         return [Verdict(c.kind, "brush", value, _limit(c), _within(value, c))]
     if c.kind == "max_drop_m":
         z = a["body_pos_m"][after_fault, bodies.index("payload"), 2]

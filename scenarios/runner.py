@@ -176,6 +176,8 @@ def _disc_row(d: DiscContact, verdicts: list[Verdict]) -> dict:
         "peak_force_n": None if not math.isfinite(d.peak_n) else round(d.peak_n, 2),
         "mean_force_n": None if not math.isfinite(d.mean_n) else round(d.mean_n, 2),
         "brushed_m": round(d.brushed_m, 4),
+        "rim_share": round(d.rim_share, 4),
+        "top_share": round(d.top_share, 4),
         "cleaned": (all(v.passed for v in judged) if judged else None) if mine else None,
     }
 

@@ -68,6 +68,8 @@ ARM_ONLY_CRITERIA = (
     "disc_contact_s",
     "disc_force_n",
     "disc_brushed_m",
+    "disc_rim_share",
+    "disc_top_share",
     "max_drop_m",
     "task_time_s",
     "contact_after_plan_n",
@@ -82,7 +84,15 @@ FAULT_VALUES = {
     "sensor_bias": (-1e6, 1e6, "Pa"),  # +-10 bar: beyond the 0.5-0.8 MPa supply's whole span
 }
 JOINT_CRITERIA = ("final_error_deg", "max_error_deg", "max_travel_deg", "prediction_error_deg")
-DISC_CRITERIA = ("brush_on_disc", "disc_contact_s", "disc_force_n", "disc_brushed_m")  # may name one disc
+# may name one disc
+DISC_CRITERIA = (
+    "brush_on_disc",
+    "disc_contact_s",
+    "disc_force_n",
+    "disc_brushed_m",
+    "disc_rim_share",
+    "disc_top_share",
+)
 CRITERIA = (
     "final_error_deg",
     "max_error_deg",
@@ -91,6 +101,8 @@ CRITERIA = (
     "disc_contact_s",
     "disc_force_n",
     "disc_brushed_m",
+    "disc_rim_share",
+    "disc_top_share",
     "max_drop_m",
     "max_travel_deg",
     "prediction_error_deg",

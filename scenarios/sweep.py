@@ -50,15 +50,18 @@ def child_seeds(seed: int, n: int) -> list[int]:
     return [int(s.generate_state(1, dtype=np.uint64)[0] >> np.uint64(1)) for s in np.random.SeedSequence(seed).spawn(n)]
 
 
-def sweep_points(scenario: Scenario, grid: dict[str, list], monte_carlo: int) -> list[dict]:
-    """Overrides for each run: the grid, each point repeated over `monte_carlo` child seeds."""
+def sweep_points(
+    scenario: Scenario, grid: dict[str, list], monte_carlo: int, cases: list[dict] | None = None
+) -> list[dict]:
+    """Overrides for each run: the grid (or the `cases`, a list of override dicts, one factor at a
+    time), each point repeated over `monte_carlo` child seeds."""
     if monte_carlo and "seed" in grid:  # the child seeds would replace the grid's, all points alike
         raise ScenarioError(
             f"{scenario.path}: the seed is swept twice, by the grid (seed = {grid['seed']}) and by "
             f"monte_carlo = {monte_carlo} (child seeds of the scenario's seed, {scenario.seed}); "
             "allowed: one of them (--set seed=... or --monte-carlo N)"
         )
-    points = grid_points(grid) if grid else [{}]
+    points = [dict(c) for c in cases] if cases is not None else grid_points(grid) if grid else [{}]
     if monte_carlo:
         seeds = child_seeds(scenario.seed, monte_carlo)
         points = [{**p, "seed": s} for p in points for s in seeds]
@@ -91,8 +94,10 @@ def sweep(
     progress: bool = True,
     fork: bool = True,
     finished: dict[int, dict] | None = None,
+    cases: list[dict] | None = None,
 ) -> list[dict]:
-    """Run every point; returns one summary per point, in the points' order.
+    """Run every point (the grid's, or `cases`: see `sweep_points`); returns one summary per point,
+    in the points' order.
 
     workers 0 means all local cores. With `scheduler` (a Dask scheduler address) the points run on
     that cluster instead (needs the `cluster` extra: dask[distributed]). `fork=False` makes the
@@ -105,7 +110,7 @@ def sweep(
     check_number("workers", workers, **WORKERS)
     if duration_s is not None:
         check_number("duration_s", duration_s, **DURATION_S)
-    points = sweep_points(scenario, grid or {}, monte_carlo)
+    points = sweep_points(scenario, grid or {}, monte_carlo, cases)
     n_jobs = min(workers or joblib.cpu_count(), len(points))
     if not scheduler and n_jobs > 1 and fork and _can_fork():
         return _on_forked_workers(n_jobs, scenario, points, duration_s, progress, finished)

@@ -103,6 +103,9 @@ def _ticks(
     xmat,
     site_xpos,
     xquat,
+    sensordata,  # Plant.force_peak_n's sensor and peak (`_plant_steps`)
+    force_adr,
+    force_peak,
 ):
     # returns (ticks run whole, what stopped them, MuJoCo's time at the tick it stopped on, the time
     # of the last tick the controller ran)
@@ -205,6 +208,9 @@ def _ticks(
             supply_pa,
             dt_s,
             substeps,
+            sensordata,
+            force_adr,
+            force_peak,
         )
         for _ in range(steps_per_tick):
             time_s += dt_s  # as mj_step advances d.time (checked against it on return)
@@ -302,6 +308,7 @@ class CompiledTicks:
                 SUBSTEPS,
                 *self._camera,
                 self._xquat,
+                *plant._force_sensor,
             )
         finally:
             sys.unraisablehook = hook

@@ -174,10 +174,14 @@ def _plant_steps(
     supply_pa,
     dt_s,
     substeps,
+    sensordata,
+    force_adr,
+    force_peak,
 ):
     # the caller holds every array for the whole call: no reference counting in the loop (see `borrowed`)
     x, commands, params, drive_map = borrowed(x), borrowed(commands), borrowed(params), borrowed(drive_map)
     tendon_ids, actuator_ids = borrowed(tendon_ids), borrowed(actuator_ids)
+    sensordata, force_peak = borrowed(sensordata), borrowed(force_peak)
     qpos, qvel, ctrl, tendon_frictionloss = (
         borrowed(qpos),
         borrowed(qvel),
@@ -201,6 +205,10 @@ def _plant_steps(
             substeps,
         )
         _call_mj_step(mj_step_address, model_address, data_address)
+        # the brush's contact force of this step (its touch sensor, computed inside mj_step): its
+        # peak is kept at the physics rate, so a blow shorter than a telemetry period is not missed
+        if force_adr >= 0 and sensordata[force_adr] > force_peak[0]:
+            force_peak[0] = sensordata[force_adr]
     finish_air_pairs(x, params, drive_map, qpos, qvel, dt_s)
 
 

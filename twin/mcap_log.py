@@ -115,6 +115,7 @@ ARM_DOC = {
     "time_s": "simulated time since the run's start, s",
     "supply_pa": "supply pressure, Pa absolute",
     "brush_force_n": "brush normal force on the discs, N",
+    "brush_peak_n": "the largest brush normal force over the physics steps since the previous message, N",
 }
 ARM_DOC |= {f"brush_contact_{x}_m": f"brush contact point, world {x}, m (null: no contact)" for x in "xyz"}
 ARM_DOC |= {f"brush_push_{x}_n": f"force of the brush on what it touches, world {x}, N" for x in "xyz"}
@@ -129,7 +130,7 @@ ANGLE_CHANNELS = {
 
 JOINT_JSON = "{" + ",".join(f'"{f}":%r' for f in (*JOINT_FIELDS, "predicted_minus_true_rad", *DISPLAY_DOC)) + "}"
 # /arm fields: scalars, then each 3-vector of the brush contact as _x, _y, _z, then the supply in bar
-ARM_SCALARS = ("time_s", "supply_pa", "brush_force_n")
+ARM_SCALARS = ("time_s", "supply_pa", "brush_force_n", "brush_peak_n")
 ARM_VECTORS = {"brush_contact_m": "brush_contact_{}_m", "brush_push_n": "brush_push_{}_n"}
 ARM_FIELDS = ARM_SCALARS + tuple(f.format(x) for f in ARM_VECTORS.values() for x in "xyz") + ("supply_bar",)
 ARM_JSON = "{" + ",".join(f'"{f}":%r' for f in ARM_FIELDS) + "}"
@@ -697,7 +698,8 @@ def _fill_sample(out: dict[str, np.ndarray], i: int, msgs: dict[str, bytes], joi
             out[fld][i, j] = math.nan if rec[fld] is None else rec[fld]
     arm = json.loads(msgs["/arm"])
     for fld in ARM_SCALARS:
-        out[fld][i] = math.nan if arm[fld] is None else arm[fld]
+        value = arm.get(fld) if fld == "brush_peak_n" else arm[fld]  # brush_peak_n: absent from older logs
+        out[fld][i] = math.nan if value is None else value
     for sig, fmt in ARM_VECTORS.items():  # absent from logs written before they existed: NaN
         out[sig][i] = [math.nan if arm.get(fmt.format(x)) is None else arm[fmt.format(x)] for x in "xyz"]
 

@@ -37,6 +37,8 @@ MAX_TRANSMISSION_PHASE_PER_STEP = 1.0
 # least RK4 sub-steps per physics step of a non-rigid reducer's motor side (pneumatics/joint.py,
 # `advance_motor_side`, which takes more where the gear's mode needs them)
 SUBSTEPS = 1
+# the brush head's touch sensor (assets/arm.xml): the normal force of its contacts at each physics step
+BRUSH_TOUCH = "brush_touch"
 
 
 class Sensors(NamedTuple):
@@ -122,6 +124,13 @@ class Plant:
         # what every step passes along unchanged (fetched once: Plant.step runs every control tick)
         self._fixed_arrays = (self.drive_map, self.tendon_ids, self.actuator_ids, *self._mujoco_arrays)
         self._addresses = (m._address, self.data._address)
+        # the brush's largest contact normal force over the physics steps since it was last taken
+        # (`take_force_peak`), from its touch sensor (assets/arm.xml), kept by every step: the
+        # criteria judge forces at the physics rate, not at the telemetry's
+        self.force_peak_n = np.zeros(1)
+        sensor = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_SENSOR, BRUSH_TOUCH)
+        self._force_adr = int(m.sensor_adr[sensor]) if sensor >= 0 else -1
+        self._force_sensor = (self.data.sensordata, self._force_adr, self.force_peak_n)
         self._valve_gauge_pa = self.air[:, J.S_PV]  # a view (`air` is only ever written in place)
         # False: every physics step goes through `step` (a caller that wraps it, e.g. to record each
         # step); True lets the run loop step this plant's arrays from compiled code (twin/compiled_loop.py)
@@ -226,15 +235,25 @@ class Plant:
                 self.supply_pa,
                 self.dt,
                 SUBSTEPS,
+                *self._force_sensor,
             )
         else:
             args = (self.air, commands, self.params, *self._fixed_arrays, self.supply_pa, self.dt, SUBSTEPS)
             for _ in range(n):
                 pneumatic_step(*args)
                 mujoco.mj_step(m, d)
+                if self._force_adr >= 0:
+                    self.force_peak_n[0] = max(self.force_peak_n[0], d.sensordata[self._force_adr])
             finish_air_pairs(self.air, self.params, self.drive_map, d.qpos, d.qvel, self.dt)
         if check_warnings:
             self.check_warnings()
+
+    def take_force_peak(self) -> float:
+        """The brush's largest contact normal force (N) over the physics steps since the last call
+        (each 0.5 ms step's, its touch sensor), and start again from zero."""
+        peak = float(self.force_peak_n[0])
+        self.force_peak_n[0] = 0.0
+        return peak
 
     def check_warnings(self) -> None:
         """SimulationError if MuJoCo warned since the last check (STYLE rule 7)."""

@@ -34,6 +34,7 @@ ROW_SIGNALS = (
     "brush_force_n",
     "brush_contact_m",
     "brush_push_n",
+    "brush_peak_n",
     "body_pos_m",
     "body_quat_wxyz",
 )
@@ -83,7 +84,8 @@ def fill_row(
     for i in range(3):
         row[k + 2 + i] = math.nan
         row[k + 5 + i] = 0.0
-    k += 8
+    row[k + 8] = 0.0  # the physics steps' peak force: Python's, from the plant (Plant.take_force_peak)
+    k += 9
     for body in range(1, xpos.shape[0]):
         for i in range(3):
             row[k] = xpos[body, i]

@@ -106,6 +106,7 @@ def sample(plant: Plant, controller: Controller) -> dict[str, np.ndarray]:
         "brush_force_n": np.asarray(contact[0]),
         "brush_contact_m": contact[1],
         "brush_push_n": contact[2],
+        "brush_peak_n": np.asarray(plant.take_force_peak()),
         "body_pos_m": d.xpos[1:],
         "body_quat_wxyz": d.xquat[1:],
     }
@@ -187,6 +188,7 @@ class _Recording:
         assert tuple(telemetry.layout) == ROW_SIGNALS, "twin/sample_row.py writes another layout"
         self.row = np.zeros(telemetry.width)
         self._brush = [telemetry.layout[s] for s in ("brush_force_n", "brush_contact_m", "brush_push_n")]
+        self._peak = telemetry.layout["brush_peak_n"]
         # the joints the controller predicts (a number from the start; a command schedule has none)
         self._predicted = np.isfinite(controller.predicted_angles())
         self.checked = len(telemetry)  # samples before this one were checked by `check_prediction`
@@ -207,6 +209,7 @@ class _Recording:
                 if self.plant.data.ncon:
                     for sl, value in zip(self._brush, brush_contact(self.plant), strict=True):
                         row[sl] = value
+                row[self._peak] = self.plant.take_force_peak()
                 self.telemetry.append_row(row)
         if k % self.ticks_per_flush == self.ticks_per_flush - 1:
             self.flush()

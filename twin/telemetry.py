@@ -23,6 +23,7 @@ SIGNALS: dict[str, tuple] = {
     "brush_force_n": (),  # normal force of the brush on the insulator discs
     "brush_contact_m": (3,),  # where the brush touches: force-weighted contact point, world (NaN: no contact)
     "brush_push_n": (3,),  # total contact force the brush exerts on what it touches, world frame
+    "brush_peak_n": (),  # the largest brush_force_n over the physics steps since the previous sample
     "body_pos_m": ("b", 3),  # world position of each body
     "body_quat_wxyz": ("b", 4),  # world orientation of each body
 }

@@ -182,11 +182,14 @@ def print_summary(summary: dict) -> None:
         cells = [j["target_deg"], j["true_final_deg"], j["predicted_final_deg"], j["error_deg"]]
         print(f"  {joint:<16}" + _cells(cells, (9, 9, 11, 9)))
     if summary.get("discs"):
-        print(f"  {'disc':<8}{'contact s':>10}{'peak N':>9}{'mean N':>9}{'brushed cm':>12}  cleaned")
+        # peak N at the physics rate; rim %, top %: the shares gone over in the force band (scenarios/cleaning.py)
+        head = f"{'contact s':>10}{'peak N':>9}{'mean N':>9}{'brushed cm':>12}{'rim %':>7}{'top %':>7}"
+        print(f"  {'disc':<8}{head}  cleaned")
         for d in summary["discs"]:
             cells = [d["contact_s"], d["peak_force_n"], d["mean_force_n"], 100 * d["brushed_m"]]
+            cells += [100 * d["rim_share"], 100 * d["top_share"]]
             state = {True: "yes", False: "NO", None: "not judged"}[d["cleaned"]]
-            print(f"  disc_{d['disc']:<3}" + _cells(cells, (10, 9, 9, 12)) + f"  {state}")
+            print(f"  disc_{d['disc']:<3}" + _cells(cells, (10, 9, 9, 12, 7, 7)) + f"  {state}")
         judged = [d for d in summary["discs"] if d["cleaned"] is not None]
         cleaned = sum(bool(d["cleaned"]) for d in judged)
         print(f"  discs cleaned: {cleaned} of {len(judged)} judged (contact, force band, brushed rim)")

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from twin.checks import DURATION_S
 from twin.errors import UserError
 from twin.outputs import OutputLock, check_output, publish_folder
 from twin.signals import shielded, stop_behind
@@ -39,7 +40,21 @@ def register(sub: argparse._SubParsersAction) -> None:
         type=number(1, 1000, integer=True),
         default=2,
         metavar="N",
-        help="child seeds per strategy and supply (default 2)",
+        help="child seeds per strategy and supply, or per robustness case (default 2)",
+    )
+    c.add_argument(
+        "--robustness",
+        action="store_true",
+        help="instead: the operator's task with the string moved, the arm and camera off the belief, one "
+        "factor at a time (scenarios/robustness.py): DIR/robustness.json, .csv, .md, .png",
+    )
+    c.add_argument(
+        "--cases",
+        default=None,
+        help="with --robustness: comma-separated subset of the cases (default: all; names as in robustness.md)",
+    )
+    c.add_argument(
+        "--duration", type=number(**DURATION_S), metavar="S", help="shorten every run to this many simulated seconds"
     )
     add_workers(c)
     c.set_defaults(func=cmd_study_cleaning)
@@ -69,27 +84,56 @@ def _parse(args) -> tuple[list[str], list[float]]:
 
 def cmd_study_cleaning(args) -> int:
     # on use: at the top, the libraries take `twin --help` from 0.45 to 2.2 s
+    from scenarios import robustness
     from scenarios.study import run_study, table, write
+
+    if args.robustness:
+        try:
+            cases = None if args.cases is None else robustness.cases_named([c.strip() for c in args.cases.split(",")])
+        except ValueError as e:
+            raise UserError(f"--cases: {e}") from None
+        check_output(args.out, "--out", folder=True)
+
+        def runs(finished: dict[int, dict]) -> list:
+            return robustness.run_robustness(
+                cases, seeds=args.seeds, workers=args.workers, duration_s=args.duration, finished=finished
+            )
+
+        (results, _), folder = _published(args.out, runs, robustness.write)
+        print(robustness.table(robustness.rows(results), robustness.goals(results)))
+        names = ("robustness.json", "robustness.csv", "robustness.md", "robustness.png")
+    else:
+        if args.cases is not None:
+            raise UserError("--cases is for --robustness; allowed: --strategies and --supplies")
+        strategies, supplies = _parse(args)
+        check_output(args.out, "--out", folder=True)
+
+        def runs(finished: dict[int, dict]) -> list:
+            how = {"seeds": args.seeds, "workers": args.workers, "duration_s": args.duration, "finished": finished}
+            return run_study(strategies, supplies, **how)
+
+        (_, study_rows), folder = _published(args.out, runs, write)
+        print(table(study_rows))
+        names = ("study.json", "study.csv", "study.md", "study.png")
+    print(", ".join(str(folder / n) for n in names))
+    return 0
+
+
+def _published(out: Path, runs, write) -> tuple:
+    """((the results, what `write` returns), the folder) for the results of `runs(finished)` written into `out` as
+    a whole; a stopped study leaves the runs that finished as a partial table."""
     from scenarios.sweep import write_summaries
 
-    strategies, supplies = _parse(args)
-    check_output(args.out, "--out", folder=True)
-
-    def study_into(staging: Path) -> list:
+    def study_into(staging: Path):
         finished: dict[int, dict] = {}
         try:
-            results = run_study(strategies, supplies, seeds=args.seeds, workers=args.workers, finished=finished)
+            results = runs(finished)
         except BaseException as e:  # stopped: the runs that finished, as a partial table
             if stop_behind(e) is not None and finished:
                 with shielded():
                     write_summaries([finished[i] for i in sorted(finished)], staging / PARTIAL, partial=True)
             raise
-        return write(results, staging)
+        return results, write(results, staging)
 
-    with OutputLock([args.out]):
-        study_rows, folder = publish_folder(
-            args.out, study_into, f"the study's runs ({PARTIAL}, partial)", keep_on_stop=True
-        )
-    print(table(study_rows))
-    print(f"{folder / 'study.json'}, {folder / 'study.csv'}, {folder / 'study.md'}, {folder / 'study.png'}")
-    return 0
+    with OutputLock([out]):
+        return publish_folder(out, study_into, f"the study's runs ({PARTIAL}, partial)", keep_on_stop=True)
