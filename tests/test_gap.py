@@ -228,13 +228,13 @@ def test_malformed_campaigns_name_file_line_and_problem(campaigns, tmp_path):
 @pytest.mark.parametrize("hose_m", [0.01, 0.1])
 def test_a_hose_too_short_for_the_model_is_refused_with_the_parameter_files_range(campaigns, tmp_path, hose_m):
     """campaign.toml's hose_length_m has the joint parameter file's range (pneumatics.params.SPEC:
-    from 2 m, where the 1 ms steps stop diverging): a shorter one is refused when the campaign is
+    from 0.3 m, where the pi-section stops being a hose): a shorter one is refused when the campaign is
     read, naming the file, the field, the value and what is allowed."""
     c = _copy(campaigns["none"], tmp_path / "c")
     t = (c / "campaign.toml").read_text()
     (c / "campaign.toml").write_text(re.sub(r"hose_length_m = [0-9.]+", f"hose_length_m = {hose_m}", t))
     with pytest.raises(
-        GapError, match=rf"campaign\.toml:\d+: hose_length_m = {hose_m}; allowed: a number in 2\.\.100 m"
+        GapError, match=rf"campaign\.toml:\d+: hose_length_m = {hose_m}; allowed: a number in 0\.3\.\.100 m"
     ):
         load_campaign(c)
 

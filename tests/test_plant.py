@@ -191,11 +191,11 @@ def test_rig_error_shrinks_with_the_time_step(reference) -> None:
 
 @pytest.mark.parametrize("hose, bound", [((2.0, 1e-3), 0.09), ((2.0, 0.05), 0.04)])
 def test_a_short_or_wide_hose_fills_as_lsoda_says(hose, bound) -> None:
-    """The shortest hoses allowed (2 m), one narrow and one wide: the air of a hose's two ends, or of
-    a valve node and its valve, evens out faster than a 0.5 ms step, a stiff mode of the air. The
-    chamber pressures of the first 0.1 s of filling (the rig still at rest) against LSODA: measured
-    4.6 % (1 mm bore) and 2.0 % (50 mm) at most. Heun's explicit stages (until stop 20) rang there:
-    28 % and 13 %. Bounds: about twice the measured."""
+    """2 m hoses, one narrow and one wide: the air of a hose's two ends, or of a valve node and its
+    valve, evens out faster than a 0.5 ms step, a stiff mode of the air. The chamber pressures of the
+    first 0.1 s of filling (the rig still at rest) against LSODA: measured 4.6 % (1 mm bore) and
+    2.0 % (50 mm) at most; Heun's explicit stages rang there: 28 % and 13 %. Bounds: about twice the
+    measured."""
     seconds = 0.1
     plant = rig_sliding_from_rest(hose)
     reference = reference_solution(plant, np.arange(int(round(seconds / plant.dt)) + 1) * plant.dt)

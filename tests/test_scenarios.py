@@ -52,7 +52,7 @@ mode = "none"
         (
             "[predictor.effects.wrist_pitch]\nhose_length_m = 0.01",
             "predictor.effects.wrist_pitch.hose_length_m",
-            "2..100",
+            "0.3..100",
         ),
     ],
 )
@@ -227,9 +227,10 @@ def test_a_rig_run_cut_short_is_judged_on_the_target_in_force(capsys, tmp_path):
 
 
 def test_a_diverged_predictor_stops_the_run_and_fails_its_criterion():
-    """A predictor whose integration goes to NaN (a 1 cm hose, below the files' range: built through
-    the Python API) stops the run like a MuJoCo divergence, and prediction_error_deg, computed on
-    NaN from then on, fails (NaN is no pass)."""
+    """A predictor whose integration goes to NaN (a NaN hose bore, which no file allows: built through
+    the Python API; a 1 cm hose no longer diverges, its air is sub-stepped) stops the run like a
+    MuJoCo divergence, and prediction_error_deg, computed on NaN from then on, fails (NaN is no
+    pass)."""
     from pneumatics import load_joint_params
     from scenarios import controllers
     from scenarios.criteria import judge
@@ -244,7 +245,7 @@ def test_a_diverged_predictor_stops_the_run_and_fails_its_criterion():
     plant = build_plant(s)
     targets = resolve_targets(s, plant)
     nominal = load_joint_params(assets.joint_param_path("wrist_pitch"))
-    controller, _ = controllers.build(s, plant, {"wrist_pitch": nominal._replace(hose_length_m=0.01)}, targets)
+    controller, _ = controllers.build(s, plant, {"wrist_pitch": nominal._replace(hose_diameter_m=math.nan)}, targets)
     telemetry = Telemetry(plant.joints, body_names(plant))
     with pytest.raises(SimulationError, match=r"the predictor diverged \(non-finite predicted angle of wrist_pitch\)"):
         run(plant, controller, 1.0, telemetry=telemetry)
