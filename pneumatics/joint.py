@@ -14,7 +14,9 @@ Air path of each motor port (DESIGN, "Where the hose loss bites"):
 The direction valve connects a port's valve node to the supply or to the exhaust. The hose is
 lumped as a pi-section: half its volume at each end, its Darcy-Weisbach resistance between them,
 so the resistance acts on the supply and the exhaust path alike and the state stays non-stiff.
-With hose_loss = 0 the two nodes are one volume (the paper's model without pressure loss).
+With hose_loss = 0 the two nodes are one volume (the paper's model without pressure loss); with the
+paper's hose law (hose_law = 1, the predictor's) too, the loss then an algebraic drop of the
+supplied port's feed pressure (eq. 5, pneumatics/paper_hose.py).
 
 State of a joint (a float64 row, see the S_* columns): four node pressures (Pa, absolute), the
 proportional valve's output pressure (Pa, gauge), the brake's engagement, the direction
@@ -45,6 +47,7 @@ from pneumatics.hose import hose_mass_flow_with, hose_volume
 from pneumatics.integrators import ROS2_GAMMA, rk4_increment, ros2_increment, ros2_inverse, secant_slope
 from pneumatics.motor import chamber_geometry, vane_torque
 from pneumatics.orifice import orifice_mass_flow_between, orifice_mass_flow_with
+from pneumatics.paper_hose import paper_source_pressure
 from pneumatics.reducer import (
     damping,
     inertia_split,
@@ -211,7 +214,21 @@ def _supplied_pressure(
         valve_gauge_pa,
         p[P.GAS_P_ATM],
     )
+    if direction != 0.0 and p[P.HOSE_LOSS] == 1.0 and p[P.HOSE_LAW] == P.HOSE_LAW_PAPER:
+        # the paper's eq. 5: the supplied port is fed from P_s, the valve's output less the hose's
+        # algebraic drop at the fixed flow V; the exhausted port sees P_e = P_o (no drop)
+        p_s = paper_source_pressure(
+            p_s, p[P.GAS_P_ATM], p[P.GAS_T], p[P.GAS_K], p[P.HOSE_L], p[P.HOSE_D], p[P.HOSE_V_STD]
+        )
     return p_s, p[P.A_IN] * p[P.COND_SCALE] * opening
+
+
+@njit(inline="always")
+def one_node_per_port(p: np.ndarray) -> bool:
+    """True when each port's valve end and motor end are one air node (the hose's volume lumped
+    with the chamber): without the hose's resistance, or with the paper's algebraic law for it
+    (eq. 5), which has no flow along the hose to carry."""
+    return p[P.HOSE_LOSS] == 0.0 or p[P.HOSE_LAW] == P.HOSE_LAW_PAPER
 
 
 @njit(inline="always")
@@ -256,7 +273,7 @@ def _polytropic_rates(
     half_hose = 0.5 * hose_volume(p[P.HOSE_L], p[P.HOSE_D])
     rt = r * t_s
 
-    if p[P.HOSE_LOSS] == 0.0:
+    if one_node_per_port(p):
         # one node per port: motor chamber + porting + the whole hose
         v_a_node = v_a + 2.0 * half_hose
         v_b_node = v_b + 2.0 * half_hose
@@ -429,7 +446,7 @@ def _energy_rates(
     hose_v = hose_volume(p[P.HOSE_L], p[P.HOSE_D])
     hose_wall = math.pi * p[P.HOSE_D] * p[P.HOSE_L]
 
-    if p[P.HOSE_LOSS] == 0.0:
+    if one_node_per_port(p):
         # one node per port: motor chamber + porting + the whole hose, its gas moving at the valve's flow
         v_a_node = v_a + hose_v
         v_b_node = v_b + hose_v
@@ -762,7 +779,7 @@ def _ros2_solve(
     mb: tuple[float, float, float, float],
     leak: tuple[float, float],
     r: tuple[float, float, float, float],
-    one_node_per_port: bool,
+    one_node: bool,
 ) -> tuple[float, float, float, float]:
     # (I - g h W) k = r for the four node pressures: ma, mb the inverses of port A's and port B's
     # 2 x 2 blocks (`ros2_inverse`), `leak` g h times the vane leak's coupling of the motor nodes
@@ -778,7 +795,7 @@ def _ros2_solve(
     inv = 1.0 / (1.0 - alpha * beta)
     k_am = (ua[1] + alpha * ub[1]) * inv
     k_bm = (ub[1] + beta * ua[1]) * inv
-    if one_node_per_port:
+    if one_node:
         return k_am, k_am, k_bm, k_bm
     return ua[0] + leak[0] * ma[1] * k_bm, k_am, ub[0] + leak[1] * mb[1] * k_am, k_bm
 
@@ -830,7 +847,7 @@ def _air_ros2(
     turning from phi_motor at omega_motor: a short hose's air, in the plant (`advance_air_pair`) and
     the one-joint model (`single_joint_rk4`). The same stages as the plant's step over two physics
     steps, with the rates of the second at the step's end."""
-    one_node = p[P.HOSE_LOSS] == 0.0
+    one_node = one_node_per_port(p)
     gh = ROS2_GAMMA * h
     for i in range(n):
         phi = phi_motor + omega_motor * (i * h)
@@ -925,7 +942,7 @@ def advance_air_pair(
         return torque
     f = _air_rates_of(x, ratio * theta, ratio * omega, direction, valve_gauge_pa, supply_pa, p)
     ma, mb, leak = _ros2_matrices(f, 2.0 * dt_s)
-    k = _ros2_solve(ma, mb, leak, (f.dpa_valve, f.dpa_motor, f.dpb_valve, f.dpb_motor), p[P.HOSE_LOSS] == 0.0)
+    k = _ros2_solve(ma, mb, leak, (f.dpa_valve, f.dpa_motor, f.dpb_valve, f.dpb_motor), one_node_per_port(p))
     for c in range(4):
         x[S_PAIR_START + c] = x[S_PA_VALVE + c]
         x[S_PAIR_K + c] = k[c]
@@ -973,7 +990,7 @@ def finish_air_pair(x: np.ndarray, theta: float, omega: float, dt_s: float, p: n
     )
     ma = (x[S_PAIR_MA], x[S_PAIR_MA + 1], x[S_PAIR_MA + 2], x[S_PAIR_MA + 3])
     mb = (x[S_PAIR_MB], x[S_PAIR_MB + 1], x[S_PAIR_MB + 2], x[S_PAIR_MB + 3])
-    k2 = _ros2_solve(ma, mb, (x[S_PAIR_LEAK], x[S_PAIR_LEAK + 1]), r, p[P.HOSE_LOSS] == 0.0)
+    k2 = _ros2_solve(ma, mb, (x[S_PAIR_LEAK], x[S_PAIR_LEAK + 1]), r, one_node_per_port(p))
     for c in range(4):
         x[S_PA_VALVE + c] = x[S_PAIR_START + c] + ros2_increment(2.0 * dt_s, x[S_PAIR_K + c], k2[c])
     for c, rate in enumerate((f.dta_valve, f.dta_motor, f.dtb_valve, f.dtb_motor)):

@@ -63,6 +63,12 @@ class JointParams(NamedTuple):
     hose_length_m: float
     hose_diameter_m: float
     hose_loss: float  # 1: the hose's resistance is modelled (paper eq. 1-5); 0: not (volume only)
+    # which law the resistance follows (with hose_loss = 1): 0, the physical hose, Darcy-Weisbach on the
+    # flow each port's hose carries (a pi-section, pneumatics/darcy.py); 1, the paper's eq. 1-5 as
+    # written, an algebraic drop on the supplied port at the fixed flow hose_standard_flow_m3_s
+    # (pneumatics/paper_hose.py), each port's hose volume lumped with its chamber. `paper_model` sets 1
+    hose_law: float
+    hose_standard_flow_m3_s: float  # V of the paper's eq. 1 (m^3/s at 0 degC, 101.325 kPa); read with hose_law = 1
     # [valves]
     inlet_area_m2: float  # effective area of the supply path at full opening
     exhaust_area_m2: float  # effective area of the exhaust path (with its speed throttle)
@@ -134,6 +140,9 @@ SPEC: dict[str, FieldSpec] = {
     "hose_length_m": FieldSpec("hose", 0.3, 100.0, "m"),
     "hose_diameter_m": FieldSpec("hose", 1e-3, 0.05, "m"),
     "hose_loss": FieldSpec("hose", 0.0, 1.0, "0 or 1"),
+    "hose_law": FieldSpec("hose", 0.0, 1.0, "0 or 1"),
+    # to 0.1 m^3/s (360 m^3/h): beyond the largest vane motors' consumption
+    "hose_standard_flow_m3_s": FieldSpec("hose", 0.0, 0.1, "m^3/s"),
     "inlet_area_m2": FieldSpec("valves", 1e-8, 1e-3, "m^2"),
     "exhaust_area_m2": FieldSpec("valves", 1e-8, 1e-3, "m^2"),
     "k_u_per_pa": FieldSpec("valves", 1e-8, 1e-4, "1/Pa"),
@@ -270,7 +279,7 @@ def check_related(params: JointParams, field_at: Callable[[str], str]) -> JointP
             f"reducer_compliance_rad_per_nm = {params.reducer_compliance_rad_per_nm:g}); "
             "allowed: a rotor inertia > 0 (the motor side is a body of its own)"
         )
-    for field in ("hose_loss", "brake_fed_by_motor", "chamber_heat"):
+    for field in ("hose_loss", "hose_law", "brake_fed_by_motor", "chamber_heat"):
         value = getattr(params, field)
         if value not in (0.0, 1.0):
             raise ParameterError(f"{field_at(field)} = {value:g}; allowed: 0 or 1")
@@ -422,6 +431,8 @@ ETA_B = _COLUMNS["efficiency_backward"]
 HOSE_L = _COLUMNS["hose_length_m"]
 HOSE_D = _COLUMNS["hose_diameter_m"]
 HOSE_LOSS = _COLUMNS["hose_loss"]
+HOSE_LAW = _COLUMNS["hose_law"]
+HOSE_V_STD = _COLUMNS["hose_standard_flow_m3_s"]
 A_IN = _COLUMNS["inlet_area_m2"]
 A_EX = _COLUMNS["exhaust_area_m2"]
 K_U = _COLUMNS["k_u_per_pa"]
@@ -475,10 +486,17 @@ STOP_HIGH = _COLUMNS["stop_high_rad"]
 N_COLUMNS = len(_COLUMNS)
 
 
+# `hose_law`: the physical hose, the paper's eq. 1-5
+HOSE_LAW_PHYSICAL = 0.0
+HOSE_LAW_PAPER = 1.0
+
+
 def paper_model(params: JointParams) -> JointParams:
     """The paper's model of the same joint (eq. 1-7): its chambers' polytropic law, every flow at the
     supply temperature, no heat to the walls (chamber_heat = 0, with the joint's polytropic_n:
-    1.4, the paper's adiabatic assumption 1, unless set). What the controller's predictor
-    integrates (DESIGN rule 2: the predictor is the paper's model; the plant and the gap replay the
-    best physics; beyond that they differ only in configuration, this one field)."""
-    return params._replace(chamber_heat=0.0)
+    1.4, the paper's adiabatic assumption 1, unless set), and its hose loss as written, an
+    algebraic drop on the supplied port at the joint file's fixed standard flow (hose_law = 1,
+    eq. 1-5; on only where hose_loss is). What the controller's predictor integrates (DESIGN rule
+    2: the predictor is the paper's model; the plant and the gap replay the best physics; beyond
+    that they differ only in configuration, these two fields)."""
+    return params._replace(chamber_heat=0.0, hose_law=HOSE_LAW_PAPER)
