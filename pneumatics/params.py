@@ -381,7 +381,7 @@ def _air_times(params: JointParams, gas: Gas) -> tuple[float, float]:
     rho = AIR_TIMES_PA / r_t
     drop = flow / (k_laminar * rho) if flow <= laminar_limit else flow**1.75 / (k_blasius * rho)
     hose = flow / drop
-    if params.hose_loss == 0.0:
+    if params.hose_loss == 0.0 or params.hose_law == HOSE_LAW_PAPER:
         return 2.0 * half / (krt * inlet) / AIR_STEPS_PER_FILL, math.inf
     return half / (krt * min(inlet, hose)) / AIR_STEPS_PER_FILL, half / (2.0 * krt * hose)
 
@@ -494,9 +494,15 @@ HOSE_LAW_PAPER = 1.0
 def paper_model(params: JointParams) -> JointParams:
     """The paper's model of the same joint (eq. 1-7): its chambers' polytropic law, every flow at the
     supply temperature, no heat to the walls (chamber_heat = 0, with the joint's polytropic_n:
-    1.4, the paper's adiabatic assumption 1, unless set), and its hose loss as written, an
-    algebraic drop on the supplied port at the joint file's fixed standard flow (hose_law = 1,
-    eq. 1-5; on only where hose_loss is). What the controller's predictor integrates (DESIGN rule
-    2: the predictor is the paper's model; the plant and the gap replay the best physics; beyond
-    that they differ only in configuration, these two fields)."""
-    return params._replace(chamber_heat=0.0, hose_law=HOSE_LAW_PAPER)
+    1.4, the paper's adiabatic assumption 1, unless set). What the controller's predictor integrates
+    (DESIGN rule 2: the predictor is the paper's model; the plant and the gap replay the best
+    physics; beyond that they differ only in configuration).
+
+    The hose law is the joint's own (`hose_law`): the shipped files keep the pi-section on the real
+    flow (0), and the paper's eq. 1-5 as written (1: an algebraic drop on the supplied port at a
+    fixed standard flow) is chosen per joint where wanted, e.g. `[predictor.effects.wrist_pitch]
+    hose_law = 1` in a scenario. Not forced here: its drop does not follow the flow, so near a
+    target, where the loop's set point sits at the breakaway floor, it takes the predicted port
+    under breakaway and the arm's small moves stall in the prediction while the real joint runs
+    (the cleaning task then fails); docs/predictor_hose_law.md has the measurements."""
+    return params._replace(chamber_heat=0.0)

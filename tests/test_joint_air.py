@@ -193,15 +193,17 @@ def test_a_still_motor_filled_without_heat_holds_the_energy_the_supply_brought()
 
 def test_the_predictor_takes_the_papers_law_and_the_plant_the_energy_balance_from_the_same_files() -> None:
     """DESIGN rule 2: the predictor is the paper's model (polytropic, n = 1.4, every flow at the
-    supply temperature; the hose loss of eq. 1-5 as written) whatever the joint's parameters say;
-    the plant takes the chamber law and the physical hose they state (the shipped files: the
-    paper's chamber law until the as-built arm is recalibrated); two fields apart."""
-    controller = ArmController({"wrist_pitch": 0.0}, assets.WRIST_RIG_XML, predictor_params={"wrist_pitch": WRIST})
+    supply temperature) whatever the joint's parameters say; the plant takes the chamber law they
+    state (the shipped files: the paper's chamber law until the as-built arm is recalibrated); the
+    hose law is the file's in both (the shipped files: the pi-section); one field apart."""
+    eq5 = WRIST._replace(hose_law=P.HOSE_LAW_PAPER)
+    controller = ArmController({"wrist_pitch": 0.0}, assets.WRIST_RIG_XML, predictor_params={"wrist_pitch": eq5})
     plant = Plant(assets.WRIST_RIG_XML, {"wrist_pitch": WRIST})
     assert controller.params[0, P.CHAMBER_HEAT] == 0.0 and controller.params[0, P.POLY_N] == 1.4
     assert controller.params[0, P.HOSE_LAW] == P.HOSE_LAW_PAPER
     assert plant.params[0, P.CHAMBER_HEAT] == 1.0 and plant.params[0, P.HOSE_LAW] == P.HOSE_LAW_PHYSICAL
     assert Plant(assets.WRIST_RIG_XML).params[0, P.CHAMBER_HEAT] == FILE_WRIST.chamber_heat
+    assert FILE_WRIST.hose_law == P.HOSE_LAW_PHYSICAL
     fields = [f for f in WRIST._fields if f not in ("chamber_heat", "hose_law")]
     assert [getattr(controller.joint_params["wrist_pitch"], f) for f in fields] == [getattr(WRIST, f) for f in fields]
 

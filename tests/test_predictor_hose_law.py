@@ -22,6 +22,7 @@ from pneumatics import load_joint_params, paper_model, params_row
 from pneumatics.gas import AIR
 from pneumatics.joint import pressure_rates
 from pneumatics.paper_hose import paper_hose_drop
+from pneumatics.params import HOSE_LAW_PAPER
 from scenarios.paper_validation import PAPER, rig_inertia, validation_run, wrist_models
 
 WRIST = load_joint_params(assets.joint_param_path("wrist_pitch"))
@@ -101,8 +102,9 @@ def test_with_the_loss_the_supplied_port_is_fed_from_the_supply_less_the_drop_th
     """At 0.8 MPa with the valve fully open, the air's rates by the paper's loss equal those without
     the loss from a supply lowered by eq. 5's drop computed by hand, at any state of the four nodes
     (eq. 5: P_s = P_i - Delta P_i on the supplied port, P_e = P_o on the exhausted one)."""
-    row = params_row(paper_model(WRIST))
-    row_without = params_row(paper_model(WRIST)._replace(hose_loss=0.0))
+    eq5 = paper_model(WRIST)._replace(hose_law=HOSE_LAW_PAPER)
+    row = params_row(eq5)
+    row_without = params_row(eq5._replace(hose_loss=0.0))
     supply = 0.8e6 + P_ATM
     drop = eq5_by_hand(0.8)
     rng = np.random.default_rng(34)
@@ -119,13 +121,16 @@ def test_with_the_loss_the_supplied_port_is_fed_from_the_supply_less_the_drop_th
         assert with_loss[4 - fed] == without[4 - fed]  # the exhausted port: no loss
 
 
-def test_the_papers_pair_at_08_mpa_is_within_reach_of_one_reality() -> None:
-    """The paper's 0.8 MPa errors, 1.2 deg with the loss and 3.2 deg without (mean), need the two
-    predictions within 4.4 deg of each other. With eq. 5 as written they are (the physical hose's
-    start-up transient put them 13.1 deg apart, issue 34)."""
+def test_the_papers_pair_at_08_mpa_is_within_reach_of_one_reality_only_under_eq_5() -> None:
+    """The paper's 0.8 MPa mean errors, 1.2 deg with the loss and 3.2 deg without, need the two
+    predictions within 4.4 deg of each other (a reality's two errors add to at least their
+    distance, sample by sample). With eq. 5 as written they are about 1.7 deg apart; with the
+    pi-section on the real flow (the shipped predictor) about 13 deg: no reality meets both."""
     nominal, reality = wrist_models()
-    run = validation_run(reality, nominal, 0.8, rig_inertia(nominal), plant=False)
-    gap = run.predictor_gap()
-    print(f"\n0.8 MPa: with/without loss {gap['mean']:.2f} deg apart (mean), {gap['max']:.2f} max")
-    assert 0.5 < gap["mean"] < PAPER["with_hose_loss"]["mean"][0.8] + PAPER["without_hose_loss"]["mean"][0.8]
-    assert "mean" not in run.unreachable()
+    bound = PAPER["with_hose_loss"]["mean"][0.8] + PAPER["without_hose_loss"]["mean"][0.8]
+    apart = {}
+    for law, params in (("eq5", nominal._replace(hose_law=HOSE_LAW_PAPER)), ("pi", nominal)):
+        run = validation_run(reality, params, 0.8, rig_inertia(params), plant=False)
+        apart[law] = run.predictor_gap()["mean"]
+    print(f"\n0.8 MPa: the predictions with and without the loss {apart} deg apart (mean)")
+    assert 0.5 < apart["eq5"] < bound < apart["pi"]
