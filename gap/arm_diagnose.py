@@ -10,10 +10,11 @@ Steps (each its own function below):
      gap/where.py does for one joint (phase, supply, direction, speed, ...) and by its posture
      (the gravity torque on it, at the twin's pose);
   3. which: every catalogue effect on the departing joint and every arm-level effect
-     (gap/arm_effects.py) is probed on the training runs, shortened to SCREEN_S: each probe's
-     correction (twin with it - nominal twin) scaled to fit the residual best, so one replay a probe
-     ranks it; the best TOP are fitted on the training runs (a bounded scalar search) and judged
-     on the withheld runs;
+     (gap/arm_effects.py) is probed on the training runs, shortened to SCREEN_S: one probe replay
+     a candidate, its correction (twin with it - nominal twin) scaled to fit the residual best
+     (either way, within the bounds) ranks it and says where its value lies; the best TOP are
+     fitted together on the training runs (three points around that estimate, then the vertex of
+     a parabola: four replays of each training run a candidate) and judged on the withheld runs;
   4. how far: on the withheld runs, per joint, the rms before and after the best candidate.
 The runs alternate between training and withheld (every other run withheld).
 
@@ -30,12 +31,11 @@ from dataclasses import asdict, dataclass, field
 import mujoco
 import numpy as np
 from joblib import delayed
-from scipy.optimize import minimize_scalar
 
 import assets
 from gap.arm_campaign import JOINTS, ArmCampaign, ArmRun
 from gap.arm_effects import ArmSetup, Candidate, candidates
-from gap.arm_replay import Replay, arm_plant, replay, set_drive_angles
+from gap.arm_replay import TICK_S, Replay, arm_plant, joint_angles, replay
 from gap.campaign import Run
 from gap.diagnose import _parallel
 from gap.where import breakdown, labels_of
@@ -48,6 +48,7 @@ SIGNIFICANT = 2.0  # floors: a channel's rms residual this many times its noise 
 EXPLAINED_SHRINK = 0.1  # a candidate leaving at most this fraction of the misfit on withheld runs explains it
 SCREEN_S = 20.0  # the probes replay the training runs' first 20 s (the fits and the judgement replay them whole)
 TOP = 3  # candidates fitted after the screen
+SECOND_LOOK = 6  # candidates the screen probes again at the value its first probe points at
 GRAVITY_BINS_NM = (-100.0, -30.0, -10.0, 10.0, 30.0, 100.0)  # the posture factor's bin edges
 
 
@@ -188,16 +189,23 @@ def fit_latency(campaign: ArmCampaign, runs: list[ArmRun], reps: list[Replay]) -
 
 def gravity_torques(joint: str, twin: Twin, start_rad: np.ndarray, drive_rad: np.ndarray) -> np.ndarray:
     """The gravity torque on `joint`'s drive (N·m, holding the arm up is positive) at each row of
-    drive angles (the twin's pose)."""
+    drive angles (the twin's pose): MuJoCo's bias force at rest (`qfrc_bias` with no velocity,
+    by its recursive Newton-Euler pass after the kinematics: what mj_forward gives, without the
+    contacts and constraints it solves besides)."""
     plant = arm_plant(twin.params, twin.setup, start_rad)
     m, d = plant.model, plant.data
-    i = plant.joints.index(joint)
-    out = np.empty(len(drive_rad))
-    for k, q in enumerate(drive_rad):
-        set_drive_angles(plant, q)
-        d.qvel[:] = 0.0
-        mujoco.mj_forward(m, d)
-        out[k] = sum(c * d.qfrc_bias[int(dof)] for _, dof, c in plant.drive_map[i] if c != 0.0)
+    terms = [(int(dof), c) for _, dof, c in plant.drive_map[plant.joints.index(joint)] if c != 0.0]
+    addresses, q = joint_angles(plant, drive_rad)
+    d.qvel[:] = 0.0
+    bias = np.empty(m.nv)
+    out = np.empty(len(q))
+    for k, row in enumerate(q):
+        d.qpos[addresses] = row
+        mujoco.mj_kinematics(m, d)
+        mujoco.mj_comPos(m, d)
+        mujoco.mj_comVel(m, d)
+        mujoco.mj_rne(m, d, 0, bias)
+        out[k] = sum(c * bias[dof] for dof, c in terms)
     return out
 
 
@@ -258,18 +266,47 @@ def _bins(labels: np.ndarray, residual_rad: np.ndarray) -> dict[str, dict]:
     }
 
 
-def _probe_values(c: Candidate, twin: Twin) -> list[float]:
-    """One or two probe values: a quarter of the way from the twin's value to each bound it can move to."""
+@dataclass(frozen=True)
+class Axis:
+    """The coordinate a candidate's value is searched on: log(value) where the catalogue spaces it
+    logarithmically and its low bound is above 0, the value itself otherwise."""
+
+    lo: float
+    hi: float
+    log: bool
+
+    def x(self, value: float) -> float:
+        return math.log(value) if self.log else value
+
+    def value(self, x: float) -> float:
+        return float(np.clip(math.exp(x) if self.log else x, self.lo, self.hi))
+
+    @property
+    def x_lo(self) -> float:
+        return self.x(self.lo)
+
+    @property
+    def x_hi(self) -> float:
+        return self.x(self.hi)
+
+
+def axis_of(c: Candidate) -> Axis:
+    lo, hi = c.bounds
+    return Axis(lo, hi, c.log and lo > 0)
+
+
+def probe_value(c: Candidate, twin: Twin) -> float | None:
+    """The screen's probe: a quarter of the way from the twin's value towards the upper bound (a
+    catalogue effect is mostly more of something: friction, leakage, lag), towards the lower one
+    where the twin is at the upper; log-spaced where the effect is. None: nowhere to move."""
     lo, hi = c.bounds
     now = c.value_in(twin.params, twin.setup, JOINTS)
-    out = []
-    for bound in (lo, hi):
+    for bound in (hi, lo):
         if abs(bound - now) > 1e-12 * max(1.0, abs(bound)):
             if c.log and now > 0 and bound > 0:
-                out.append(float(now * (bound / now) ** 0.25))
-            else:
-                out.append(float(now + 0.25 * (bound - now)))
-    return out
+                return float(now * (bound / now) ** 0.25)
+            return float(now + 0.25 * (bound - now))
+    return None
 
 
 def _with(twin: Twin, c: Candidate, value: float) -> Twin:
@@ -277,26 +314,71 @@ def _with(twin: Twin, c: Candidate, value: float) -> Twin:
     return Twin(params, setup)
 
 
+@dataclass(frozen=True)
+class Screened:
+    """A candidate's screen: the misfit ratio its probe's correction leaves, scaled to fit the
+    residual, and the value that scale points at (the fit starts there)."""
+
+    candidate: Candidate
+    ratio: float
+    estimate: float
+
+
+def _shortened(rep: Replay, t_end_s: float) -> Replay:
+    """The first `t_end_s` of a replay: what a replay stopped there gives (the same ticks, bit for bit)."""
+    n = int(t_end_s / TICK_S + 1e-9) + 1
+    return Replay(rep.time_s[:n], rep.angle_rad[:n], rep.port_pa[:n])
+
+
 def screen(
-    run_jobs, campaign: ArmCampaign, twin: Twin, runs: list[ArmRun], latency_s: float, cands: list[Candidate]
-) -> list[tuple[Candidate, float]]:
-    """Each candidate's best misfit ratio from its probes' corrections scaled to the residual (no
-    fit), on `runs` shortened to SCREEN_S; best first."""
-    probes = [(c, v) for c in cands for v in _probe_values(c, twin)]
-    reps = _replays(run_jobs, runs, [twin] + [_with(twin, c, v) for c, v in probes], SCREEN_S)
+    run_jobs,
+    campaign: ArmCampaign,
+    twin: Twin,
+    runs: list[ArmRun],
+    latency_s: float,
+    cands: list[Candidate],
+    nominal: list[Replay] | None = None,
+) -> list[Screened]:
+    """Each candidate ranked without a fit, on `runs` shortened to SCREEN_S, best first: one probe
+    replay (`probe_value`), its correction (twin with it - nominal) scaled to fit the residual
+    best, either way (to first order the correction of a step the other way is the same, negated),
+    as far as the bounds allow; then the best SECOND_LOOK once more, probed at the value the first
+    scale points at (an effect far from linear, dry friction, is ranked by what it does there),
+    each ranked by the better of its two looks.
+    `nominal`: the nominal twin's replays of `runs` (any length), or None to replay them here."""
+    probes = [(c, v) for c in cands if (v := probe_value(c, twin)) is not None]
+    if nominal is None:
+        reps = _replays(run_jobs, runs, [twin] + [_with(twin, c, v) for c, v in probes], SCREEN_S)
+        nominal, reps = reps[0], reps[1:]
+    else:
+        reps = _replays(run_jobs, runs, [_with(twin, c, v) for c, v in probes], SCREEN_S)
+        nominal = [_shortened(p, SCREEN_S) for p in nominal]
     weights = _weights(campaign)
-    base = _stack([residual(r, p, latency_s) for r, p in zip(runs, reps[0], strict=True)], weights)
-    total = float(base @ base) or 1.0
-    best: dict[str, tuple[Candidate, float]] = {}
-    for (c, _), rp in zip(probes, reps[1:], strict=True):
+    base = _stack([residual(r, p, latency_s) for r, p in zip(runs, nominal, strict=True)], weights)
+
+    def scaled(c: Candidate, v: float, rp: list[Replay]) -> Screened:
         with_it = _stack([residual(r, p, latency_s) for r, p in zip(runs, rp, strict=True)], weights)
-        corr = base - with_it  # what the effect adds to the twin, in the residual's units
-        scale = max(0.0, float(base @ corr) / float(corr @ corr)) if float(corr @ corr) > 0 else 0.0
-        left = base - scale * corr
-        ratio = float(left @ left) / total
-        if c.name not in best or ratio < best[c.name][1]:
-            best[c.name] = (c, ratio)
-    return sorted(best.values(), key=lambda x: x[1])
+        return _scaled(base, base - with_it, c, twin, v)
+
+    first = sorted((scaled(c, v, rp) for (c, v), rp in zip(probes, reps, strict=True)), key=lambda s: s.ratio)
+    again = [s for s in first[:SECOND_LOOK] if s.estimate != s.candidate.value_in(twin.params, twin.setup, JOINTS)]
+    reps = _replays(run_jobs, runs, [_with(twin, s.candidate, s.estimate) for s in again], SCREEN_S)
+    looked = {s.candidate.name: scaled(s.candidate, s.estimate, rp) for s, rp in zip(again, reps, strict=True)}
+    # each candidate by the better of its two looks (both are first-order guesses; the fits decide)
+    better = [min(s, looked.get(s.candidate.name, s), key=lambda x: x.ratio) for s in first]
+    return sorted(better, key=lambda s: s.ratio)
+
+
+def _scaled(base: np.ndarray, corr: np.ndarray, c: Candidate, twin: Twin, probe: float) -> Screened:
+    """The probe's correction `corr` (what the effect at `probe` adds to the twin, in the residual's
+    units) scaled to fit the residual `base` best, the value it points at kept inside the bounds."""
+    axis = axis_of(c)
+    x_now, x_probe = axis.x(c.value_in(twin.params, twin.setup, JOINTS)), axis.x(probe)
+    scale = float(base @ corr) / float(corr @ corr) if float(corr @ corr) > 0 else 0.0
+    x_est = float(np.clip(x_now + scale * (x_probe - x_now), axis.x_lo, axis.x_hi))
+    scale = (x_est - x_now) / (x_probe - x_now)  # the scale of the value kept inside the bounds
+    left = base - scale * corr
+    return Screened(c, float(left @ left) / (float(base @ base) or 1.0), axis.value(x_est))
 
 
 def _weights(campaign: ArmCampaign) -> tuple[float, float]:
@@ -311,27 +393,62 @@ def _stack(residuals: list[Residual], weights: tuple[float, float]) -> np.ndarra
     return np.concatenate(parts)
 
 
-def fit(
-    run_jobs, campaign: ArmCampaign, twin: Twin, train: list[ArmRun], latency_s: float, c: Candidate
-) -> tuple[float, float]:
-    """(value, training misfit) of `c` by a bounded scalar search (log-spaced where the effect is)."""
-    lo, hi = c.bounds
-    log = c.log and lo > 0
-    to_x = (lambda v: math.log(v)) if log else (lambda v: v)
-    from_x = (lambda x: math.exp(x)) if log else (lambda x: x)
-    cache: dict[float, float] = {}
+STEP = 0.25  # the fit's first points: the screen's estimate and this fraction of its move either side
+MIN_STEP = 0.05  # ... and at least this fraction of the search range
 
-    def cost(x: float) -> float:
-        v = float(np.clip(from_x(x), lo, hi))
-        if v not in cache:
-            reps = _replays(run_jobs, train, [_with(twin, c, v)])[0]
-            cache[v] = misfit([residual(r, p, latency_s) for r, p in zip(train, reps, strict=True)], campaign)
-        return cache[v]
 
-    low = to_x(lo if not (c.log and lo == 0) else hi * 1e-3)
-    res = minimize_scalar(cost, bounds=(low, to_x(hi)), method="bounded", options={"maxiter": 8, "xatol": 1e-3})
-    v = float(np.clip(from_x(res.x), lo, hi))
-    return v, cost(to_x(v))
+def _first_points(axis: Axis, x_now: float, x_est: float) -> list[float]:
+    """Three points around the screen's estimate, inside the bounds."""
+    span = axis.x_hi - axis.x_lo
+    h = max(STEP * abs(x_est - x_now), MIN_STEP * span)
+    centre = float(np.clip(x_est, axis.x_lo + h, axis.x_hi - h)) if span > 2 * h else 0.5 * (axis.x_lo + axis.x_hi)
+    return sorted({float(np.clip(centre + k * h, axis.x_lo, axis.x_hi)) for k in (-1, 0, 1)})
+
+
+def _vertex(axis: Axis, costs: dict[float, float]) -> float:
+    """Where the parabola through the three cheapest points has its minimum (inside the bounds and
+    at most twice their spread beyond them); where it has none, a spread beyond the cheapest."""
+    best = min(costs, key=costs.get)
+    if len(costs) < 3:
+        return best
+    (x0, c0), (x1, c1), (x2, c2) = sorted(sorted(costs.items(), key=lambda p: p[1])[:3])
+    spread = x2 - x0
+    curvature = ((c2 - c1) / (x2 - x1) - (c1 - c0) / (x1 - x0)) / spread
+    if curvature * spread**2 > 1e-9 * (max(c0, c1, c2) - min(c0, c1, c2)):  # a minimum, not a line's rounding
+        slope = (c2 - c0) / spread  # the parabola's slope at the middle of x0..x2
+        x = 0.5 * (x0 + x2) - slope / (2.0 * curvature)
+    else:
+        x = best + spread * (1.0 if best >= x1 else -1.0)
+    return float(np.clip(x, max(axis.x_lo, x0 - 2 * spread), min(axis.x_hi, x2 + 2 * spread)))
+
+
+def fit_all(
+    run_jobs,
+    campaign: ArmCampaign,
+    twin: Twin,
+    train: list[ArmRun],
+    latency_s: float,
+    screened: list[Screened],
+    nominal_misfit: float,
+) -> list[tuple[float, float]]:
+    """(value, training misfit) of each screened candidate, all fitted together (their replays in one
+    batch a round): the misfit at the screen's estimate and a step either side, then at the vertex
+    of the parabola through the cheapest three (the nominal twin's misfit among them); the cheapest
+    point evaluated is the fit."""
+    axes = [axis_of(s.candidate) for s in screened]
+    x_now = [a.x(s.candidate.value_in(twin.params, twin.setup, JOINTS)) for a, s in zip(axes, screened, strict=True)]
+    costs: list[dict[float, float]] = [{} for _ in screened]
+
+    def evaluate(points: list[list[float]]) -> None:
+        todo = [(i, x) for i, xs in enumerate(points) for x in xs if x not in costs[i]]
+        twins = [_with(twin, screened[i].candidate, axes[i].value(x)) for i, x in todo]
+        for (i, x), reps in zip(todo, _replays(run_jobs, train, twins), strict=True):
+            costs[i][x] = misfit([residual(r, p, latency_s) for r, p in zip(train, reps, strict=True)], campaign)
+
+    evaluate([_first_points(a, xn, a.x(s.estimate)) for a, xn, s in zip(axes, x_now, screened, strict=True)])
+    evaluate([[_vertex(a, {xn: nominal_misfit} | c)] for a, xn, c in zip(axes, x_now, costs, strict=True)])
+    best = [min(c, key=c.get) for c in costs]
+    return [(a.value(x), c[x]) for a, x, c in zip(axes, best, costs, strict=True)]
 
 
 def diagnose_arm(campaign: ArmCampaign, n_jobs: int = 1, scheduler: str | None = None) -> ArmDiagnosis:
@@ -357,14 +474,18 @@ def diagnose_arm(campaign: ArmCampaign, n_jobs: int = 1, scheduler: str | None =
         joint = worst.joint
         place = where(joint, twin, runs, reps, residuals, latency)
         cands = [c for c in candidates(JOINTS) if c.joint in ("", joint)]
-        ranked = screen(run_jobs, campaign, twin, train, latency, cands)
-        fits = []
+        ranked = screen(run_jobs, campaign, twin, train, latency, cands, reps[0::2])
+        top = ranked[:TOP]
+        fitted = fit_all(run_jobs, campaign, twin, train, latency, top, misfit(residuals[0::2], campaign))
         base_withheld = misfit(held, campaign)
-        for c, _ in ranked[:TOP]:
-            value, train_cost = fit(run_jobs, campaign, twin, train, latency, c)
-            reps_w = _replays(run_jobs, withheld, [_with(twin, c, value)])[0]
+        judged = _replays(
+            run_jobs, withheld, [_with(twin, s.candidate, v) for s, (v, _) in zip(top, fitted, strict=True)]
+        )
+        fits = []
+        for s, (value, train_cost), reps_w in zip(top, fitted, judged, strict=True):
             res_w = [residual(r, p, latency) for r, p in zip(withheld, reps_w, strict=True)]
             after = misfit(res_w, campaign)
+            c = s.candidate
             fits.append(
                 Fit(c.name, c.family, value, train_cost, after, after / base_withheld, joint_gaps(res_w, campaign))
             )
@@ -377,7 +498,7 @@ def diagnose_arm(campaign: ArmCampaign, n_jobs: int = 1, scheduler: str | None =
         best.candidate if explained else "",
         best.family,
         where=place,
-        screen=[(c.name, ratio) for c, ratio in ranked],
+        screen=[(s.candidate.name, s.ratio) for s in ranked],
         fits=fits,
         withheld_after=best.withheld_after,
         **common,

@@ -157,17 +157,24 @@ def arm_plant(params: dict[str, JointParams], setup: ArmSetup, start_rad: np.nda
     return plant
 
 
-def set_drive_angles(plant: Plant, drive_rad: np.ndarray) -> None:
-    """Set the joints' qpos so that their drive coordinates are `drive_rad` (the elbow's drive is
-    shoulder + elbow): the drive map's linear equations solved for the joints' own coordinates."""
-    m, d = plant.model, plant.data
+def joint_angles(plant: Plant, drive_rad: np.ndarray) -> tuple[list[int], np.ndarray]:
+    """(qpos addresses of the plant's joints, their angles) giving the drive coordinates `drive_rad`
+    (the elbow's drive is shoulder + elbow): the drive map's linear equations solved for the
+    joints' own coordinates; `drive_rad` (n_joints,) or (rows, n_joints)."""
+    m = plant.model
     addresses = [int(m.joint(j).qposadr[0]) for j in plant.joints]
     a = np.zeros((len(addresses), len(addresses)))
     for i in range(len(plant.joints)):
         for q, _, c in plant.drive_map[i]:
             if c != 0.0:
                 a[i, addresses.index(int(q))] += c
-    d.qpos[addresses] = np.linalg.solve(a, drive_rad)
+    return addresses, np.linalg.solve(a, np.asarray(drive_rad).T).T
+
+
+def set_drive_angles(plant: Plant, drive_rad: np.ndarray) -> None:
+    """Set the joints' qpos so that their drive coordinates are `drive_rad` (`joint_angles`)."""
+    addresses, q = joint_angles(plant, drive_rad)
+    plant.data.qpos[addresses] = q
 
 
 @dataclass(frozen=True)

@@ -208,16 +208,41 @@ def log_static_geometry(rec, model: mujoco.MjModel, ghost: bool = False) -> list
     """Log every drawable geom once (static); returns the entity paths written. With `ghost`, the
     moving bodies' shown geoms once more under GHOST_PATH, translucent: the arm at its predicted
     angles (twin.ghost)."""
+    if ghost:
+        return log_arm_geometry(rec, model, GHOST_PATH, GHOST_RGBA)
+    return _log_geoms(rec, model, range(model.ngeom), lambda g: _geom_parent_path(model, g), lambda g: None)
+
+
+def log_scene_geometry(rec, model: mujoco.MjModel) -> list[str]:
+    """The geoms fixed to the world (floor, gantry, insulator string), static; the paths written."""
+    fixed = [g for g in range(model.ngeom) if int(model.geom_bodyid[g]) == 0]
+    return _log_geoms(rec, model, fixed, lambda g: _geom_parent_path(model, g), lambda g: None)
+
+
+def log_arm_geometry(
+    rec, model: mujoco.MjModel, root: str, rgba8: tuple[int, ...] | None = None, marked: dict | None = None
+) -> list[str]:
+    """The moving bodies' shown geoms under `root`/<body>/<geom> (static, pose in the body frame),
+    in their own colours or in `rgba8` (0..255, alpha included); `marked` maps a body's name to a
+    colour of its own (a link drawn apart). The bodies' poses are logged at `root`/<body>."""
+    marked = marked or {}
+    shown = [
+        g for g in range(model.ngeom) if int(model.geom_bodyid[g]) != 0 and int(model.geom_group[g]) in VISIBLE_GROUPS
+    ]
+
+    def colour(g: int) -> tuple[int, ...] | None:
+        return marked.get(body_name(model, int(model.geom_bodyid[g])), rgba8)
+
+    return _log_geoms(rec, model, shown, lambda g: f"{root}/{body_name(model, int(model.geom_bodyid[g]))}", colour)
+
+
+def _log_geoms(rec, model: mujoco.MjModel, geoms, parent_of, colour_of) -> list[str]:
     paths = []
-    for g in range(model.ngeom):
-        b = int(model.geom_bodyid[g])
-        if ghost and (b == 0 or int(model.geom_group[g]) not in VISIBLE_GROUPS):
-            continue
-        arch = geom_archetype(model, g, GHOST_RGBA if ghost else None)
+    for g in geoms:
+        arch = geom_archetype(model, g, colour_of(g))
         if arch is None:
             continue
-        parent = f"{GHOST_PATH}/{body_name(model, b)}" if ghost else _geom_parent_path(model, g)
-        path = f"{parent}/{geom_name(model, g)}"
+        path = f"{parent_of(g)}/{geom_name(model, g)}"
         pose = rr.Transform3D(translation=model.geom_pos[g], quaternion=wxyz_to_xyzw(model.geom_quat[g]))
         rec.log(path, pose, arch, static=True)
         paths.append(path)
@@ -361,6 +386,69 @@ def blueprint(
     )
 
 
+def open_recording(path: Path | None, viewer: str | None, layout) -> rr.RecordingStream:
+    """A recording stream writing to the file `path`, and/or a live viewer (`viewer`: "spawn"
+    starts one on this machine, else the gRPC URL of a running one, e.g.
+    rerun+http://127.0.0.1:9876/proxy), opening on the blueprint `layout`. RerunLogError: the file
+    cannot be written (no room for a recording's start, an unwritable place, a bad URL)."""
+    where = ", ".join(str(x) for x in (path, viewer) if x is not None)
+    if path is not None:
+        free = shutil.disk_usage(path.parent if path.parent.exists() else Path.cwd()).free
+        if free < RECORDING_START_BYTES:
+            raise RerunLogError(
+                f"{path}: not written: No space left on device ({free} bytes free; a recording's start "
+                f"takes {RECORDING_START_BYTES // 1024} KB)"
+            )
+    rec = rr.RecordingStream("pneumatic_arm_twin")
+    try:
+        sinks = [rr.FileSink(str(path))] if path is not None else []
+        if viewer == "spawn":
+            rec.spawn(connect=False)  # a viewer on rerun's default port, which GrpcSink() reaches
+            sinks.append(rr.GrpcSink())
+        elif viewer is not None:
+            sinks.append(rr.GrpcSink(viewer))
+        rec.set_sinks(*sinks, default_blueprint=layout)
+    except Exception as e:  # rerun raises its own error types for unwritable paths and bad URLs
+        raise RerunLogError(f"{where}: cannot write a rerun recording: {e}") from e
+    return rec
+
+
+def close_recording(rec: rr.RecordingStream, path: Path | None) -> None:
+    """Flush and disconnect `rec`, waiting at most FLUSH_TIMEOUT_S for rerun's writer; then
+    RerunLogError unless the file `path` is whole (ends in rerun's footer)."""
+    finished = _within(FLUSH_TIMEOUT_S, lambda: _flush_and_disconnect(rec))
+    if not finished:  # rerun's shutdown at exit would wait for the same writer: the process would hang
+        rr.unregister_shutdown()
+    if not finished and path is not None:
+        raise RerunLogError(
+            f"{path}: damaged: rerun's file writer did not finish within {FLUSH_TIMEOUT_S:g} s ({_disk_cause(path)})"
+        )
+    if path is not None:
+        _check_whole(path)
+
+
+def _flush_and_disconnect(rec: rr.RecordingStream) -> None:
+    try:
+        rec.flush(timeout_sec=FLUSH_TIMEOUT_S)
+        rec.disconnect()
+    except Exception:  # rerun's own errors: its file writer stopped (a full disk) or the flush timed out
+        rec.disconnect()
+
+
+def _check_whole(path: Path) -> None:
+    """RerunLogError unless the file ends in rerun's footer: rerun does not raise when its writes
+    fail (a full disk), it leaves the file cut short there."""
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        try:
+            rr.chunk.RrdReader(path)
+            whole = not any("footer" in str(w.message) for w in caught)
+        except Exception:  # rerun's own error types: not even a readable start
+            whole = False
+    if not whole:
+        raise RerunLogError(f"{path}: damaged, cut short where writing failed ({_disk_cause(path)}): no rerun footer")
+
+
 class RerunRecorder:
     """Writes a .rrd file while a run goes (Recorder protocol of twin.sim).
 
@@ -393,9 +481,8 @@ class RerunRecorder:
         self.model = plant_model
         self.joints = tuple(joints)
         self.bodies = tuple(body_name(plant_model, b) for b in range(1, plant_model.nbody))
-        self.rec = rr.RecordingStream("pneumatic_arm_twin")
         camera = camera_view or (camera_fps > 0 and has_camera(plant_model, "global_view"))
-        self._open_sinks(viewer, blueprint(self.joints, plant_model, focus, camera=camera))
+        self.rec = open_recording(self.path, viewer, blueprint(self.joints, plant_model, focus, camera=camera))
         if meta and meta.get("scenario_name"):
             self.rec.send_recording_name(str(meta["scenario_name"]))
         self.rec.log(
@@ -418,29 +505,6 @@ class RerunRecorder:
         if self._camera is None and self.camera_fps > 0:
             self._camera = FrameFeed(plant_model, self.camera_fps)
         self._closed = False
-
-    def _open_sinks(self, viewer: str | None, layout) -> None:
-        """Where the recording goes: the file `path`, and/or a live viewer (`viewer`: "spawn"
-        starts one on this machine, else the gRPC URL of a running one, e.g.
-        rerun+http://127.0.0.1:9876/proxy)."""
-        where = ", ".join(str(x) for x in (self.path, viewer) if x is not None)
-        if self.path is not None:
-            free = shutil.disk_usage(self.path.parent if self.path.parent.exists() else Path.cwd()).free
-            if free < RECORDING_START_BYTES:
-                raise RerunLogError(
-                    f"{self.path}: not written: No space left on device ({free} bytes free; a recording's start "
-                    f"takes {RECORDING_START_BYTES // 1024} KB)"
-                )
-        try:
-            sinks = [rr.FileSink(str(self.path))] if self.path is not None else []
-            if viewer == "spawn":
-                self.rec.spawn(connect=False)  # a viewer on rerun's default port, which GrpcSink() reaches
-                sinks.append(rr.GrpcSink())
-            elif viewer is not None:
-                sinks.append(rr.GrpcSink(viewer))
-            self.rec.set_sinks(*sinks, default_blueprint=layout)
-        except Exception as e:  # rerun raises its own error types for unwritable paths and bad URLs
-            raise RerunLogError(f"{where}: cannot write a rerun recording: {e}") from e
 
     def _log_series_styles(self) -> None:
         styles = {f"joints/{j}/{sub}": s for j in self.joints for sub, s in SERIES_STYLES.items()} | OTHER_STYLES
@@ -556,34 +620,4 @@ class RerunRecorder:
             self.log_frames(self._camera.frames_from(self._frames_seen, wait=True))
             if self._camera.error:  # the recording holds everything else
                 log.warning("note: no camera frames in %s: %s", self.path or "the viewer", self._camera.error)
-        finished = _within(FLUSH_TIMEOUT_S, self._flush_and_disconnect)
-        if not finished:  # rerun's shutdown at exit would wait for the same writer: the process would hang
-            rr.unregister_shutdown()
-        if not finished and self.path is not None:
-            raise RerunLogError(
-                f"{self.path}: damaged: rerun's file writer did not finish within {FLUSH_TIMEOUT_S:g} s "
-                f"({_disk_cause(self.path)})"
-            )
-        if self.path is not None:
-            self._check_whole()
-
-    def _flush_and_disconnect(self) -> None:
-        try:
-            self.rec.flush(timeout_sec=FLUSH_TIMEOUT_S)
-            self.rec.disconnect()
-        except Exception:  # rerun's own errors: its file writer stopped (a full disk) or the flush timed out
-            self.rec.disconnect()
-
-    def _check_whole(self) -> None:
-        """RerunLogError unless the file ends in rerun's footer: rerun does not raise when its
-        writes fail (a full disk), it leaves the file cut short there."""
-        with warnings.catch_warnings(record=True) as caught:
-            warnings.simplefilter("always")
-            try:
-                rr.chunk.RrdReader(self.path)
-                whole = not any("footer" in str(w.message) for w in caught)
-            except Exception:  # rerun's own error types: not even a readable start
-                whole = False
-        if not whole:
-            cause = _disk_cause(self.path)
-            raise RerunLogError(f"{self.path}: damaged, cut short where writing failed ({cause}): no rerun footer")
+        close_recording(self.rec, self.path)

@@ -8,6 +8,7 @@ from pathlib import Path
 
 from twin.checks import BENCH_SEEDS, DURATION_S, JOBS
 from twin.errors import UserError
+from twin.outputs import OutputLock, check_output
 from twin_cli.args import number, place
 
 INSTRUMENTS = ("camera", "encoder")
@@ -36,6 +37,13 @@ def register(sub) -> None:
     d.add_argument("--out", type=place, required=True, metavar="DIR", help="output folder (made if missing)")
     d.add_argument("--jobs", type=number(**JOBS), default=1, metavar="N", help="parallel replays (default 1)")
     d.add_argument("--scheduler", metavar="ADDR", help="Dask scheduler address: the replays on that cluster")
+    d.add_argument(
+        "--rrd",
+        type=place,
+        metavar="FILE",
+        help="also write a rerun recording: the measured and replayed arm on the withheld runs, the departing "
+        "joint marked (gap/arm_view.py)",
+    )
     d.set_defaults(func=cmd_arm_diagnose)
 
 
@@ -90,6 +98,8 @@ def cmd_arm_diagnose(args) -> int:
     campaign = load_arm_campaign(args.campaign)
     if Path(args.out).resolve() == campaign.folder.resolve():
         raise UserError(f"--out {args.out}: the campaign's own folder; allowed: another folder")
+    if args.rrd is not None:  # refused before the diagnosis, not after it
+        check_output(args.rrd, "--rrd", inputs=[campaign.folder], others={"--out": Path(args.out)})
     d = diagnose_arm(campaign, args.jobs, args.scheduler)
     Path(args.out).mkdir(parents=True, exist_ok=True)
     (Path(args.out) / "diagnosis.json").write_text(json.dumps(d.as_dict(), indent=2, default=str))
@@ -100,6 +110,12 @@ def cmd_arm_diagnose(args) -> int:
             f"{g.pressure_rms_kpa:.2f} kPa rms ({g.pressure_floors:.1f} floors)"
         )
     print(f"diagnosis: {Path(args.out) / 'diagnosis.json'}")
+    if args.rrd is not None:  # after diagnosis.json: a recording that fails loses nothing of it
+        from gap.arm_view import describe, write_arm_view
+
+        with OutputLock([args.rrd]):
+            write_arm_view(args.rrd, campaign, d, args.jobs, args.scheduler)
+        print(describe(args.rrd, d))
     return 0
 
 
