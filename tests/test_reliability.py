@@ -99,7 +99,11 @@ def test_the_cache_falls_back_to_a_private_folder_then_to_memory(tmp_path, monke
     afile = tmp_path / "afile"
     afile.write_text("")
     for name in ("NUMBA_CACHE_DIR", "XDG_CACHE_HOME", "TWIN_JIT_CACHE"):
-        monkeypatch.delenv(name, raising=False)
+        # set, then removed: monkeypatch then restores each as it was, and so takes back the
+        # TWIN_JIT_CACHE that cache_root sets below (left set, every later child process of the
+        # suite compiled every law afresh, in memory: minutes a process)
+        monkeypatch.setenv(name, "")
+        monkeypatch.delenv(name)
     monkeypatch.setenv("HOME", str(tmp_path / "home"))
     assert _jit.cache_root() == str(tmp_path / "home" / ".cache" / "pneumatic-arm-twin")
     monkeypatch.setenv("HOME", str(afile))
