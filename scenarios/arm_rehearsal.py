@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from control.loop import run_ticks
-from gap.arm_campaign import JOINTS, ArmInstrument, ArmRun, Reality, campaign_toml, write_arm_run
+from gap.arm_campaign import CAMERA, JOINTS, ArmInstrument, ArmRun, Reality, campaign_toml, write_arm_run
 from gap.arm_effects import ArmSetup, candidate_named
 from gap.arm_replay import TICK_S, arm_plant, shared_draw
 from gap.campaign import GapError
@@ -33,11 +33,6 @@ from scenarios.supply import supply_profile
 from scenarios.task import TaskController
 
 PRESSURE_PERIOD_S = 0.02  # the platform's port transducers read at 50 Hz (assumed, as gap/synth.py's)
-# the instruments a rehearsal reads its runs with (gap/synth.py's two, for the whole arm): a 30 frame/s
-# camera tracking a marker on each link, 0.2 deg rms, 25 ms late, 3 % of frames lost; an encoder on
-# each joint of a test stand at 200 Hz, 0.05 deg rms, no latency
-CAMERA = ArmInstrument(kind="camera", rate_hz=30.0, latency_s=0.025, noise_deg=0.2, dropout_fraction=0.03)
-ENCODER = ArmInstrument(kind="encoder", rate_hz=200.0, latency_s=0.0, noise_deg=0.05)
 PRESSURE_NOISE_PA = 1.0e3  # 0.25 % of a 0-1 MPa transducer's span, as gap/synth.py's NOISE_PA
 
 
