@@ -34,6 +34,7 @@ from __future__ import annotations
 import csv
 import io
 import math
+import shutil
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -494,3 +495,17 @@ def campaign_toml(
         starts = ", ".join(f"{j} = {math.degrees(v)!r}" for j, v in zip(JOINTS, start, strict=True))
         lines += ["", "[[runs]]", f'file = "{name}"', f"start_deg = {{ {starts} }}"]
     return "\n".join(lines) + "\n"
+
+
+def add_arm_runs(campaign: Path, played: Path, out: Path) -> Path:
+    """A campaign in `out`: `campaign`'s files and runs, and a played plan's runs after them (its
+    run files and [[runs]] tables; a plan written by `twin gap design --arm`, its columns filled)."""
+    plan = load_arm_campaign(played, min_runs=1)
+    shutil.copytree(campaign, out)
+    lines = [(campaign / "campaign.toml").read_text().rstrip(), "", "# the runs of a design round (gap.arm_design)"]
+    for r in plan.runs:
+        shutil.copyfile(r.path, out / r.path.name)
+        starts = ", ".join(f"{j} = {math.degrees(v)!r}" for j, v in zip(JOINTS, r.start_rad, strict=True))
+        lines += ["", "[[runs]]", f'file = "{r.path.name}"', f"start_deg = {{ {starts} }}"]
+    (out / "campaign.toml").write_text("\n".join(lines) + "\n")
+    return out

@@ -12,13 +12,13 @@ import math
 import numpy as np
 import pytest
 
-from gap.arm_campaign import CAMERA, JOINTS, Reality, load_arm_campaign
+from gap.arm_campaign import CAMERA, JOINTS, Reality, add_arm_runs, load_arm_campaign
 from gap.arm_design import changed
 from gap.arm_diagnose import twin_of
 from gap.arm_effects import candidate_named
 from gap.arm_replay import replay
 from gap.design_cli import run_arm_design
-from scenarios.arm_rehearsal import make_arm_campaign
+from scenarios.arm_rehearsal import make_arm_campaign, play_arm_plan
 from scenarios.schema import load
 from twin.errors import UserError
 
@@ -93,3 +93,30 @@ def test_bad_joint_refused_in_one_line(tmp_path):
     with pytest.raises(UserError) as e:
         run_arm_design(None, tmp_path / "x", joint="knee", instrument="camera", jobs=1)
     assert "\n" not in str(e.value) and "knee" in str(e.value) and "elbow_pitch" in str(e.value)
+
+
+def test_the_plan_played_on_the_hidden_reality_joins_the_campaign(designed, tmp_path):
+    """The plan's files played on the plant with the campaign's hidden effect (read by the camera)
+    and added to the campaign: one campaign that reads back with the played run's angles where the
+    hidden effect puts them, not where the nominal twin does."""
+    campaign, a, folder = designed
+    played = play_arm_plan(folder / "plan", tmp_path / "played", campaign.reality, CAMERA, seed=50_001)
+    joined = load_arm_campaign(add_arm_runs(campaign.folder, played, tmp_path / "joined"))
+    assert [r.name for r in joined.runs] == [
+        *(r.name for r in campaign.runs),
+        *(f"design_{r.name}" for r in a.design.runs()),
+    ]
+    run = joined.runs[-1]
+    np.testing.assert_array_equal(run.commands, a.design.runs()[0].run.commands)
+    twin = twin_of(campaign)
+    hidden = ((candidate_named(campaign.reality.effect), campaign.reality.value),)
+    lat, noise = campaign.instrument.latency_s, campaign.instrument.noise_rad()
+    seen = np.isfinite(run.angle_rad[:, 0])
+    for change, low, high in (((), 2.0, np.inf), (hidden, 0.8, 1.25)):
+        rep = replay(run, *changed(twin, change))
+        res = [
+            run.angle_rad[seen, j] - np.interp(run.time_s[seen] - lat, rep.time_s, rep.angle_rad[:, j])
+            for j in range(5)
+        ]
+        rms = float(np.sqrt(np.mean(np.square(res)))) / noise
+        assert low < rms < high, (change, rms)  # the nominal twin misses the played run; the hidden reality is noise

@@ -187,8 +187,11 @@ def cmd_design(args) -> int:
         d = a.design
         for k, p in enumerate(d.chosen, 1):
             e = a.exercises[p.protocol]
-            least = min(p.separation.values(), default=0.0)
-            print(f"{k}. {e.label()}: {p.arm_time_s:.1f} s of arm time, least separation {least:.2f} floors")
+            told = sum(s >= 1.0 for s in p.separation.values())  # gap.discrimination.SEPARATED_FLOORS
+            print(
+                f"{k}. {e.label()}: {p.arm_time_s:.1f} s of arm time; alone it tells {told}/{len(p.separation)} "
+                f"pairs apart, the least by {min(p.separation.values(), default=0.0):.2f} floors"
+            )
     else:
         d, folder = run_design(args.campaign, args.out, args.joint, args.instrument, args.pressures, args.jobs)
         for k, p in enumerate(d.chosen, 1):
