@@ -116,7 +116,7 @@ def test_the_plan_played_on_the_hidden_reality_joins_the_campaign(designed, tmp_
         rep = replay(run, *changed(twin, change))
         res = [
             run.angle_rad[seen, j] - np.interp(run.time_s[seen] - lat, rep.time_s, rep.angle_rad[:, j])
-            for j in range(5)
+            for j in range(len(JOINTS))
         ]
         rms = float(np.sqrt(np.mean(np.square(res)))) / noise
         assert low < rms < high, (change, rms)  # the nominal twin misses the played run; the hidden reality is noise
