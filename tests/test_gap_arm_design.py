@@ -120,3 +120,30 @@ def test_the_plan_played_on_the_hidden_reality_joins_the_campaign(designed, tmp_
         ]
         rms = float(np.sqrt(np.mean(np.square(res)))) / noise
         assert low < rms < high, (change, rms)  # the nominal twin misses the played run; the hidden reality is noise
+
+
+def test_the_postures_gravity_torques_are_the_potential_energys_slope_and_within_the_stall():
+    """Each exercise posture's gravity torque on the joint's drive is the slope of the arm's
+    potential energy along that drive angle (MuJoCo's energy, by central differences: not the bias
+    force the design reads), the three differ, and each is at most HOLD_SHARE of the stall torque."""
+    import mujoco
+
+    from gap.arm_design import HOLD_SHARE, nominal_twin, postures, stall_torque_nm
+    from gap.arm_replay import arm_plant
+
+    twin = nominal_twin()
+    for joint in ("shoulder_pitch", "elbow_pitch"):
+        found = postures(joint, twin, 0.6)
+        assert len({round(g, 3) for _, _, g in found}) == 3, found
+        j = JOINTS.index(joint)
+        for _, start, g in found:
+            energy = []
+            for h in (-1e-5, 1e-5):
+                drive = start.copy()
+                drive[j] += h
+                plant = arm_plant(twin.params, twin.setup, drive)
+                plant.model.opt.enableflags |= mujoco.mjtEnableBit.mjENBL_ENERGY
+                mujoco.mj_forward(plant.model, plant.data)
+                energy.append(plant.data.energy[0])
+            assert (energy[1] - energy[0]) / 2e-5 == pytest.approx(g, rel=1e-3, abs=0.05)
+            assert abs(g) <= HOLD_SHARE * stall_torque_nm(twin.params[joint], 0.6)
