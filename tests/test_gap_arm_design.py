@@ -85,7 +85,7 @@ def test_the_ranking_follows_what_a_run_tells_apart(designed):
     frames = np.arange(0.0, proposed.time_s[-1], 1.0 / campaign.instrument.rate_hz)
     new = _separation(campaign, proposed, leading, frames)
     old = [_separation(campaign, r, leading, r.time_s[np.isfinite(r.angle_rad).any(axis=1)]) for r in campaign.runs]
-    assert new > 1.3 * max(old), (new, old)  # measured: 6.1 against 3.3 and 3.9
+    assert new > 1.3 * max(old), (new, old)  # measured: 11.9 against 3.3 and 3.9
     assert math.isfinite(new)
 
 
