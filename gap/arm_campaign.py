@@ -34,6 +34,7 @@ from __future__ import annotations
 import csv
 import io
 import math
+import shutil
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -93,6 +94,14 @@ class ArmInstrument:
 
     def noise_rad(self) -> float:
         return math.radians(self.noise_deg if self.noise_deg is not None else DEFAULT_NOISE_DEG[self.kind])
+
+
+# the instruments a rehearsal reads its runs with (gap/synth.py's two, for the whole arm), and the
+# design's before any campaign (gap.arm_design): a 30 frame/s camera tracking a marker on each link,
+# 0.2 deg rms, 25 ms late, 3 % of frames lost; an encoder on each joint of a test stand at 200 Hz,
+# 0.05 deg rms, no latency
+CAMERA = ArmInstrument(kind="camera", rate_hz=30.0, latency_s=0.025, noise_deg=0.2, dropout_fraction=0.03)
+ENCODER = ArmInstrument(kind="encoder", rate_hz=200.0, latency_s=0.0, noise_deg=0.05)
 
 
 @pydantic.dataclasses.dataclass(frozen=True, config=TABLE)
@@ -187,8 +196,9 @@ def _refusal(path: Path, text: str, problem) -> GapError:
     return GapError(f"{where}: {name} = {problem.value!r} {problem.why}; allowed: {problem.allowed}")
 
 
-def load_arm_campaign(folder: str | Path) -> ArmCampaign:
-    """An arm campaign folder (or its campaign.toml) read and checked, with every run file."""
+def load_arm_campaign(folder: str | Path, min_runs: int = MIN_RUNS) -> ArmCampaign:
+    """An arm campaign folder (or its campaign.toml) read and checked, with every run file; at least
+    `min_runs` runs (1 for a design's plan, gap.arm_design_report, whose runs join a campaign)."""
     folder = Path(folder)
     path = folder / "campaign.toml" if folder.is_dir() else folder
     if not path.is_file():
@@ -198,9 +208,9 @@ def load_arm_campaign(folder: str | Path) -> ArmCampaign:
         c = ArmCampaignFile.model_validate(doc)
     except ValidationError as e:
         raise _refusal(path, text, first_problem(e, ArmCampaignFile)) from None
-    if len(c.runs) < MIN_RUNS:
+    if len(c.runs) < min_runs:
         raise GapError(
-            f"{path}: {len(c.runs)} [[runs]]; allowed: at least {MIN_RUNS} (the diagnosis fits on some runs and "
+            f"{path}: {len(c.runs)} [[runs]]; allowed: at least {min_runs} (the diagnosis fits on some runs and "
             "judges on others), each with file and start_deg"
         )
     if c.reality is not None:
@@ -420,13 +430,16 @@ def _read_mcap(path: Path, start_rad: np.ndarray) -> ArmRun:
     )
 
 
-def write_arm_run(path: Path, run: ArmRun) -> None:
-    """A run file in the campaign format: commands and supply every row, measured values where sampled."""
+def write_arm_run(path: Path, run: ArmRun, blank: list[tuple[str, str]] = ()) -> None:
+    """A run file in the campaign format: commands and supply every row, measured values where
+    sampled; the (joint, field) columns of `blank` too, empty where not sampled (a plan's columns for
+    the platform to fill)."""
     have = [
         (j, f)
         for f in MEASURED_FIELDS
         for i, j in enumerate(JOINTS)
-        if np.isfinite(run.angle_rad[:, i] if f == "angle_rad" else run.port_pa[:, i, MEASURED_FIELDS.index(f)]).any()
+        if (j, f) in blank
+        or np.isfinite(run.angle_rad[:, i] if f == "angle_rad" else run.port_pa[:, i, MEASURED_FIELDS.index(f)]).any()
     ]
     header = (
         list(TOP_COLUMNS) + [column(j, f) for j in JOINTS for f in COMMAND_FIELDS] + [column(j, f) for j, f in have]
@@ -482,3 +495,17 @@ def campaign_toml(
         starts = ", ".join(f"{j} = {math.degrees(v)!r}" for j, v in zip(JOINTS, start, strict=True))
         lines += ["", "[[runs]]", f'file = "{name}"', f"start_deg = {{ {starts} }}"]
     return "\n".join(lines) + "\n"
+
+
+def add_arm_runs(campaign: Path, played: Path, out: Path) -> Path:
+    """A campaign in `out`: `campaign`'s files and runs, and a played plan's runs after them (its
+    run files and [[runs]] tables; a plan written by `twin gap design --arm`, its columns filled)."""
+    plan = load_arm_campaign(played, min_runs=1)
+    shutil.copytree(campaign, out)
+    lines = [(campaign / "campaign.toml").read_text().rstrip(), "", "# the runs of a design round (gap.arm_design)"]
+    for r in plan.runs:
+        shutil.copyfile(r.path, out / r.path.name)
+        starts = ", ".join(f"{j} = {math.degrees(v)!r}" for j, v in zip(JOINTS, r.start_rad, strict=True))
+        lines += ["", "[[runs]]", f'file = "{r.path.name}"', f"start_deg = {{ {starts} }}"]
+    (out / "campaign.toml").write_text("\n".join(lines) + "\n")
+    return out

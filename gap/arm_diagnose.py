@@ -191,10 +191,20 @@ def gravity_torques(joint: str, twin: Twin, start_rad: np.ndarray, drive_rad: np
     """The gravity torque on `joint`'s drive (N·m, holding the arm up is positive) at each row of
     drive angles (the twin's pose): MuJoCo's bias force at rest (`qfrc_bias` with no velocity,
     by its recursive Newton-Euler pass after the kinematics: what mj_forward gives, without the
-    contacts and constraints it solves besides)."""
+    contacts and constraints it solves besides) on the joints' own coordinates, carried to the
+    drives' by virtual work: the drives' torques tau with A^T tau = bias, A the drive map (drive
+    angles = A q; the elbow's drive is shoulder + elbow, so moving the shoulder's drive with the
+    elbow's held keeps the forearm's pitch, as the parallelogram does). Equal to the slope of the
+    arm's potential energy along the drive angle (tests/test_gap_arm_design.py)."""
     plant = arm_plant(twin.params, twin.setup, start_rad)
     m, d = plant.model, plant.data
-    terms = [(int(dof), c) for _, dof, c in plant.drive_map[plant.joints.index(joint)] if c != 0.0]
+    dofs = [int(m.joint(j).dofadr[0]) for j in plant.joints]
+    a = np.zeros((len(plant.joints), len(dofs)))
+    for i in range(len(plant.joints)):
+        for _, dof, c in plant.drive_map[i]:
+            if c != 0.0:
+                a[i, dofs.index(int(dof))] += c
+    i_joint = plant.joints.index(joint)
     addresses, q = joint_angles(plant, drive_rad)
     d.qvel[:] = 0.0
     bias = np.empty(m.nv)
@@ -205,7 +215,7 @@ def gravity_torques(joint: str, twin: Twin, start_rad: np.ndarray, drive_rad: np
         mujoco.mj_comPos(m, d)
         mujoco.mj_comVel(m, d)
         mujoco.mj_rne(m, d, 0, bias)
-        out[k] = sum(c * bias[dof] for dof, c in terms)
+        out[k] = np.linalg.solve(a.T, bias[dofs])[i_joint]
     return out
 
 

@@ -280,15 +280,16 @@ def base_runs(campaign: Campaign, twin: Twin) -> list[PlannedRun]:
     return out
 
 
-def run_misfits(twin: Twin, hyps: list[Hypothesis], directed: list[tuple[int, int]], run: PlannedRun, reading):
+def run_misfits(respond, hyps: list[Hypothesis], directed: list[tuple[int, int]], run, reading: Reading):
     """Per directed pair (truth, rival), the rival's alternatives' misfits of the truth on `run`
-    (alternatives x latencies; discrimination.misfits), each change replayed once."""
+    (alternatives x latencies; discrimination.misfits), each change replayed once by
+    `respond(change, run)` (a discrimination.Response)."""
     cache: dict[tuple, object] = {}
 
     def resp(change: Change):
         key = tuple((e.name, v) for e, v in change)
         if key not in cache:
-            cache[key] = response(twin, change, run, reading)
+            cache[key] = respond(change, run)
         return cache[key]
 
     out = []
@@ -300,17 +301,23 @@ def run_misfits(twin: Twin, hyps: list[Hypothesis], directed: list[tuple[int, in
 
 class Criterion:
     """The criterion's sums over runs: per directed pair, the misfit of each rival alternative and
-    latency summed over the campaign's own runs (`base`) and over each proposal's."""
+    latency summed over the campaign's own runs (`base`) and over each proposal's.
 
-    def __init__(self, twin, hyps, pairs, reading, n_jobs: int = 1):
+    `respond(change, run)`: a change's predicted readings of a run (discrimination.Response), and
+    `count(run)`: the samples it gives; by default the one-joint twin's (discrimination.response,
+    discrimination.samples); the arm's design gives the whole arm's (gap.arm_design)."""
+
+    def __init__(self, twin, hyps, pairs, reading, n_jobs: int = 1, respond=None, count=None):
         self.twin, self.hyps, self.pairs, self.reading = twin, hyps, pairs, reading
         self.directed = list(dict.fromkeys(d for p in pairs for d in p.directed))
         self.n_jobs = n_jobs
+        self.respond = respond or (lambda change, run: response(twin, change, run, reading))
+        self.count = count or (lambda run: samples(run, reading))
 
     def sums(self, runs: list[PlannedRun]) -> list[np.ndarray]:
         """Per directed pair, the misfits summed over `runs` (alternatives x latencies)."""
         per_run = Parallel(n_jobs=self.n_jobs, backend="threading")(
-            delayed(run_misfits)(self.twin, self.hyps, self.directed, r, self.reading) for r in runs
+            delayed(run_misfits)(self.respond, self.hyps, self.directed, r, self.reading) for r in runs
         )
         zero = [np.zeros((len(self.hyps[b].alternatives), len(self.reading.latencies_s))) for _, b in self.directed]
         return [sum((m[i] for m in per_run), zero[i]) for i in range(len(self.directed))]
@@ -336,12 +343,13 @@ def choose(
     adds most to the soft count of pairs told apart, while one adds a pair told apart or raises the
     soft count by a tenth of a pair; at most `max_proposals`), and the plan's separation together."""
     sums = {name: crit.sums(list(runs)) for name, runs in candidates}
-    n = {name: sum(samples(r, crit.reading) for r in runs) for name, runs in candidates}
+    n = {name: sum(crit.count(r) for r in runs) for name, runs in candidates}
     ranking = [
         Proposal(name, runs, sum(float(r.time_s[-1]) for r in runs), crit.separation(base, sums[name], n[name]))
         for name, runs in candidates
     ]
-    ranking.sort(key=lambda p: -p.score())
+    # by the pairs told apart, ties by the least separation (maximin: the pair told apart least)
+    ranking.sort(key=lambda p: (-p.score(), -min(p.separation.values(), default=0.0)))
     chosen: list[Proposal] = []
     together = {p.name: 0.0 for p in crit.pairs}
     while max_proposals is None or len(chosen) < max_proposals:

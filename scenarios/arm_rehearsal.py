@@ -19,9 +19,19 @@ from pathlib import Path
 import numpy as np
 
 from control.loop import run_ticks
-from gap.arm_campaign import JOINTS, ArmInstrument, ArmRun, Reality, campaign_toml, write_arm_run
+from gap.arm_campaign import (
+    CAMERA,
+    JOINTS,
+    ArmInstrument,
+    ArmRun,
+    Reality,
+    campaign_toml,
+    load_arm_campaign,
+    write_arm_run,
+)
+from gap.arm_diagnose import twin_of as campaign_twin
 from gap.arm_effects import ArmSetup, candidate_named
-from gap.arm_replay import TICK_S, arm_plant, shared_draw
+from gap.arm_replay import TICK_S, arm_plant, replay, shared_draw
 from gap.campaign import GapError
 from pneumatics import JointParams
 from pneumatics.gas import AIR
@@ -33,11 +43,6 @@ from scenarios.supply import supply_profile
 from scenarios.task import TaskController
 
 PRESSURE_PERIOD_S = 0.02  # the platform's port transducers read at 50 Hz (assumed, as gap/synth.py's)
-# the instruments a rehearsal reads its runs with (gap/synth.py's two, for the whole arm): a 30 frame/s
-# camera tracking a marker on each link, 0.2 deg rms, 25 ms late, 3 % of frames lost; an encoder on
-# each joint of a test stand at 200 Hz, 0.05 deg rms, no latency
-CAMERA = ArmInstrument(kind="camera", rate_hz=30.0, latency_s=0.025, noise_deg=0.2, dropout_fraction=0.03)
-ENCODER = ArmInstrument(kind="encoder", rate_hz=200.0, latency_s=0.0, noise_deg=0.05)
 PRESSURE_NOISE_PA = 1.0e3  # 0.25 % of a 0-1 MPa transducer's span, as gap/synth.py's NOISE_PA
 
 
@@ -189,3 +194,21 @@ def make_arm_campaign(
     )
     (folder / "campaign.toml").write_text(text)
     return folder
+
+
+def play_arm_plan(plan: Path, played: Path, reality: Reality | None, instrument: ArmInstrument, seed: int) -> Path:
+    """A plan of `twin gap design --arm` played from its files on the plant with `reality`'s hidden
+    effect, read by `instrument` and the port transducers: its run files with the instruments'
+    columns filled, and its campaign.toml, in `played`. The commands are open loop (the plan's), so
+    the plant steps exactly as the replay does (gap.arm_replay: the same kernel, tick for tick)."""
+    doc = load_arm_campaign(plan, min_runs=1)
+    played.mkdir(parents=True, exist_ok=True)
+    rng = np.random.default_rng(seed)
+    twin = campaign_twin(doc)
+    params, setup = hidden(twin.params, twin.setup, reality)
+    for r in doc.runs:
+        truth = replay(r, params, setup)
+        n = len(r.time_s)
+        write_arm_run(played / r.path.name, observe(r, truth.angle_rad[:n], truth.port_pa[:n], instrument, rng))
+    (played / "campaign.toml").write_text((plan / "campaign.toml").read_text())
+    return played

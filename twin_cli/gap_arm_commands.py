@@ -73,7 +73,8 @@ def _reality(text: str | None):
 
 
 def cmd_arm_campaign(args) -> int:
-    from scenarios.arm_rehearsal import CAMERA, ENCODER, make_arm_campaign
+    from gap.arm_campaign import CAMERA, ENCODER
+    from scenarios.arm_rehearsal import make_arm_campaign
     from scenarios.schema import load
 
     reality = _reality(args.reality)

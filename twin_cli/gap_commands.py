@@ -114,6 +114,12 @@ def register_design(sub) -> None:
     g.add_argument("--joint", help="before any campaign: the joint under test (assets.JOINTS)")
     g.add_argument("--instrument", choices=INSTRUMENTS, help="before any campaign: the reference instrument")
     g.add_argument("--pressures", action="store_true", help="before any campaign: chamber-pressure transducers too")
+    g.add_argument(
+        "--arm",
+        action="store_true",
+        help="the whole arm's: from an arm campaign's diagnosis (twin gap arm-diagnose), or before any with "
+        "--joint, which joint to exercise, in which posture and at which speed (docs/gap_design.md)",
+    )
     g.add_argument("--jobs", type=number(**JOBS), default=2, metavar="N", help="parallel replays (default 2)")
     g.set_defaults(func=cmd_design)
 
@@ -174,11 +180,22 @@ def cmd_bench(args) -> int:
 
 def cmd_design(args) -> int:
     # on use: at the top, the libraries take `twin --help` from 0.45 to 2.2 s
-    from gap.design_cli import run_design
+    from gap.design_cli import run_arm_design, run_design
 
-    d, folder = run_design(args.campaign, args.out, args.joint, args.instrument, args.pressures, args.jobs)
-    for k, p in enumerate(d.chosen, 1):
-        print(f"{k}. {p.protocol}: {len(p.runs)} runs, {p.arm_time_s:.1f} s of arm time")
+    if args.arm:
+        a, folder = run_arm_design(args.campaign, args.out, args.joint, args.instrument, args.pressures, args.jobs)
+        d = a.design
+        for k, p in enumerate(d.chosen, 1):
+            e = a.exercises[p.protocol]
+            told = sum(s >= 1.0 for s in p.separation.values())  # gap.discrimination.SEPARATED_FLOORS
+            print(
+                f"{k}. {e.label()}: {p.arm_time_s:.1f} s of arm time; alone it tells {told}/{len(p.separation)} "
+                f"pairs apart, the least by {min(p.separation.values(), default=0.0):.2f} floors"
+            )
+    else:
+        d, folder = run_design(args.campaign, args.out, args.joint, args.instrument, args.pressures, args.jobs)
+        for k, p in enumerate(d.chosen, 1):
+            print(f"{k}. {p.protocol}: {len(p.runs)} runs, {p.arm_time_s:.1f} s of arm time")
     if not d.chosen:
         print("no run proposed (nothing to tell apart)")
     told = len(d.separation) - len(d.unseparated)
