@@ -195,6 +195,8 @@ def apply_setup(model: mujoco.MjModel, setup: ArmSetup, defaults: ModelDefaults,
     b.mass[0] = mass
     b.inertia[:] = defaults.payload_inertia * mass / defaults.payload_mass
     b.ipos[:] = defaults.payload_ipos + np.array([setup.payload_com_m, 0.0, 0.0])
+    if setup.payload_com_m != 0.0:  # the compiler marked the centre as the body's origin: no longer
+        model.body_sameframe[b.id] = 0
     for fld, body in LINK_BODIES.items():
         s = getattr(setup, fld)
         model.body(body).mass[0] = defaults.link_mass[body] * s

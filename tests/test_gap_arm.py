@@ -179,3 +179,24 @@ def test_the_fits_vertex_is_a_parabolas_minimum(xs, log):
     spread = xs[2] - xs[0]
     line = {x: 3.0 - x for x in xs}  # cheapest at the right: the next point a spread further right
     assert _vertex(axis, line) == pytest.approx(min(axis.x_hi, xs[2] + spread))
+
+
+def test_a_payload_centre_moved_along_the_tool_changes_the_gravity_torques():
+    """`arm:payload_com`: the payload's centre 0.15 m along the tool moves the gravity torque on the
+    pitch joints by m g x 0.15 m times the lever's cosine; MuJoCo ignored the moved centre while
+    the compiler's mark that the centre is the body's origin (body_sameframe) stood."""
+    import mujoco
+
+    import assets
+    from gap.arm_effects import ArmSetup, apply_setup, model_defaults
+
+    model = mujoco.MjModel.from_xml_path(str(assets.ARM_XML))
+    data = mujoco.MjData(model)
+    defaults = model_defaults(model)
+    torques = []
+    for com in (0.0, 0.15):
+        apply_setup(model, ArmSetup(payload_kg=defaults.payload_mass, payload_com_m=com), defaults, JOINTS)
+        mujoco.mj_forward(model, data)
+        torques.append(data.qfrc_bias.copy())
+    moved = np.abs(torques[1] - torques[0]).max()
+    assert moved > 0.05 * defaults.payload_mass * 9.81 * 0.15, moved  # a lever of at least 5 % of the shift
