@@ -1431,7 +1431,8 @@ def single_joint_rk4(
     # in RK4's explicit stages: it takes its own ROS2 steps with the motor turning at the sub-step's
     # starting speed, and the stages see it move linearly to where they end (their air rates the
     # secant), so RK4 gives the body the air's path and the air ROS2's result
-    air_ros2 = air_substeps(h, p) > 1 or h > p[P.HOSE_TIME]
+    m = air_substeps(h, p)
+    air_ros2 = m > 1 or h > p[P.HOSE_TIME]
     air = np.empty(8)
     for _ in range(n):
         w0 = y[R_OMEGA]
@@ -1439,7 +1440,6 @@ def single_joint_rk4(
         s = _slide_direction(w0, p)
         s_m = s if rigid else _slide_direction(wm0, p)
         if air_ros2:
-            m = air_substeps(h, p)
             end = _air_ros2(
                 _air_of_rigid(y), ratio * y[R_QM], ratio * y[R_OMEGA_M], direction, valve_gauge_pa, supply_pa, h / m,
                 m, p,

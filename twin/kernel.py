@@ -155,6 +155,15 @@ def _call_mj_step(typingctx, function_address, model_address, data_address):
     return sig, codegen
 
 
+@njit(inline="always")
+def keep_force_peak(sensordata: np.ndarray, force_adr: int, force_peak: np.ndarray) -> None:
+    """The brush's contact force of the physics step just taken (its touch sensor at `force_adr`,
+    computed inside mj_step; -1: none) into `force_peak[0]` if larger: the peak is kept at the
+    physics rate, so a blow shorter than a telemetry period is not missed."""
+    if force_adr >= 0 and sensordata[force_adr] > force_peak[0]:
+        force_peak[0] = sensordata[force_adr]
+
+
 @njit
 def _plant_steps(
     mj_step_address,
@@ -205,10 +214,7 @@ def _plant_steps(
             substeps,
         )
         _call_mj_step(mj_step_address, model_address, data_address)
-        # the brush's contact force of this step (its touch sensor, computed inside mj_step): its
-        # peak is kept at the physics rate, so a blow shorter than a telemetry period is not missed
-        if force_adr >= 0 and sensordata[force_adr] > force_peak[0]:
-            force_peak[0] = sensordata[force_adr]
+        keep_force_peak(sensordata, force_adr, force_peak)
     finish_air_pairs(x, params, drive_map, qpos, qvel, dt_s)
 
 

@@ -27,7 +27,7 @@ from pneumatics import AIR, Gas, JointParams, ParameterError, load_joint_params,
 from pneumatics import joint as J
 from pneumatics import params as P
 from pneumatics.reducer import is_rigid, stiffness
-from twin.kernel import finish_air_pairs, plant_steps, pneumatic_step
+from twin.kernel import finish_air_pairs, keep_force_peak, plant_steps, pneumatic_step
 from twin.model import drive_map, ids, load_model, raise_on_new_warnings, warning_counts
 
 # a non-rigid reducer's spring acts on MuJoCo's joint explicitly (twin/kernel.py): its mode on the
@@ -242,8 +242,7 @@ class Plant:
             for _ in range(n):
                 pneumatic_step(*args)
                 mujoco.mj_step(m, d)
-                if self._force_adr >= 0:
-                    self.force_peak_n[0] = max(self.force_peak_n[0], d.sensordata[self._force_adr])
+                keep_force_peak(*self._force_sensor)
             finish_air_pairs(self.air, self.params, self.drive_map, d.qpos, d.qvel, self.dt)
         if check_warnings:
             self.check_warnings()
