@@ -486,6 +486,39 @@ def fit_all(
     return [(a.value(x), c[x]) for a, x, c in zip(axes, best, costs, strict=True)]
 
 
+@dataclass(frozen=True)
+class Signature:
+    """What an effect at a value leaves in a campaign's signals beyond the twin's, noise-free: the twin
+    with it replayed against the twin without, at the instruments' own samples, in units of their
+    noise."""
+
+    joints: list[JointGap]  # per joint, the difference's rms (angle, ports) in floors
+    snr: float  # its norm: the statistic of the best test there is (knowing the effect, its value)
+
+    @property
+    def floors(self) -> float:
+        return max(g.floors for g in self.joints)
+
+    @property
+    def below_floor(self) -> bool:
+        """Below the rule of step 1: a joint's measured rms is sqrt(1 + floors^2) of its noise
+        (noise and signature add in quadrature), under SIGNIFICANT while floors < sqrt(SIGNIFICANT^2 - 1)."""
+        return self.floors < math.sqrt(SIGNIFICANT**2 - 1.0)
+
+
+def signature(campaign: ArmCampaign, c: Candidate, value: float, latency_s: float, n_jobs: int = 1) -> Signature:
+    """The signature of `c` at `value` in `campaign`'s runs (see Signature), the instrument read
+    `latency_s` late."""
+    twin = twin_of(campaign)
+    with _parallel(n_jobs, None) as run_jobs:
+        nominal, with_it = _replays(run_jobs, campaign.runs, [twin, _with(twin, c, value)])
+    diff = []
+    for run, a, b in zip(campaign.runs, nominal, with_it, strict=True):
+        ra, rb = residual(run, a, latency_s), residual(run, b, latency_s)
+        diff.append(Residual(ra.angle - rb.angle, ra.port - rb.port))
+    return Signature(joint_gaps(diff, campaign), float(np.linalg.norm(_stack(diff, _weights(campaign)))))
+
+
 def diagnose_arm(campaign: ArmCampaign, n_jobs: int = 1, scheduler: str | None = None) -> ArmDiagnosis:
     """The whole arm's diagnosis of `campaign` (steps in the module's docstring)."""
     twin = twin_of(campaign)

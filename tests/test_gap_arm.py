@@ -3,6 +3,8 @@ refused in one line, the replay of a twin run reproducing its angles, a hidden e
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 
@@ -16,6 +18,7 @@ from gap.arm_diagnose import (
     joint_gaps,
     residual,
     screen,
+    signature,
     twin_of,
 )
 from gap.arm_effects import Candidate
@@ -232,3 +235,19 @@ def test_the_screen_finds_a_mounting_tilt_where_the_departing_joint_points(tmp_p
     assert by_name["arm:mounting_tilt_y"].estimate < 3.5, whole  # the blurred scale: where the fix is needed
     assert [x.candidate.name for x in own] == ["arm:mounting_tilt_y", "base_yaw:angle_load"], own
     assert abs(own[0].estimate - 5.0) < 0.5 and own[0].ratio < 0.05, own
+
+
+def test_an_effects_signature_is_what_the_noise_adds_to(campaigns):
+    """The signature of the wrist's Coulomb friction at the hidden 30 N·m (the twin with it against
+    the twin without, noise-free, at the instruments' samples) and the instruments' noise add in
+    quadrature to the measured residual: each joint's measured rms is sqrt(1 + signature^2) floors.
+    The twin's own value leaves no signature at all, below the floor."""
+    c = campaigns["wrist"]
+    coulomb = Candidate("coulomb_friction", "wrist_pitch")
+    sig = signature(c, coulomb, 30.0, c.instrument.latency_s)
+    assert sig.joints[JOINTS.index("wrist_pitch")].angle_floors > 5.0 and not sig.below_floor
+    for measured, s in zip(_gaps(c), sig.joints, strict=True):
+        assert measured.angle_floors == pytest.approx(math.hypot(1.0, s.angle_floors), rel=0.1), (measured, s)
+        assert measured.pressure_floors == pytest.approx(math.hypot(1.0, s.pressure_floors), rel=0.1), (measured, s)
+    none = signature(c, coulomb, coulomb.value_in(twin_of(c).params, twin_of(c).setup, JOINTS), c.instrument.latency_s)
+    assert none.snr == 0.0 and none.below_floor
