@@ -348,13 +348,20 @@ def screen(
     latency_s: float,
     cands: list[Candidate],
     nominal: list[Replay] | None = None,
+    joint: str | None = None,
 ) -> list[Screened]:
     """Each candidate ranked without a fit, on `runs` shortened to SCREEN_S, best first: one probe
     replay (`probe_value`), its correction (twin with it - nominal) scaled to fit the residual
     best, either way (to first order the correction of a step the other way is the same, negated),
     as far as the bounds allow; then the best SECOND_LOOK once more, probed at the value the first
     scale points at (an effect far from linear, dry friction, is ranked by what it does there),
-    each ranked by the better of its two looks.
+    each ranked by the better of its looks.
+    `joint`: the departing joint (step 1). Its own channels are where the gap is furthest out, and
+    where an effect's correction is scaled without the others' noise: a joint near its breakaway
+    elsewhere in the arm (stalling or not at a small change) blurs the whole residual's scale, and
+    an effect of the whole arm (a mounting tilt) is then probed again only a quarter of the way to
+    its value. So the SECOND_LOOK best by the departing joint's channels alone are probed again too,
+    at the value their scale there points at; every look is ranked on the whole residual.
     `nominal`: the nominal twin's replays of `runs` (any length), or None to replay them here."""
     probes = [(c, v) for c in cands if (v := probe_value(c, twin)) is not None]
     if nominal is None:
@@ -364,19 +371,32 @@ def screen(
         reps = _replays(run_jobs, runs, [_with(twin, c, v) for c, v in probes], SCREEN_S)
         nominal = [_shortened(p, SCREEN_S) for p in nominal]
     weights = _weights(campaign)
-    base = _stack([residual(r, p, latency_s) for r, p in zip(runs, nominal, strict=True)], weights)
+    base_res = [residual(r, p, latency_s) for r, p in zip(runs, nominal, strict=True)]
+    base = _stack(base_res, weights)
+    own = None if joint is None else JOINTS.index(joint)
+    base_own = None if own is None else _stack(base_res, weights, own)
 
-    def scaled(c: Candidate, v: float, rp: list[Replay]) -> Screened:
-        with_it = _stack([residual(r, p, latency_s) for r, p in zip(runs, rp, strict=True)], weights)
-        return _scaled(base, base - with_it, c, twin, v)
+    def looks(c: Candidate, v: float, rp: list[Replay]) -> tuple[Screened, Screened | None]:
+        """(the whole residual's look, the departing joint's) at the probe `v`."""
+        res = [residual(r, p, latency_s) for r, p in zip(runs, rp, strict=True)]
+        whole = _scaled(base, base - _stack(res, weights), c, twin, v)
+        if own is None:
+            return whole, None
+        return whole, _scaled(base_own, base_own - _stack(res, weights, own), c, twin, v)
 
-    first = sorted((scaled(c, v, rp) for (c, v), rp in zip(probes, reps, strict=True)), key=lambda s: s.ratio)
-    again = [s for s in first[:SECOND_LOOK] if s.estimate != s.candidate.value_in(twin.params, twin.setup, JOINTS)]
-    reps = _replays(run_jobs, runs, [_with(twin, s.candidate, s.estimate) for s in again], SCREEN_S)
-    looked = {s.candidate.name: scaled(s.candidate, s.estimate, rp) for s, rp in zip(again, reps, strict=True)}
-    # each candidate by the better of its two looks (both are first-order guesses; the fits decide)
-    better = [min(s, looked.get(s.candidate.name, s), key=lambda x: x.ratio) for s in first]
-    return sorted(better, key=lambda s: s.ratio)
+    first = [looks(c, v, rp) for (c, v), rp in zip(probes, reps, strict=True)]
+    wholes = sorted((w for w, _ in first), key=lambda s: s.ratio)
+    owns = sorted((o for _, o in first if o is not None), key=lambda s: s.ratio)
+    again: dict[tuple[str, float], Candidate] = {}
+    for s in wholes[:SECOND_LOOK] + owns[:SECOND_LOOK]:
+        if s.estimate != s.candidate.value_in(twin.params, twin.setup, JOINTS):
+            again.setdefault((s.candidate.name, s.estimate), s.candidate)
+    reps = _replays(run_jobs, runs, [_with(twin, c, v) for (_, v), c in again.items()], SCREEN_S)
+    best = {s.candidate.name: s for s in wholes}
+    for ((name, v), c), rp in zip(again.items(), reps, strict=True):
+        # each candidate by the best of its looks on the whole residual (first-order guesses; the fits decide)
+        best[name] = min(best[name], looks(c, v, rp)[0], key=lambda x: x.ratio)
+    return sorted(best.values(), key=lambda s: s.ratio)
 
 
 def _scaled(base: np.ndarray, corr: np.ndarray, c: Candidate, twin: Twin, probe: float) -> Screened:
@@ -395,11 +415,16 @@ def _weights(campaign: ArmCampaign) -> tuple[float, float]:
     return 1.0 / campaign.instrument.noise_rad(), 1.0 / campaign.pressures.noise_pa
 
 
-def _stack(residuals: list[Residual], weights: tuple[float, float]) -> np.ndarray:
-    """Every residual sample in units of its floor, NaN (not sampled) as 0, as one vector."""
+def _stack(residuals: list[Residual], weights: tuple[float, float], joint: int | None = None) -> np.ndarray:
+    """Every residual sample (or one joint's, `joint` its index) in units of its floor, NaN (not
+    sampled) as 0, as one vector."""
+    pick = slice(None) if joint is None else slice(joint, joint + 1)
     parts = []
     for r in residuals:
-        parts += [np.nan_to_num(r.angle.ravel()) * weights[0], np.nan_to_num(r.port.ravel()) * weights[1]]
+        parts += [
+            np.nan_to_num(r.angle[:, pick].ravel()) * weights[0],
+            np.nan_to_num(r.port[:, pick].ravel()) * weights[1],
+        ]
     return np.concatenate(parts)
 
 
@@ -461,6 +486,39 @@ def fit_all(
     return [(a.value(x), c[x]) for a, x, c in zip(axes, best, costs, strict=True)]
 
 
+@dataclass(frozen=True)
+class Signature:
+    """What an effect at a value leaves in a campaign's signals beyond the twin's, noise-free: the twin
+    with it replayed against the twin without, at the instruments' own samples, in units of their
+    noise."""
+
+    joints: list[JointGap]  # per joint, the difference's rms (angle, ports) in floors
+    snr: float  # its norm: the statistic of the best test there is (knowing the effect, its value)
+
+    @property
+    def floors(self) -> float:
+        return max(g.floors for g in self.joints)
+
+    @property
+    def below_floor(self) -> bool:
+        """Below the rule of step 1: a joint's measured rms is sqrt(1 + floors^2) of its noise
+        (noise and signature add in quadrature), under SIGNIFICANT while floors < sqrt(SIGNIFICANT^2 - 1)."""
+        return self.floors < math.sqrt(SIGNIFICANT**2 - 1.0)
+
+
+def signature(campaign: ArmCampaign, c: Candidate, value: float, latency_s: float, n_jobs: int = 1) -> Signature:
+    """The signature of `c` at `value` in `campaign`'s runs (see Signature), the instrument read
+    `latency_s` late."""
+    twin = twin_of(campaign)
+    with _parallel(n_jobs, None) as run_jobs:
+        nominal, with_it = _replays(run_jobs, campaign.runs, [twin, _with(twin, c, value)])
+    diff = []
+    for run, a, b in zip(campaign.runs, nominal, with_it, strict=True):
+        ra, rb = residual(run, a, latency_s), residual(run, b, latency_s)
+        diff.append(Residual(ra.angle - rb.angle, ra.port - rb.port))
+    return Signature(joint_gaps(diff, campaign), float(np.linalg.norm(_stack(diff, _weights(campaign)))))
+
+
 def diagnose_arm(campaign: ArmCampaign, n_jobs: int = 1, scheduler: str | None = None) -> ArmDiagnosis:
     """The whole arm's diagnosis of `campaign` (steps in the module's docstring)."""
     twin = twin_of(campaign)
@@ -484,7 +542,7 @@ def diagnose_arm(campaign: ArmCampaign, n_jobs: int = 1, scheduler: str | None =
         joint = worst.joint
         place = where(joint, twin, runs, reps, residuals, latency)
         cands = [c for c in candidates(JOINTS) if c.joint in ("", joint)]
-        ranked = screen(run_jobs, campaign, twin, train, latency, cands, reps[0::2])
+        ranked = screen(run_jobs, campaign, twin, train, latency, cands, reps[0::2], joint)
         top = ranked[:TOP]
         fitted = fit_all(run_jobs, campaign, twin, train, latency, top, misfit(residuals[0::2], campaign))
         base_withheld = misfit(held, campaign)

@@ -129,4 +129,8 @@ def cmd_arm_bench(args) -> int:
     )
     for k in ("false_alarms", "right_joint", "right_effect", "median_withheld_shrink"):
         print(f"{k}: {s[k]}")
+    if s["below_floor"]:
+        below = ", ".join(s["below_floor"])
+        print(f"not scored, the hidden effect below the noise on its protocol: {below}")
+        print(f"right_joint, right_effect with them: {s['right_joint_all']}, {s['right_effect_all']}")
     return 0
