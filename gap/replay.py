@@ -33,6 +33,7 @@ from pneumatics.joint import (
     initial_rigid_state,
     initial_state,
     single_joint_step,
+    with_hoses,
 )
 
 DT_S = 1e-3  # integration step: the platform's 1 ms control period (DESIGN: RK4 at 1 ms is within 0.01 deg)
@@ -124,7 +125,7 @@ def replay_run(
     n_steps = int(t_end_s / dt_s + 1e-9)
     atm = p[P.GAS_P_ATM]
     t_out, th_out, om_out, pa_out, pb_out = _trajectory(n_steps + 1, theta0_rad, atm)
-    x = initial_state(atm, True, 0.0, p[P.GAS_T])
+    x = with_hoses(initial_state(atm, True, 0.0, p[P.GAS_T]), p)  # the hoses' lines with hose_model = 1
     y = initial_rigid_state(theta0_rad, atm, p[P.GAS_T])
     cmd = np.zeros(N_COMMAND)
     row = 0

@@ -18,6 +18,13 @@ With hose_loss = 0 the two nodes are one volume (the paper's model without press
 paper's hose law (hose_law = 1, the predictor's) too, the loss then an algebraic drop of the
 supplied port's feed pressure (eq. 5, pneumatics/paper_hose.py).
 
+With hose_model = 1 each hose is a line that carries pressure waves (pneumatics/line.py): its first
+node is the valve node, its last the motor node (the chamber's volume joined to its last half
+segment). The lines' states follow the joint's N_STATE columns in its state row (`hose_state_size`,
+`with_hoses`), and they are advanced once per physics step (`advance_hoses`): in the plant in place
+of the ROS2 step, in the one-joint model once per RK4 sub-step, its stages seeing the air move
+linearly to where the lines end (a line's many nodes and sub-steps cannot sit inside RK4's stages).
+
 State of a joint (a float64 row, see the S_* columns): four node pressures (Pa, absolute), the
 proportional valve's output pressure (Pa, gauge), the brake's engagement, the direction
 valve's effective position, pending position and time left until it switches, the motor
@@ -45,6 +52,7 @@ from pneumatics.gas import AIR, isentropic_temperature
 from pneumatics.heat import duct_heat_transfer_coefficient, vane_chamber_heat_transfer_coefficient
 from pneumatics.hose import hose_mass_flow_with, hose_volume
 from pneumatics.integrators import ROS2_GAMMA, rk4_increment, ros2_increment, ros2_inverse, secant_slope
+from pneumatics.line import N_LINE_ROW, FarEnd, advance_from_port, far_end_pressure, initial_line_state, state_size
 from pneumatics.motor import chamber_geometry, vane_torque
 from pneumatics.orifice import orifice_mass_flow_between, orifice_mass_flow_with
 from pneumatics.paper_hose import paper_source_pressure
@@ -229,6 +237,120 @@ def one_node_per_port(p: np.ndarray) -> bool:
     with the chamber): without the hose's resistance, or with the paper's algebraic law for it
     (eq. 5), which has no flow along the hose to carry."""
     return p[P.HOSE_LOSS] == 0.0 or p[P.HOSE_LAW] == P.HOSE_LAW_PAPER
+
+
+@njit(inline="always")
+def uses_line(p: np.ndarray) -> bool:
+    """True when each hose is a line that carries waves (hose_model = 1, pneumatics/line.py): with
+    the hose's resistance on the physical law; without it, or with the paper's law, a port is one node."""
+    return p[P.HOSE_MODEL] == P.HOSE_MODEL_LINE and not one_node_per_port(p)
+
+
+@njit(inline="always")
+def line_row_of(p: np.ndarray) -> np.ndarray:
+    """The joint's hoses' parameter row as lines (`pneumatics.line.line_row`, kept in its params row)."""
+    return p[P.LINE_ROW : P.LINE_ROW + N_LINE_ROW]
+
+
+@njit
+def hose_state_size(p: np.ndarray) -> int:
+    """How many columns the joint's state row needs after its N_STATE for its two hoses' lines
+    (port A's, then port B's; `pneumatics.line.state_size` each): 0 unless `uses_line`."""
+    return 2 * state_size(line_row_of(p)) if uses_line(p) else 0
+
+
+@njit
+def with_hoses(x: np.ndarray, p: np.ndarray) -> np.ndarray:
+    """The joint state x (its first N_STATE columns) followed by its hoses' lines, each at rest at
+    its port's motor-node pressure (the port's valve node set to it too): the state row a joint
+    whose hoses are lines is stepped with (`advance_air_pair`, `single_joint_step`)."""
+    out = np.empty(N_STATE + hose_state_size(p))
+    out[:N_STATE] = x[:N_STATE]
+    if uses_line(p):
+        row = line_row_of(p)
+        size = state_size(row)
+        out[N_STATE : N_STATE + size] = initial_line_state(row, x[S_PA_MOTOR])
+        out[N_STATE + size : N_STATE + 2 * size] = initial_line_state(row, x[S_PB_MOTOR])
+        out[S_PA_VALVE] = x[S_PA_MOTOR]
+        out[S_PB_VALVE] = x[S_PB_MOTOR]
+    return out
+
+
+class HoseStep(NamedTuple):
+    """Both hoses as lines after a step (`advance_hoses`): the four end pressures (Pa absolute, in
+    the S_PA_VALVE.. order) and the mean mass flow into each line at its valve end (kg/s: from the
+    supply, or negative to the exhaust and a leak there)."""
+
+    pa_valve: float
+    pa_motor: float
+    pb_valve: float
+    pb_motor: float
+    a_inflow_kg_s: float
+    b_inflow_kg_s: float
+
+
+@njit
+def advance_hoses(
+    lines: np.ndarray,
+    phi_motor: float,
+    omega_motor: float,
+    direction: float,
+    valve_gauge_pa: float,
+    supply_pa: float,
+    dt_s: float,
+    p: np.ndarray,
+) -> HoseStep:
+    """Advance a joint's two hoses as lines over dt, in place on `lines` (the columns after the joint
+    state's N_STATE, `hose_state_size`), the motor turning from phi_motor at omega_motor.
+
+    Each line's inlet node is its port's valve node, fed through the proportional valve from the
+    pressure it delivers or emptied through the exhaust throttle (the direction valve, as in
+    `air_rates`), both held over the step and implicit; a leak in port A's hose (a fault) vents there
+    beside it. Its far node is the motor chamber (its volume and rate at the motor's angle and speed,
+    the joint's polytropic exponent; the line's own nodes take n = k, the wave speed the gas's). The
+    vane leak A -> B is taken at the step's start and held, so the mass one chamber loses the other
+    gains."""
+    row = line_row_of(p)
+    size = state_size(row)
+    la = lines[:size]
+    lb = lines[size : 2 * size]
+    atm = p[P.GAS_P_ATM]
+    flux = p[P.CHOKED_FLUX]
+    k = p[P.GAS_K]
+    p_s, inlet_area = _supplied_pressure(la[0], lb[0], direction, valve_gauge_pa, supply_pa, p)
+    exhaust_area = p[P.A_EX] * p[P.COND_SCALE]
+    a_up, a_area = (p_s, inlet_area) if direction > 0.0 else (atm, exhaust_area)
+    b_up, b_area = (p_s, inlet_area) if direction < 0.0 else (atm, exhaust_area)
+    v_a, v_b, slope = chamber_geometry(
+        phi_motor, p[P.STATOR], p[P.ROTOR], p[P.VANE_L], p[P.N_VANES], p[P.DEAD_V], p[P.HALF_PITCH_V]
+    )
+    dv_a = slope * omega_motor
+    n = p[P.POLY_N]
+    m_leak = orifice_mass_flow_with(far_end_pressure(la, row), far_end_pressure(lb, row), p[P.LEAK_A], flux, k)
+    sa = advance_from_port(
+        la, row, dt_s, a_up, a_area, atm, p[P.HOSE_LEAK_A], flux, k, FarEnd(v_a, dv_a, -m_leak, 0.0, 0.0, n)
+    )
+    sb = advance_from_port(lb, row, dt_s, b_up, b_area, atm, 0.0, flux, k, FarEnd(v_b, -dv_a, m_leak, 0.0, 0.0, n))
+    return HoseStep(
+        la[0], far_end_pressure(la, row), lb[0], far_end_pressure(lb, row), sa.inlet_flow_kg_s, sb.inlet_flow_kg_s
+    )
+
+
+@njit
+def hoses_settled(lines: np.ndarray, p: np.ndarray) -> bool:
+    """True when both lines are at atmospheric pressure throughout and still (no flow, no unsteady
+    wall shear left): with the valves shut and the joint still, nothing can change them."""
+    row = line_row_of(p)
+    nodes = int(row[0]) + 1  # `pneumatics.line`: N + 1 node pressures first
+    size = state_size(row)
+    atm = p[P.GAS_P_ATM]
+    for line in range(2):
+        start = line * size
+        for i in range(size):
+            v = lines[start + i]
+            if (abs(v - atm) >= 1e-6) if i < nodes else (abs(v) >= 1e-12):
+                return False
+    return True
 
 
 @njit(inline="always")
@@ -914,9 +1036,14 @@ def advance_air_pair(
     pressures' W matrix (the flows' slopes, the vane leak's coupling of the chambers with them)
     keeps the air's fast modes damped (a short or wide hose, a large leak), where Heun's explicit
     stages rang (tests/test_plant.py holds the plant to LSODA and to the flows' balance).
+
+    Hoses that are lines (`uses_line`) are advanced over each physics step instead (`advance_hoses`,
+    on the columns after N_STATE), the torque again from the pressures at the step's start.
     """
     ratio = p[P.RATIO]
     direction = x[S_DIR]
+    if uses_line(p):
+        return _advance_air_lines(x, theta, omega, valve_gauge_pa, supply_pa, dt_s, p)
     if x[S_PAIR] == 1.0 and x[S_PAIR_DIR] == direction and x[S_PAIR_SUPPLY] == supply_pa:
         # the second physics step: the first stage's estimate carried on to the step's end
         torque = joint_torque(x[S_PA_MOTOR], x[S_PB_MOTOR], ratio * theta, omega, p)
@@ -969,6 +1096,27 @@ def advance_air_pair(
     x[S_PAIR_SUPPLY] = supply_pa
     x[S_PAIR] = 1.0
     return _through_reducer(_vane_torque_at(a_m, b_m, f.slope), ratio * theta, omega, p)
+
+
+@njit(inline="always")
+def _advance_air_lines(
+    x: np.ndarray, theta: float, omega: float, valve_gauge_pa: float, supply_pa: float, dt_s: float, p: np.ndarray
+) -> float:
+    # `advance_air_pair` for hoses that are lines: the torque from the pressures at the step's start,
+    # then both lines over the step (`advance_hoses`), their ends copied into the four node pressures;
+    # nothing for a still joint with shut valves whose lines are at rest at atmosphere
+    ratio = p[P.RATIO]
+    x[S_PAIR] = 0.0
+    torque = joint_torque(x[S_PA_MOTOR], x[S_PB_MOTOR], ratio * theta, omega, p)
+    lines = x[N_STATE:]
+    if x[S_DIR] == 0.0 and abs(omega) < p[P.STICK_SPEED] and hoses_settled(lines, p):
+        return torque
+    s = advance_hoses(lines, ratio * theta, ratio * omega, x[S_DIR], valve_gauge_pa, supply_pa, dt_s, p)
+    x[S_PA_VALVE] = s.pa_valve
+    x[S_PA_MOTOR] = s.pa_motor
+    x[S_PB_VALVE] = s.pb_valve
+    x[S_PB_MOTOR] = s.pb_motor
+    return torque
 
 
 @njit
@@ -1116,6 +1264,21 @@ def _motor_side_stage(
     )
 
 
+@njit(inline="always")
+def _held_line_air(
+    rates: tuple[float, float, float, float, float, float, float, float, float, float, float],
+    secant: tuple[float, float, float, float],
+    line: bool,
+) -> tuple[float, float, float, float, float, float, float, float, float, float, float]:
+    # `_motor_side_rates` with the four pressures' rates replaced by the lines' secant over the step
+    # (the temperatures' 0: the lines' gas stays at the supply temperature), when the hoses are lines
+    if not line:
+        return rates
+    return (
+        secant[0], secant[1], secant[2], secant[3], 0.0, 0.0, 0.0, 0.0, rates[8], rates[9], rates[10],
+    )  # fmt: skip
+
+
 @njit
 def advance_motor_side(
     x: np.ndarray,
@@ -1138,6 +1301,8 @@ def advance_motor_side(
     sub-steps, more where the gear's mode (motor against the moving joint, sqrt(k / J_m)) needs
     them, with the gear's friction held in one direction over each (`motor_side_drive`,
     `stop_or_turn`); the impulse is integrated with the same weights as the motor's momentum.
+    Hoses that are lines (`uses_line`) are advanced once over the step (`advance_hoses`, the motor
+    turning at its starting speed), RK4's stages seeing the pressures move linearly to their ends.
     """
     ratio = p[P.RATIO]
     j_m = ratio * ratio * p[P.ROTOR_J]
@@ -1154,16 +1319,36 @@ def advance_motor_side(
         x[S_TB_MOTOR], x[S_QM], x[S_OMEGA_M],
     )  # fmt: skip
     impulse = 0.0
+    # hoses that are lines: advanced once over the step, the motor turning at its starting speed, and
+    # RK4's stages see the four pressures move linearly to where the lines end (`single_joint_rk4`)
+    line = uses_line(p)
+    ends = (y[0], y[1], y[2], y[3])
+    if line:
+        hs = advance_hoses(x[N_STATE:], ratio * y[8], ratio * y[9], direction, valve, supply_pa, dt_s, p)
+        ends = (hs.pa_valve, hs.pa_motor, hs.pb_valve, hs.pb_motor)
+    secant = ((ends[0] - y[0]) / dt_s, (ends[1] - y[1]) / dt_s, (ends[2] - y[2]) / dt_s, (ends[3] - y[3]) / dt_s)
     for i in range(n):
         th0 = theta + omega * (i * h)
         th1 = theta + omega * ((i + 0.5) * h)
         th2 = theta + omega * ((i + 1) * h)
         w0 = y[9]
         s = _slide_direction(w0, p)
-        k1 = _motor_side_rates(y, th0, omega, direction, valve, supply_pa, k, c, half, j_m, s, p)
-        k2 = _motor_side_stage(y, k1, 0.5 * h, th1, omega, direction, valve, supply_pa, k, c, half, j_m, s, p)
-        k3 = _motor_side_stage(y, k2, 0.5 * h, th1, omega, direction, valve, supply_pa, k, c, half, j_m, s, p)
-        k4 = _motor_side_stage(y, k3, h, th2, omega, direction, valve, supply_pa, k, c, half, j_m, s, p)
+        k1 = _held_line_air(
+            _motor_side_rates(y, th0, omega, direction, valve, supply_pa, k, c, half, j_m, s, p), secant, line
+        )
+        k2 = _held_line_air(
+            _motor_side_stage(y, k1, 0.5 * h, th1, omega, direction, valve, supply_pa, k, c, half, j_m, s, p),
+            secant,
+            line,
+        )
+        k3 = _held_line_air(
+            _motor_side_stage(y, k2, 0.5 * h, th1, omega, direction, valve, supply_pa, k, c, half, j_m, s, p),
+            secant,
+            line,
+        )
+        k4 = _held_line_air(
+            _motor_side_stage(y, k3, h, th2, omega, direction, valve, supply_pa, k, c, half, j_m, s, p), secant, line
+        )
         y = (
             y[0] + rk4_increment(h, k1[0], k2[0], k3[0], k4[0]),
             y[1] + rk4_increment(h, k1[1], k2[1], k3[1], k4[1]),
@@ -1188,6 +1373,8 @@ def advance_motor_side(
             if motor_side_drive(a_m, b_m, ratio * q, w, 0.0, tau_t, p)[1]:
                 w = 0.0
         y = (y[0], y[1], y[2], y[3], y[4], y[5], y[6], y[7], q, w)
+    if line:  # the lines' ends, not their secant's rounding
+        y = (ends[0], ends[1], ends[2], ends[3], y[4], y[5], y[6], y[7], y[8], y[9])
     x[S_PA_VALVE] = y[0]
     x[S_PA_MOTOR] = y[1]
     x[S_PB_VALVE] = y[2]
@@ -1393,6 +1580,7 @@ def single_joint_rk4(
     brake_engagement: float,
     dt_s: float,
     p: np.ndarray,
+    lines: np.ndarray,
 ) -> None:
     """Classical Runge-Kutta over dt of `single_joint_rates`, in place (the paper integrates its
     predictor with Runge-Kutta, Sec. III-B), right at every stop.
@@ -1407,6 +1595,12 @@ def single_joint_rk4(
 
     The rigid reducer takes one sub-step; a non-rigid one as many as its two-mass mode needs
     (`reducer.substeps_for`).
+
+    `lines`: the hoses' lines when they are (`uses_line`; the joint state row's columns after
+    N_STATE, advanced in place), else unused (may be empty). A line's nodes and sub-steps cannot sit
+    inside RK4's stages: the lines are advanced once per sub-step (`advance_hoses`, the motor
+    turning at the sub-step's starting speed) and the stages see the air move linearly to where
+    they end, as a short hose's ROS2 steps are; the four node pressures end at the lines' ends.
 
     Kept whole, as `_rates` and `advance_motor_side` are: split into compiled steps (the sub-step,
     the crossing corrections, Karnopp's hold; inlined or not) the replay of a 20-cycle stop-and-go
@@ -1432,14 +1626,22 @@ def single_joint_rk4(
     # starting speed, and the stages see it move linearly to where they end (their air rates the
     # secant), so RK4 gives the body the air's path and the air ROS2's result
     m = air_substeps(h, p)
-    air_ros2 = m > 1 or h > p[P.HOSE_TIME]
+    line = uses_line(p)
+    air_ros2 = line or m > 1 or h > p[P.HOSE_TIME]
     air = np.empty(8)
+    ends = np.empty(4)  # the lines' four end pressures after the sub-step
     for _ in range(n):
         w0 = y[R_OMEGA]
         wm0 = y[R_OMEGA_M]
         s = _slide_direction(w0, p)
         s_m = s if rigid else _slide_direction(wm0, p)
-        if air_ros2:
+        if line:
+            hs = advance_hoses(lines, ratio * y[R_QM], ratio * y[R_OMEGA_M], direction, valve_gauge_pa, supply_pa, h, p)
+            ends[0], ends[1], ends[2], ends[3] = hs.pa_valve, hs.pa_motor, hs.pb_valve, hs.pb_motor
+            for c in range(4):
+                air[c] = (ends[c] - y[_R_AIR[c]]) / h
+                air[4 + c] = 0.0  # the line's gas stays at the supply temperature (chamber_heat = 0)
+        elif air_ros2:
             end = _air_ros2(
                 _air_of_rigid(y), ratio * y[R_QM], ratio * y[R_OMEGA_M], direction, valve_gauge_pa, supply_pa, h / m,
                 m, p,
@@ -1468,6 +1670,9 @@ def single_joint_rk4(
         _held_air(k4, air, air_ros2)
         for i in range(N_RIGID):
             y[i] += rk4_increment(h, k1[i], k2[i], k3[i], k4[i])
+        if line:
+            for c in range(4):
+                y[_R_AIR[c]] = ends[c]  # the lines' ends, not their secant's rounding
         if s != 0.0 and s * y[R_OMEGA] < 0.0:
             jump = 2.0 * s * static
             if rigid:  # the gear's efficiency turns with the joint
@@ -1521,11 +1726,13 @@ def single_joint_step(
     """The one-joint model over dt after its valves have advanced (`advance_discrete`): the rigid
     body and the air by RK4 (`single_joint_rk4`) with the brake at its mean over the step
     (`brake_over_step`), the joint's end stops (`at_the_stops`), then the brake along what its air
-    gave over the step (`advance_brake`). In place on y and x."""
+    gave over the step (`advance_brake`). In place on y and x (with its hoses' lines, `with_hoses`)."""
     pa = y[R_PA_MOTOR]
     pb = y[R_PB_MOTOR]
+    if x.shape[0] < N_STATE + hose_state_size(p):
+        raise ValueError("single_joint_step: the joint's hoses are lines; its state row must hold them (with_hoses)")
     brake = brake_over_step(x, command, supply_pa, pa, pb, dt_s, p)
-    single_joint_rk4(y, x[S_DIR], valve_gauge_pa, supply_pa, load_torque_nm, inertia_kg_m2, brake, dt_s, p)
+    single_joint_rk4(y, x[S_DIR], valve_gauge_pa, supply_pa, load_torque_nm, inertia_kg_m2, brake, dt_s, p, x[N_STATE:])
     at_the_stops(y, p)
     advance_brake(x, command, supply_pa, pa, pb, y[R_PA_MOTOR], y[R_PB_MOTOR], dt_s, p)
 

@@ -56,12 +56,15 @@ Interface for a caller that steps the line every physics step (pneumatics/joint.
   `advance_from_orifice(x, row, dt_s, p_up_pa, area_m2, choked_flux, k, end)`: the inlet node is fed
   by an orifice from p_up (pneumatics/orifice.py: the valve's port or the exhaust throttle), held
   over the step; the inlet node is then the valve node of joint.py;
-  `advance_from_flow(x, row, dt_s, mass_flow_kg_s, end)`: a given inflow into the inlet node.
+  `advance_from_flow(x, row, dt_s, mass_flow_kg_s, end)`: a given inflow into the inlet node;
+  `advance_from_port(x, row, dt_s, p_up_pa, area_m2, vent_pa, vent_area_m2, choked_flux, k, end)`: an
+  orifice inlet with a second orifice to `vent_pa` beside it (a leak at the valve's end of the hose).
   `end` is a `FarEnd`: the end volume (m^3) at the step's start and its rate (m^3/s) (a vane
   chamber's V and dV/dt), an extra inflow into it (kg/s, e.g. a leak, at the far-end pressure at
   the step's start) and that flow's slope -dm/dp (kg/(s·Pa), >= 0, taken implicitly); or
   `pinned_pa` > 0 holds the far end at that pressure (a chamber the caller integrates with the
-  returned `end_flow_kg_s`).
+  returned `end_flow_kg_s`); `polytropic_n` > 0 gives the far end's node its own exponent (a motor
+  chamber's law, where the line's n = k sets the wave speed).
   Each returns a `LineStep`: the mean mass flow into the line at the inlet and out of the last
   segment into the far end over the step (kg/s; their difference over dt is what the line stored).
 """
@@ -98,6 +101,22 @@ MIN_SEGMENTS = 2  # a line is at least two segments (inlet node, one interior no
     LR_MU,  # dynamic viscosity, Pa·s
 ) = range(12)
 N_LINE_ROW = 12
+# the columns' names, in order (a caller that keeps a line's row inside its own names them so)
+LINE_ROW_FIELDS = (
+    "segments",
+    "dx_m",
+    "area_m2",
+    "rt_j_kg",
+    "polytropic_n",
+    "k_laminar",
+    "laminar_limit_kg_s",
+    "k_blasius",
+    "wave_speed_m_s",
+    "unsteady",
+    "mu_r2",
+    "mu_pa_s",
+)
+assert len(LINE_ROW_FIELDS) == N_LINE_ROW
 
 # Zielke's weighting function of laminar unsteady wall shear, W(tau) = sum m_k exp(-n_k tau) in the
 # dimensionless time tau = nu t / R^2: Schohl's five terms (G. A. Schohl, "Improved approximate
@@ -119,6 +138,9 @@ class FarEnd(NamedTuple):
     inflow_kg_s: float = 0.0  # extra flow into the far end (a leak), at its pressure at the step's start
     inflow_slope_kg_s_pa: float = 0.0  # -d(inflow)/d(pressure) >= 0, taken implicitly
     pinned_pa: float = 0.0  # > 0: the far end held at this pressure (a chamber the caller integrates)
+    # > 0: the polytropic exponent of the far end's node (a motor chamber's own law, pneumatics/joint.py);
+    # 0: the line's, LR_N
+    polytropic_n: float = 0.0
 
 
 class LineStep(NamedTuple):
@@ -274,9 +296,12 @@ def _advance(
     choked_flux: float,
     k: float,
     end: FarEnd,
+    vent_pa: float = 0.0,
+    vent_area_m2: float = 0.0,
 ) -> LineStep:
     # the three inlets' common loop: `kind` picks how node 0 moves; (a, b) are the inlet's pressure
-    # at the step's start and end, the orifice's upstream pressure (a), or the inflow (a)
+    # at the step's start and end, the orifice's upstream pressure (a), or the inflow (a); with an
+    # orifice inlet, a second orifice of `vent_area_m2` to `vent_pa` (a leak at the inlet) beside it
     nseg = int(row[LR_SEGMENTS])
     substeps = substeps_for(row, dt_s)
     h = dt_s / substeps
@@ -299,8 +324,9 @@ def _advance(
         elif kind == _INLET_ORIFICE:
             p0 = x[0]
             g = secant_slope(orifice_mass_flow_with(a, p0, area_m2, choked_flux, k), a - p0)
-            x[0] = (p0 + inlet_gain * (g * a - m_first)) / (1.0 + inlet_gain * g)
-            inlet_mass += h * g * (a - x[0])
+            gv = secant_slope(orifice_mass_flow_with(vent_pa, p0, vent_area_m2, choked_flux, k), vent_pa - p0)
+            x[0] = (p0 + inlet_gain * (g * a + gv * vent_pa - m_first)) / (1.0 + inlet_gain * (g + gv))
+            inlet_mass += h * g * (a - x[0]) + h * gv * (vent_pa - x[0])
         else:
             x[0] += inlet_gain * (a - m_first)
             inlet_mass += h * a
@@ -312,7 +338,7 @@ def _advance(
         volume = half_seg + end.volume_m3 + end.volume_rate_m3_s * (s + 1) * h  # at the sub-step's end
         pn = x[nseg]
         extra = end.inflow_kg_s - end.inflow_slope_kg_s_pa * (pn - p_end_start)  # at the sub-step's start
-        gain = h * row[LR_N] / volume
+        gain = h * (end.polytropic_n if end.polytropic_n > 0.0 else row[LR_N]) / volume
         x[nseg] = (pn + gain * (row[LR_RT] * (m_last + extra + end.inflow_slope_kg_s_pa * pn))) / (
             1.0 + gain * (row[LR_RT] * end.inflow_slope_kg_s_pa + end.volume_rate_m3_s)
         )
@@ -342,6 +368,25 @@ def advance_from_orifice(
     `area_m2` from `p_up_pa` (either way: negative flow when the node is higher), held over the step;
     `choked_flux` and k as in `orifice_mass_flow_with`."""
     return _advance(x, row, dt_s, _INLET_ORIFICE, p_up_pa, 0.0, area_m2, choked_flux, k, end)
+
+
+@njit
+def advance_from_port(
+    x: np.ndarray,
+    row: np.ndarray,
+    dt_s: float,
+    p_up_pa: float,
+    area_m2: float,
+    vent_pa: float,
+    vent_area_m2: float,
+    choked_flux: float,
+    k: float,
+    end: FarEnd,
+) -> LineStep:
+    """`advance_from_orifice` with a second orifice of `vent_area_m2` from the inlet node to `vent_pa`
+    beside the first (a leak at the hose's valve end, pneumatics/joint.py), both held over the step
+    and implicit; the returned inlet flow is the two orifices' net flow into the line."""
+    return _advance(x, row, dt_s, _INLET_ORIFICE, p_up_pa, 0.0, area_m2, choked_flux, k, end, vent_pa, vent_area_m2)
 
 
 @njit
@@ -378,5 +423,5 @@ def far_end_series(
     `inlet_pa` (linear between samples) and whose far end is closed by a rigid `end_volume_m3`;
     steps of at most `max_dt_s` (`pneumatics.hose.line_response` checks the arguments)."""
     x = initial_line_state(row, inlet_pa[0])
-    end = FarEnd(end_volume_m3, 0.0, 0.0, 0.0, 0.0)
+    end = FarEnd(end_volume_m3, 0.0, 0.0, 0.0, 0.0, 0.0)
     return inlet_driven_series(advance_from_pressure, far_end_pressure, x, row, end, times_s, inlet_pa, max_dt_s)

@@ -36,6 +36,7 @@ from pneumatics.fields import (
 from pneumatics.gas import AIR, Gas
 from pneumatics.heat import vane_cell
 from pneumatics.hose import hose_constants, hose_mass_flow_with, hose_volume
+from pneumatics.line import LINE_ROW_FIELDS, N_LINE_ROW, line_row, segments_for, wave_speed
 from pneumatics.motor import half_pitch_volume
 from pneumatics.orifice import choked_flux
 from pneumatics.valves import lag_factors
@@ -110,6 +111,13 @@ class JointParams(NamedTuple):
     # order of an arc-minute of lost motion, ~3e-4 rad).
     reducer_backlash_rad: float = 0.0  # total lost motion between the flanks, joint side
     reducer_compliance_rad_per_nm: float = 0.0  # joint-side torsional compliance 1/k; 0: rigid
+    # [hose] what each hose (supply and exhaust side of both ports) is: 0, the lumped pi-section (half
+    # its volume at each end, Darcy-Weisbach between); 1, a line with gas inertia and wall friction
+    # that carries pressure waves (pneumatics/line.py; docs/air_lines.md, "In the plant"), with the
+    # hose's resistance (hose_loss = 1) on the physical law (hose_law = 0); else the port is one node
+    # as with the pi-section. The plant and the gap replay only: the predictor keeps the paper's
+    # model (`paper_model` sets 0). Last with a default, so a file written before it reads as 0
+    hose_model: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -180,6 +188,7 @@ SPEC: dict[str, FieldSpec] = {
     # strain-wave gear) are far beyond any reducer in service: room for worn or badly fitted gears
     "reducer_backlash_rad": FieldSpec("effects", 0.0, 0.2, "rad"),
     "reducer_compliance_rad_per_nm": FieldSpec("effects", 0.0, 0.1, "rad/(N·m)"),
+    "hose_model": FieldSpec("hose", 0.0, 1.0, "0 or 1"),
 }
 assert list(SPEC) == list(JointParams._fields), "SPEC and JointParams must list the same fields"
 
@@ -279,10 +288,17 @@ def check_related(params: JointParams, field_at: Callable[[str], str]) -> JointP
             f"reducer_compliance_rad_per_nm = {params.reducer_compliance_rad_per_nm:g}); "
             "allowed: a rotor inertia > 0 (the motor side is a body of its own)"
         )
-    for field in ("hose_loss", "hose_law", "brake_fed_by_motor", "chamber_heat"):
+    for field in ("hose_loss", "hose_law", "brake_fed_by_motor", "chamber_heat", "hose_model"):
         value = getattr(params, field)
         if value not in (0.0, 1.0):
             raise ParameterError(f"{field_at(field)} = {value:g}; allowed: 0 or 1")
+    if params.hose_model == HOSE_MODEL_LINE and params.chamber_heat == 1.0:
+        # the line's gas is polytropic at the supply temperature (pneumatics/line.py): it carries no
+        # enthalpy into the energy balance's chambers
+        raise ParameterError(
+            f"{field_at('hose_model')} = 1 with chamber_heat = 1; allowed: hose_model = 0 with the chambers' "
+            "energy balance, or chamber_heat = 0 with the line"
+        )
     return params
 
 
@@ -322,6 +338,9 @@ DERIVED = (
     "brake_engage_mean_gain",
     "brake_release_decay",
     "brake_release_mean_gain",
+    # with hose_model = 1, each hose's parameter row as a line (`pneumatics.line.line_row`, its columns
+    # named by LINE_ROW_FIELDS); zeros with the pi-section
+    *("line_" + f for f in LINE_ROW_FIELDS),
 )
 
 
@@ -342,6 +361,27 @@ def _derived(params: JointParams, gas: Gas, dt_s: float) -> tuple[float, ...]:
         *_air_times(params, gas),
         dt_s,
         *lags,
+        *_line_row(params, gas),
+    )
+
+
+def _line_row(params: JointParams, gas: Gas) -> tuple[float, ...]:
+    # a hose's row as a line (hose_model = 1): wave speed from the gas, c = sqrt(k R T), so the line's
+    # nodes take n = k (a step's front is adiabatic, pneumatics/line.py); its segments `segments_for`
+    # the line's default band
+    if params.hose_model != HOSE_MODEL_LINE:
+        return (0.0,) * N_LINE_ROW
+    c = wave_speed(gas.t_supply_k, gas.r_j_per_kg_k, gas.k)
+    return tuple(
+        line_row(
+            params.hose_length_m,
+            params.hose_diameter_m,
+            gas.t_supply_k,
+            gas.r_j_per_kg_k,
+            gas.k,
+            gas.mu_pa_s,
+            segments_for(params.hose_length_m, c),
+        )
     )
 
 
@@ -481,6 +521,9 @@ BRAKE_ON_DECAY = _COLUMNS["brake_engage_decay"]
 BRAKE_ON_MEAN_GAIN = _COLUMNS["brake_engage_mean_gain"]
 BRAKE_OFF_DECAY = _COLUMNS["brake_release_decay"]
 BRAKE_OFF_MEAN_GAIN = _COLUMNS["brake_release_mean_gain"]
+LINE_ROW = _COLUMNS["line_segments"]  # the first of the line row's N_LINE_ROW columns
+assert [_COLUMNS["line_" + f] for f in LINE_ROW_FIELDS] == list(range(LINE_ROW, LINE_ROW + N_LINE_ROW))
+HOSE_MODEL = _COLUMNS["hose_model"]
 STOP_LOW = _COLUMNS["stop_low_rad"]
 STOP_HIGH = _COLUMNS["stop_high_rad"]
 N_COLUMNS = len(_COLUMNS)
@@ -489,6 +532,9 @@ N_COLUMNS = len(_COLUMNS)
 # `hose_law`: the physical hose, the paper's eq. 1-5
 HOSE_LAW_PHYSICAL = 0.0
 HOSE_LAW_PAPER = 1.0
+# `hose_model`: the lumped pi-section, the line that carries waves (pneumatics/line.py)
+HOSE_MODEL_PI = 0.0
+HOSE_MODEL_LINE = 1.0
 
 
 def paper_model(params: JointParams) -> JointParams:
@@ -498,11 +544,13 @@ def paper_model(params: JointParams) -> JointParams:
     (DESIGN rule 2: the predictor is the paper's model; the plant and the gap replay the best
     physics; beyond that they differ only in configuration).
 
-    The hose law is the joint's own (`hose_law`): the shipped files keep the pi-section on the real
-    flow (0), and the paper's eq. 1-5 as written (1: an algebraic drop on the supplied port at a
-    fixed standard flow) is chosen per joint where wanted, e.g. `[predictor.effects.wrist_pitch]
-    hose_law = 1` in a scenario. Not forced here: its drop does not follow the flow, so near a
-    target, where the loop's set point sits at the breakaway floor, it takes the predicted port
-    under breakaway and the arm's small moves stall in the prediction while the real joint runs
-    (the cleaning task then fails); docs/predictor_hose_law.md has the measurements."""
-    return params._replace(chamber_heat=0.0)
+    The hose is the lumped pi-section whatever the joint's `hose_model` (the line that carries waves is
+    the plant's and the gap replay's physics, not the paper's). The hose law is the joint's own
+    (`hose_law`): the shipped files keep the pi-section on the real flow (0), and the paper's eq. 1-5 as
+    written (1: an algebraic drop on the supplied port at a fixed standard flow) is chosen per joint
+    where wanted, e.g. `[predictor.effects.wrist_pitch] hose_law = 1` in a scenario. Not forced here:
+    its drop does not follow the flow, so near a target, where the loop's set point sits at the
+    breakaway floor, it takes the predicted port under breakaway and the arm's small moves stall in the
+    prediction while the real joint runs (the cleaning task then fails); docs/predictor_hose_law.md has
+    the measurements."""
+    return params._replace(chamber_heat=0.0, hose_model=HOSE_MODEL_PI)

@@ -145,7 +145,7 @@ def test_hot_air_in_a_sealed_still_motor_relaxes_to_the_wall_at_constant_density
         y = J.initial_rigid_state(0.0, P_ATM, t0)
         y[[J.R_PA_VALVE, J.R_PA_MOTOR, J.R_PB_VALVE, J.R_PB_MOTOR]] = 3e5
         for _ in range(10_000):  # braked far beyond the chambers' torque: the joint stays still
-            J.single_joint_rk4(y, 0.0, 0.0, P_ATM + 5e5, 0.0, 0.164, 1.0, 1e-3, p)
+            J.single_joint_rk4(y, 0.0, 0.0, P_ATM + 5e5, 0.0, 0.164, 1.0, 1e-3, p, np.empty(0))
             trace.append((y[J.R_PA_MOTOR], y[J.R_TA_MOTOR], y[J.R_PB_MOTOR], y[J.R_TB_MOTOR]))
     trace = np.array(trace)
     density = trace[:, [0, 2]] / trace[:, [1, 3]]

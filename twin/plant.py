@@ -4,7 +4,8 @@ Per physics step (0.5 ms, the MJCF's timestep): every joint's torque is computed
 pressures and written into its actuator's ctrl, its brake and Coulomb friction into its drive
 tendon's frictionloss; the valves, brake and the four node pressures are advanced over the step
 (one half of a ROS2 step over two physics steps, the joint moving as MuJoCo reports:
-pneumatics/joint.py, `advance_air_pair`); then MuJoCo steps. The coupling
+pneumatics/joint.py, `advance_air_pair`; a joint whose hoses are lines, hose_model = 1, steps them
+instead, their states after its joint state in its row of `air`); then MuJoCo steps. The coupling
 is explicit in both directions, like MuJoCo's own semi-implicit Euler; tests hold it to scipy's
 LSODA on the same equations. A joint whose reducer is not rigid (pneumatics/reducer.py) has its
 motor side integrated by the air kernel, not by MuJoCo (twin/kernel.py).
@@ -26,6 +27,7 @@ import assets
 from pneumatics import AIR, Gas, JointParams, ParameterError, load_joint_params, params_row
 from pneumatics import joint as J
 from pneumatics import params as P
+from pneumatics.line import N_LINE_ROW
 from pneumatics.reducer import is_rigid, stiffness
 from twin.kernel import finish_air_pairs, keep_force_peak, plant_steps, pneumatic_step
 from twin.model import drive_map, ids, load_model, raise_on_new_warnings, warning_counts
@@ -102,7 +104,7 @@ class Plant:
         self._geom_ids: dict[str, int] = {}
         for i in range(len(joints)):
             self._set_drive_tendon(i)
-        self.air = np.vstack([J.initial_state(gas.p_atm_pa, t_k=gas.t_supply_k) for _ in joints])
+        self.air = self._initial_air()
         self.commands = np.zeros((len(joints), J.N_COMMAND))
         self.supply_pa = gas.p_atm_pa + 0.5e6
         self.sensor_bias_pa = np.zeros(len(joints))
@@ -136,6 +138,15 @@ class Plant:
         # step); True lets the run loop step this plant's arrays from compiled code (twin/compiled_loop.py)
         self.compiled_ticks = True
 
+    def _initial_air(self) -> np.ndarray:
+        # each joint's state row at rest (`pneumatics.joint.initial_state`), followed by its hoses'
+        # lines where they are lines (`with_hoses`); the rows as wide as the widest
+        rows = [J.with_hoses(J.initial_state(self.gas.p_atm_pa, t_k=self.gas.t_supply_k), row) for row in self.params]
+        air = np.zeros((len(rows), max(r.size for r in rows)))
+        for i, r in enumerate(rows):
+            air[i, : r.size] = r
+        return air
+
     # -- inputs -------------------------------------------------------------------------------
     def set_supply(self, supply_pa: float) -> None:
         """Absolute supply pressure at the platform's regulator, Pa."""
@@ -158,8 +169,21 @@ class Plant:
         """Change one joint's parameters mid-run (faults: a leak, a stuck valve, ...)."""
         i = self.joints.index(joint)
         was_rigid = is_rigid(self.params[i])
+        row = params_row(params, self.gas, self.dt)
+        old_line, new_line = (
+            self.params[i, P.LINE_ROW : P.LINE_ROW + N_LINE_ROW],
+            row[P.LINE_ROW : P.LINE_ROW + N_LINE_ROW],
+        )
+        if J.uses_line(self.params[i]) != J.uses_line(row) or (
+            J.uses_line(row) and not np.array_equal(old_line, new_line)
+        ):
+            raise ParameterError(
+                f"{joint}: [hose] hose_model = {params.hose_model:g} (hose_length_m = {params.hose_length_m:g}, "
+                f"hose_diameter_m = {params.hose_diameter_m:g}, hose_loss = {params.hose_loss:g}, hose_law = "
+                f"{params.hose_law:g}) changes the joint's hoses mid-run; allowed: the hoses it started with"
+            )
         self.joint_params[joint] = params
-        self.params[i] = params_row(params, self.gas, self.dt)
+        self.params[i] = row
         self.air[i, J.S_PAIR] = 0.0  # an air step begun with the old parameters ends at its estimate
         self._set_drive_tendon(i)
         if was_rigid and not is_rigid(self.params[i]):
