@@ -930,6 +930,17 @@ def air_substeps(dt_s: float, p: np.ndarray) -> int:
 
 
 @njit(inline="always")
+def explicit_air_substeps(h: float, p: np.ndarray) -> int:
+    """How many ROS2 steps the joint's air takes inside an explicit (RK4) sub-step of h: 0 where RK4's
+    stages may take the air's own rates (h within the fill's ROS2 step, `air_substeps`, and the hose's
+    own time, `params.HOSE_TIME`, past which an explicit step rings or diverges), else `air_substeps`.
+    The one-joint model (`single_joint_rk4`) and a non-rigid reducer's motor side in the plant
+    (`advance_motor_side`) then give RK4's stages the air's secant over the sub-step."""
+    m = air_substeps(h, p)
+    return m if m > 1 or h > p[P.HOSE_TIME] else 0
+
+
+@njit(inline="always")
 def _ros2_matrices(
     f: AirRates, h: float
 ) -> tuple[tuple[float, float, float, float], tuple[float, float, float, float], tuple[float, float]]:
@@ -1265,17 +1276,27 @@ def _motor_side_stage(
 
 
 @njit(inline="always")
-def _held_line_air(
+def _held_air_rates(
     rates: tuple[float, float, float, float, float, float, float, float, float, float, float],
-    secant: tuple[float, float, float, float],
-    line: bool,
+    secant: AirState,
+    held: bool,
 ) -> tuple[float, float, float, float, float, float, float, float, float, float, float]:
-    # `_motor_side_rates` with the four pressures' rates replaced by the lines' secant over the step
-    # (the temperatures' 0: the lines' gas stays at the supply temperature), when the hoses are lines
-    if not line:
+    # `_motor_side_rates` with the air's eight rates replaced by its secant over the sub-step, when the
+    # air is not RK4's own (hoses that are lines; a short hose's ROS2 steps, `explicit_air_substeps`)
+    if not held:
         return rates
     return (
-        secant[0], secant[1], secant[2], secant[3], 0.0, 0.0, 0.0, 0.0, rates[8], rates[9], rates[10],
+        secant[0], secant[1], secant[2], secant[3], secant[4], secant[5], secant[6], secant[7], rates[8], rates[9],
+        rates[10],
+    )  # fmt: skip
+
+
+@njit(inline="always")
+def _air_secant(start: AirState, end: AirState, h: float) -> AirState:
+    # the air's mean rate from `start` to `end` over h
+    return (
+        (end[0] - start[0]) / h, (end[1] - start[1]) / h, (end[2] - start[2]) / h, (end[3] - start[3]) / h,
+        (end[4] - start[4]) / h, (end[5] - start[5]) / h, (end[6] - start[6]) / h, (end[7] - start[7]) / h,
     )  # fmt: skip
 
 
@@ -1303,6 +1324,10 @@ def advance_motor_side(
     `stop_or_turn`); the impulse is integrated with the same weights as the motor's momentum.
     Hoses that are lines (`uses_line`) are advanced once over the step (`advance_hoses`, the motor
     turning at its starting speed), RK4's stages seeing the pressures move linearly to their ends.
+    A short hose's air (`explicit_air_substeps`: faster than a sub-step follows, or than an explicit
+    step stays stable in) takes its own ROS2 steps over each sub-step (`_air_ros2`, the motor turning
+    at the sub-step's starting speed), RK4's stages seeing it move linearly to ROS2's result, as in
+    the one-joint model (`single_joint_rk4`).
     """
     ratio = p[P.RATIO]
     j_m = ratio * ratio * p[P.ROTOR_J]
@@ -1322,32 +1347,40 @@ def advance_motor_side(
     # hoses that are lines: advanced once over the step, the motor turning at its starting speed, and
     # RK4's stages see the four pressures move linearly to where the lines end (`single_joint_rk4`)
     line = uses_line(p)
-    ends = (y[0], y[1], y[2], y[3])
+    # a short hose: the air takes its own ROS2 steps over each sub-step, the motor turning at the
+    # sub-step's starting speed, and RK4's stages see it move linearly to where they end
+    m = 0 if line else explicit_air_substeps(h, p)
+    held = line or m > 0
+    ends = (y[0], y[1], y[2], y[3], y[4], y[5], y[6], y[7])
     if line:
         hs = advance_hoses(x[N_STATE:], ratio * y[8], ratio * y[9], direction, valve, supply_pa, dt_s, p)
-        ends = (hs.pa_valve, hs.pa_motor, hs.pb_valve, hs.pb_motor)
-    secant = ((ends[0] - y[0]) / dt_s, (ends[1] - y[1]) / dt_s, (ends[2] - y[2]) / dt_s, (ends[3] - y[3]) / dt_s)
+        ends = (hs.pa_valve, hs.pa_motor, hs.pb_valve, hs.pb_motor, y[4], y[5], y[6], y[7])
+    secant = _air_secant((y[0], y[1], y[2], y[3], y[4], y[5], y[6], y[7]), ends, dt_s)
     for i in range(n):
         th0 = theta + omega * (i * h)
         th1 = theta + omega * ((i + 0.5) * h)
         th2 = theta + omega * ((i + 1) * h)
         w0 = y[9]
         s = _slide_direction(w0, p)
-        k1 = _held_line_air(
-            _motor_side_rates(y, th0, omega, direction, valve, supply_pa, k, c, half, j_m, s, p), secant, line
+        if m > 0:
+            start = (y[0], y[1], y[2], y[3], y[4], y[5], y[6], y[7])
+            ends = _air_ros2(start, ratio * y[8], ratio * y[9], direction, valve, supply_pa, h / m, m, p)
+            secant = _air_secant(start, ends, h)
+        k1 = _held_air_rates(
+            _motor_side_rates(y, th0, omega, direction, valve, supply_pa, k, c, half, j_m, s, p), secant, held
         )
-        k2 = _held_line_air(
+        k2 = _held_air_rates(
             _motor_side_stage(y, k1, 0.5 * h, th1, omega, direction, valve, supply_pa, k, c, half, j_m, s, p),
             secant,
-            line,
+            held,
         )
-        k3 = _held_line_air(
+        k3 = _held_air_rates(
             _motor_side_stage(y, k2, 0.5 * h, th1, omega, direction, valve, supply_pa, k, c, half, j_m, s, p),
             secant,
-            line,
+            held,
         )
-        k4 = _held_line_air(
-            _motor_side_stage(y, k3, h, th2, omega, direction, valve, supply_pa, k, c, half, j_m, s, p), secant, line
+        k4 = _held_air_rates(
+            _motor_side_stage(y, k3, h, th2, omega, direction, valve, supply_pa, k, c, half, j_m, s, p), secant, held
         )
         y = (
             y[0] + rk4_increment(h, k1[0], k2[0], k3[0], k4[0]),
@@ -1361,6 +1394,8 @@ def advance_motor_side(
             y[8] + rk4_increment(h, k1[8], k2[8], k3[8], k4[8]),
             y[9] + rk4_increment(h, k1[9], k2[9], k3[9], k4[9]),
         )
+        if m > 0:  # ROS2's result, not its secant's rounding
+            y = (ends[0], ends[1], ends[2], ends[3], ends[4], ends[5], ends[6], ends[7], y[8], y[9])
         impulse += rk4_increment(h, k1[10], k2[10], k3[10], k4[10])
         a_m, b_m, q, w = y[1], y[3], y[8], y[9]
         if s != 0.0 and s * w < 0.0:
@@ -1621,13 +1656,13 @@ def single_joint_rk4(
     k3 = np.empty(N_RIGID)
     k4 = np.empty(N_RIGID)
     tmp = np.empty(N_RIGID)
-    # a short hose's air (`air_substeps`, the hose's own time `params.HOSE_TIME`) rings or diverges
-    # in RK4's explicit stages: it takes its own ROS2 steps with the motor turning at the sub-step's
-    # starting speed, and the stages see it move linearly to where they end (their air rates the
-    # secant), so RK4 gives the body the air's path and the air ROS2's result
-    m = air_substeps(h, p)
+    # a short hose's air (`explicit_air_substeps`) rings or diverges in RK4's explicit stages: it takes
+    # its own ROS2 steps with the motor turning at the sub-step's starting speed, and the stages see
+    # it move linearly to where they end (their air rates the secant), so RK4 gives the body the air's
+    # path and the air ROS2's result
+    m = explicit_air_substeps(h, p)
     line = uses_line(p)
-    air_ros2 = line or m > 1 or h > p[P.HOSE_TIME]
+    air_ros2 = line or m > 0
     air = np.empty(8)
     ends = np.empty(4)  # the lines' four end pressures after the sub-step
     for _ in range(n):
