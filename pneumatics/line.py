@@ -8,7 +8,7 @@ The law (one-dimensional isothermal-area duct, convective terms dropped at Mach 
 with the gas stored by the chambers' own law (pneumatics/chamber.py): a node of volume V takes
 dp = n R T dm / V, so a disturbance travels at c = sqrt(n R T). The friction drop dp_f of a
 length dx is the steady Darcy-Weisbach law of pneumatics/darcy.py (Hagen-Poiseuille below the
-Blasius crossover, Blasius above), reused through `hose_constants` and `hose_resistance_with`.
+Blasius crossover, Blasius above), reused through `hose_constants` and `hose_resistance_of`.
 
 Wave speed: n is the line's polytropic exponent, k = 1.4 by default, so c = sqrt(k R T)
 (343 m/s at 20 °C). A step's front, which sets the delay L/c and the exhaust's steps, is carried
@@ -36,7 +36,8 @@ per cost).
 
 Segments and sub-steps (`segments_for`, `substeps_for`): N = ceil(8 L f / c), at least
 MIN_SEGMENTS: eight segments per wavelength at the top f of the band to resolve (BAND_HZ = 100 Hz
-by default: 19 segments on 8 m, 6 on 3 m, 2 on 0.3 m); over a physics step dt, M = ceil(c dt / dx)
+by default: 19 segments on 8 m, 7 on 3 m, 2 on 0.3 m; the plant's hoses PLANT_BAND_HZ = 50 Hz: 10 on
+8 m, 4 on 3 m); over a physics step dt, M = ceil(c dt / dx)
 sub-steps (Courant number c h / dx <= 1; one on 8 m at 0.5 ms, two on 0.3 m).
 
 Limits: the momentum flux is dropped (Mach << 1), so the line is not for flows near sonic: a
@@ -77,11 +78,15 @@ from typing import NamedTuple
 import numpy as np
 
 from pneumatics._jit import njit
-from pneumatics.darcy import hose_constants, hose_resistance_with
+from pneumatics.darcy import hose_constants, hose_resistance_of
 from pneumatics.integrators import secant_slope
 from pneumatics.orifice import orifice_mass_flow_with
 
 BAND_HZ = 100.0  # the band a line resolves by default (docs/air_lines.md: accuracy per cost)
+# the band the plant's hoses resolve (pneumatics/params.py): the arm's dynamics use up to 50 Hz; on this
+# grid Bergh & Tijdeman's resonances below 50 Hz stay within 1 Hz and a step's delay within 1 ms of L/c
+# on 0.3-8 m (docs/air_lines.md "In the plant", tests/test_line.py); 10 segments on 8 m against 19
+PLANT_BAND_HZ = 50.0
 SEGMENTS_PER_WAVELENGTH = 8  # at the band's top: the leapfrog's phase error there stays under ~1 %
 MIN_SEGMENTS = 2  # a line is at least two segments (inlet node, one interior node, far end)
 
@@ -235,53 +240,79 @@ def stored_mass(x: np.ndarray, row: np.ndarray, end_volume_m3: float) -> float:
 
 
 @njit(inline="always")
-def _flows_substep(x: np.ndarray, row: np.ndarray, h: float) -> None:
-    # the segments' momentum over a sub-step h from the node pressures, the wall shear implicit in
-    # the new flow: its steady part through its secant, its unsteady part (Zielke's convolution of
-    # the acceleration, `UNSTEADY_M/N`) through the terms' backward-Euler update
+def _decay_factors(tau: float) -> tuple[float, float, float, float, float]:
+    # b_k = 1 / (1 + n_k tau) of Schohl's five terms over a sub-step of dimensionless length tau,
+    # by one division: the product of the five denominators inverted, each b_k that inverse times
+    # the other four (a pairwise tree of products)
+    d0 = 1.0 + UNSTEADY_N[0] * tau
+    d1 = 1.0 + UNSTEADY_N[1] * tau
+    d2 = 1.0 + UNSTEADY_N[2] * tau
+    d3 = 1.0 + UNSTEADY_N[3] * tau
+    d4 = 1.0 + UNSTEADY_N[4] * tau
+    d01 = d0 * d1
+    d23 = d2 * d3
+    d0123 = d01 * d23
+    inv_all = 1.0 / (d0123 * d4)
+    inv_0123 = inv_all * d4
+    inv_01 = inv_0123 * d23
+    inv_23 = inv_0123 * d01
+    return inv_01 * d1, inv_01 * d0, inv_23 * d3, inv_23 * d2, inv_all * d0123
+
+
+@njit(inline="always")
+def _substep(x: np.ndarray, row: np.ndarray, h: float) -> None:
+    # one sub-step h of the segments' momentum and the interior nodes' mass (symplectic Euler), in
+    # one pass: segment j's new flow from p_j and p_{j+1} (neither moved yet), then node j from the
+    # new flows of segments j - 1 and j. The wall shear is implicit in the new flow: its steady part
+    # (`hose_resistance_of`, the hose's law) through its secant, its unsteady part (Zielke's convolution of
+    # the acceleration, `UNSTEADY_M/N`) through the terms' backward-Euler update.
     nseg = int(row[LR_SEGMENTS])
     area = row[LR_AREA]
-    a_dx = area / row[LR_DX]
-    half_inv_rt = 0.5 / row[LR_RT]
-    kl, limit, kb = row[LR_K_LAMINAR], row[LR_LAMINAR_LIMIT], row[LR_K_BLASIUS]
+    h_a_dx = h * area / row[LR_DX]
+    two_rt = 2.0 * row[LR_RT]  # 1 / rho = 2 R T / (p_j + p_{j+1})
+    inv_area = 1.0 / area
+    limit = row[LR_LAMINAR_LIMIT]
+    inv_kl = 1.0 / row[LR_K_LAMINAR]
+    inv_kb = 1.0 / row[LR_K_BLASIUS]
     unsteady = row[LR_UNSTEADY] != 0.0
     shear_gain = 4.0 * math.pi * row[LR_MU] * h  # h (A/dx) dx (4 mu / R^2): flow change per unit of sum y_k
     decay_scale = h * row[LR_MU_R2]  # h nu / R^2 = decay_scale / rho
+    node_gain = h * row[LR_N] * row[LR_RT] / (area * row[LR_DX])
+    terms = 2 * nseg + 1  # the first unsteady term's column; term k of segment j at terms + k nseg + j
     for j in range(nseg):
         pj = x[j]
         pk = x[j + 1]
         mj = x[nseg + 1 + j]
-        rho = (pj + pk) * half_inv_rt
-        resistance = hose_resistance_with(mj, rho, kl, limit, kb)
-        num = mj + h * a_dx * (pj - pk)
-        den = 1.0 + h * a_dx * resistance
+        rho_inv = two_rt / (pj + pk)
+        resistance = hose_resistance_of(abs(mj), rho_inv, inv_kl, limit, inv_kb)
+        num = mj + h_a_dx * (pj - pk)
+        den = 1.0 + h_a_dx * resistance
         if unsteady:
-            inv_rho_area = 1.0 / (rho * area)
-            tau = decay_scale / rho
-            held = 0.0  # sum of b_k y_k: the terms decayed over the sub-step
-            weight = 0.0  # sum of b_k m_k: their response to the sub-step's change of velocity
-            for k in range(N_UNSTEADY):
-                b = 1.0 / (1.0 + UNSTEADY_N[k] * tau)
-                held += b * x[2 * nseg + 1 + k * nseg + j]
-                weight += b * UNSTEADY_M[k]
+            inv_rho_area = rho_inv * inv_area
+            b0, b1, b2, b3, b4 = _decay_factors(decay_scale * rho_inv)
+            y0 = x[terms + j]
+            y1 = x[terms + nseg + j]
+            y2 = x[terms + 2 * nseg + j]
+            y3 = x[terms + 3 * nseg + j]
+            y4 = x[terms + 4 * nseg + j]
+            held = b0 * y0 + b1 * y1 + b2 * y2 + b3 * y3 + b4 * y4  # the terms decayed over the sub-step
+            weight = (  # their response to the sub-step's change of velocity
+                b0 * UNSTEADY_M[0] + b1 * UNSTEADY_M[1] + b2 * UNSTEADY_M[2] + b3 * UNSTEADY_M[3] + b4 * UNSTEADY_M[4]
+            )
             num -= shear_gain * (held - weight * mj * inv_rho_area)
             den += shear_gain * weight * inv_rho_area
-        m_new = num / den
-        x[nseg + 1 + j] = m_new
-        if unsteady:
+            m_new = num / den
             dv = (m_new - mj) * inv_rho_area
-            for k in range(N_UNSTEADY):
-                c = 2 * nseg + 1 + k * nseg + j
-                x[c] = (x[c] + UNSTEADY_M[k] * dv) / (1.0 + UNSTEADY_N[k] * tau)
-
-
-@njit(inline="always")
-def _interior_substep(x: np.ndarray, row: np.ndarray, h: float) -> None:
-    # the interior nodes' pressures over a sub-step from the segments' new flows
-    nseg = int(row[LR_SEGMENTS])
-    gain = h * row[LR_N] * row[LR_RT] / (row[LR_AREA] * row[LR_DX])
+            x[terms + j] = b0 * (y0 + UNSTEADY_M[0] * dv)
+            x[terms + nseg + j] = b1 * (y1 + UNSTEADY_M[1] * dv)
+            x[terms + 2 * nseg + j] = b2 * (y2 + UNSTEADY_M[2] * dv)
+            x[terms + 3 * nseg + j] = b3 * (y3 + UNSTEADY_M[3] * dv)
+            x[terms + 4 * nseg + j] = b4 * (y4 + UNSTEADY_M[4] * dv)
+        else:
+            m_new = num / den
+        x[nseg + 1 + j] = m_new
     for i in range(1, nseg):
-        x[i] += gain * (x[nseg + i] - x[nseg + 1 + i])
+        x[i] += node_gain * (x[nseg + i] - x[nseg + 1 + i])
 
 
 @njit(inline="always")
@@ -312,8 +343,7 @@ def _advance(
     inlet_mass = 0.0
     end_mass = 0.0
     for s in range(substeps):
-        _flows_substep(x, row, h)
-        _interior_substep(x, row, h)
+        _substep(x, row, h)
         m_first = x[nseg + 1]
         m_last = x[2 * nseg]
         # inlet node

@@ -36,7 +36,7 @@ from pneumatics.fields import (
 from pneumatics.gas import AIR, Gas
 from pneumatics.heat import vane_cell
 from pneumatics.hose import hose_constants, hose_mass_flow_with, hose_volume
-from pneumatics.line import LINE_ROW_FIELDS, N_LINE_ROW, line_row, segments_for, wave_speed
+from pneumatics.line import LINE_ROW_FIELDS, N_LINE_ROW, PLANT_BAND_HZ, line_row, segments_for, wave_speed
 from pneumatics.motor import half_pitch_volume
 from pneumatics.orifice import choked_flux
 from pneumatics.valves import lag_factors
@@ -368,7 +368,7 @@ def _derived(params: JointParams, gas: Gas, dt_s: float) -> tuple[float, ...]:
 def _line_row(params: JointParams, gas: Gas) -> tuple[float, ...]:
     # a hose's row as a line (hose_model = 1): wave speed from the gas, c = sqrt(k R T), so the line's
     # nodes take n = k (a step's front is adiabatic, pneumatics/line.py); its segments `segments_for`
-    # the line's default band
+    # the plant's band, PLANT_BAND_HZ
     if params.hose_model != HOSE_MODEL_LINE:
         return (0.0,) * N_LINE_ROW
     c = wave_speed(gas.t_supply_k, gas.r_j_per_kg_k, gas.k)
@@ -380,7 +380,7 @@ def _line_row(params: JointParams, gas: Gas) -> tuple[float, ...]:
             gas.r_j_per_kg_k,
             gas.k,
             gas.mu_pa_s,
-            segments_for(params.hose_length_m, c),
+            segments_for(params.hose_length_m, c, PLANT_BAND_HZ),
         )
     )
 

@@ -24,6 +24,7 @@ from pneumatics.hose import (
 )
 from pneumatics.line import (
     BAND_HZ,
+    PLANT_BAND_HZ,
     FarEnd,
     advance_from_flow,
     advance_from_orifice,
@@ -145,6 +146,45 @@ def test_frequency_response_meets_bergh_and_tijdeman(length_m, end_m3, p_mean_pa
     # steady friction alone (the pi-section's law with inertia) leaves the peaks 1.7-3.6 times as high
     steady = model_response(freq, _row(length_m, unsteady=False, band_hz=band_hz), end_m3, p_mean_pa)
     assert np.max(np.abs(steady)) / peak > 1.6
+
+
+PLANT_BT_CASES = [  # (length, end volume, mean pressure): the arm's 8 m hoses with 2-3 resonances below 50 Hz
+    (8.0, 10e-6, 4e5),
+    (8.0, 100e-6, 6e5),
+]
+
+
+@pytest.mark.parametrize(("length_m", "end_m3", "p_mean_pa"), PLANT_BT_CASES)
+def test_the_plants_coarser_grid_keeps_the_resonances_below_50_hz(length_m, end_m3, p_mean_pa) -> None:
+    # the plant's hoses are gridded for PLANT_BAND_HZ (10 segments on 8 m, not 19): Bergh & Tijdeman's
+    # resonances up to 50 Hz (8 m + 10 cm^3 at 4 bar: 9/27/47 Hz) stay within 1 Hz, the response as
+    # close as on the finer grid (docs/air_lines.md "In the plant"; a 30 Hz grid puts 47 Hz at 44)
+    freq = np.arange(1.0, PLANT_BAND_HZ + 0.5, 1.0)
+    ref = bergh_tijdeman(freq, length_m, BORE, end_m3, p_mean_pa)
+    row = _row(length_m, band_hz=PLANT_BAND_HZ)
+    assert row[0] < segments_for(length_m, C)  # coarser than the default grid
+    model = model_response(freq, row, end_m3, p_mean_pa)
+    peak = np.max(np.abs(ref))
+    assert np.max(np.abs(model - ref)) < 0.5 * peak
+    assert 1.0 < np.max(np.abs(model)) / peak < 1.45
+    resonances = _peaks(freq, ref)
+    assert resonances.size >= 3
+    for resonance in resonances:
+        assert _peaks(freq, model)[np.argmin(np.abs(_peaks(freq, model) - resonance))] == pytest.approx(
+            resonance, abs=1.0
+        )
+
+
+@pytest.mark.parametrize("length_m", [0.3, 3.0, 8.0])
+def test_the_plants_coarser_grid_keeps_the_delay_within_1_ms(length_m: float) -> None:
+    # a 1 kPa step into a closed line on the plant's grid: the far end passes half its rise within
+    # 1 ms of L/c (8 m: 23.9 ms against 23.3)
+    row = _row(length_m, band_hz=PLANT_BAND_HZ)
+    t = np.arange(0.0, 1.5 * length_m / C, 1e-4)
+    far = far_end_series(row, 0.0, t, np.where(t > 0.0, 3e5 + 1e3, 3e5), DT)
+    assert t[np.argmax(far - 3e5 >= 0.5e3)] == pytest.approx(length_m / C, abs=1.0e-3)
+    # nothing before the front but the grid's smear, two segments' travel (as on the default grid)
+    assert np.all(far[t < min(0.9, 1.0 - 2.0 / row[0]) * length_m / C] - 3e5 < 0.05e3)
 
 
 # --- mass conservation --------------------------------------------------------------------------

@@ -57,8 +57,8 @@ def _exhaust(params, steps: int = 400) -> tuple[Plant, np.ndarray, np.ndarray, n
     return plant, np.arange(steps + 1) * plant.dt, np.array(valve), np.array(motor)
 
 
-def _falls_at(t: np.ndarray, p: np.ndarray) -> float:
-    return float(t[np.argmax(p < p[0] - DROP_PA)])
+def _falls_at(t: np.ndarray, p: np.ndarray, drop_pa: float = DROP_PA) -> float:
+    return float(t[np.argmax(p < p[0] - drop_pa)])
 
 
 def test_an_exhaust_through_an_8_m_line_holds_the_motor_side_for_l_over_c() -> None:
@@ -88,7 +88,12 @@ def test_an_exhaust_through_an_8_m_line_holds_the_motor_side_for_l_over_c() -> N
         f"line vs line_response {rms_bar:.3f} bar rms over {1e3 * t[-1]:.0f} ms, "
         f"largest {np.abs(far - motor).max() / 1e5:.3f} bar; end {motor[-1] / 1e5:.3f} / {far[-1] / 1e5:.3f} bar"
     )
-    assert abs(line_delay - delay) < 0.08 * delay
+    # the plant's line is gridded for 50 Hz (pneumatics.line.PLANT_BAND_HZ, 10 segments on 8 m): its
+    # first 1 kPa (0.2 % of the step) leads the front by the grid's smear, at most two segments'
+    # travel (as tests/test_line.py allows the default grid); 0.5 % of the level falls within 1 ms of L/c
+    segment_travel = length / row[P.LINE_ROW] / C_GAS
+    assert -2.0 * segment_travel < line_delay - delay < 0.08 * delay
+    assert _falls_at(t, motor, 0.005 * motor[0]) - _falls_at(t, valve) == pytest.approx(delay, abs=1e-3)
     assert abs(ref_delay - delay) < 0.08 * delay
     assert pi_delay < 0.25 * delay
     # measured 0.073 bar rms, 0.10 at most, line_response the slower: its gas exchanges heat with the
