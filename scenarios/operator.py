@@ -72,7 +72,7 @@ import numpy as np
 
 from scenarios.ik import BRUSH_HALF_LENGTH_M, carrier_m, drive_to_qpos, tip_drive_angles, tool_drive_angles
 from scenarios.pinhole import Pinhole, camera_of
-from scenarios.plan import PRESS_M, TOUCH_STANDOFF_M
+from scenarios.plan import CLEAR_M, PRESS_M, TOUCH_STANDOFF_M
 from scenarios.schema import Operator as OperatorParams
 from scenarios.sighting import Sighting, sight_string, silhouette_ends_px, triangulate
 from scenarios.string import believed_disc_type, discs_of
@@ -94,6 +94,10 @@ REREAD_PX = 2.0
 # 160x120 picture misread the wrist by 22 deg and drove the brush into disc 2 at 278 N) is checked
 # clear of the string before the arm is sent anywhere by it
 IMPLAUSIBLE_RAD = math.radians(20.0)
+# a joint read off the picture more coarsely than this (REREAD_PX over its shortest link, in rad) is
+# not read: at 160x120 the 6 px tool gives the wrist to 19 deg, and a wrist set 20 deg off by such a
+# reading tilted the head into disc 5 at 1145 N; at 320x240 (12 px, 9.5 deg) it is still read
+UNREADABLE_RAD = math.radians(10.0)
 ARM_POINTS = ("upper_arm", "forearm", "wrist")  # bodies whose origins are the shoulder, elbow, wrist axes
 CAMERA = "global_view"
 OVERHEAD = "top_view"  # the overhead camera: where the string stands across the global view's depth
@@ -311,10 +315,11 @@ class Operator:
             move = carrier_m(self.model, believed) - carrier_m(self.model, {**believed, **seen})
             inwards = float(-move @ normal)
             moved = float(np.linalg.norm(move + inwards * normal))  # across the rim's normal
-        # at touching distance a correction moving the brush across the rim's normal further than it
-        # stands off the rim can bring the head's side down on the rim's edge (a 160x120 picture's
-        # elbow re-read at 2 cm moved the brush 4 cm, mostly down: 258 N on disc 1's top edge)
-        near = standoff_m <= TOUCH_STANDOFF_M + 1e-9 and moved > standoff_m
+        # nearer the rim than the plan's clearance, a correction moving the brush across the rim's
+        # normal further than it stands off the rim can bring the head's side down on the rim's edge
+        # (160x120 pictures: an elbow re-read at 2 cm moved the brush 4 cm, mostly down, 258 N on
+        # disc 1's top edge; one at 5 cm, 8 deg, moved it 9 cm down onto it, 292 N)
+        near = standoff_m < CLEAR_M - 1e-9 and moved > standoff_m
         if abs(off) <= IMPLAUSIBLE_RAD and inwards <= standoff_m + PRESS_M and not near:
             return ""
         return (
@@ -456,10 +461,12 @@ class Operator:
         self._latency_s = self._draw_latency()
         self._last_move_m = np.zeros(3)  # a new look: the arm went where the last aim sent it
         self.implausible = ""
-        seen_pose = self.read_pose(frame)
-        believed = dict(zip(platform.joints, platform.predicted_angles(), strict=True))
         noise = self.reading_noise_rad(frame)
-        worst = max(seen_pose, key=lambda j: abs(seen_pose[j] - believed[j]) / noise[j])
+        # a joint whose reading may be off by more than UNREADABLE_RAD he does not read: he leaves
+        # the platform's belief of it and places the brush by what he sees of the brush itself
+        seen_pose = {j: a for j, a in self.read_pose(frame).items() if noise[j] <= UNREADABLE_RAD}
+        believed = dict(zip(platform.joints, platform.predicted_angles(), strict=True))
+        worst = max(seen_pose, key=lambda j: abs(seen_pose[j] - believed[j]) / noise[j], default="")
         off = [j for j in seen_pose if abs(seen_pose[j] - believed[j]) > noise[j]]
         # a joint he set last time and sees where it was, the platform having been sent to correct
         # it, does not move by so little (a small move under friction is a fraction of the one
@@ -515,9 +522,10 @@ class Operator:
         self._last_move_m = error
         _, normal = self.sighting.discs[disc - 1].rim_facing()
         across = float(np.linalg.norm(error - (error @ normal) * normal))
-        if standoff_m <= TOUCH_STANDOFF_M + 1e-9 and across > standoff_m:
-            # an aim moved across the rim's normal further than the brush stands off the rim is not
-            # moved there: he backs off and comes in again by it (5 cm down at 2 cm off disc 1, 160x120)
+        if standoff_m <= TOUCH_STANDOFF_M + 1e-9 and across > standoff_m + self.tolerance_m:
+            # an aim moved across the rim's normal further than the brush stands off the rim, and more
+            # than the picture's pixel beyond it, is not moved there: he backs off and comes in again
+            # by it (5 cm down at 2 cm off disc 1, 160x120); a pixel's move (2.5 cm there) he makes
             self.implausible = f"seen {across * 100:.1f} cm aside at {standoff_m * 100:.0f} cm from the rim"
         self.log.append(
             f"t = {now_s:.2f} s: disc_{disc} seen {miss * 100:.1f} cm off "

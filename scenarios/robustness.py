@@ -75,6 +75,7 @@ class Row:
     rim_share_min: float  # the least rim coverage of any disc in any run (0..1)
     top_share_min: float  # the least top-face coverage of any disc in any run (0..1)
     refused: bool = False  # the plan cannot be made (the string out of the arm's reach): not run
+    out_of_reach: int = 0  # the most discs of a run that the operator said were out of the arm's reach
 
 
 def cases_named(labels) -> list[tuple[str, dict]]:
@@ -143,6 +144,12 @@ def largest_force_n(summary: dict) -> float:
     return max(judged + peaks, default=0.0)
 
 
+def discs_out_of_reach(summary: dict) -> int:
+    """How many discs the plan left out of a run, the operator saying they are out of the arm's reach
+    from where the platform stands (scenarios/task.py); they count as not cleaned."""
+    return sum("out of the arm's reach" in e for e in summary.get("controller_events", []))
+
+
 def all_cleaned(summary: dict) -> bool:
     """The run cleaned every disc of its string (a run not made cleaned none)."""
     return bool(summary.get("discs")) and cleaned(summary) == len(summary["discs"])
@@ -167,6 +174,7 @@ def rows(results: list[dict]) -> list[Row]:
                 min((d["rim_share"] for d in discs), default=0.0),
                 min((d["top_share"] for d in discs), default=0.0),
                 any(r.get("refused") and "discs" not in r for r in runs),
+                max(discs_out_of_reach(r) for r in runs),
             )
         )
     return out
@@ -194,8 +202,8 @@ def table(study_rows: list[Row], figures: dict[str, float]) -> str:
     """A markdown table, one line per case, and the goals under it."""
     lines = [
         "| case | runs | all discs cleaned | passed | largest force N | median task time s "
-        "| least rim coverage | least top coverage |",
-        "|---|---|---|---|---|---|---|---|",
+        "| least rim coverage | least top coverage | discs out of reach |",
+        "|---|---|---|---|---|---|---|---|---|",
     ]
     for r in study_rows:
         force = f"**{r.peak_force_n:.0f}**" if r.peak_force_n > MAX_FORCE_N else f"{r.peak_force_n:.0f}"
@@ -203,7 +211,7 @@ def table(study_rows: list[Row], figures: dict[str, float]) -> str:
             force = "out of reach: not run"
         lines.append(
             f"| {r.case} | {r.runs} | {r.all_cleaned:.0%} | {r.passed:.0%} | {force} | {_time(r.task_time_s)} "
-            f"| {r.rim_share_min:.0%} | {r.top_share_min:.0%} |"
+            f"| {r.rim_share_min:.0%} | {r.top_share_min:.0%} | {r.out_of_reach} |"
         )
     f = figures
     lines += [

@@ -251,9 +251,9 @@ def plan(scenario: Scenario, plant: Plant) -> tuple[Scenario, list[Disc], list[d
     if discs and planned is not scenario and not any(t.brush_at_disc for t in planned.targets):
         where = ", ".join(f"{v:.3f}" for v in discs[0].centre_m)
         raise ScenarioError(
-            f"{scenario.path}: [string] no disc of the string as the platform sees it (top disc at ({where}) m) is "
-            "within the brush's reach; allowed: a string within the arm's reach (1.1 m from the shoulder at 0.4 m, "
-            "every joint inside its range)"
+            f"{scenario.path}: [string] every disc of the string as the platform sees it (top disc at ({where}) m) "
+            "is out of the brush's reach; allowed: a string within the arm's reach (1.1 m from the shoulder at "
+            "0.4 m, every joint inside its range)"
         )
     return _clear_of_the_string(planned, plant.model, discs, resolve_targets(planned, plant, discs))
 

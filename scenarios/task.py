@@ -53,6 +53,10 @@ ELBOW_MARGIN_RAD = math.radians(5.0)  # keep the elbow this far inside its range
 # the head's 25 mm press then stays inside its 50 mm stroke, and the face's edge (45 mm radius) on the
 # rim (10 mm half-thickness) with room for the press's own error
 PRESS_MISS_M = 0.02
+# how many times a disc he stops at a look he does not believe and comes in again from clear of the
+# string before he leaves it unpressed: a coarse picture (160x120, a pixel 2.5 cm at the string)
+# misreads a joint by a few degrees more often than once a disc, and each time costs ~4 s
+STOPS_PER_DISC = 2
 # the base yaw within which he reads the arm's pitches off the global view (its plane is the arm's at
 # yaw 0): at 15 deg a 45 deg pitch is read 1 deg steep (tan scaled by 1/cos 15 deg)
 READABLE_YAW_RAD = math.radians(15.0)
@@ -114,7 +118,7 @@ class TaskController:
         self._repressing = False  # ... and out of a press he saw off, before he presses again
         self._came_in_again: set[int] = set()  # discs on which he backed off from touching distance once
         self._retreating = False  # he saw something he does not believe: backing off to CLEAR_M to look again
-        self._stopped_on: set[int] = set()  # discs on which he stopped and backed off so
+        self._stopped_on: list[int] = []  # the disc of each time he stopped and backed off so
         self._skip_press = False  # the operator gave up the coming press
         self._stop: _StopDrive | None = None
         self._stopped_after: set[int] = set()  # back-off targets after which the stop drive was tried
@@ -292,7 +296,10 @@ class TaskController:
             elif not verdict and self._is_approach(self.k):
                 verdict = self._close_in(t, target)
             if verdict:
-                self._issue(self.k, dwell_s=0.0)
+                # backing off from a look he does not believe: the joints that draw the brush out of
+                # the rim first (the elbow's drop that the look asks for, with the others, brought
+                # the head down on the rim's edge from 5 cm off it)
+                self._issue(self.k, dwell_s=0.0, pressed=self._retreating)
                 self._review_from_s = math.inf  # set when this correction is done
                 self.reached[self.k] = False
                 return
@@ -367,7 +374,7 @@ class TaskController:
     def _stop_and_back_off(self, t: float, target) -> bool:
         """He saw the arm too far from the platform's belief to correct it near the rim
         (`Operator.implausible`): True to back off to CLEAR_M and come in again, looking at each
-        standoff, the first time on a disc; the second time he leaves the disc unpressed (on a
+        standoff, up to STOPS_PER_DISC times on a disc; then he leaves the disc unpressed (on a
         target with no press to come, he goes on). Already clear of the string, he goes again."""
         disc, why = target.brush_at_disc, self.operator.implausible
         self.operator.implausible = ""
@@ -375,8 +382,8 @@ class TaskController:
             self._notes.append(f"t = {t:.3f} s: disc_{disc}: operator stops ({why}), clear of the string")
             return True
         self._closing_in = False
-        if disc not in self._stopped_on:
-            self._stopped_on.add(disc)
+        if self._stopped_on.count(disc) < STOPS_PER_DISC:
+            self._stopped_on.append(disc)
             self._retreating = True
             self._notes.append(
                 f"t = {t:.3f} s: disc_{disc}: operator stops ({why}), backs off to {CLEAR_M * 100:.0f} cm "

@@ -208,7 +208,7 @@ def test_a_disc_out_of_reach_is_left_out_and_said_so():
     assert any("disc_1: out of the arm's reach" in e for e in result.events), result.events
     assert not any("disc_2: out of" in e for e in result.events)
     beyond = with_overrides(load("insulator_cleaning"), {"string.x_m": 1.3})
-    with pytest.raises(ScenarioError, match=r"no disc of the string .* is within the brush's reach; allowed: "):
+    with pytest.raises(ScenarioError, match=r"every disc of the string .* is out of the brush's reach; allowed: "):
         plan(beyond, build_plant(beyond))
 
 
