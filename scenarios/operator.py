@@ -261,6 +261,12 @@ class Operator:
         and chasing a 1 cm tolerance moved the brush a whole pixel at a time, 2 cm off the rim)."""
         return max(self.params.tolerance_m, self.sighting.m_per_px)
 
+    @property
+    def coarse(self) -> bool:
+        """His picture's pixel at the string is coarser than the scenario's tolerance (320x240 and
+        below with the shipped 1 cm): what he reads off it may be off by more than he places to."""
+        return self.sighting.m_per_px > self.params.tolerance_m
+
     def picture_error_m(self, frame: Frame, disc: int, standoff_m: float) -> np.ndarray:
         """The face's error from where it should stand (world x, 0, z), as the picture shows it: the
         standoff is along the rim's outward normal of the disc as he found it."""
@@ -315,11 +321,13 @@ class Operator:
             move = carrier_m(self.model, believed) - carrier_m(self.model, {**believed, **seen})
             inwards = float(-move @ normal)
             moved = float(np.linalg.norm(move + inwards * normal))  # across the rim's normal
-        # nearer the rim than the plan's clearance, a correction moving the brush across the rim's
-        # normal further than it stands off the rim can bring the head's side down on the rim's edge
-        # (160x120 pictures: an elbow re-read at 2 cm moved the brush 4 cm, mostly down, 258 N on
-        # disc 1's top edge; one at 5 cm, 8 deg, moved it 9 cm down onto it, 292 N)
-        near = standoff_m < CLEAR_M - 1e-9 and moved > standoff_m
+        # with a coarse picture, nearer the rim than the plan's clearance, a correction moving the
+        # brush across the rim's normal further than it stands off the rim may be his misreading and
+        # bring the head's side down on the rim's edge (160x120: an elbow re-read at 2 cm moved the
+        # brush 4 cm, mostly down, 258 N on disc 1's top edge; one at 5 cm, 8 deg, 9 cm, 292 N). With
+        # a sharp one such a correction is the arm's real sag (payload x1.1: the brush 3 cm low at
+        # 2 cm), and made there as before
+        near = self.coarse and standoff_m < CLEAR_M - 1e-9 and moved > standoff_m
         if abs(off) <= IMPLAUSIBLE_RAD and inwards <= standoff_m + PRESS_M and not near:
             return ""
         return (
@@ -522,7 +530,7 @@ class Operator:
         self._last_move_m = error
         _, normal = self.sighting.discs[disc - 1].rim_facing()
         across = float(np.linalg.norm(error - (error @ normal) * normal))
-        if standoff_m <= TOUCH_STANDOFF_M + 1e-9 and across > standoff_m + self.tolerance_m:
+        if self.coarse and standoff_m <= TOUCH_STANDOFF_M + 1e-9 and across > standoff_m + self.tolerance_m:
             # an aim moved across the rim's normal further than the brush stands off the rim, and more
             # than the picture's pixel beyond it, is not moved there: he backs off and comes in again
             # by it (5 cm down at 2 cm off disc 1, 160x120); a pixel's move (2.5 cm there) he makes

@@ -449,17 +449,18 @@ def test_the_back_off_from_touching_distance_draws_the_brush_out_of_the_rim_firs
     assert len(back_off) == 2 and set(back_off[0]) < set(back_off[1]), back_off
 
 
-def _operator_looking_at(scene, drive: dict[str, float], stroke_m: float = 0.0):
+def _operator_looking_at(scene, drive: dict[str, float], stroke_m: float = 0.0, params=None):
     """The operator and his cameras with the arm standing at `drive` (kinematics only) and the
     brush's head pushed `stroke_m` into its carrier; one frame taken at t = 0."""
+    params = params or OperatorParams()
     d = mujoco.MjData(scene)
     for j, q in drive_to_qpos(drive).items():
         d.joint(j).qpos[0] = q
     d.joint("brush_stroke").qpos[0] = -stroke_m
     mujoco.mj_forward(scene, d)
-    camera = GlobalCamera(scene, d, OperatorParams())
+    camera = GlobalCamera(scene, d, params)
     camera.capture(0.0)
-    return Operator(scene, camera, OperatorParams(), np.random.default_rng(0))
+    return Operator(scene, camera, params, np.random.default_rng(0))
 
 
 def _platform(drive: dict[str, float]):
@@ -479,11 +480,12 @@ def test_the_operator_reads_the_base_yaw_from_the_overhead_view_and_resets_it(sc
     truth = {**drive, "base_yaw": drive["base_yaw"] + math.radians(6.5)}
     operator = _operator_looking_at(scene, truth)
     platform = _platform(drive)
-    assert operator.review(5.0, 0.0, 1, 0.05, platform, aim=False) is True
+    # looked at as the plan's final pose (disc 0), where he sends the arm again after a reset
+    assert operator.review(5.0, 0.0, 0, math.inf, platform, aim=False) is True
     yaw = platform.predicted_angles()[platform.joints.index("base_yaw")]
     assert abs(yaw - truth["base_yaw"]) < math.radians(0.35)
     assert any("base_yaw seen" in e for e in operator.log), operator.log
-    assert operator.review(5.0, 0.0, 1, 0.05, _platform(truth), aim=False) is False  # nothing to reset
+    assert operator.review(5.0, 0.0, 0, math.inf, _platform(truth), aim=False) is False  # nothing to reset
 
 
 def test_the_operator_stops_at_a_pose_too_far_off_to_correct_at_the_rim(scene):
@@ -635,17 +637,17 @@ def test_the_cameras_noise_is_drawn_per_frame_from_the_seed(scene):
 
 
 def test_a_joint_the_platform_does_not_move_so_little_is_left_where_it_is(scene):
-    """The base yaw seen 2.5 deg off: he sets the belief and sends the arm again; the platform
-    believes it went (its prediction arrives) but he sees the yaw where it was (a small move under
-    friction 1.3 times the files' is a fraction of the one commanded): he sets the belief once more
-    and lets it be, instead of sending it again (116 looks in one run before)."""
+    """The base yaw seen 2.5 deg off at the plan's final pose: he sets the belief and sends the arm
+    again; the platform believes it went (its prediction arrives) but he sees the yaw where it was (a
+    small move under friction 1.3 times the files' is a fraction of the one commanded): he sets the
+    belief once more and lets it be, instead of sending it again (116 looks in one run before)."""
     drive = tool_drive_angles(scene, disc_rim_target(scene, 1, 0.12), 0.0)
     truth = {**drive, "base_yaw": drive["base_yaw"] - math.radians(2.5)}
     operator = _operator_looking_at(scene, truth)
     platform = _platform(drive)
-    assert operator.review(5.0, 0.0, 1, 0.12, platform, aim=False) is True  # set, sent again
+    assert operator.review(5.0, 0.0, 0, math.inf, platform, aim=False) is True  # set, sent again
     platform.reference("base_yaw", drive["base_yaw"])  # the prediction arrived; the arm did not move
-    assert operator.review(6.0, 0.0, 1, 0.12, platform, aim=False) is False
+    assert operator.review(6.0, 0.0, 0, math.inf, platform, aim=False) is False
     assert "left there" in operator.log[-1], operator.log
     yaw = platform.predicted_angles()[platform.joints.index("base_yaw")]
     assert abs(yaw - truth["base_yaw"]) < math.radians(0.5)
@@ -660,9 +662,9 @@ def test_a_base_yaw_left_where_it_stands_is_not_sent_again_by_little(scene):
     truth = {**drive, "base_yaw": drive["base_yaw"] - math.radians(2.5)}
     operator = _operator_looking_at(scene, truth)
     platform = _platform(drive)
-    assert operator.review(5.0, 0.0, 1, 0.12, platform, aim=False) is True
+    assert operator.review(5.0, 0.0, 0, math.inf, platform, aim=False) is True
     platform.reference("base_yaw", drive["base_yaw"])  # the prediction arrived; the arm did not move
-    assert operator.review(6.0, 0.0, 1, 0.12, platform, aim=False) is False
+    assert operator.review(6.0, 0.0, 0, math.inf, platform, aim=False) is False
     assert set(operator.held) == {"base_yaw"}
     near = {**drive, "base_yaw": drive["base_yaw"] + math.radians(0.5)}
     held = operator.hold(near)
@@ -690,11 +692,15 @@ def test_a_coarse_picture_sets_how_near_he_places_the_brush(scene):
 def test_a_correction_across_the_rim_near_it_is_made_from_clear_of_it(scene):
     """The elbow believed 8 deg off with the brush 5 cm from disc 1's rim: going to the target again
     would move the brush ~6 cm, mostly across the rim's normal (down onto its edge: 292 N with a
-    160x120 picture); he stops and backs off clear of the string first. 12 cm off (the plan's
-    clearance) he only corrects."""
+    160x120 picture). With a picture coarser than his tolerance (320x240: 1.25 cm a pixel) that may
+    be his misreading: he stops and backs off clear of the string first; 12 cm off (the plan's
+    clearance) he only corrects. With the shipped 640x480 picture it is the arm's real sag (payload
+    x1.1), corrected where it is."""
     drive = tool_drive_angles(scene, disc_rim_target(scene, 1, 0.05), math.radians(10.0))
-    for standoff_m, stops in ((0.05, True), (0.12, False)):
-        operator = _operator_looking_at(scene, drive)
+    coarse = OperatorParams(width_px=320, height_px=240)
+    for params, standoff_m, stops in ((coarse, 0.05, True), (coarse, 0.12, False), (OperatorParams(), 0.05, False)):
+        operator = _operator_looking_at(scene, drive, params=params)
+        assert operator.coarse is (params is coarse)
         platform = _platform({**drive, "elbow_pitch": drive["elbow_pitch"] - math.radians(8.0)})
         assert operator.review(5.0, 0.0, 1, standoff_m, platform, aim=True) is True
         assert bool(operator.implausible) is stops, (standoff_m, operator.log)
