@@ -50,9 +50,14 @@ the insulator string (paper Sec. II). This model sees only what that camera's pi
   IMPLAUSIBLE_RAD off, or the brush to go further into the rim than a press would) that going to
   the target again could ram the rim: he sets the belief to what he sees, stops and
   backs off clear of the string (scenarios/task.py) and comes in again, looking at each standoff;
-  a second such look on a disc and he leaves it unpressed. The head seen pushed in with its face
+  a third such look on a disc and he leaves it unpressed. The head seen pushed in with its face
   clear of the rim (nothing can push it: a misreading, or a jammed head): he backs out and does
   not press again by it.
+- **what a coarse picture allows**: he places the brush no finer than a pixel at the string
+  (`Operator.tolerance_m`); a joint his picture gives coarser than UNREADABLE_RAD he does not read;
+  with a pixel coarser than his tolerance (`Operator.coarse`), a correction that would move the
+  brush across the rim's normal further than it stands off the rim, nearer than the plan's
+  clearance, is taken as a possible misreading and made from clear of the string.
 
 Numbers (the paper gives none for its camera): 640 x 480 at 25 frames/s, an analogue CCTV
 camera's picture (PAL, assumed); latency 0.4 s = about 0.1 s of video link and encoding plus a

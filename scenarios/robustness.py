@@ -9,7 +9,9 @@ and the brush spring differ from what the platform is told (`[reality]`); the ca
 criteria), the largest contact force at the physics rate (the peak over each 0.5 ms step), the
 task's time and each disc's coverage (scenarios/cleaning.py: the shares of rim and top face the
 brush went over in its force band). Goals (issue 37): >= 95 % of runs clean all the discs, no run
-above MAX_FORCE_N, the median task time against the shipped scenario's.
+above MAX_FORCE_N, the median task time against the shipped scenario's. A disc the arm cannot
+reach from where the platform stands is left out of the plan (scenarios/plan.py), said so by the
+operator, and counts as not cleaned; the table says how many.
 
 Written as `robustness.json` (every run's summary), `robustness.md` (a row per case and the
 goals), `robustness.csv` and `robustness.png` (per case the largest force and the task time).
