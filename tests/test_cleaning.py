@@ -480,12 +480,11 @@ def test_the_operator_reads_the_base_yaw_from_the_overhead_view_and_resets_it(sc
     truth = {**drive, "base_yaw": drive["base_yaw"] + math.radians(6.5)}
     operator = _operator_looking_at(scene, truth)
     platform = _platform(drive)
-    # looked at as the plan's final pose (disc 0), where he sends the arm again after a reset
-    assert operator.review(5.0, 0.0, 0, math.inf, platform, aim=False) is True
+    assert operator.review(5.0, 0.0, 1, 0.05, platform, aim=False) is True
     yaw = platform.predicted_angles()[platform.joints.index("base_yaw")]
     assert abs(yaw - truth["base_yaw"]) < math.radians(0.35)
     assert any("base_yaw seen" in e for e in operator.log), operator.log
-    assert operator.review(5.0, 0.0, 0, math.inf, _platform(truth), aim=False) is False  # nothing to reset
+    assert operator.review(5.0, 0.0, 1, 0.05, _platform(truth), aim=False) is False  # nothing to reset
 
 
 def test_the_operator_stops_at_a_pose_too_far_off_to_correct_at_the_rim(scene):
@@ -637,17 +636,17 @@ def test_the_cameras_noise_is_drawn_per_frame_from_the_seed(scene):
 
 
 def test_a_joint_the_platform_does_not_move_so_little_is_left_where_it_is(scene):
-    """The base yaw seen 2.5 deg off at the plan's final pose: he sets the belief and sends the arm
-    again; the platform believes it went (its prediction arrives) but he sees the yaw where it was (a
-    small move under friction 1.3 times the files' is a fraction of the one commanded): he sets the
-    belief once more and lets it be, instead of sending it again (116 looks in one run before)."""
+    """The base yaw seen 2.5 deg off: he sets the belief and sends the arm again; the platform
+    believes it went (its prediction arrives) but he sees the yaw where it was (a small move under
+    friction 1.3 times the files' is a fraction of the one commanded): he sets the belief once more
+    and lets it be, instead of sending it again (116 looks in one run before)."""
     drive = tool_drive_angles(scene, disc_rim_target(scene, 1, 0.12), 0.0)
     truth = {**drive, "base_yaw": drive["base_yaw"] - math.radians(2.5)}
     operator = _operator_looking_at(scene, truth)
     platform = _platform(drive)
-    assert operator.review(5.0, 0.0, 0, math.inf, platform, aim=False) is True  # set, sent again
+    assert operator.review(5.0, 0.0, 1, 0.12, platform, aim=False) is True  # set, sent again
     platform.reference("base_yaw", drive["base_yaw"])  # the prediction arrived; the arm did not move
-    assert operator.review(6.0, 0.0, 0, math.inf, platform, aim=False) is False
+    assert operator.review(6.0, 0.0, 1, 0.12, platform, aim=False) is False
     assert "left there" in operator.log[-1], operator.log
     yaw = platform.predicted_angles()[platform.joints.index("base_yaw")]
     assert abs(yaw - truth["base_yaw"]) < math.radians(0.5)
@@ -662,9 +661,9 @@ def test_a_base_yaw_left_where_it_stands_is_not_sent_again_by_little(scene):
     truth = {**drive, "base_yaw": drive["base_yaw"] - math.radians(2.5)}
     operator = _operator_looking_at(scene, truth)
     platform = _platform(drive)
-    assert operator.review(5.0, 0.0, 0, math.inf, platform, aim=False) is True
+    assert operator.review(5.0, 0.0, 1, 0.12, platform, aim=False) is True
     platform.reference("base_yaw", drive["base_yaw"])  # the prediction arrived; the arm did not move
-    assert operator.review(6.0, 0.0, 0, math.inf, platform, aim=False) is False
+    assert operator.review(6.0, 0.0, 1, 0.12, platform, aim=False) is False
     assert set(operator.held) == {"base_yaw"}
     near = {**drive, "base_yaw": drive["base_yaw"] + math.radians(0.5)}
     held = operator.hold(near)
