@@ -5,11 +5,17 @@ per disc the brush comes in well clear, then just clear of the rim, presses into
 backs off straight and then well clear, and goes on to the next disc. How many discs there are
 and where they stand is the platform's view of the string: the operator's sighting in his picture
 (scenarios/sighting.py), or, without the operator, the scene file's string (what the crew was told).
-The distances are the same for every disc; each has its reason below.
+The distances are the same for every disc; each has its reason below. Where the arm cannot reach a
+distance for the string found (asked of `reach`: the arm's inverse kinematics with every joint in
+its range), the standoff is the largest it reaches below it, in STANDOFF_STEP_M steps: the ready
+standoff down to touching distance, the clearance down to the ready standoff; a disc whose press or
+touching distance it cannot reach is left out of the plan (the task says so, and the disc counts as
+not cleaned).
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import replace
 
 from scenarios.schema import Scenario, Target
@@ -24,32 +30,78 @@ READY_M = 0.05
 # the press: 25 mm into the rim, the head's spring gives ~30 N (800 N/m, 10 N preload, assets/arm.xml)
 PRESS_M = 0.025
 DWELL_S = 1.0  # held pressed
+# a standoff out of the arm's reach is brought in by this much at a time (m): the string 10 cm
+# closer folds the arm so far at its middle discs that 12 cm, even 5 cm, is past the shoulder's stop
+STANDOFF_STEP_M = 0.01
+# the operator's last look before a press is taken with the brush's face this far off the rim (m):
+# a press from the plan's 5 cm standoff is a 7.5 cm move, and the as-built arm's error over such a
+# move (up to 4 cm high and 10 deg of tilt at disc 1, measured) put the head's side, not its face,
+# on the rim's top edge, where the spring takes nothing (100-450 N). From 2 cm the press is 4.5 cm,
+# and 2 cm is twice his 1 cm placement tolerance: still clear of the rim when he looks. It is also
+# the nearest the plan's ready standoff may be brought in where 5 cm is out of reach
+TOUCH_STANDOFF_M = 0.02
+
+# (disc, standoff_m) -> whether the arm can put the brush there: the plan's view of the arm's reach
+Reach = Callable[[int, float], bool]
 
 
-def disc_targets(disc: int, first: bool, last: bool) -> list[Target]:
-    """One disc's approach, press and back-off (brush_at_disc targets)."""
-    come_in = [Target(brush_at_disc=disc, standoff_m=FIRST_CLEAR_M if first else CLEAR_M)]
+def _everywhere(_disc: int, _standoff_m: float) -> bool:
+    return True
+
+
+def standoff_m(disc: int, wanted_m: float, least_m: float, reach: Reach) -> float | None:
+    """The largest standoff from `wanted_m` down to `least_m`, in STANDOFF_STEP_M steps, that the
+    arm reaches on `disc` (None: none does)."""
+    standoff = wanted_m
+    while not reach(disc, standoff):
+        if standoff <= least_m + 1e-9:
+            return None
+        standoff = max(least_m, round(standoff - STANDOFF_STEP_M, 6))
+    return standoff
+
+
+def ready_m(disc: int, reach: Reach) -> float | None:
+    """Where the brush stands before the press on `disc`: READY_M, brought in towards touching
+    distance where the arm does not reach it (None: not even there, or the press is out of reach)."""
+    return standoff_m(disc, READY_M, TOUCH_STANDOFF_M, reach) if reach(disc, -PRESS_M) else None
+
+
+def disc_targets(disc: int, first: bool, last: bool, reach: Reach | None = None) -> list[Target]:
+    """One disc's approach, press and back-off (brush_at_disc targets); `reach` brings a standoff
+    out of the arm's reach in (None: every distance is reachable). The disc's press must be reachable
+    (`reachable_discs`)."""
+    reach = reach or _everywhere
+    ready = ready_m(disc, reach)
+    clear = standoff_m(disc, CLEAR_M, ready, reach)
+    come_in = [Target(brush_at_disc=disc, standoff_m=standoff_m(disc, FIRST_CLEAR_M, ready, reach) if first else clear)]
     press = [
-        Target(brush_at_disc=disc, standoff_m=READY_M),
+        Target(brush_at_disc=disc, standoff_m=ready),
         Target(brush_at_disc=disc, standoff_m=-PRESS_M, dwell_s=DWELL_S),
         # back off straight first: a long move's joints, turning together at their own speeds,
         # first push the brush further in (a 67 N peak on the way out)
-        Target(brush_at_disc=disc, standoff_m=READY_M),
+        Target(brush_at_disc=disc, standoff_m=ready),
     ]
     # the last disc: the retreat's shoulder move needs the forearm no lower than at the rim
-    go_on = [] if last else [Target(brush_at_disc=disc, standoff_m=CLEAR_M)]
+    go_on = [] if last else [Target(brush_at_disc=disc, standoff_m=clear)]
     return come_in + press + go_on
 
 
-def expand(scenario: Scenario, n_discs: int) -> Scenario:
-    """The scenario with each `clean_string` target replaced by the plan for `n_discs` discs."""
+def reachable_discs(n_discs: int, reach: Reach | None = None) -> list[int]:
+    """The discs (1..n) whose ready standoff and press the arm reaches (all, without `reach`)."""
+    return [d for d in range(1, n_discs + 1) if ready_m(d, reach or _everywhere) is not None]
+
+
+def expand(scenario: Scenario, n_discs: int, reach: Reach | None = None) -> Scenario:
+    """The scenario with each `clean_string` target replaced by the plan for the discs of `n_discs`
+    that the arm reaches (`reachable_discs`), top to bottom."""
     if not any(t.clean_string for t in scenario.targets):
         return scenario
+    discs = reachable_discs(n_discs, reach)
     targets: list[Target] = []
     for t in scenario.targets:
         if not t.clean_string:
             targets.append(t)
             continue
-        for disc in range(1, n_discs + 1):
-            targets.extend(disc_targets(disc, first=disc == 1, last=disc == n_discs))
+        for disc in discs:
+            targets.extend(disc_targets(disc, first=disc == discs[0], last=disc == discs[-1], reach=reach))
     return replace(scenario, targets=tuple(targets))

@@ -9,7 +9,9 @@ and the brush spring differ from what the platform is told (`[reality]`); the ca
 criteria), the largest contact force at the physics rate (the peak over each 0.5 ms step), the
 task's time and each disc's coverage (scenarios/cleaning.py: the shares of rim and top face the
 brush went over in its force band). Goals (issue 37): >= 95 % of runs clean all the discs, no run
-above MAX_FORCE_N, the median task time against the shipped scenario's.
+above MAX_FORCE_N, the median task time against the shipped scenario's. A disc the arm cannot
+reach from where the platform stands is left out of the plan (scenarios/plan.py), said so by the
+operator, and counts as not cleaned; the table says how many.
 
 Written as `robustness.json` (every run's summary), `robustness.md` (a row per case and the
 goals), `robustness.csv` and `robustness.png` (per case the largest force and the task time).
@@ -39,7 +41,9 @@ CAMERA = {"operator.width_px": 640, "operator.height_px": 480}  # the shipped ca
 # (label, overrides of the shipped scenario): one factor at a time, at the ends of issue 37's ranges
 CASES: tuple[tuple[str, dict], ...] = (
     (SHIPPED, {}),
-    ("string x -10 cm", {"string.x_m": 0.65}),  # the scene file's string: x 0.75, y 0, top z 1.25 m
+    # the scene file's string: x 0.75, y 0, top z 1.25 m. 10 cm closer, the arm parked at home would
+    # have its brush inside disc 5: the crew parks it swung aside, as the plan's first move puts it
+    ("string x -10 cm", {"string.x_m": 0.65, "start.angles_deg.base_yaw": 40.0}),
     ("string x +10 cm", {"string.x_m": 0.85}),
     ("string y -10 cm", {"string.y_m": -0.10}),
     ("string y +10 cm", {"string.y_m": 0.10}),
@@ -73,6 +77,7 @@ class Row:
     rim_share_min: float  # the least rim coverage of any disc in any run (0..1)
     top_share_min: float  # the least top-face coverage of any disc in any run (0..1)
     refused: bool = False  # the plan cannot be made (the string out of the arm's reach): not run
+    out_of_reach: int = 0  # the most discs of a run that the operator said were out of the arm's reach
 
 
 def cases_named(labels) -> list[tuple[str, dict]]:
@@ -141,6 +146,12 @@ def largest_force_n(summary: dict) -> float:
     return max(judged + peaks, default=0.0)
 
 
+def discs_out_of_reach(summary: dict) -> int:
+    """How many discs the plan left out of a run, the operator saying they are out of the arm's reach
+    from where the platform stands (scenarios/task.py); they count as not cleaned."""
+    return sum("out of the arm's reach" in e for e in summary.get("controller_events", []))
+
+
 def all_cleaned(summary: dict) -> bool:
     """The run cleaned every disc of its string (a run not made cleaned none)."""
     return bool(summary.get("discs")) and cleaned(summary) == len(summary["discs"])
@@ -151,7 +162,7 @@ def rows(results: list[dict]) -> list[Row]:
     for r in results:
         groups.setdefault(r["case"], []).append(r)
     out = []
-    for case in sorted(groups, key=LABELS.index):
+    for case in sorted(groups, key=lambda c: LABELS.index(c) if c in LABELS else len(LABELS)):
         runs = groups[case]
         discs = [d for r in runs for d in r.get("discs", [])]
         out.append(
@@ -165,6 +176,7 @@ def rows(results: list[dict]) -> list[Row]:
                 min((d["rim_share"] for d in discs), default=0.0),
                 min((d["top_share"] for d in discs), default=0.0),
                 any(r.get("refused") and "discs" not in r for r in runs),
+                max(discs_out_of_reach(r) for r in runs),
             )
         )
     return out
@@ -192,8 +204,8 @@ def table(study_rows: list[Row], figures: dict[str, float]) -> str:
     """A markdown table, one line per case, and the goals under it."""
     lines = [
         "| case | runs | all discs cleaned | passed | largest force N | median task time s "
-        "| least rim coverage | least top coverage |",
-        "|---|---|---|---|---|---|---|---|",
+        "| least rim coverage | least top coverage | discs out of reach |",
+        "|---|---|---|---|---|---|---|---|---|",
     ]
     for r in study_rows:
         force = f"**{r.peak_force_n:.0f}**" if r.peak_force_n > MAX_FORCE_N else f"{r.peak_force_n:.0f}"
@@ -201,7 +213,7 @@ def table(study_rows: list[Row], figures: dict[str, float]) -> str:
             force = "out of reach: not run"
         lines.append(
             f"| {r.case} | {r.runs} | {r.all_cleaned:.0%} | {r.passed:.0%} | {force} | {_time(r.task_time_s)} "
-            f"| {r.rim_share_min:.0%} | {r.top_share_min:.0%} |"
+            f"| {r.rim_share_min:.0%} | {r.top_share_min:.0%} | {r.out_of_reach} |"
         )
     f = figures
     lines += [

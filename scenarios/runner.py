@@ -22,7 +22,7 @@ from scenarios import controllers
 from scenarios.cleaning import DiscContact, disc_contacts
 from scenarios.criteria import DISC_KINDS, Verdict, as_dicts, judge
 from scenarios.faults import fault_events
-from scenarios.ik import normal_pitch, rim_target, tip_drive_angles
+from scenarios.ik import carrier_m, normal_pitch, rim_target, tip_drive_angles
 from scenarios.plan import expand
 from scenarios.schema import (
     Fault,
@@ -44,6 +44,9 @@ from twin.sim import Recorder, run
 from twin.telemetry import Telemetry
 
 log = logging.getLogger(__name__)
+# a retreat's shoulder move stops this far short of where the parallelogram puts the elbow on its stop:
+# the margin the plan keeps from every joint's stop (scenarios/ik.py), four times the arrival band
+ELBOW_STOP_MARGIN_RAD = math.radians(2.0)
 
 
 @dataclass(frozen=True)
@@ -219,8 +222,24 @@ def build_plant(scenario: Scenario) -> Plant:
     for joint, deg in scenario.start_angles_deg.items():
         d.joint(joint).qpos[0] = math.radians(deg)
     mujoco.mj_forward(m, d)
+    if scenario.model == "arm":
+        _check_start_clear(scenario, m, d)
     plant.align_motors()
     return plant
+
+
+def _check_start_clear(scenario: Scenario, m: mujoco.MjModel, d: mujoco.MjData) -> None:
+    """Refuse a start with the brush inside the string: the arm parked where the string stands (the
+    home pose's brush is 4 cm from the scene file's string; 10 cm closer, it stands 4.6 cm inside
+    disc 5, a blow of thousands of newtons at the first step that no crew would start from)."""
+    brush = m.geom("brush").id
+    for c in d.contact[: d.ncon]:
+        if brush in (c.geom1, c.geom2) and c.dist < 0.0:
+            other = m.geom(c.geom2 if c.geom1 == brush else c.geom1).name
+            raise ScenarioError(
+                f"{scenario.path}: [start] the arm's start pose puts the brush {-c.dist * 100:.1f} cm into {other} of "
+                "the [string]; allowed: a start pose (start.pose, start.angles_deg) with the brush clear of the string"
+            )
 
 
 def plan(scenario: Scenario, plant: Plant) -> tuple[Scenario, list[Disc], list[dict[str, float]]]:
@@ -228,8 +247,57 @@ def plan(scenario: Scenario, plant: Plant) -> tuple[Scenario, list[Disc], list[d
     scenario with its `clean_string` target made into every disc's targets, those discs, and each
     target as drive angles (rad)."""
     discs = platform_string(scenario, plant) if scenario.model == "arm" else []
-    scenario = expand(scenario, len(discs))
-    return scenario, discs, resolve_targets(scenario, plant, discs)
+    planned = expand(scenario, len(discs), lambda disc, standoff: _reaches(plant.model, discs[disc - 1], standoff))
+    if discs and planned is not scenario and not any(t.brush_at_disc for t in planned.targets):
+        where = ", ".join(f"{v:.3f}" for v in discs[0].centre_m)
+        raise ScenarioError(
+            f"{scenario.path}: [string] every disc of the string as the platform sees it (top disc at ({where}) m) "
+            "is out of the brush's reach; allowed: a string within the arm's reach (1.1 m from the shoulder at "
+            "0.4 m, every joint inside its range)"
+        )
+    return _clear_of_the_string(planned, plant.model, discs, resolve_targets(planned, plant, discs))
+
+
+def _clear_of_the_string(
+    scenario: Scenario, model: mujoco.MjModel, discs: list[Disc], targets: list[dict[str, float]]
+) -> tuple[Scenario, list[Disc], list[dict[str, float]]]:
+    """The plan ended before the first of its fixed targets after the cleaning whose pose puts the
+    brush into the string as the platform sees it (the retreat's home pose, with the string 10 cm
+    closer: the brush 4.6 cm inside disc 5); the arm is left where the target before it puts it."""
+    brushed = [i for i, t in enumerate(scenario.targets) if t.brush_at_disc]
+    if not brushed:
+        return scenario, discs, targets
+    pose: dict[str, float] = {}
+    for i, target in enumerate(targets):
+        pose.update(target)
+        if i > brushed[-1] and _in_the_string(model, pose, discs):
+            log.info("plan ends before targets[%d]: its pose puts the brush into the string", i)
+            return replace(scenario, targets=scenario.targets[:i]), discs, targets[:i]
+    return scenario, discs, targets
+
+
+def _in_the_string(model: mujoco.MjModel, drive: dict[str, float], discs: list[Disc]) -> bool:
+    """Whether the brush's carrier at these drive angles lies within the brush's radius of a disc."""
+    tip = carrier_m(model, drive)
+    brush = float(model.geom("brush").size[0])
+    for disc in discs:
+        rel = tip - disc.centre_m
+        along = float(rel @ disc.axis)
+        if (
+            abs(along) <= disc.half_thickness_m + brush
+            and np.linalg.norm(rel - along * disc.axis) <= disc.radius_m + brush
+        ):
+            return True
+    return False
+
+
+def _reaches(model: mujoco.MjModel, disc: Disc, standoff_m: float) -> bool:
+    """Whether the arm puts the brush `standoff_m` off `disc`'s rim with every joint in its range."""
+    try:
+        tip_drive_angles(model, rim_target(disc, standoff_m), normal_pitch(disc))
+    except ValueError:
+        return False
+    return True
 
 
 def resolve_targets(scenario: Scenario, plant: Plant, discs: list[Disc] | None = None) -> list[dict[str, float]]:
@@ -238,12 +306,38 @@ def resolve_targets(scenario: Scenario, plant: Plant, discs: list[Disc] | None =
     if discs is None and any(t.brush_at_disc for t in scenario.targets):
         discs = platform_string(scenario, plant)
     out = []
+    pose: dict[str, float] = {}  # each joint's latest target: where the plan has left the arm
     for i, t in enumerate(scenario.targets):
         target = {j: math.radians(v) for j, v in t.angles_deg.items()}
         if t.brush_at_disc:
             target = {**_brush_drive(scenario, plant.model, discs, i, t), **target}
+        elif pose and any(s.brush_at_disc for s in scenario.targets[:i]):
+            target = _short_of_the_elbow_stop(plant.model, pose, target)
+        pose.update(target)
         out.append(target)
     return out
+
+
+def _short_of_the_elbow_stop(model: mujoco.MjModel, pose: dict[str, float], target: dict[str, float]) -> dict:
+    """A shoulder move alone after the brush has worked on the string (the retreat's) carries the
+    forearm's pitch (the parallelogram): the elbow joint turns by the shoulder's move. Where the
+    pose the string left would put the elbow past its stop, the shoulder goes only as far as
+    ELBOW_STOP_MARGIN_RAD short of it (the string 10 cm lower: the retreat's shoulder at 55 deg put
+    the elbow at -152 deg, its stop at -150; stopped at 51 deg the brush is still 14 cm back)."""
+    if "shoulder_pitch" not in target or "elbow_pitch" in target or "elbow_pitch" not in pose:
+        return target
+    lo, hi = model.joint("elbow_pitch").range
+    forearm = pose["elbow_pitch"]  # drive: the forearm's absolute pitch
+    margin = ELBOW_STOP_MARGIN_RAD
+    shoulder = min(max(target["shoulder_pitch"], forearm - hi + margin), forearm - lo - margin)
+    if shoulder != target["shoulder_pitch"]:
+        log.info(
+            "shoulder_pitch target %.1f deg limited to %.1f deg: the elbow's stop with the forearm at %.1f deg",
+            math.degrees(target["shoulder_pitch"]),
+            math.degrees(shoulder),
+            math.degrees(forearm),
+        )
+    return {**target, "shoulder_pitch": shoulder}
 
 
 def _brush_drive(scenario: Scenario, model: mujoco.MjModel, discs: list[Disc], i: int, t) -> dict[str, float]:

@@ -37,7 +37,7 @@ from control import ArmController, MotionRefused
 from pneumatics.joint import C_BRAKE_RELEASE, C_DIRECTION, C_PV_SET_GAUGE_PA
 from scenarios.ik import drive_to_qpos, rim_target
 from scenarios.operator import GlobalCamera, Operator
-from scenarios.plan import CLEAR_M
+from scenarios.plan import CLEAR_M, TOUCH_STANDOFF_M
 from scenarios.schema import Scenario
 from scenarios.string import Disc, believed_discs
 from twin.plant import Plant
@@ -49,16 +49,17 @@ STOP_DRIVE_S_PER_RAD = (
 )
 STOP_SETTLE_S = 0.3  # brake applied before the angle is taken (brake engagement ~0.1 s, assets/joints)
 ELBOW_MARGIN_RAD = math.radians(5.0)  # keep the elbow this far inside its range at the stop
-# the operator's last look before a press is taken with the brush's face this far off the rim (m):
-# a press from the plan's 5 cm standoff is a 7.5 cm move, and the as-built arm's error over such a
-# move (up to 4 cm high and 10 deg of tilt at disc 1, measured) put the head's side, not its face,
-# on the rim's top edge, where the spring takes nothing (100-450 N). From 2 cm the press is 4.5 cm,
-# and 2 cm is twice his 1 cm placement tolerance: still clear of the rim when he looks
-TOUCH_STANDOFF_M = 0.02
 # he presses from touching distance only if he saw the face within this of where it should stand (m):
 # the head's 25 mm press then stays inside its 50 mm stroke, and the face's edge (45 mm radius) on the
 # rim (10 mm half-thickness) with room for the press's own error
 PRESS_MISS_M = 0.02
+# how many times a disc he stops at a look he does not believe and comes in again from clear of the
+# string before he leaves it unpressed: a coarse picture (160x120, a pixel 2.5 cm at the string)
+# misreads a joint by a few degrees more often than once a disc, and each time costs ~4 s
+STOPS_PER_DISC = 2
+# the base yaw within which he reads the arm's pitches off the global view (its plane is the arm's at
+# yaw 0): at 15 deg a 45 deg pitch is read 1 deg steep (tan scaled by 1/cos 15 deg)
+READABLE_YAW_RAD = math.radians(15.0)
 
 
 def scenario_camera(scenario: Scenario, plant: Plant) -> GlobalCamera:
@@ -117,7 +118,7 @@ class TaskController:
         self._repressing = False  # ... and out of a press he saw off, before he presses again
         self._came_in_again: set[int] = set()  # discs on which he backed off from touching distance once
         self._retreating = False  # he saw something he does not believe: backing off to CLEAR_M to look again
-        self._stopped_on: set[int] = set()  # discs on which he stopped and backed off so
+        self._stopped_on: list[int] = []  # the disc of each time he stopped and backed off so
         self._skip_press = False  # the operator gave up the coming press
         self._stop: _StopDrive | None = None
         self._stopped_after: set[int] = set()  # back-off targets after which the stop drive was tried
@@ -125,6 +126,19 @@ class TaskController:
         self._commands = np.zeros_like(controller.commands)
         self._kinematics = mujoco.MjData(plant.model)  # scratch: where a move would take the brush
         self._camera_compiled = False  # the run loop's compiled ticks take the camera's frames (`compiled_camera`)
+        self._notes.extend(self._out_of_reach())
+
+    def _out_of_reach(self) -> list[str]:
+        """What he says of the discs of the string he found that the plan leaves out: out of the arm's
+        reach from where the platform stands (scenarios/plan.py), so not cleaned."""
+        pressed = {t.brush_at_disc for t in self.scenario.targets if t.brush_at_disc and t.standoff_m < 0}
+        if not pressed:
+            return []
+        return [
+            f"t = 0.000 s: disc_{k}: out of the arm's reach from where the platform stands: not cleaned"
+            for k in range(1, len(self.discs) + 1)
+            if k not in pressed
+        ]
 
     # -- Controller protocol -------------------------------------------------------------------
     def tick(self, sensors) -> np.ndarray:
@@ -282,7 +296,10 @@ class TaskController:
             elif not verdict and self._is_approach(self.k):
                 verdict = self._close_in(t, target)
             if verdict:
-                self._issue(self.k, dwell_s=0.0)
+                # backing off from a look he does not believe: the joints that draw the brush out of
+                # the rim first (the elbow's drop that the look asks for, with the others, brought
+                # the head down on the rim's edge from 5 cm off it)
+                self._issue(self.k, dwell_s=0.0, pressed=self._retreating)
                 self._review_from_s = math.inf  # set when this correction is done
                 self.reached[self.k] = False
                 return
@@ -357,7 +374,7 @@ class TaskController:
     def _stop_and_back_off(self, t: float, target) -> bool:
         """He saw the arm too far from the platform's belief to correct it near the rim
         (`Operator.implausible`): True to back off to CLEAR_M and come in again, looking at each
-        standoff, the first time on a disc; the second time he leaves the disc unpressed (on a
+        standoff, up to STOPS_PER_DISC times on a disc; then he leaves the disc unpressed (on a
         target with no press to come, he goes on). Already clear of the string, he goes again."""
         disc, why = target.brush_at_disc, self.operator.implausible
         self.operator.implausible = ""
@@ -365,8 +382,8 @@ class TaskController:
             self._notes.append(f"t = {t:.3f} s: disc_{disc}: operator stops ({why}), clear of the string")
             return True
         self._closing_in = False
-        if disc not in self._stopped_on:
-            self._stopped_on.add(disc)
+        if self._stopped_on.count(disc) < STOPS_PER_DISC:
+            self._stopped_on.append(disc)
             self._retreating = True
             self._notes.append(
                 f"t = {t:.3f} s: disc_{disc}: operator stops ({why}), backs off to {CLEAR_M * 100:.0f} cm "
@@ -431,6 +448,12 @@ class TaskController:
         return self.scenario.targets[k].standoff_m
 
     def _aimed(self, k: int) -> dict[str, float]:
+        """Target k as sent: the plan's, aimed by the operator where he looks (a joint he left where
+        it stands kept there, `Operator.hold`)."""
+        aimed = self._aimed_plan(k)
+        return self.operator.hold(aimed) if self.operator is not None else aimed
+
+    def _aimed_plan(self, k: int) -> dict[str, float]:
         t = self.scenario.targets[k]
         nominal = self.targets[k]
         if self.operator is not None and k == len(self.targets) - 1 and not t.brush_at_disc:
@@ -491,8 +514,11 @@ class TaskController:
     def _is_looked_at(self, k: int) -> bool:
         """A target the operator looks at the arm after: every one holding the brush clear of a disc,
         and the plan's last (the pose the arm is left in: a drift over the retreat, 4 deg of shoulder
-        in the shipped run, would stay)."""
-        return self._is_standoff(k) or k == len(self.targets) - 1
+        in the shipped run, would stay), where the arm stands in the global view's plane: turned out of
+        it, the pitches he reads off the picture are foreshortened (the plan ending swung aside by
+        40 deg, he set the wrist 8-11 deg off by them)."""
+        last = k == len(self.targets) - 1 and abs(self._aimed_plan(k).get("base_yaw", 0.0)) <= READABLE_YAW_RAD
+        return self._is_standoff(k) or last
 
     def _is_standoff(self, k: int) -> bool:
         """A target holding the brush clear of a disc (in the camera's plane: base yaw at zero)."""

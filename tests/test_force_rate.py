@@ -79,3 +79,19 @@ def test_the_criteria_judge_the_physics_steps_peak_not_the_sample():
     older = {k: v for k, v in arrays.items() if k != "brush_peak_n"}
     assert disc_contacts(scene, older)[2].peak_n == 30.0
     assert math.isnan(disc_contacts(scene, arrays)[0].peak_n)
+
+
+def test_the_brushs_friction_in_the_file_is_the_one_its_contacts_use():
+    """MuJoCo gives a contact the element-wise larger friction of its two geoms (equal priority):
+    the brush's friction as assets/arm.xml writes it is what its contacts with a disc really have,
+    not a figure the disc's overrides (the file said 0.3 while the contact used the disc's 1)."""
+    plant = _pressed_plant(0.025)
+    m, d = plant.model, plant.data
+    brush = m.geom("brush").id
+    touching = [c for c in d.contact[: d.ncon] if brush in (c.geom1, c.geom2)] if d.ncon else []
+    assert touching  # pressed into disc 4's rim
+    for c in touching:
+        other = c.geom2 if c.geom1 == brush else c.geom1
+        assert m.geom(other).name == "disc_4"
+        slide, spin, roll = m.geom_friction[brush]  # the contact's: two sliding, one torsional, two rolling
+        np.testing.assert_array_equal(c.friction, [slide, slide, spin, roll, roll])

@@ -64,24 +64,24 @@ def test_the_top_coverage_is_the_annulus_under_the_face(scene):
 
 
 def test_a_tiny_robustness_study(tmp_path):
-    """Two cases, one seed, 3 s runs: the shipped scenario runs; the string 10 cm closer cannot be
-    planned (out of the arm's reach) and counts as a failed run that cleaned nothing. The table,
-    the goals, the CSV and the plot are written."""
-    cases = robustness.cases_named(["shipped", "string x -10 cm"])
+    """Two cases, one seed, 3 s runs: the shipped scenario runs; a string 55 cm farther cannot be
+    planned (every disc out of the arm's reach) and counts as a failed run that cleaned nothing.
+    The table, the goals, the CSV and the plot are written."""
+    cases = [*robustness.cases_named(["shipped"]), ("string x +55 cm", {"string.x_m": 1.3})]
     results = robustness.run_robustness(cases, seeds=1, workers=1, duration_s=3.0, progress=False)
-    assert [r["case"] for r in results] == ["shipped", "string x -10 cm"]
+    assert [r["case"] for r in results] == ["shipped", "string x +55 cm"]
     assert "out of the brush's reach" in results[1]["refused"] and "discs" not in results[1]
     assert len(results[0]["discs"]) == 8  # run: its 8 discs judged (none cleaned in 3 s)
     rows = robustness.write(results, tmp_path)
     assert [(r.case, r.refused, r.all_cleaned) for r in rows] == [
         ("shipped", False, 0.0),
-        ("string x -10 cm", True, 0.0),
+        ("string x +55 cm", True, 0.0),
     ]
     figures = robustness.goals(results)
     assert figures["runs"] == 2 and figures["all_cleaned"] == 0.0
     assert math.isinf(figures["shipped_task_time_s"])  # 3 s: the plan not finished
     text = (tmp_path / "robustness.md").read_text()
-    assert "| string x -10 cm | 1 | 0% | 0% | out of reach: not run |" in text
+    assert "| string x +55 cm | 1 | 0% | 0% | out of reach: not run |" in text
     assert (tmp_path / "robustness.png").stat().st_size > 1000
     assert (tmp_path / "robustness.csv").read_text().splitlines()[0].startswith("case,runs,all_cleaned")
 

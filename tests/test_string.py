@@ -10,9 +10,9 @@ import mujoco
 import numpy as np
 import pytest
 
-from scenarios.ik import rim_target
+from scenarios.ik import drive_to_qpos, rim_target
 from scenarios.pinhole import camera_of
-from scenarios.plan import PRESS_M, expand
+from scenarios.plan import CLEAR_M, PRESS_M, READY_M, TOUCH_STANDOFF_M, expand
 from scenarios.runner import build_plant, plan, run_scenario
 from scenarios.schema import ScenarioError, String, load, parse, with_overrides
 from scenarios.sighting import sight_string, silhouette_ends_px
@@ -155,3 +155,84 @@ def test_a_string_table_is_checked_like_any_other():
     alone = 'model = "arm"\n[[targets]]\nclean_string = true\nbrush_at_disc = 2\n'
     with pytest.raises(ScenarioError, match=r"targets\[0\]\.clean_string = True .* alone in its target"):
         parse(alone, "x.toml")
+
+
+def _planned(overrides: dict):
+    """The plan for the shipped scenario with `overrides`, and the arm's joint angles (qpos, rad)
+    after each of its targets."""
+    scenario = with_overrides(load("insulator_cleaning"), overrides)
+    plant = build_plant(scenario)
+    planned, _, targets = plan(scenario, plant)
+    pose, poses = {}, []
+    for target in targets:
+        pose.update(target)
+        poses.append(drive_to_qpos(pose))
+    return planned, plant.model, poses
+
+
+def _standoffs(planned) -> list[tuple[int, float]]:
+    return [(t.brush_at_disc, t.standoff_m) for t in planned.targets if t.brush_at_disc]
+
+
+def test_the_plans_standoffs_are_brought_in_only_where_the_arm_does_not_reach_them():
+    """The scene file's string: every disc's standoffs are the module's (15 or 12 cm clear, 5 cm
+    ready). The string 10 cm closer (the arm parked swung aside: at home its brush would be inside
+    disc 5): at discs 3 and 4 neither 12 nor 5 cm is inside the shoulder's range (IK, tested here
+    with every joint's range), so they are brought in (the ready one down to touching distance) and
+    every target of the plan stays inside every joint's range."""
+    shipped, _, _ = _planned({})
+    assert {s for d, s in _standoffs(shipped) if s > 0 and d > 1} == {CLEAR_M, READY_M}
+    closer, model, poses = _planned({"string.x_m": 0.65, "start.angles_deg.base_yaw": 40.0})
+    ready = {d: s for d, s in _standoffs(closer)[1::5]}  # each disc's approach, press, back-off, clear
+    assert [d for d, _ in _standoffs(closer) if _ < 0] == list(range(1, 9))  # every disc pressed
+    assert all(TOUCH_STANDOFF_M <= ready[d] < READY_M for d in (3, 4)), ready
+    assert all(ready[d] == READY_M for d in (1, 2, 5, 6, 7, 8)), ready
+    for qpos in poses:
+        for joint, q in qpos.items():
+            lo, hi = model.joint(joint).range
+            assert lo - 1e-9 <= q <= hi + 1e-9, (joint, math.degrees(q))
+    # the retreat's home pose would put the brush back inside disc 5: the plan ends swung aside
+    assert shipped.targets[-1].angles_deg == {"base_yaw": 0.0}
+    assert closer.targets[-1].angles_deg == {"shoulder_pitch": 90.0}
+
+
+def test_a_disc_out_of_reach_is_left_out_and_said_so():
+    """The string 10 cm further: disc 1's rim is 1.11 m from the shoulder, past the arm's 1.1 m
+    (0.5 + 0.45 + 0.15 m) at any tilt of the tool: the plan presses discs 2-8 only, and the operator
+    says disc 1 is out of reach (it then counts as not cleaned, from the contacts). A string the
+    arm reaches no disc of is refused in one line."""
+    far = with_overrides(load("insulator_cleaning"), {"string.x_m": 0.85})
+    planned, _, _ = plan(far, build_plant(far))
+    assert sorted({d for d, s in _standoffs(planned) if s < 0}) == list(range(2, 9))
+    result = run_scenario(far, duration_s=0.5)
+    assert any("disc_1: out of the arm's reach" in e for e in result.events), result.events
+    assert not any("disc_2: out of" in e for e in result.events)
+    beyond = with_overrides(load("insulator_cleaning"), {"string.x_m": 1.3})
+    with pytest.raises(ScenarioError, match=r"every disc of the string .* is out of the brush's reach; allowed: "):
+        plan(beyond, build_plant(beyond))
+
+
+def test_the_retreat_stops_the_shoulder_short_of_the_elbows_stop():
+    """The string 10 cm lower: the retreat's shoulder at 55 deg would turn the elbow joint to
+    -152 deg (the parallelogram keeps the forearm's pitch, -97 deg at disc 8), past its -150 deg
+    stop; the plan raises the shoulder only to 2 deg short of it. The scene file's string keeps 55
+    (the elbow at -146.7 deg)."""
+    for overrides, shoulder_deg in (({}, 55.0), ({"string.top_z_m": 1.15}, None)):
+        planned, model, poses = _planned(overrides)
+        retreat = next(i for i, t in enumerate(planned.targets) if t.angles_deg == {"shoulder_pitch": 55.0})
+        elbow = poses[retreat]["elbow_pitch"]
+        lo = model.joint("elbow_pitch").range[0]
+        if shoulder_deg is not None:
+            assert math.degrees(poses[retreat]["shoulder_pitch"]) == pytest.approx(shoulder_deg)
+            assert elbow > lo + math.radians(2.0)
+        else:
+            assert elbow == pytest.approx(lo + math.radians(2.0), abs=1e-9)
+            assert math.degrees(poses[retreat]["shoulder_pitch"]) < 52.0
+
+
+def test_a_start_with_the_brush_inside_the_string_is_refused():
+    """The string 10 cm closer with the arm parked at home: its brush 4.6 cm inside disc 5 (a blow
+    of 3.8 kN at the first step); refused in one line naming the disc and what is allowed."""
+    closer = with_overrides(load("insulator_cleaning"), {"string.x_m": 0.65})
+    with pytest.raises(ScenarioError, match=r"\[start\] .* 4\.6 cm into disc_5 .*; allowed: a start pose"):
+        build_plant(closer)
