@@ -134,14 +134,14 @@ def hypotheses_of(diag: Diagnosis, catalogue=CATALOGUE) -> tuple[list[Hypothesis
     that fits best as the truth and maximises the least lack of fit of the others to it. Here a model is
     a family: its best member is what the campaign says it is, and its other members, fitted worse,
     are not candidates for the truth but its freedom when refitted. Every member as a truth of its own
-    made the least separation the one of a member fitted near its nominal value (it does nothing, so no
-    run tells it from a family that can do nothing either), and every two families a pair made the
-    least separation that of two families the call does not involve: on a static-friction excess on
-    staircases called brake, with friction and valve next, the design chose the run that best told
-    apart a brake slowly engaging at 32 ms (the twin's 20) from friction, and after it the call stayed
-    brake; the run that tells the brake from the friction family best (back-and-forth moves, whose
-    reversals keep the brake's shuttle-fed air high while the joint stops and turns) moves it to
-    friction."""
+    let a member fitted near its nominal value set the least separation (it does almost nothing, so
+    no run tells it from a family that can do nothing either), and every two families a pair let
+    pairs the call does not involve count as much as its own: on a static-friction excess on
+    staircases called brake, with valve and friction next, back-and-forth moves told a brake engaging
+    at 32 ms (the twin's 20) from friction by 1.75 floors, against 17.97 for the brake's best member;
+    the design chose dwell-then-move and the call stayed brake. Back-and-forth, whose reversals keep
+    the brake's shuttle-fed air high while the joint stops and turns, is what the leading pairs
+    choose, and after it the call is friction."""
     w = diag.which
     by_name = {c.name: c for c in [*w.ranking, *w.pairs]}
     best: dict[str, object] = {}

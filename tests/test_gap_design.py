@@ -184,8 +184,8 @@ def test_the_run_chosen_tells_the_called_family_from_the_others_not_a_member_tha
     brake's shuttle-fed air high while the joint stops and turns, so a dragging brake cannot stand in for
     a static friction there) tell the brake from friction by 1.9 times what the braked rests of
     dwell-then-move do, and are chosen. Each member of a family as a truth of its own chose
-    dwell-then-move: the near-nominal slow engagement, which no run tells from a family that can also do
-    nothing, set back-and-forth's least separation at 0.12 floors."""
+    dwell-then-move: a brake member that does almost nothing there set back-and-forth's least separation at
+    0.12 floors."""
     diag, catalogue = _outside_the_catalogue()
     hyps, pairs = hypotheses_of(diag, catalogue)
     crit = Criterion(TWIN, hyps, pairs, Reading(0.372, np.array([0.0, 0.02, 0.04, 0.06])))
