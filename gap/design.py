@@ -3,14 +3,16 @@ runs of the design library (gap.protocols.design_library) that best tell the lea
 apart, by the T-optimality criterion of Atkinson & Fedorov (gap.discrimination).
 
 Steps:
-1. hypotheses: from a diagnosis, each member of the leading families at its fitted value and
-   latency (`hypotheses_of`), free to become any of its family's members at any value when refitted;
-   for an ambiguous verdict also the top candidate and its rivals, each free over its own values.
-   Before any campaign, every catalogue effect at a reference size (`catalogue_hypotheses`);
-2. pairs to tell apart: every two families, each member of one against the other family (`Pair`; a
-   family's members may stand for a part the catalogue has no law for, so the run must tell the
-   families apart, not only their best members), and for an ambiguous verdict the top candidate
-   against each rival;
+1. hypotheses: from a diagnosis, the best member of each leading family at its fitted value and
+   latency (`hypotheses_of`), free to become any of its family's members at any value when refitted
+   (a family's members may stand for a part the catalogue has no law for, so the rival is the whole
+   family, not its best member); for an ambiguous verdict also the top candidate and its rivals, each
+   free over its own values. Before any campaign, every catalogue effect at a reference size
+   (`catalogue_hypotheses`);
+2. pairs to tell apart: from a diagnosis, the called family against each other leading family
+   (`leading_pairs`: Atkinson & Fedorov's design for several models, the best-fitting one taken as
+   true), and for an ambiguous verdict the top candidate against each rival; before any campaign,
+   every two families, each member of one against the other family (`family_pairs`);
 3. proposals: each protocol of the design library played once at each supply (`proposals`); the
    criterion of each pair on the campaign's own runs with the proposal's added, its increase over the
    campaign's alone per sample of the proposal (`separations`), both ways round;
@@ -123,10 +125,23 @@ def family_members(family: str, catalogue) -> list[Effect]:
 
 
 def hypotheses_of(diag: Diagnosis, catalogue=CATALOGUE) -> tuple[list[Hypothesis], list[Pair]]:
-    """Each member of the leading families as fitted (and, for an ambiguous verdict, the top candidate
-    and its rivals) as hypotheses, each free over its family's members and values; every two families a
-    pair to tell apart, each of one's members against the other family (and the top against each
-    rival, each free over its own values)."""
+    """The best member of each leading family as fitted (and, for an ambiguous verdict, the top candidate
+    and its rivals) as hypotheses, each free over its family's members and values; the leading family
+    (the diagnosis's call) against each other a pair to tell apart (`leading_pairs`; and the top against
+    each rival, each free over its own values).
+
+    Atkinson & Fedorov's sequential design for several models (Biometrika 62(2), 1975) takes the model
+    that fits best as the truth and maximises the least lack of fit of the others to it. Here a model is
+    a family: its best member is what the campaign says it is, and its other members, fitted worse,
+    are not candidates for the truth but its freedom when refitted. Every member as a truth of its own
+    let a member fitted near its nominal value set the least separation (it does almost nothing, so
+    no run tells it from a family that can do nothing either), and every two families a pair let
+    pairs the call does not involve count as much as its own: on a static-friction excess on
+    staircases called brake, with valve and friction next, back-and-forth moves told a brake engaging
+    at 32 ms (the twin's 20) from friction by 1.75 floors, against 17.97 for the brake's best member;
+    the design chose dwell-then-move and the call stayed brake. Back-and-forth, whose reversals keep
+    the brake's shuttle-fed air high while the joint stops and turns, is what the leading pairs
+    choose, and after it the call is friction."""
     w = diag.which
     by_name = {c.name: c for c in [*w.ranking, *w.pairs]}
     best: dict[str, object] = {}
@@ -134,16 +149,15 @@ def hypotheses_of(diag: Diagnosis, catalogue=CATALOGUE) -> tuple[list[Hypothesis
         best.setdefault(c.families[0], c)
     wanted = [f for f in (w.nearest.family if w.nearest else None, *(w.nearest.tied if w.nearest else ())) if f]
     if w.top is not None:
-        wanted += sorted(families_of([w.top.name, *w.rivals]))
+        wanted += [w.top.families[0], *sorted(families_of([w.top.name, *w.rivals]))]
     wanted += [x.family for x in w.families]
     families = [f for f in dict.fromkeys(wanted) if f in best][:N_FAMILIES]
     hyps: list[Hypothesis] = []
     for f in families:
         fitted = [_change(c) for c in w.ranking if c.families[0] == f]  # best first
         alts = alternatives(family_members(f, catalogue), tuple(fitted))
-        latency = {_describe(_change(c)): c.latency_s for c in w.ranking}
-        hyps += [Hypothesis(f"{f} ({_describe(ch)})", f, ch, latency[_describe(ch)], alts) for ch in fitted]
-    pairs = family_pairs(hyps, families)
+        hyps.append(Hypothesis(f"{f} ({_describe(fitted[0])})", f, fitted[0], best[f].latency_s, alts))
+    pairs = leading_pairs(hyps)
     if w.verdict == "ambiguous" and w.top is not None:
         top = len(hyps)
         for k, name in enumerate([w.top.name, *w.rivals]):
@@ -154,6 +168,12 @@ def hypotheses_of(diag: Diagnosis, catalogue=CATALOGUE) -> tuple[list[Hypothesis
             if k:
                 pairs.append(Pair(f"{w.top.name} / {name}", ((top, top + k), (top + k, top))))
     return hyps, pairs
+
+
+def leading_pairs(hyps: list[Hypothesis]) -> list[Pair]:
+    """The first hypothesis (the leading family's) against each other, both ways round, each free over
+    its family's alternatives."""
+    return [Pair(f"{hyps[0].family} / {h.family}", ((0, k), (k, 0))) for k, h in enumerate(hyps) if k]
 
 
 def family_pairs(hyps: list[Hypothesis], families: list[str]) -> list[Pair]:

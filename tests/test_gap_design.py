@@ -11,10 +11,10 @@ import pytest
 
 from gap import protocols, synth
 from gap.campaign import load_campaign
-from gap.design import Criterion, Pair, alternatives, choose, planned_run
+from gap.design import Criterion, Pair, alternatives, choose, hypotheses_of, planned_run
 from gap.diagnose import joint_stops, nominal_inertia
 from gap.discrimination import Hypothesis, Reading, Twin, misfits, response, trajectory
-from gap.effects import BY_NAME
+from gap.effects import BY_NAME, CATALOGUE
 from gap.plan import Header, add_runs, play_plan, read_plan, write_plan
 from gap.replay import DT_S, replay_run
 from pneumatics import params_row
@@ -122,3 +122,76 @@ def test_design_without_a_campaign_needs_a_joint_and_an_instrument(tmp_path):
     with pytest.raises(UserError, match="--joint, --instrument and --pressures are for before any campaign"):
         run_design(tmp_path, tmp_path / "out", None, "camera")
     assert not (tmp_path / "out").exists()
+
+
+def _outside_the_catalogue():
+    """A diagnosis's verdict as the design reads it (gap.result.Which's fields it uses): a static-friction
+    excess (Stribeck, 40 N·m, withheld from the catalogue) hidden on staircases read by a camera, called
+    outside the catalogue, nearest family brake; its singles as the bench's diagnosis fitted them, best
+    first (value, latency s)."""
+    from types import SimpleNamespace
+
+    fitted = [
+        ("brake_incomplete_release", 6.874e5, 0.025),
+        ("valve_lag", 0.437, 0.0),
+        ("coulomb_friction", 35.06, 0.015),
+        ("brake_slow_release", 0.1687, 0.0),
+        ("supply_droop", 2.826e7, 0.04),
+        ("brake_holding", 300.0, 0.06),
+        ("brake_slow_engage", 0.03189, 0.06),  # the twin's 20 ms: near nominal, it does almost nothing
+        ("viscous_friction", 13.8, 0.035),
+    ]
+    ranking = [
+        SimpleNamespace(name=n, effects=[n], families=[BY_NAME[n].family], fitted_values=[v], latency_s=lat)
+        for n, v, lat in fitted
+    ]
+    which = SimpleNamespace(
+        verdict="outside the catalogue",
+        top=ranking[0],
+        rivals=[],
+        pairs=[],
+        ranking=ranking,
+        nearest=SimpleNamespace(family="brake", tied=[]),
+        families=[SimpleNamespace(family=f) for f in ("brake", "valve", "friction", "supply")],
+    )
+    catalogue = tuple(e for e in CATALOGUE if e.name != "stribeck_friction")
+    return SimpleNamespace(which=which), catalogue
+
+
+def test_each_family_is_its_best_member_and_the_call_is_told_from_each_other():
+    """Atkinson & Fedorov's several-model design: the best-fitting model taken as true, the others refitted.
+    Each leading family is one hypothesis, its best member as fitted, free over its members when refitted;
+    the pairs are the called family against each other, so a member fitted near its nominal value (a
+    brake engaging at 32 ms for the twin's 20) is no truth of its own."""
+    diag, catalogue = _outside_the_catalogue()
+    hyps, pairs = hypotheses_of(diag, catalogue)
+    assert [h.name for h in hyps] == [
+        "brake (brake_incomplete_release = 6.874e+05)",
+        "valve (valve_lag = 0.437)",
+        "friction (coulomb_friction = 35.06)",
+        "supply (supply_droop = 2.826e+07)",
+    ]
+    assert [h.latency_s for h in hyps] == [0.025, 0.0, 0.015, 0.04]
+    assert [p.name for p in pairs] == ["brake / valve", "brake / friction", "brake / supply"]
+    assert all(p.directed == ((0, k), (k, 0)) for k, p in enumerate(pairs, 1))
+    brake_alts = {e.name for alt in hyps[0].alternatives for e, _ in alt}
+    assert brake_alts == {"brake_incomplete_release", "brake_slow_release", "brake_slow_engage", "brake_holding"}
+    assert "stribeck_friction" not in {e.name for h in hyps for alt in h.alternatives for e, _ in alt}
+
+
+def test_the_run_chosen_tells_the_called_family_from_the_others_not_a_member_that_does_nothing():
+    """On that diagnosis, at 0.8 MPa read by a 30 Hz camera: back-and-forth moves (their reversals keep the
+    brake's shuttle-fed air high while the joint stops and turns, so a dragging brake cannot stand in for
+    a static friction there) tell the brake from friction by 1.9 times what the braked rests of
+    dwell-then-move do, and are chosen. Each member of a family as a truth of its own chose
+    dwell-then-move: a brake member that does almost nothing there set back-and-forth's least separation at
+    0.12 floors."""
+    diag, catalogue = _outside_the_catalogue()
+    hyps, pairs = hypotheses_of(diag, catalogue)
+    crit = Criterion(TWIN, hyps, pairs, Reading(0.372, np.array([0.0, 0.02, 0.04, 0.06])))
+    cands = [(n, (_run(n, 0.8, rate_hz=30.0),)) for n in ("dwell_then_move", "back_and_forth")]
+    ranking, chosen, together = choose(crit, cands, None, 2)
+    by = {p.protocol: p.separation for p in ranking}
+    assert by["back_and_forth"]["brake / friction"] > 1.5 * by["dwell_then_move"]["brake / friction"], by
+    assert min(by["back_and_forth"].values()) > 5.0, by  # every pair told apart, by far more than 1 floor
+    assert [p.protocol for p in chosen] == ["back_and_forth"], by
