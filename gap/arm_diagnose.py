@@ -19,8 +19,9 @@ Steps (each its own function below):
 The runs alternate between training and withheld (every other run withheld).
 
 Verdicts: no significant gap; explained (the best candidate brings every joint under SIGNIFICANT
-floors on the withheld runs, or shrinks the gap's misfit there to under EXPLAINED_SHRINK); or
-outside the catalogue, naming the nearest family (the best candidate's).
+floors on the withheld runs, or shrinks the gap's misfit there to under EXPLAINED_SHRINK, or,
+where neither, shrinks it so up to the runs' knife edges: `knife_edges`); or outside the
+catalogue, naming the nearest family (the best candidate's).
 """
 
 from __future__ import annotations
