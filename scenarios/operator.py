@@ -30,9 +30,7 @@ the insulator string (paper Sec. II). This model sees only what that camera's pi
   bearing of the brush's carrier from the base axis, the carrier placed by both views (left
   unread, it stopped 6.5 deg short of the plan with the string turned 6 deg, unnoticed, and disc 1
   was pressed at 59 N). He resets the belief only
-  where it is off by more than the picture's own noise (REREAD_PX), and a joint that made only
-  part of his last correction of it he sends by more the next time, by the share it made (the
-  extra no further than a quarter of the brush's standoff: `Operator.sent`); then, ready to press, he
+  where it is off by more than the picture's own noise (REREAD_PX); then, ready to press, he
   compares the brush's face with where it should stand (the standoff in front of the rim) and,
   while the error is over `tolerance_m`, moves the brush's aim by the error he sees and lets the
   platform go there again (its inverse kinematics, as a jog handle in the tool's frame would). The
@@ -112,20 +110,6 @@ OVERHEAD = "top_view"  # the overhead camera: where the string stands across the
 # base yaw only, which turns the arm's plane and moves the brush along the global view's depth
 # alone; a pitch joint held would move the brush in the picture, where he places it by the others
 HELD = ("base_yaw",)
-# a correction a joint made only part of (friction above what the platform's predictor knows: with
-# the friction 1.3 times the files', a 4.4 deg shoulder correction made 2.2 deg, then 2.2 deg made
-# nothing; a 15.8 deg wrist correction made 4 deg: the platform's valve opens by its predicted error,
-# and a small one stays under the true break-away) he sends again scaled by the share of its last
-# correction it made (`Operator.sent`), where it made less than SHORT_SHARE of it (each reading is
-# good to about its REREAD_PX noise: a correction of twice that seen to make 60 % may well have been
-# made whole; the as-built arm's small moves go 1-3 times the predicted, and are left as they were) ...
-SHORT_SHARE = 0.6
-# ... scaled at most this much, and by no more than moves the brush OVERSHOOT_SHARE of its standoff
-# from the rim, should the joint make the whole of it: at 5 cm, an elbow correction doubled to 7 deg
-# that the arm made whole (it had made nothing of the last) put the brush 3.6 deg past, onto disc 1
-# at 421 N; a quarter of the standoff (1.25 cm at 5 cm, 3 cm at 12 cm) stays clear of the rim
-MAX_GAIN = 2.0
-OVERSHOOT_SHARE = 0.25
 FRAMES_KEPT = 64  # the camera's last frames kept (2.6 s at 25 frames/s: longer than any look's latency)
 
 
@@ -267,10 +251,6 @@ class Operator:
         # joints he saw not move by a small move and left where they stand: (angle, band) per joint; a
         # target within the band of it is not sent again (`hold`), a larger move lets it go
         self.held: dict[str, tuple[float, float]] = {}
-        # per joint, how much he scales a correction (`sent`): 1 until one fell short
-        self.gain: dict[str, float] = {}
-        self._seen: dict[str, float] = {}  # the pose he read at his last look
-        self._sent: dict[str, tuple[float, float]] = {}  # per joint, (angle seen, move commanded) since then
         # he finds the string in the picture first (its discs' outlines and the known disc type): the
         # plan is made for the string he found, and what a pixel is at the string is his scale
         self.sighting: Sighting = camera.sight_string()
@@ -466,51 +446,6 @@ class Operator:
                 del self.held[joint]
         return out
 
-    def sent(self, platform, target: dict[str, float], lead: bool, standoff_m: float = 0.0) -> None:
-        """The platform is sent to `target` after his look (`lead`: to correct what he saw there,
-        the brush `standoff_m` off a rim): each joint's correction is made larger by the joint's
-        `gain` (the belief set back from the target by the correction times the gain, so that the
-        platform, which moves from its belief, commands that much), the extra no more than moves the
-        brush OVERSHOOT_SHARE of the standoff at the target; what each joint was commanded is kept,
-        to be compared with the next look (`_learn`)."""
-        self._sent = {}
-        if not lead:
-            return
-        pose = {**dict(zip(platform.joints, platform.predicted_angles().tolist(), strict=True)), **target}
-        for i, joint in enumerate(platform.joints):
-            if joint not in target or joint not in self._seen:
-                continue
-            believed = float(platform.predicted_angles()[i])
-            move = target[joint] - believed
-            extra = (self.gain.get(joint, 1.0) - 1.0) * abs(move)
-            if extra > 0.0:
-                extra = min(extra, OVERSHOOT_SHARE * standoff_m / self._lever_m(pose, joint))
-                move += math.copysign(extra, move)
-                platform.reference(joint, target[joint] - move)
-            self._sent[joint] = (self._seen[joint], move)
-
-    def _lever_m(self, pose: dict[str, float], joint: str) -> float:
-        """How far the brush's carrier moves per radian of `joint` at `pose` (m/rad, the arm's
-        kinematics, 1e-3 rad either side)."""
-        step = 1e-3
-        ahead = carrier_m(self.model, {**pose, joint: pose[joint] + step})
-        behind = carrier_m(self.model, {**pose, joint: pose[joint] - step})
-        return max(float(np.linalg.norm(ahead - behind)) / (2.0 * step), 1e-3)
-
-    def _learn(self, seen: dict[str, float], noise: dict[str, float]) -> None:
-        """Each joint's gain from the correction it was last commanded (`sent`) and the move
-        the pictures show it made: where it made under SHORT_SHARE of the move commanded, or a gain
-        is already in use, the next is scaled by the inverse of the share it made (1 to MAX_GAIN). A
-        correction under twice the reading's noise tells nothing."""
-        for joint, (before, move) in self._sent.items():
-            if joint not in seen or abs(move) <= 2.0 * noise[joint]:
-                continue
-            share = (seen[joint] - before) / move
-            if share < SHORT_SHARE or self.gain.get(joint, 1.0) > 1.0:
-                self.gain[joint] = min(max(1.0 / max(share, 1.0 / MAX_GAIN), 1.0), MAX_GAIN)
-        self._sent = {}
-        self._seen = dict(seen)
-
     def take_back(self) -> None:
         """The platform refused the last aim (out of a joint's range): the arm did not move, and
         the same error seen again must not be added twice."""
@@ -543,7 +478,6 @@ class Operator:
         # a joint whose reading may be off by more than UNREADABLE_RAD he does not read: he leaves
         # the platform's belief of it and places the brush by what he sees of the brush itself
         seen_pose = {j: a for j, a in self.read_pose(frame).items() if noise[j] <= UNREADABLE_RAD}
-        self._learn(seen_pose, noise)
         believed = dict(zip(platform.joints, platform.predicted_angles(), strict=True))
         worst = max(seen_pose, key=lambda j: abs(seen_pose[j] - believed[j]) / noise[j], default="")
         off = [j for j in seen_pose if abs(seen_pose[j] - believed[j]) > noise[j]]

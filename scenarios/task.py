@@ -291,9 +291,6 @@ class TaskController:
             )
             if verdict is None:
                 return  # waiting to see the arm at rest
-            # what he saw there is corrected (not a close-in, nor a back-off from a look he does not
-            # believe), at one of the plan's standoffs: a correction that fell short is scaled up
-            lead = bool(verdict) and not self.operator.implausible and self._standoff_m(self.k) > TOUCH_STANDOFF_M
             if self.operator.implausible:
                 verdict = self._stop_and_back_off(t, target)
             elif not verdict and self._is_approach(self.k):
@@ -302,7 +299,7 @@ class TaskController:
                 # backing off from a look he does not believe: the joints that draw the brush out of
                 # the rim first (the elbow's drop that the look asks for, with the others, brought
                 # the head down on the rim's edge from 5 cm off it)
-                self._issue(self.k, dwell_s=0.0, pressed=self._retreating, lead=lead and not self._retreating)
+                self._issue(self.k, dwell_s=0.0, pressed=self._retreating)
                 self._review_from_s = math.inf  # set when this correction is done
                 self.reached[self.k] = False
                 return
@@ -332,14 +329,11 @@ class TaskController:
                 )
             self._issue(self.k, self.scenario.targets[self.k].dwell_s, pressed=self._backing_out)
 
-    def _issue(self, k: int, dwell_s: float, pressed: bool = False, lead: bool = False) -> None:
+    def _issue(self, k: int, dwell_s: float, pressed: bool = False) -> None:
         """Send target k; `pressed`: the brush is in a press or at touching distance from the rim now
-        (see `_out_of_the_rim_first`); `lead`: it corrects what the operator saw at his look, each
-        joint's small correction scaled by what its last one made (`Operator.sent`)."""
+        (see `_out_of_the_rim_first`)."""
         target = self._aimed(k)
         self.issued[k] = target
-        if self.operator is not None:
-            self.operator.sent(self.controller, target, lead, self._standoff_m(k))
         self.controller.expect_press(*self._expected_surface(k))
         steps = self._out_of_the_rim_first(target) if pressed else [target]
         try:
