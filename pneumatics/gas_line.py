@@ -91,7 +91,8 @@ Interface for a caller that steps the line every physics step (pneumatics/joint.
   `pinned_pa` > 0 holds the chamber beyond the far end at that pressure (a chamber the caller
   integrates with the returned `end_flow_kg_s`).
   Each returns a `LineStep`: the mean mass flow into the line at the inlet and into the far end's
-  cell through its face (into the pinned chamber when pinned) over the step (kg/s).
+  cell through its face (into the pinned chamber when pinned) over the step (kg/s). (The far end's
+  plenum has its own energy here: `FarEnd.gas_rt` and its fields, the acoustic line's, are not used.)
 """
 
 from __future__ import annotations

@@ -24,6 +24,8 @@ segment). The lines' states follow the joint's N_STATE columns in its state row 
 `with_hoses`), and they are advanced once per physics step (`advance_hoses`): in the plant in place
 of the ROS2 step, in the one-joint model once per RK4 sub-step, its stages seeing the air move
 linearly to where the lines end (a line's many nodes and sub-steps cannot sit inside RK4's stages).
+With the chambers' energy balance (chamber_heat = 1) the lines' gas is at the wall's temperature and
+each chamber, the line's last node, keeps its own (`advance_hoses`, docs/air_lines.md).
 
 State of a joint (a float64 row, see the S_* columns): four node pressures (Pa, absolute), the
 proportional valve's output pressure (Pa, gauge), the brake's engagement, the direction

@@ -65,9 +65,12 @@ Interface for a caller that steps the line every physics step (pneumatics/joint.
   the step's start) and that flow's slope -dm/dp (kg/(s·Pa), >= 0, taken implicitly); or
   `pinned_pa` > 0 holds the far end at that pressure (a chamber the caller integrates with the
   returned `end_flow_kg_s`); `polytropic_n` > 0 gives the far end's node its own exponent (a motor
-  chamber's law, where the line's n = k sets the wave speed).
+  chamber's law, where the line's n = k sets the wave speed); `gas_rt` > 0 gives it an energy balance
+  of its own gas (R T; a chamber by pneumatics/chamber.py's law: gas from the line at the line's
+  temperature, the wall's, gas into the line at the far end's own, heat through `conductance_kg_s`).
   Each returns a `LineStep`: the mean mass flow into the line at the inlet and out of the last
-  segment into the far end over the step (kg/s; their difference over dt is what the line stored).
+  segment into the far end over the step (kg/s; their difference over dt is what the line stored),
+  and with the far end's energy balance its gas's R T at the step's end and the step's heat and work.
 """
 
 from __future__ import annotations
