@@ -156,7 +156,7 @@ class FarEnd(NamedTuple):
     gas_rt: float = 0.0
     inflow_rt: float = 0.0  # with `gas_rt`: the R T the extra inflow carries (either way; J/kg)
     # with `gas_rt`: h A / R of the far end's wall (kg/s), at the line's gas temperature: heat
-    # h A (T_line - T) = conductance (R T_line - R T), explicit over a sub-step
+    # h A (T_line - T) = conductance (R T_line - R T), from the sub-step's start, damped (`_energy_end`)
     conductance_kg_s: float = 0.0
 
 
@@ -397,7 +397,7 @@ def _advance(
         pn = x[nseg]
         extra = end.inflow_kg_s - end.inflow_slope_kg_s_pa * (pn - p_end_start)  # at the sub-step's start
         if energy:
-            x[nseg], heat, entry, work = _energy_end(pn, rt_end, volume, h, m_last, extra, end, row)
+            x[nseg], heat, entry, work = _energy_end(pn, rt_end, gas_mass, volume, h, m_last, extra, end, row)
             gas_mass += h * (m_last + extra + end.inflow_slope_kg_s_pa * (pn - x[nseg]))
             rt_end = x[nseg] * volume / gas_mass
             heat_j += h * heat
@@ -415,18 +415,29 @@ def _advance(
 
 @njit(inline="always")
 def _energy_end(
-    pn: float, rt: float, volume: float, h: float, m_last: float, extra: float, end: FarEnd, row: np.ndarray
+    pn: float,
+    rt: float,
+    gas_mass: float,
+    volume: float,
+    h: float,
+    m_last: float,
+    extra: float,
+    end: FarEnd,
+    row: np.ndarray,
 ) -> tuple[float, float, float, float]:
     # the far end's node by its energy balance over a sub-step h (pneumatics/chamber.py's law in
     # p V / (k - 1) = U, k its exponent): (new pressure, heat from the wall, heat the line's wall gives
     # the gas entering the line, work on the moving wall; W). Linearly implicit as the polytropic node:
     # d(p V) = k (R T_m m + R T_x e) h + (k - 1) Q h - k p_new dV h, the extra inflow's slope and the
     # volume's rate taken at the new pressure; the last segment's flow m brings the line's R T in and
-    # takes the node's own R T out; the heat at the sub-step's start.
+    # takes the node's own R T out. The heat from the sub-step's starting temperature, damped as a
+    # backward-Euler step of the gas's temperature under it alone, dT/dt = (k - 1) G (R T_w - R T) / M
+    # with G = h A / R: stable for any wall (a short hose's small chamber, `wall_heat_scale` up to 10).
     k = end.polytropic_n if end.polytropic_n > 0.0 else row[LR_N]
     rt_line = row[LR_RT]
     rt_m = rt_line if m_last > 0.0 else rt
-    heat = end.conductance_kg_s * (rt_line - rt)
+    g = end.conductance_kg_s
+    heat = g * (rt_line - rt) / (1.0 + h * (k - 1.0) * g / gas_mass)
     slope = end.inflow_slope_kg_s_pa
     dv = end.volume_rate_m3_s
     gain = h * k / volume
