@@ -13,6 +13,7 @@ Layers (STYLE rule 8):
 - analytic: with adiabatic walls a filled chamber discharging into its line follows the isentrope
   T / T0 = (p / p0)^((k-1)/k) while its gas only leaves it, and a chamber filled from 1 atm ends at
   k T_s p1 / (p1 + (k - 1) p0) less what the line's wall took from gas that flowed back;
+- the plant's at-rest shortcut waits for warm chambers at atmosphere to reach the wall;
 - whole runs: the plant's exhaust holds for L/c and agrees with `pneumatics.hose.line_response`
   (tests/test_plant_line.py), the closed loop reaches 60 deg, the gap replay holds L/c
   (tests/test_plant_line.py, parametrized over the chamber law).
@@ -198,3 +199,18 @@ def test_a_chamber_whose_volume_moves_keeps_its_energy_budget_with_its_work() ->
     # (p_new - p) / (k - 1) per step, 5 % of the work here while the fill's wave moves the pressure
     # ~1 % a step; 2e-5 of the energy that passed
     assert abs(work - p_dv) < 0.1 * abs(p_dv) and abs(work - p_dv) < 1e-4 * enthalpy
+
+
+def test_a_still_joint_at_atmosphere_with_warm_chambers_is_not_skipped() -> None:
+    """The plant's shortcut for a still joint with shut valves whose lines are at rest at atmosphere
+    waits, with the energy balance, for its chambers' gas to reach the wall: warm gas at 1 atm still
+    cools (and flows), then the joint is at rest again."""
+    p = params_row(BOTH, AIR, DT)
+    x = J.with_hoses(J.initial_state(AIR.p_atm_pa), p)
+    x[J.S_TA_MOTOR] = 330.0
+    J.advance_air_pair(x, 0.0, 0.0, 0.0, SUPPLY_05, DT, p)
+    assert x[J.S_TA_MOTOR] < 330.0  # cooled: the step was taken
+    for _ in range(40000):  # 20 s
+        J.advance_air_pair(x, 0.0, 0.0, 0.0, SUPPLY_05, DT, p)
+    print(f"\nafter 20 s: {x[J.S_TA_MOTOR]:.6f} K, {x[J.S_PA_MOTOR]:.3f} Pa")
+    assert abs(x[J.S_TA_MOTOR] - T_S) < 1e-3
