@@ -193,7 +193,7 @@ def test_the_wrist_closed_loop_reaches_its_target_with_lines_and_short_hoses(
     reality) with its hoses as lines on the arm's 8 m and on 0.3 m, and as 0.3 m pi-sections: it
     passes its criterion (4.04 deg), the predictor the paper's model (its hoses pi-sections of the
     rig's length). Measured 0.17 and 3.39 deg with lines, 3.52 deg with the 0.3 m pi-section (15.2
-    deg before the compliant reducer's motor side sub-stepped a short hose's air); 0.78 deg with lines
+    deg before the compliant reducer's motor side sub-stepped a short hose's air); 0.74 deg with lines
     and the chambers' energy balance."""
     from scenarios.runner import run_scenario
 
