@@ -16,7 +16,9 @@ replaying that run's recorded torques and friction (`replay_steps`: the same tra
 same constraint work as inside the plant).
 
 The same two cases also run with every hose a line that carries waves (`hose_model = 1`,
-pneumatics/line.py: "one_line", "all_line"), so the lines' cost is a ratio measured in the same run.
+pneumatics/line.py: "one_line", "all_line"), and so with the chambers by their energy balance too
+(`chamber_heat = 1`: "one_line_heat", "all_line_heat"), so the lines' cost is a ratio measured in the
+same run.
 
 With --as-built the same two cases also run with the as-built arm's parameters (the plant of
 scenarios and `twin paper`: reducer compliance, leakage, ... from assets/as_built/), so the cost of
@@ -51,12 +53,14 @@ def _moving(case: str, joints: tuple[str, ...]) -> tuple[str, ...]:
     return ("wrist_pitch",) if case == "one" else joints
 
 
-def _plant_for(case: str, as_built: bool = False, line: bool = False) -> Plant:
+def _plant_for(case: str, as_built: bool = False, line: bool = False, heat: bool = False) -> Plant:
     params = {j: load_joint_params(assets.joint_param_path(j)) for j in assets.JOINTS}
     if as_built:
         params = {j: load_as_built(p, assets.as_built_path(j)) for j, p in params.items()}
     if line:  # every hose a line that carries waves (pneumatics/line.py)
         params = {j: p._replace(hose_model=1.0) for j, p in params.items()}
+    if heat:  # the chambers by their energy balance (pneumatics/chamber.py)
+        params = {j: p._replace(chamber_heat=1.0) for j, p in params.items()}
     plant = Plant(assets.SCENE_XML, params)
     plant.set_supply(SUPPLY_PA)
     for j in _moving(case, plant.joints):
@@ -212,13 +216,16 @@ def _time_replay(plant: Plant, start, rec: _Recording) -> float:
 
 def bench_plant(seconds: float = 2.0, rounds: int = 5, as_built: bool = False) -> dict:
     """Steps per second of the plant and of bare MuJoCo on the same model, and their ratio; the cases
-    "one_line", "all_line" with every hose a line (hose_model = 1); with `as_built`, also "one_as_built",
+    "one_line", "all_line" with every hose a line (hose_model = 1), "one_line_heat", "all_line_heat" with
+    the chambers' energy balance too (chamber_heat = 1); with `as_built`, also "one_as_built",
     "all_as_built" on the as-built arm."""
     out: dict = {"seconds_simulated_per_measurement": seconds, "rounds": rounds, "goal_ratio": 0.8}
-    cases = ("one", "all", "one_line", "all_line") + (("one_as_built", "all_as_built") if as_built else ())
+    cases = ("one", "all", "one_line", "all_line", "one_line_heat", "all_line_heat") + (
+        ("one_as_built", "all_as_built") if as_built else ()
+    )
     for label in cases:
         case = label.split("_")[0]
-        plant = _plant_for(case, label.endswith("as_built"), label.endswith("line"))
+        plant = _plant_for(case, label.endswith("as_built"), "_line" in label, label.endswith("_heat"))
         moving = _moving(case, plant.joints)
         start = plant.save_state()
         m = plant.model  # the same model: same frictionloss, armature, damping

@@ -91,7 +91,8 @@ Interface for a caller that steps the line every physics step (pneumatics/joint.
   `pinned_pa` > 0 holds the chamber beyond the far end at that pressure (a chamber the caller
   integrates with the returned `end_flow_kg_s`).
   Each returns a `LineStep`: the mean mass flow into the line at the inlet and into the far end's
-  cell through its face (into the pinned chamber when pinned) over the step (kg/s).
+  cell through its face (into the pinned chamber when pinned) over the step (kg/s). (The far end's
+  plenum has its own energy here: `FarEnd.gas_rt` and its fields, the acoustic line's, are not used.)
 """
 
 from __future__ import annotations
@@ -657,7 +658,7 @@ def _advance(
                 x[2 * nseg + last] = (x[2 * nseg + last] * volume_last - pn * (new_volume - volume_last)) / new_volume
     if kind == _INLET_PRESSURE:
         inlet_mass += 0.5 * v_cell * (x[0] - plenum_start)
-    return LineStep(inlet_mass / dt_s, end_mass / dt_s)
+    return LineStep(inlet_mass / dt_s, end_mass / dt_s, 0.0, 0.0, 0.0, 0.0)
 
 
 @njit
@@ -700,5 +701,5 @@ def far_end_series(
     `inlet_pa` (linear between samples) and whose far end is closed by a rigid `end_volume_m3`;
     steps of at most `max_dt_s` (`pneumatics.hose.line_response` checks the arguments)."""
     x = initial_line_state(row, inlet_pa[0])
-    end = FarEnd(end_volume_m3, 0.0, 0.0, 0.0, 0.0, 0.0)
+    end = FarEnd(end_volume_m3, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
     return inlet_driven_series(advance_from_pressure, far_end_pressure, x, row, end, times_s, inlet_pa, max_dt_s)

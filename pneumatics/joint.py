@@ -24,6 +24,8 @@ segment). The lines' states follow the joint's N_STATE columns in its state row 
 `with_hoses`), and they are advanced once per physics step (`advance_hoses`): in the plant in place
 of the ROS2 step, in the one-joint model once per RK4 sub-step, its stages seeing the air move
 linearly to where the lines end (a line's many nodes and sub-steps cannot sit inside RK4's stages).
+With the chambers' energy balance (chamber_heat = 1) the lines' gas is at the wall's temperature and
+each chamber, the line's last node, keeps its own (`advance_hoses`, docs/air_lines.md).
 
 State of a joint (a float64 row, see the S_* columns): four node pressures (Pa, absolute), the
 proportional valve's output pressure (Pa, gauge), the brake's engagement, the direction
@@ -52,7 +54,16 @@ from pneumatics.gas import AIR, isentropic_temperature
 from pneumatics.heat import duct_heat_transfer_coefficient, vane_chamber_heat_transfer_coefficient
 from pneumatics.hose import hose_mass_flow_with, hose_volume
 from pneumatics.integrators import ROS2_GAMMA, rk4_increment, ros2_increment, ros2_inverse, secant_slope
-from pneumatics.line import N_LINE_ROW, FarEnd, advance_from_port, far_end_pressure, initial_line_state, state_size
+from pneumatics.line import (
+    LR_DX,
+    LR_SEGMENTS,
+    N_LINE_ROW,
+    FarEnd,
+    advance_from_port,
+    far_end_pressure,
+    initial_line_state,
+    state_size,
+)
 from pneumatics.motor import chamber_geometry, vane_torque
 from pneumatics.orifice import orifice_mass_flow_between, orifice_mass_flow_with
 from pneumatics.paper_hose import paper_source_pressure
@@ -278,8 +289,11 @@ def with_hoses(x: np.ndarray, p: np.ndarray) -> np.ndarray:
 
 class HoseStep(NamedTuple):
     """Both hoses as lines after a step (`advance_hoses`): the four end pressures (Pa absolute, in
-    the S_PA_VALVE.. order) and the mean mass flow into each line at its valve end (kg/s: from the
-    supply, or negative to the exhaust and a leak there)."""
+    the S_PA_VALVE.. order), the mean mass flow into each line at its valve end (kg/s: from the
+    supply, or negative to the exhaust and a leak there), the two motor chambers' gas temperatures
+    (K; as given with the paper's law) and, with the energy balance, the step's mean heat into the
+    joint's air (W: from the chambers' walls and from the lines' walls to gas entering a line from a
+    chamber, `pneumatics.line.LineStep`) and the mean work its gas did on the vanes (W)."""
 
     pa_valve: float
     pa_motor: float
@@ -287,6 +301,10 @@ class HoseStep(NamedTuple):
     pb_motor: float
     a_inflow_kg_s: float
     b_inflow_kg_s: float
+    ta_motor: float
+    tb_motor: float
+    heat_w: float
+    work_w: float
 
 
 @njit
@@ -299,17 +317,25 @@ def advance_hoses(
     supply_pa: float,
     dt_s: float,
     p: np.ndarray,
+    ta_motor: float,
+    tb_motor: float,
 ) -> HoseStep:
     """Advance a joint's two hoses as lines over dt, in place on `lines` (the columns after the joint
-    state's N_STATE, `hose_state_size`), the motor turning from phi_motor at omega_motor.
+    state's N_STATE, `hose_state_size`), the motor turning from phi_motor at omega_motor, its chambers'
+    gas at ta_motor, tb_motor (K; used by the energy balance).
 
     Each line's inlet node is its port's valve node, fed through the proportional valve from the
     pressure it delivers or emptied through the exhaust throttle (the direction valve, as in
     `air_rates`), both held over the step and implicit; a leak in port A's hose (a fault) vents there
-    beside it. Its far node is the motor chamber (its volume and rate at the motor's angle and speed,
-    the joint's polytropic exponent; the line's own nodes take n = k, the wave speed the gas's). The
-    vane leak A -> B is taken at the step's start and held, so the mass one chamber loses the other
-    gains."""
+    beside it. Its far node is the motor chamber (its volume and rate at the motor's angle and speed;
+    the line's own nodes take n = k, the wave speed the gas's). The vane leak A -> B is taken at the
+    step's start and held, so the mass one chamber loses the other gains.
+
+    The chamber's law is the row's: the joint's polytropic exponent (chamber_heat = 0), or the energy
+    balance (1), the chamber's gas temperature a state: the line's gas is at its wall's temperature,
+    the supply's (docs/air_lines.md, "With the chambers' energy balance"), so gas from the line brings
+    that gas's enthalpy, gas into the line leaves at the chamber's temperature, and the chamber's wall
+    (the vane cell's correlation, half a segment of hose) exchanges heat as in `air_rates`."""
     row = line_row_of(p)
     size = state_size(row)
     la = lines[:size]
@@ -325,14 +351,56 @@ def advance_hoses(
         phi_motor, p[P.STATOR], p[P.ROTOR], p[P.VANE_L], p[P.N_VANES], p[P.DEAD_V], p[P.HALF_PITCH_V]
     )
     dv_a = slope * omega_motor
-    n = p[P.POLY_N]
-    m_leak = orifice_mass_flow_with(far_end_pressure(la, row), far_end_pressure(lb, row), p[P.LEAK_A], flux, k)
-    sa = advance_from_port(
-        la, row, dt_s, a_up, a_area, atm, p[P.HOSE_LEAK_A], flux, k, FarEnd(v_a, dv_a, -m_leak, 0.0, 0.0, n)
-    )
-    sb = advance_from_port(lb, row, dt_s, b_up, b_area, atm, 0.0, flux, k, FarEnd(v_b, -dv_a, m_leak, 0.0, 0.0, n))
+    energy = p[P.CHAMBER_HEAT] != 0.0
+    if energy:
+        end_a, end_b = _energy_far_ends(la, lb, row, v_a, v_b, dv_a, omega_motor, ta_motor, tb_motor, p)
+    else:
+        n = p[P.POLY_N]
+        m_leak = orifice_mass_flow_with(far_end_pressure(la, row), far_end_pressure(lb, row), p[P.LEAK_A], flux, k)
+        end_a = FarEnd(v_a, dv_a, -m_leak, 0.0, 0.0, n, 0.0, 0.0, 0.0)
+        end_b = FarEnd(v_b, -dv_a, m_leak, 0.0, 0.0, n, 0.0, 0.0, 0.0)
+    sa = advance_from_port(la, row, dt_s, a_up, a_area, atm, p[P.HOSE_LEAK_A], flux, k, end_a)
+    sb = advance_from_port(lb, row, dt_s, b_up, b_area, atm, 0.0, flux, k, end_b)
+    if energy:
+        r = p[P.GAS_R]
+        ta_motor, tb_motor = sa.end_rt / r, sb.end_rt / r
     return HoseStep(
-        la[0], far_end_pressure(la, row), lb[0], far_end_pressure(lb, row), sa.inlet_flow_kg_s, sb.inlet_flow_kg_s
+        la[0], far_end_pressure(la, row), lb[0], far_end_pressure(lb, row), sa.inlet_flow_kg_s, sb.inlet_flow_kg_s,
+        ta_motor, tb_motor, sa.end_heat_w + sa.entry_heat_w + sb.end_heat_w + sb.entry_heat_w,
+        sa.end_work_w + sb.end_work_w,
+    )  # fmt: skip
+
+
+@njit(inline="always")
+def _energy_far_ends(
+    la: np.ndarray,
+    lb: np.ndarray,
+    row: np.ndarray,
+    v_a: float,
+    v_b: float,
+    dv_a: float,
+    omega_motor: float,
+    ta_motor: float,
+    tb_motor: float,
+    p: np.ndarray,
+) -> tuple[FarEnd, FarEnd]:
+    # `advance_hoses`'s chambers by the energy balance (pneumatics/line.py `FarEnd.gas_rt`, their
+    # exponent k): the vane leak at its upstream chamber's temperature (`orifice_mass_flow_between`),
+    # each chamber's wall conductance (`_wall_conductance`: its vane cell and the half segment of hose
+    # joined to it, past which the last segment's flow at the step's start moves) held over the step
+    k = p[P.GAS_K]
+    r = p[P.GAS_R]
+    pa = far_end_pressure(la, row)
+    pb = far_end_pressure(lb, row)
+    m_leak = orifice_mass_flow_between(pa, pb, p[P.LEAK_A], ta_motor, tb_motor, r, k)
+    rt_leak = r * carried_temperature(m_leak, ta_motor, tb_motor)
+    nseg = int(row[LR_SEGMENTS])
+    half_wall = 0.5 * math.pi * p[P.HOSE_D] * row[LR_DX]
+    ha = _wall_conductance(pa, ta_motor, la[2 * nseg], half_wall, v_a, omega_motor, p) / r
+    hb = _wall_conductance(pb, tb_motor, lb[2 * nseg], half_wall, v_b, omega_motor, p) / r
+    return (
+        FarEnd(v_a, dv_a, -m_leak, 0.0, 0.0, k, r * ta_motor, rt_leak, ha),
+        FarEnd(v_b, -dv_a, m_leak, 0.0, 0.0, k, r * tb_motor, rt_leak, hb),
     )
 
 
@@ -1114,19 +1182,30 @@ def _advance_air_lines(
     x: np.ndarray, theta: float, omega: float, valve_gauge_pa: float, supply_pa: float, dt_s: float, p: np.ndarray
 ) -> float:
     # `advance_air_pair` for hoses that are lines: the torque from the pressures at the step's start,
-    # then both lines over the step (`advance_hoses`), their ends copied into the four node pressures;
-    # nothing for a still joint with shut valves whose lines are at rest at atmosphere
+    # then both lines over the step (`advance_hoses`), their ends copied into the four node pressures
+    # and the chambers' temperatures; nothing for a still joint with shut valves whose lines are at
+    # rest at atmosphere and whose chambers' gas is at its walls' temperature
     ratio = p[P.RATIO]
     x[S_PAIR] = 0.0
     torque = joint_torque(x[S_PA_MOTOR], x[S_PB_MOTOR], ratio * theta, omega, p)
     lines = x[N_STATE:]
-    if x[S_DIR] == 0.0 and abs(omega) < p[P.STICK_SPEED] and hoses_settled(lines, p):
+    if (
+        x[S_DIR] == 0.0
+        and abs(omega) < p[P.STICK_SPEED]
+        and hoses_settled(lines, p)
+        and (p[P.CHAMBER_HEAT] == 0.0 or air_settled(x[S_PA_VALVE : S_PB_MOTOR + 1], x[S_TA_VALVE : S_TB_MOTOR + 1], p))
+    ):
         return torque
-    s = advance_hoses(lines, ratio * theta, ratio * omega, x[S_DIR], valve_gauge_pa, supply_pa, dt_s, p)
+    s = advance_hoses(
+        lines, ratio * theta, ratio * omega, x[S_DIR], valve_gauge_pa, supply_pa, dt_s, p, x[S_TA_MOTOR],
+        x[S_TB_MOTOR],
+    )  # fmt: skip
     x[S_PA_VALVE] = s.pa_valve
     x[S_PA_MOTOR] = s.pa_motor
     x[S_PB_VALVE] = s.pb_valve
     x[S_PB_MOTOR] = s.pb_motor
+    x[S_TA_MOTOR] = s.ta_motor
+    x[S_TB_MOTOR] = s.tb_motor
     return torque
 
 
@@ -1353,8 +1432,8 @@ def advance_motor_side(
     held = line or m > 0
     ends = (y[0], y[1], y[2], y[3], y[4], y[5], y[6], y[7])
     if line:
-        hs = advance_hoses(x[N_STATE:], ratio * y[8], ratio * y[9], direction, valve, supply_pa, dt_s, p)
-        ends = (hs.pa_valve, hs.pa_motor, hs.pb_valve, hs.pb_motor, y[4], y[5], y[6], y[7])
+        hs = advance_hoses(x[N_STATE:], ratio * y[8], ratio * y[9], direction, valve, supply_pa, dt_s, p, y[5], y[7])
+        ends = (hs.pa_valve, hs.pa_motor, hs.pb_valve, hs.pb_motor, y[4], hs.ta_motor, y[6], hs.tb_motor)
     secant = _air_secant((y[0], y[1], y[2], y[3], y[4], y[5], y[6], y[7]), ends, dt_s)
     for i in range(n):
         th0 = theta + omega * (i * h)
@@ -1409,7 +1488,7 @@ def advance_motor_side(
                 w = 0.0
         y = (y[0], y[1], y[2], y[3], y[4], y[5], y[6], y[7], q, w)
     if line:  # the lines' ends, not their secant's rounding
-        y = (ends[0], ends[1], ends[2], ends[3], y[4], y[5], y[6], y[7], y[8], y[9])
+        y = (ends[0], ends[1], ends[2], ends[3], ends[4], ends[5], ends[6], ends[7], y[8], y[9])
     x[S_PA_VALVE] = y[0]
     x[S_PA_MOTOR] = y[1]
     x[S_PB_VALVE] = y[2]
@@ -1664,18 +1743,22 @@ def single_joint_rk4(
     line = uses_line(p)
     air_ros2 = line or m > 0
     air = np.empty(8)
-    ends = np.empty(4)  # the lines' four end pressures after the sub-step
+    ends = np.empty(8)  # the lines' four end pressures, then the nodes' temperatures, after the sub-step
     for _ in range(n):
         w0 = y[R_OMEGA]
         wm0 = y[R_OMEGA_M]
         s = _slide_direction(w0, p)
         s_m = s if rigid else _slide_direction(wm0, p)
         if line:
-            hs = advance_hoses(lines, ratio * y[R_QM], ratio * y[R_OMEGA_M], direction, valve_gauge_pa, supply_pa, h, p)
+            hs = advance_hoses(
+                lines, ratio * y[R_QM], ratio * y[R_OMEGA_M], direction, valve_gauge_pa, supply_pa, h, p,
+                y[R_TA_MOTOR], y[R_TB_MOTOR],
+            )  # fmt: skip
             ends[0], ends[1], ends[2], ends[3] = hs.pa_valve, hs.pa_motor, hs.pb_valve, hs.pb_motor
-            for c in range(4):
+            # the valve nodes' gas is the line's, at its wall's temperature; the chambers' their own
+            ends[4], ends[5], ends[6], ends[7] = y[R_TA_VALVE], hs.ta_motor, y[R_TB_VALVE], hs.tb_motor
+            for c in range(8):
                 air[c] = (ends[c] - y[_R_AIR[c]]) / h
-                air[4 + c] = 0.0  # the line's gas stays at the supply temperature (chamber_heat = 0)
         elif air_ros2:
             end = _air_ros2(
                 _air_of_rigid(y), ratio * y[R_QM], ratio * y[R_OMEGA_M], direction, valve_gauge_pa, supply_pa, h / m,
@@ -1706,7 +1789,7 @@ def single_joint_rk4(
         for i in range(N_RIGID):
             y[i] += rk4_increment(h, k1[i], k2[i], k3[i], k4[i])
         if line:
-            for c in range(4):
+            for c in range(8):
                 y[_R_AIR[c]] = ends[c]  # the lines' ends, not their secant's rounding
         if s != 0.0 and s * y[R_OMEGA] < 0.0:
             jump = 2.0 * s * static

@@ -65,9 +65,12 @@ Interface for a caller that steps the line every physics step (pneumatics/joint.
   the step's start) and that flow's slope -dm/dp (kg/(s·Pa), >= 0, taken implicitly); or
   `pinned_pa` > 0 holds the far end at that pressure (a chamber the caller integrates with the
   returned `end_flow_kg_s`); `polytropic_n` > 0 gives the far end's node its own exponent (a motor
-  chamber's law, where the line's n = k sets the wave speed).
+  chamber's law, where the line's n = k sets the wave speed); `gas_rt` > 0 gives it an energy balance
+  of its own gas (R T; a chamber by pneumatics/chamber.py's law: gas from the line at the line's
+  temperature, the wall's, gas into the line at the far end's own, heat through `conductance_kg_s`).
   Each returns a `LineStep`: the mean mass flow into the line at the inlet and out of the last
-  segment into the far end over the step (kg/s; their difference over dt is what the line stored).
+  segment into the far end over the step (kg/s; their difference over dt is what the line stored),
+  and with the far end's energy balance its gas's R T at the step's end and the step's heat and work.
 """
 
 from __future__ import annotations
@@ -146,6 +149,15 @@ class FarEnd(NamedTuple):
     # > 0: the polytropic exponent of the far end's node (a motor chamber's own law, pneumatics/joint.py);
     # 0: the line's, LR_N
     polytropic_n: float = 0.0
+    # > 0: the far end's gas has a temperature of its own, R T (J/kg) at the step's start, and the far
+    # end's node an energy balance (pneumatics/chamber.py, its exponent then the gas's k): gas from the
+    # line brings the line's R T, gas into the line leaves at the far end's own (the line's wall brings
+    # it to the line's temperature, `LineStep.entry_heat_w`); 0: the far end's gas is the line's
+    gas_rt: float = 0.0
+    inflow_rt: float = 0.0  # with `gas_rt`: the R T the extra inflow carries (either way; J/kg)
+    # with `gas_rt`: h A / R of the far end's wall (kg/s), at the line's gas temperature: heat
+    # h A (T_line - T) = conductance (R T_line - R T), from the sub-step's start, damped (`_energy_end`)
+    conductance_kg_s: float = 0.0
 
 
 class LineStep(NamedTuple):
@@ -153,6 +165,15 @@ class LineStep(NamedTuple):
 
     inlet_flow_kg_s: float  # into the line at its inlet (into the inlet node)
     end_flow_kg_s: float  # out of the last segment into the far end
+    # with a far end that has an energy balance (`FarEnd.gas_rt`), else 0: its gas's R T at the step's
+    # end (J/kg), and over the step the mean heat from its wall (W), the mean heat the line's wall gave
+    # the gas that entered the line from it, cp (T_line - T) per kg (W), and the mean work its gas did
+    # on its moving wall (W): its internal energy p V / (k - 1) changed by the enthalpy it exchanged with
+    # the line (cp T_line in, cp T out) and the extra inflow (cp T_inflow), plus heat, less work
+    end_rt: float = 0.0
+    end_heat_w: float = 0.0
+    entry_heat_w: float = 0.0
+    end_work_w: float = 0.0
 
 
 @njit
@@ -342,6 +363,13 @@ def _advance(
     p_end_start = x[nseg]
     inlet_mass = 0.0
     end_mass = 0.0
+    # a far end with an energy balance (`FarEnd.gas_rt`): its gas's mass and R T, and the step's heat and work
+    energy = end.gas_rt > 0.0 and end.pinned_pa <= 0.0
+    rt_end = end.gas_rt
+    gas_mass = p_end_start * (half_seg + end.volume_m3) / rt_end if energy else 0.0
+    heat_j = 0.0
+    entry_j = 0.0
+    work_j = 0.0
     for s in range(substeps):
         _substep(x, row, h)
         m_first = x[nseg + 1]
@@ -368,11 +396,58 @@ def _advance(
         volume = half_seg + end.volume_m3 + end.volume_rate_m3_s * (s + 1) * h  # at the sub-step's end
         pn = x[nseg]
         extra = end.inflow_kg_s - end.inflow_slope_kg_s_pa * (pn - p_end_start)  # at the sub-step's start
+        if energy:
+            x[nseg], heat, entry, work = _energy_end(pn, rt_end, gas_mass, volume, h, m_last, extra, end, row)
+            gas_mass += h * (m_last + extra + end.inflow_slope_kg_s_pa * (pn - x[nseg]))
+            rt_end = x[nseg] * volume / gas_mass
+            heat_j += h * heat
+            entry_j += h * entry
+            work_j += h * work
+            continue
         gain = h * (end.polytropic_n if end.polytropic_n > 0.0 else row[LR_N]) / volume
         x[nseg] = (pn + gain * (row[LR_RT] * (m_last + extra + end.inflow_slope_kg_s_pa * pn))) / (
             1.0 + gain * (row[LR_RT] * end.inflow_slope_kg_s_pa + end.volume_rate_m3_s)
         )
-    return LineStep(inlet_mass / dt_s, end_mass / dt_s)
+    if not energy:
+        return LineStep(inlet_mass / dt_s, end_mass / dt_s, 0.0, 0.0, 0.0, 0.0)
+    return LineStep(inlet_mass / dt_s, end_mass / dt_s, rt_end, heat_j / dt_s, entry_j / dt_s, work_j / dt_s)
+
+
+@njit(inline="always")
+def _energy_end(
+    pn: float,
+    rt: float,
+    gas_mass: float,
+    volume: float,
+    h: float,
+    m_last: float,
+    extra: float,
+    end: FarEnd,
+    row: np.ndarray,
+) -> tuple[float, float, float, float]:
+    # the far end's node by its energy balance over a sub-step h (pneumatics/chamber.py's law in
+    # p V / (k - 1) = U, k its exponent): (new pressure, heat from the wall, heat the line's wall gives
+    # the gas entering the line, work on the moving wall; W). Linearly implicit as the polytropic node:
+    # d(p V) = k (R T_m m + R T_x e) h + (k - 1) Q h - k p_new dV h, the extra inflow's slope and the
+    # volume's rate taken at the new pressure; the last segment's flow m brings the line's R T in and
+    # takes the node's own R T out. The heat from the sub-step's starting temperature, damped as a
+    # backward-Euler step of the gas's temperature under it alone, dT/dt = (k - 1) G (R T_w - R T) / M
+    # with G = h A / R: stable for any wall (a short hose's small chamber, `wall_heat_scale` up to 10).
+    k = end.polytropic_n if end.polytropic_n > 0.0 else row[LR_N]
+    rt_line = row[LR_RT]
+    rt_m = rt_line if m_last > 0.0 else rt
+    g = end.conductance_kg_s
+    heat = g * (rt_line - rt) / (1.0 + h * (k - 1.0) * g / gas_mass)
+    slope = end.inflow_slope_kg_s_pa
+    dv = end.volume_rate_m3_s
+    gain = h * k / volume
+    p_new = (pn + gain * (rt_m * m_last + end.inflow_rt * (extra + slope * pn) + (k - 1.0) / k * heat)) / (
+        1.0 + gain * (end.inflow_rt * slope + dv)
+    )
+    gas_k = k / (k - 1.0)  # cp / R
+    entry = gas_k * (rt_line - rt) * max(-m_last, 0.0)
+    work = dv * (k * p_new - pn) / (k - 1.0)  # d(pV)/(k-1) less the enthalpy and heat it took in
+    return p_new, heat, entry, work
 
 
 @njit
@@ -453,5 +528,5 @@ def far_end_series(
     `inlet_pa` (linear between samples) and whose far end is closed by a rigid `end_volume_m3`;
     steps of at most `max_dt_s` (`pneumatics.hose.line_response` checks the arguments)."""
     x = initial_line_state(row, inlet_pa[0])
-    end = FarEnd(end_volume_m3, 0.0, 0.0, 0.0, 0.0, 0.0)
+    end = FarEnd(end_volume_m3, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
     return inlet_driven_series(advance_from_pressure, far_end_pressure, x, row, end, times_s, inlet_pa, max_dt_s)

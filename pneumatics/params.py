@@ -292,13 +292,6 @@ def check_related(params: JointParams, field_at: Callable[[str], str]) -> JointP
         value = getattr(params, field)
         if value not in (0.0, 1.0):
             raise ParameterError(f"{field_at(field)} = {value:g}; allowed: 0 or 1")
-    if params.hose_model == HOSE_MODEL_LINE and params.chamber_heat == 1.0:
-        # the line's gas is polytropic at the supply temperature (pneumatics/line.py): it carries no
-        # enthalpy into the energy balance's chambers
-        raise ParameterError(
-            f"{field_at('hose_model')} = 1 with chamber_heat = 1; allowed: hose_model = 0 with the chambers' "
-            "energy balance, or chamber_heat = 0 with the line"
-        )
     return params
 
 
