@@ -272,7 +272,7 @@ def ratios_table(runs: list[ValidationRun]) -> str:
     return "\n".join(lines)
 
 
-def _main() -> None:
+def main() -> None:
     import argparse
 
     ap = argparse.ArgumentParser(prog="python -m scenarios.paper_validation", description=__doc__.splitlines()[0])
@@ -294,4 +294,4 @@ def _main() -> None:
 # python -m scenarios.paper_validation [--energy] [--refine [--free-leak]]: the fit, printed
 # (docs/validation/as_built_and_paper.md, "The fit"; docs/air_chambers.md for --energy)
 if __name__ == "__main__":
-    _main()
+    main()
