@@ -152,11 +152,21 @@ class Residual:
     port: np.ndarray  # (n, J, 2)
 
 
+def _rows_inside(run: ArmRun, rep: Replay) -> int:
+    """How many of the run's rows come before the replay's end."""
+    return min(len(run.time_s), int(np.searchsorted(run.time_s, rep.time_s[-1] + 1e-9)))
+
+
+def _angles_at(rep: Replay, t: np.ndarray) -> np.ndarray:
+    """The replay's joint angles (rad) at the times `t`, (len(t), J)."""
+    return np.stack([np.interp(t, rep.time_s, rep.angle_rad[:, j]) for j in range(len(JOINTS))], 1)
+
+
 def residual(run: ArmRun, rep: Replay, latency_s: float) -> Residual:
     """measured - twin at the run's rows inside the replay (the twin's angle read `latency_s` late)."""
-    n = min(len(run.time_s), int(np.searchsorted(run.time_s, rep.time_s[-1] + 1e-9)))
+    n = _rows_inside(run, rep)
     t = run.time_s[:n]
-    twin_angle = np.stack([np.interp(t - latency_s, rep.time_s, rep.angle_rad[:, j]) for j in range(len(JOINTS))], 1)
+    twin_angle = _angles_at(rep, t - latency_s)
     twin_port = np.stack(
         [np.stack([np.interp(t, rep.time_s, rep.port_pa[:, j, c]) for c in range(2)], 1) for j in range(len(JOINTS))],
         1,
@@ -253,7 +263,7 @@ def where(
             run.angle_rad[:n, j],
         )
         lab = labels_of(one, ts, angle, np.interp(ts, rep.time_s, speed))
-        poses = np.stack([np.interp(ts, rep.time_s, rep.angle_rad[:, i]) for i in range(len(JOINTS))], 1)
+        poses = _angles_at(rep, ts)
         g = gravity_torques(joint, twin, run.start_rad, poses)
         edges = np.digitize(g, GRAVITY_BINS_NM)
         names = [f"<{GRAVITY_BINS_NM[0]:g}"] + [
@@ -525,17 +535,13 @@ def knife_edges(runs: list[ArmRun], at: list[Replay], nudged: list[list[Replay]]
     each near its breakaway somewhere, part ways once and for good, so the runs are judged up to it."""
     out = []
     for k, (run, rep) in enumerate(zip(runs, at, strict=True)):
-        n = min(len(run.time_s), int(np.searchsorted(run.time_s, rep.time_s[-1] + 1e-9)))
-        t = run.time_s[:n]
-        worst = np.zeros(n)
+        t = run.time_s[: _rows_inside(run, rep)]  # the rows `residual` keeps: the counts cut its residuals
+        angle = _angles_at(rep, t)
+        worst = np.zeros(len(t))
         for other in nudged:
-            for j in range(len(JOINTS)):
-                d = np.interp(t, rep.time_s, rep.angle_rad[:, j]) - np.interp(
-                    t, other[k].time_s, other[k].angle_rad[:, j]
-                )
-                worst = np.maximum(worst, np.abs(d))
+            worst = np.maximum(worst, np.abs(angle - _angles_at(other[k], t)).max(axis=1))
         over = np.nonzero(worst > SIGNIFICANT * noise_rad)[0]
-        out.append(int(over[0]) if over.size else n)
+        out.append(int(over[0]) if over.size else len(t))
     return out
 
 

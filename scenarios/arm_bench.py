@@ -103,8 +103,9 @@ def run_arm_bench(
         if report is not None:
             report(f"{rows[-1]['line']} [{case.name}]")
     none = [r for r in rows if "false_alarm" in r]
-    hidden = [r for r in rows if "truth" in r and not r["below_floor"]]
-    below = [r for r in rows if "truth" in r and r["below_floor"]]
+    truths = [r for r in rows if "truth" in r]
+    hidden = [r for r in truths if not r["below_floor"]]
+    below = [r for r in truths if r["below_floor"]]
     shrinks = [r["shrink"] for r in hidden if r["shrink"] is not None]
     summary = {
         "duration_s": duration_s,
@@ -114,8 +115,8 @@ def run_arm_bench(
         "median_withheld_shrink": float(np.median(shrinks)) if shrinks else None,
         # the cases whose hidden effect leaves no trace above the noise: not scored (no diagnosis could)
         "below_floor": [r["case"] for r in below],
-        "right_joint_all": f"{sum(r['right_joint'] for r in hidden + below)}/{len(hidden + below)}",
-        "right_effect_all": f"{sum(r['right_effect'] for r in hidden + below)}/{len(hidden + below)}",
+        "right_joint_all": f"{sum(r['right_joint'] for r in truths)}/{len(truths)}",
+        "right_effect_all": f"{sum(r['right_effect'] for r in truths)}/{len(truths)}",
         "cases": rows,
     }
     (out / "bench.json").write_text(json.dumps(summary, indent=2))
