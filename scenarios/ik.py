@@ -144,6 +144,12 @@ def rim_target(disc: Disc, standoff_m: float) -> np.ndarray:
     return rim + (BRUSH_HALF_LENGTH_M + standoff_m) * normal
 
 
+def rim_drive_angles(model: mujoco.MjModel, disc: Disc, standoff_m: float) -> dict[str, float]:
+    """Drive angles putting the brush face `standoff_m` off `disc`'s rim, the tool along the rim's
+    normal (`tip_drive_angles`: tilted in 5 deg steps where out of range). ValueError if none does."""
+    return tip_drive_angles(model, rim_target(disc, standoff_m), normal_pitch(disc))
+
+
 def drive_to_qpos(drive: dict[str, float]) -> dict[str, float]:
     """Joint angles (qpos) from drive angles: the parallelogram's elbow drive is absolute."""
     q = dict(drive)

@@ -22,7 +22,7 @@ from scenarios import controllers
 from scenarios.cleaning import DiscContact, disc_contacts
 from scenarios.criteria import DISC_KINDS, Verdict, as_dicts, judge
 from scenarios.faults import fault_events
-from scenarios.ik import RANGE_MARGIN_RAD, carrier_m, normal_pitch, rim_target, tip_drive_angles
+from scenarios.ik import RANGE_MARGIN_RAD, carrier_m, rim_drive_angles
 from scenarios.plan import expand
 from scenarios.schema import (
     Fault,
@@ -291,7 +291,7 @@ def _in_the_string(model: mujoco.MjModel, drive: dict[str, float], discs: list[D
 def _reaches(model: mujoco.MjModel, disc: Disc, standoff_m: float) -> bool:
     """Whether the arm puts the brush `standoff_m` off `disc`'s rim with every joint in its range."""
     try:
-        tip_drive_angles(model, rim_target(disc, standoff_m), normal_pitch(disc))
+        rim_drive_angles(model, disc, standoff_m)
     except ValueError:
         return False
     return True
@@ -348,7 +348,7 @@ def _brush_drive(scenario: Scenario, model: mujoco.MjModel, discs: list[Disc], i
         )
     disc = discs[t.brush_at_disc - 1]
     try:
-        return tip_drive_angles(model, rim_target(disc, t.standoff_m), normal_pitch(disc))
+        return rim_drive_angles(model, disc, t.standoff_m)
     except ValueError:
         where = ", ".join(f"{v:.3f}" for v in disc.centre_m)
         raise ScenarioError(
