@@ -19,6 +19,8 @@ from scenarios.string import Disc, discs_of
 
 # the brush's face stands this far in front of its centre site (cylinder half-length, arm.xml)
 BRUSH_HALF_LENGTH_M = 0.03
+# the margin a planned pose keeps from every joint's stop (rad): four times the arrival band (control/pid.py)
+RANGE_MARGIN_RAD = math.radians(2.0)
 
 
 # the lengths per model, with the geometry they were read from: allocating an MjData costs ~1 ms
@@ -115,7 +117,7 @@ def tip_drive_angles(model: mujoco.MjModel, tip_target: np.ndarray, tilt_rad: fl
 
 
 def _within_ranges(model: mujoco.MjModel, qpos: dict[str, float]) -> bool:
-    margin = math.radians(2.0)
+    margin = RANGE_MARGIN_RAD
     return all(model.joint(j).range[0] + margin <= q <= model.joint(j).range[1] - margin for j, q in qpos.items())
 
 
@@ -140,6 +142,12 @@ def rim_target(disc: Disc, standoff_m: float) -> np.ndarray:
     along the rim's outward normal (negative: pressed into it)."""
     rim, normal = disc.rim_facing()
     return rim + (BRUSH_HALF_LENGTH_M + standoff_m) * normal
+
+
+def rim_drive_angles(model: mujoco.MjModel, disc: Disc, standoff_m: float) -> dict[str, float]:
+    """Drive angles putting the brush face `standoff_m` off `disc`'s rim, the tool along the rim's
+    normal (`tip_drive_angles`: tilted in 5 deg steps where out of range). ValueError if none does."""
+    return tip_drive_angles(model, rim_target(disc, standoff_m), normal_pitch(disc))
 
 
 def drive_to_qpos(drive: dict[str, float]) -> dict[str, float]:

@@ -22,7 +22,7 @@ from scenarios import controllers
 from scenarios.cleaning import DiscContact, disc_contacts
 from scenarios.criteria import DISC_KINDS, Verdict, as_dicts, judge
 from scenarios.faults import fault_events
-from scenarios.ik import carrier_m, normal_pitch, rim_target, tip_drive_angles
+from scenarios.ik import RANGE_MARGIN_RAD, carrier_m, rim_drive_angles
 from scenarios.plan import expand
 from scenarios.schema import (
     Fault,
@@ -44,9 +44,6 @@ from twin.sim import Recorder, run
 from twin.telemetry import Telemetry
 
 log = logging.getLogger(__name__)
-# a retreat's shoulder move stops this far short of where the parallelogram puts the elbow on its stop:
-# the margin the plan keeps from every joint's stop (scenarios/ik.py), four times the arrival band
-ELBOW_STOP_MARGIN_RAD = math.radians(2.0)
 
 
 @dataclass(frozen=True)
@@ -294,7 +291,7 @@ def _in_the_string(model: mujoco.MjModel, drive: dict[str, float], discs: list[D
 def _reaches(model: mujoco.MjModel, disc: Disc, standoff_m: float) -> bool:
     """Whether the arm puts the brush `standoff_m` off `disc`'s rim with every joint in its range."""
     try:
-        tip_drive_angles(model, rim_target(disc, standoff_m), normal_pitch(disc))
+        rim_drive_angles(model, disc, standoff_m)
     except ValueError:
         return False
     return True
@@ -322,14 +319,14 @@ def _short_of_the_elbow_stop(model: mujoco.MjModel, pose: dict[str, float], targ
     """A shoulder move alone after the brush has worked on the string (the retreat's) carries the
     forearm's pitch (the parallelogram): the elbow joint turns by the shoulder's move. Where the
     pose the string left would put the elbow past its stop, the shoulder goes only as far as
-    ELBOW_STOP_MARGIN_RAD short of it (the string 10 cm lower: the retreat's shoulder at 55 deg put
-    the elbow at -152 deg, its stop at -150; stopped at 51 deg the brush is still 14 cm back)."""
+    RANGE_MARGIN_RAD short of it, the margin every planned pose keeps from a stop (scenarios/ik.py)
+    (the string 10 cm lower: the retreat's shoulder at 55 deg put the elbow at -152 deg, its stop at
+    -150; stopped at 51 deg the brush is still 14 cm back)."""
     if "shoulder_pitch" not in target or "elbow_pitch" in target or "elbow_pitch" not in pose:
         return target
     lo, hi = model.joint("elbow_pitch").range
     forearm = pose["elbow_pitch"]  # drive: the forearm's absolute pitch
-    margin = ELBOW_STOP_MARGIN_RAD
-    shoulder = min(max(target["shoulder_pitch"], forearm - hi + margin), forearm - lo - margin)
+    shoulder = min(max(target["shoulder_pitch"], forearm - hi + RANGE_MARGIN_RAD), forearm - lo - RANGE_MARGIN_RAD)
     if shoulder != target["shoulder_pitch"]:
         log.info(
             "shoulder_pitch target %.1f deg limited to %.1f deg: the elbow's stop with the forearm at %.1f deg",
@@ -351,7 +348,7 @@ def _brush_drive(scenario: Scenario, model: mujoco.MjModel, discs: list[Disc], i
         )
     disc = discs[t.brush_at_disc - 1]
     try:
-        return tip_drive_angles(model, rim_target(disc, t.standoff_m), normal_pitch(disc))
+        return rim_drive_angles(model, disc, t.standoff_m)
     except ValueError:
         where = ", ".join(f"{v:.3f}" for v in disc.centre_m)
         raise ScenarioError(
