@@ -409,7 +409,7 @@ def hoses_settled(lines: np.ndarray, p: np.ndarray) -> bool:
     """True when both lines are at atmospheric pressure throughout and still (no flow, no unsteady
     wall shear left): with the valves shut and the joint still, nothing can change them."""
     row = line_row_of(p)
-    nodes = int(row[0]) + 1  # `pneumatics.line`: N + 1 node pressures first
+    nodes = int(row[LR_SEGMENTS]) + 1  # `pneumatics.line`: N + 1 node pressures first
     size = state_size(row)
     atm = p[P.GAS_P_ATM]
     for line in range(2):
