@@ -409,7 +409,7 @@ def hoses_settled(lines: np.ndarray, p: np.ndarray) -> bool:
     """True when both lines are at atmospheric pressure throughout and still (no flow, no unsteady
     wall shear left): with the valves shut and the joint still, nothing can change them."""
     row = line_row_of(p)
-    nodes = int(row[0]) + 1  # `pneumatics.line`: N + 1 node pressures first
+    nodes = int(row[LR_SEGMENTS]) + 1  # `pneumatics.line`: N + 1 node pressures first
     size = state_size(row)
     atm = p[P.GAS_P_ATM]
     for line in range(2):
@@ -1743,27 +1743,28 @@ def single_joint_rk4(
     line = uses_line(p)
     air_ros2 = line or m > 0
     air = np.empty(8)
-    ends = np.empty(8)  # the lines' four end pressures, then the nodes' temperatures, after the sub-step
     for _ in range(n):
         w0 = y[R_OMEGA]
         wm0 = y[R_OMEGA_M]
         s = _slide_direction(w0, p)
         s_m = s if rigid else _slide_direction(wm0, p)
-        if line:
-            hs = advance_hoses(
-                lines, ratio * y[R_QM], ratio * y[R_OMEGA_M], direction, valve_gauge_pa, supply_pa, h, p,
-                y[R_TA_MOTOR], y[R_TB_MOTOR],
-            )  # fmt: skip
-            ends[0], ends[1], ends[2], ends[3] = hs.pa_valve, hs.pa_motor, hs.pb_valve, hs.pb_motor
-            # the valve nodes' gas is the line's, at its wall's temperature; the chambers' their own
-            ends[4], ends[5], ends[6], ends[7] = y[R_TA_VALVE], hs.ta_motor, y[R_TB_VALVE], hs.tb_motor
-            for c in range(8):
-                air[c] = (ends[c] - y[_R_AIR[c]]) / h
-        elif air_ros2:
-            end = _air_ros2(
-                _air_of_rigid(y), ratio * y[R_QM], ratio * y[R_OMEGA_M], direction, valve_gauge_pa, supply_pa, h / m,
-                m, p,
-            )  # fmt: skip
+        if air_ros2:
+            # the air after the sub-step (`_air_ros2`'s order): the lines' ends, or the ROS2 steps' result
+            if line:
+                hs = advance_hoses(
+                    lines, ratio * y[R_QM], ratio * y[R_OMEGA_M], direction, valve_gauge_pa, supply_pa, h, p,
+                    y[R_TA_MOTOR], y[R_TB_MOTOR],
+                )  # fmt: skip
+                # the valve nodes' gas is the line's, at its wall's temperature; the chambers' their own
+                end = (
+                    hs.pa_valve, hs.pa_motor, hs.pb_valve, hs.pb_motor, y[R_TA_VALVE], hs.ta_motor, y[R_TB_VALVE],
+                    hs.tb_motor,
+                )  # fmt: skip
+            else:
+                end = _air_ros2(
+                    _air_of_rigid(y), ratio * y[R_QM], ratio * y[R_OMEGA_M], direction, valve_gauge_pa, supply_pa,
+                    h / m, m, p,
+                )  # fmt: skip
             for c in range(8):
                 air[c] = (end[c] - y[_R_AIR[c]]) / h
         _rates(y, direction, valve_gauge_pa, supply_pa, load_torque_nm, inertia_kg_m2, brake_engagement, s, s_m, p, k1)
@@ -1790,7 +1791,7 @@ def single_joint_rk4(
             y[i] += rk4_increment(h, k1[i], k2[i], k3[i], k4[i])
         if line:
             for c in range(8):
-                y[_R_AIR[c]] = ends[c]  # the lines' ends, not their secant's rounding
+                y[_R_AIR[c]] = end[c]  # the lines' ends, not their secant's rounding
         if s != 0.0 and s * y[R_OMEGA] < 0.0:
             jump = 2.0 * s * static
             if rigid:  # the gear's efficiency turns with the joint

@@ -27,7 +27,6 @@ import assets
 from pneumatics import AIR, Gas, JointParams, ParameterError, load_joint_params, params_row
 from pneumatics import joint as J
 from pneumatics import params as P
-from pneumatics.line import N_LINE_ROW
 from pneumatics.reducer import is_rigid, stiffness
 from twin.kernel import finish_air_pairs, keep_force_peak, plant_steps, pneumatic_step
 from twin.model import drive_map, ids, load_model, raise_on_new_warnings, warning_counts
@@ -170,12 +169,8 @@ class Plant:
         i = self.joints.index(joint)
         was_rigid = is_rigid(self.params[i])
         row = params_row(params, self.gas, self.dt)
-        old_line, new_line = (
-            self.params[i, P.LINE_ROW : P.LINE_ROW + N_LINE_ROW],
-            row[P.LINE_ROW : P.LINE_ROW + N_LINE_ROW],
-        )
         if J.uses_line(self.params[i]) != J.uses_line(row) or (
-            J.uses_line(row) and not np.array_equal(old_line, new_line)
+            J.uses_line(row) and not np.array_equal(J.line_row_of(self.params[i]), J.line_row_of(row))
         ):
             raise ParameterError(
                 f"{joint}: [hose] hose_model = {params.hose_model:g} (hose_length_m = {params.hose_length_m:g}, "
