@@ -108,7 +108,7 @@ class When(enum.Enum):
                 return e.plan_finished
             case When.FINAL:
                 return e.plan_finished and not e.pending
-        return True
+        return True  # WHOLE_RUN
 
 
 @dataclass(frozen=True, kw_only=True)
