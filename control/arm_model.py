@@ -16,6 +16,7 @@ import tempfile
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 import pinocchio as pin
@@ -79,7 +80,7 @@ def joint_springs(xml_path: str | Path, joints: tuple[str, ...]) -> tuple[np.nda
     return k, ref
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class HeadSpring:
     """The brush head's spring slide (joint `brush_stroke`, assets/arm.xml): the force it presses
     with is preload_n + stiffness_n_m x stroke, up to stroke_m (bottomed out)."""
@@ -106,7 +107,16 @@ def head_spring(xml_path: str | Path, joint: str = "brush_stroke") -> HeadSpring
         return None
     k, ref = joint_springs(xml_path, (joint,))
     lo, hi = (float(v) for v in found.attrib["range"].split())
-    return HeadSpring(float(k[0]), float(k[0] * ref[0]), hi - lo)
+    return HeadSpring(stiffness_n_m=float(k[0]), preload_n=float(k[0] * ref[0]), stroke_m=hi - lo)
+
+
+class _Clear(NamedTuple):
+    """A look of `press_torques` that found the tool frame clear of a surface (known by its arrays)."""
+
+    surface_m: np.ndarray
+    normal: np.ndarray
+    q: list[float]  # the joint angles it looked at, rad
+    clearance_m: float  # how far in front of the surface the frame stood
 
 
 def _pinocchio_model(xml_path: Path, payload_kg: float | None) -> pin.Model:
@@ -224,7 +234,7 @@ class ArmModel:
         if self._tool_frame >= 0:
             reach += float(np.linalg.norm(m.frames[self._tool_frame].placement.translation))
         self._reach_m = reach if revolute else np.inf
-        self._clear_at: tuple | None = None  # (surface, normal, q, clearance m) of the last press_torques clear of it
+        self._clear_at: _Clear | None = None  # the last press_torques clear of its surface
         self._no_press = np.zeros(n)
         self._no_press.flags.writeable = False  # returned by press_torques clear of the surface, shared
         lo, hi = m.lowerPositionLimit, m.upperPositionLimit
@@ -285,10 +295,16 @@ class ArmModel:
         # clearance the last look found, less the chain's reach times the joints' turn since; -inf
         # where no bound is known (no look clear of this surface, a chain not all revolute)
         clear = self._clear_at
-        if clear is None or clear[0] is not surface_m or clear[1] is not normal or not np.isfinite(self._reach_m):
+        if (
+            clear is None
+            or clear.surface_m is not surface_m
+            or clear.normal is not normal
+            or not np.isfinite(self._reach_m)
+        ):
             return -np.inf
         # (a list's sum: numpy's costs more than the kinematics it would spare)
-        return clear[3] - self._reach_m * sum([abs(a - b) for a, b in zip(q.tolist(), clear[2], strict=True)])
+        turned = sum([abs(a - b) for a, b in zip(q.tolist(), clear.q, strict=True)])
+        return clear.clearance_m - self._reach_m * turned
 
     @property
     def reach_m(self) -> float:
@@ -314,7 +330,9 @@ class ArmModel:
         pin.forwardKinematics(m, d, q)
         tip = pin.updateFramePlacement(m, d, self._tool_frame).translation
         press_m = float(surface_m.dot(normal) - tip.dot(normal))
-        self._clear_at = (surface_m, normal, q.tolist(), -press_m) if press_m < 0.0 else None
+        self._clear_at = None
+        if press_m < 0.0:  # clear of it: later calls skip the kinematics while the joints turn too little to touch
+            self._clear_at = _Clear(surface_m=surface_m, normal=normal, q=q.tolist(), clearance_m=-press_m)
         force = self.head_spring.force_n(press_m)
         if force == 0.0:
             return self._no_press

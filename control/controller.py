@@ -275,7 +275,7 @@ class ArmController:
 
     # -- the control period ------------------------------------------------------------------
     def tick(self, sensors) -> np.ndarray:
-        """Commands (n, 3) for the coming control period from the platform's sensors
+        """Commands (n, N_COMMAND) for the coming control period from the platform's sensors
         (`time_s`, `supply_pa` absolute, `valve_gauge_pa` per joint). The returned array is reused."""
         self.time_s = float(sensors.time_s)
         supply = float(sensors.supply_pa)

@@ -1,6 +1,6 @@
 """The paper's control experiments (Sec. IV, Fig. 18-23) as functions, run against any plant.
 
-A "plant" here is anything with `sensors()`, a writable `commands` (n, 3) array, `step(n)` and,
+A "plant" here is anything with `sensors()`, a writable `commands` (n, N_COMMAND) array, `step(n)` and,
 for judging only, `drive_angles()` (twin.plant.Plant is one; control/ does not import it). With
 no plant given, the controller's own nominal model is the plant ("self loop").
 """
@@ -10,6 +10,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
@@ -119,6 +120,13 @@ def run_until_done(
     return until.t
 
 
+class Move(NamedTuple):
+    """Where one move ended, deg."""
+
+    true_deg: float  # the plant's angle (NaN without a plant)
+    predicted_deg: float  # the controller's predicted angle
+
+
 def run_move(
     target_deg: float,
     mode: str = "closed_loop",
@@ -129,9 +137,8 @@ def run_move(
     xml_path=assets.WRIST_RIG_XML,
     gains: PidGains = DEFAULT_GAINS,
     min_rotation_deg: float = 20.0,
-) -> tuple[float, float]:
-    """One move of the wrist rig from 0 to `target_deg`: (final true angle or NaN without a plant,
-    final predicted angle), degrees."""
+) -> Move:
+    """One move of the wrist rig from 0 to `target_deg`: its final true and predicted angles."""
     c = ArmController(
         {joint: 0.0},
         xml_path,
@@ -144,7 +151,7 @@ def run_move(
     run_until_done(c, plant, P_ATM_PA + supply_gauge_pa)
     i = c.joints.index(joint)
     true = math.degrees(plant.drive_angles()[i]) if plant is not None else math.nan
-    return true, math.degrees(c.predicted_angles()[i])
+    return Move(true_deg=true, predicted_deg=math.degrees(c.predicted_angles()[i]))
 
 
 def closed_vs_open_loop(
@@ -157,9 +164,9 @@ def closed_vs_open_loop(
     predicted |final error|)} in degrees, the truth read from a fresh plant per run."""
     out = {}
     for a in angles_deg:
-        closed = run_move(a, "closed_loop", make_plant(), predictor_params, supply_gauge_pa)[0]
-        opened, opened_predicted = run_move(a, "open_loop", make_plant(), predictor_params, supply_gauge_pa)
-        out[a] = (abs(closed - a), abs(opened - a), abs(opened_predicted - a))
+        closed = run_move(a, "closed_loop", make_plant(), predictor_params, supply_gauge_pa)
+        opened = run_move(a, "open_loop", make_plant(), predictor_params, supply_gauge_pa)
+        out[a] = (abs(closed.true_deg - a), abs(opened.true_deg - a), abs(opened.predicted_deg - a))
     return out
 
 
@@ -172,7 +179,9 @@ def error_against_pressure(
     """Paper Fig. 20: {supply MPa: [closed-loop |final error| of a move to each angle, deg]}, the
     wrist rig moved from 0 at each constant supply, the truth read from a fresh plant per move."""
     return {
-        mpa: [abs(run_move(a, "closed_loop", make_plant(), predictor_params, mpa * 1e6)[0] - a) for a in angles_deg]
+        mpa: [
+            abs(run_move(a, "closed_loop", make_plant(), predictor_params, mpa * 1e6).true_deg - a) for a in angles_deg
+        ]
         for mpa in pressures_mpa
     }
 
@@ -206,15 +215,17 @@ def held_on_valve(
     target = math.radians(target_deg)
     n_ticks = round(hold_s / c.dt)
     first = n_ticks - round(window_s / c.dt)
-    worst = [0.0, 0.0]
+    i = c.joints.index("wrist_pitch")
+    worst_true = worst_predicted = 0.0
 
     def look(k: int, t: float) -> None:
+        nonlocal worst_true, worst_predicted
         if k >= first:
-            worst[0] = max(worst[0], abs(plant.drive_angles()[0] - target))
-            worst[1] = max(worst[1], abs(c.predicted_angles()[0] - target))
+            worst_true = max(worst_true, abs(plant.drive_angles()[i] - target))
+            worst_predicted = max(worst_predicted, abs(c.predicted_angles()[i] - target))
 
     run_ticks(c, plant, 2, lambda k: k < n_ticks, lambda t: P_ATM_PA + supply_gauge_pa, on_tick=look)
-    return math.degrees(worst[0]), math.degrees(worst[1])
+    return math.degrees(worst_true), math.degrees(worst_predicted)
 
 
 def held_error_against_pressure(
@@ -259,7 +270,7 @@ def random_supply_moves(
         t += run_until_done(c, plant, supply, max_s=max_s_each)
         if c.faulted or not c.done:
             raise RuntimeError(f"move to {target} deg under random supply failed: {c.events[-3:]}")
-        errors.append(abs(math.degrees(plant.drive_angles()[0]) - target))
+        errors.append(abs(math.degrees(plant.drive_angles()[c.joints.index("wrist_pitch")]) - target))
         if end_times_s is not None:
             end_times_s.append(t)
     return errors, t
@@ -295,7 +306,7 @@ def minimum_rotation_limit(
         c.set_targets({"wrist_pitch": math.radians(a)})
         plant = make_plant()
         run_until_done(c, plant, P_ATM_PA + supply_gauge_pa, max_s=c.move_timeout_s + 1.0)
-        final = math.degrees(plant.drive_angles()[0])
+        final = math.degrees(plant.drive_angles()[c.joints.index("wrist_pitch")])
         ok[a] = (not c.faulted) and abs(final - a) <= min(tol, relative_tolerance * a)
     limit = math.inf
     for a in sorted(angles_deg, reverse=True):

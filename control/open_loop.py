@@ -12,7 +12,17 @@ import numpy as np
 
 from pneumatics import params as P
 from pneumatics._jit import njit
-from pneumatics.joint import N_COMMAND, R_THETA, advance_discrete, initial_rigid_state, initial_state, single_joint_step
+from pneumatics.joint import (
+    C_BRAKE_RELEASE,
+    C_DIRECTION,
+    C_PV_SET_GAUGE_PA,
+    N_COMMAND,
+    R_THETA,
+    advance_discrete,
+    initial_rigid_state,
+    initial_state,
+    single_joint_step,
+)
 
 
 @njit
@@ -31,9 +41,9 @@ def _duration(
     start = y[R_THETA]
     sign = 1.0 if target > start else -1.0
     cmd = np.zeros(N_COMMAND)
-    cmd[0] = sign
-    cmd[1] = set_point
-    cmd[2] = 1.0
+    cmd[C_DIRECTION] = sign
+    cmd[C_PV_SET_GAUGE_PA] = set_point
+    cmd[C_BRAKE_RELEASE] = 1.0  # the brake released while the valve is open
     t = 0.0
     while t < max_s:
         valve = advance_discrete(x, cmd, supply_pa, dt_s, p)

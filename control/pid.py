@@ -111,7 +111,7 @@ def control_step(
     params: np.ndarray,  # (n, N_COLUMNS) the predictor's parameter rows (Coulomb friction)
     g: np.ndarray,  # gains_row
     dt_s: float,
-    commands: np.ndarray,  # (n, 3) written
+    commands: np.ndarray,  # (n, N_COMMAND) written (C_* columns)
 ) -> tuple[bool, int]:
     """One control period of every joint's move: the commands to issue now.
 

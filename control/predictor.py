@@ -23,6 +23,8 @@ import numpy as np
 from pneumatics import params as P
 from pneumatics._jit import borrowed, njit
 from pneumatics.joint import (
+    C_BRAKE_RELEASE,
+    C_DIRECTION,
     R_OMEGA,
     R_OMEGA_M,
     R_PA_VALVE,
@@ -51,8 +53,8 @@ def predictor_at_rest(y: np.ndarray, x: np.ndarray, command: np.ndarray, p: np.n
             is_rigid(p) or (y[R_OMEGA_M] == 0.0 and abs(y[R_QM] - y[R_THETA]) <= 0.5 * p[P.BACKLASH])
         )  # a gear's motor may swing or unwind
         and x[S_DIR] == 0.0
-        and command[0] == 0.0
-        and command[2] == 0.0
+        and command[C_DIRECTION] == 0.0
+        and command[C_BRAKE_RELEASE] == 0.0
         and x[S_BRAKE] >= 0.999999
         and air_settled(y[R_PA_VALVE : R_PB_MOTOR + 1], y[R_TA_VALVE : R_TB_MOTOR + 1], p)
     )
@@ -62,7 +64,7 @@ def predictor_at_rest(y: np.ndarray, x: np.ndarray, command: np.ndarray, p: np.n
 def predict_step(
     y: np.ndarray,  # (n, N_RIGID) one-joint states, advanced in place
     x: np.ndarray,  # (n, N_STATE) the predictor's valve/brake states (pneumatics.joint S_* columns), in place
-    commands: np.ndarray,  # (n, 3) the commands just issued, held over dt
+    commands: np.ndarray,  # (n, N_COMMAND) the commands just issued (C_* columns), held over dt
     valve_gauge_pa: np.ndarray,  # (n,) measured proportional-valve pressures, gauge Pa
     supply_pa: float,  # measured supply, absolute Pa
     load_nm: np.ndarray,  # (n,) load torque on each drive, N·m

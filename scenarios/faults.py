@@ -1,20 +1,38 @@
 """Faults that strike a run at a given time, applied to the plant (never to the controller).
 
-supply_lost       the supply falls to atmosphere (the brakes' springs engage)
-hose_leak         port A's hose leaks to atmosphere through `value` m^2
-valve_stuck_open  the joint's direction valve sticks in its +1 position, fully open
-brake_fails       the joint's brake no longer engages (holding torque 0)
-sensor_bias       the joint's proportional-valve pressure sensor reads `value` Pa high
+Each kind is one row of FAULTS: its name, what it does, whether it names a joint and takes a value
+(and in what range), and how it acts on the plant. The scenario schema reads its kinds and their
+checks from here (scenarios/schema.py), so a new fault is one row; docs/scenario_kinds.md lists them.
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Callable
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
-from pneumatics import AIR
-from scenarios.schema import Fault
-from twin.plant import Plant
+import assets
+from pneumatics import AIR, load_joint_params
+from scenarios.kinds import registry
+
+if TYPE_CHECKING:  # types only: the schema imports its fault kinds from this module
+    from scenarios.schema import Fault
+    from twin.plant import Plant
+
+
+@dataclass(frozen=True, kw_only=True)
+class FaultKind:
+    """One kind of fault: what the file's `[[faults]]` table of that kind means and does."""
+
+    name: str  # the file's `kind`
+    what: str  # what strikes the plant, in words
+    act: Callable[[Plant, Fault], None]  # strikes: changes the plant, once, at the fault's time
+    # why the kind names no joint (it strikes every joint); "": it names the one joint it strikes
+    whole_arm: str = ""
+    value: tuple[float, float, str] | None = None  # its `value`'s range and unit (not 0); None: it takes none
+    # the largest value on a given joint and that limit in words (beyond `value`'s range), if any
+    value_limit: Callable[[str], tuple[float, str]] | None = None
 
 
 def fault_events(faults: tuple[Fault, ...]) -> tuple[Callable[[Plant, float], None], Callable[[float], bool]]:
@@ -41,16 +59,65 @@ def fault_events(faults: tuple[Fault, ...]) -> tuple[Callable[[Plant, float], No
 
 
 def apply_fault(plant: Plant, fault: Fault) -> None:
-    if fault.kind == "supply_lost":
-        plant.set_supply(AIR.p_atm_pa)
-        return
-    j = plant.joints.index(fault.joint)
-    params = plant.joint_params[fault.joint]
-    if fault.kind == "hose_leak":
-        plant.set_joint_params(fault.joint, params._replace(hose_leak_area_m2=fault.value))
-    elif fault.kind == "brake_fails":
-        plant.set_joint_params(fault.joint, params._replace(brake_holding_nm=0.0))
-    elif fault.kind == "sensor_bias":
-        plant.sensor_bias_pa[j] = fault.value
-    elif fault.kind == "valve_stuck_open":
-        plant.stick_valve(fault.joint, +1.0)
+    """Strike the plant with the fault, as its kind's row says."""
+    FAULTS[fault.kind].act(plant, fault)
+
+
+def _lose_supply(plant: Plant, fault: Fault) -> None:
+    plant.set_supply(AIR.p_atm_pa)
+
+
+def _leak_hose(plant: Plant, fault: Fault) -> None:
+    plant.set_joint_params(fault.joint, plant.joint_params[fault.joint]._replace(hose_leak_area_m2=fault.value))
+
+
+def _stick_valve_open(plant: Plant, fault: Fault) -> None:
+    plant.stick_valve(fault.joint, +1.0)
+
+
+def _fail_brake(plant: Plant, fault: Fault) -> None:
+    plant.set_joint_params(fault.joint, plant.joint_params[fault.joint]._replace(brake_holding_nm=0.0))
+
+
+def _bias_sensor(plant: Plant, fault: Fault) -> None:
+    plant.sensor_bias_pa[plant.joints.index(fault.joint)] = fault.value
+
+
+def _hose_bore(joint: str) -> tuple[float, str]:
+    """The whole bore of the joint's hose (m^2, its parameter file's diameter): the largest leak."""
+    bore_m2 = math.pi / 4 * load_joint_params(assets.joint_param_path(joint)).hose_diameter_m ** 2
+    return bore_m2, f"a leak area in 0..{bore_m2:.3g} m^2 (the whole bore of {joint}'s hose)"
+
+
+FAULTS: dict[str, FaultKind] = registry(
+    FaultKind(
+        name="supply_lost",
+        what="the supply falls to atmosphere (the brakes' springs engage)",
+        act=_lose_supply,
+        whole_arm="the supply feeds every joint",
+    ),
+    FaultKind(
+        name="hose_leak",
+        what="port A's hose leaks to atmosphere through `value` m^2",
+        act=_leak_hose,
+        # at most the whole bore of the hose: 8 mm the widest (assets/joints/*.toml); per joint by value_limit
+        value=(0.0, 5.1e-5, "m^2"),
+        value_limit=_hose_bore,
+    ),
+    FaultKind(
+        name="valve_stuck_open",
+        what="the joint's direction valve sticks in its +1 position, fully open",
+        act=_stick_valve_open,
+    ),
+    FaultKind(
+        name="brake_fails",
+        what="the joint's brake no longer engages (holding torque 0)",
+        act=_fail_brake,
+    ),
+    FaultKind(
+        name="sensor_bias",
+        what="the joint's proportional-valve pressure sensor reads `value` Pa high",
+        act=_bias_sensor,
+        value=(-1e6, 1e6, "Pa"),  # +-10 bar: beyond the 0.5-0.8 MPa supply's whole span
+    ),
+)

@@ -113,7 +113,7 @@ HELD = ("base_yaw",)
 FRAMES_KEPT = 64  # the camera's last frames kept (2.6 s at 25 frames/s: longer than any look's latency)
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class Frame:
     time_s: float
     brush_px: np.ndarray  # (2,) centre of the brush's face, whole pixels (u right, v down)
@@ -210,7 +210,7 @@ class GlobalCamera:
         noise = self._noise(i)
         seen = self._pixels(self.pinhole.project(points), noise)
         from_above = self._pixels(self.overhead.project(points[1:]), noise)
-        return Frame(float(r[0]), seen[0], self.rim_px, seen[1:], from_above)
+        return Frame(time_s=float(r[0]), brush_px=seen[0], rim_px=self.rim_px, arm_px=seen[1:], arm_top_px=from_above)
 
     @property
     def next_frame_s(self) -> float:

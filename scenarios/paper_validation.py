@@ -63,7 +63,7 @@ def rig_inertia(params: JointParams) -> float:
     return float(arm.drive_inertias(np.zeros(1))[0]) + params.ratio**2 * params.rotor_inertia_kg_m2
 
 
-@dataclass
+@dataclass(kw_only=True)
 class ValidationRun:
     """One supply's run: time (s), measured angle and the two predictions (deg, from the start),
     on the SAMPLE_PERIOD_S grid up to the end of the hold."""
@@ -142,7 +142,7 @@ def validation_run(
     for kind, loss in zip(KINDS, (1.0, 0.0), strict=True):
         tt, a = _replay(nominal._replace(hose_loss=loss), cmd, inertia)
         preds[kind] = np.interp(t, tt, a)
-    return ValidationRun(mpa, t, measured, preds)
+    return ValidationRun(supply_mpa=mpa, time_s=t, measured_deg=measured, predicted_deg=preds)
 
 
 def misfit(runs: list[ValidationRun]) -> float:

@@ -16,7 +16,7 @@ import mujoco
 import numpy as np
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class Pinhole:
     position_m: np.ndarray  # camera centre, world frame
     R_world_cam: np.ndarray  # columns: the camera's x (right), y (up), z (backwards) in world
@@ -49,9 +49,9 @@ def camera_of(model: mujoco.MjModel, data: mujoco.MjData, name: str, width_px: i
     cam = data.camera(name)
     fovy = math.radians(float(model.camera(name).fovy[0]))
     return Pinhole(
-        cam.xpos.copy(),
-        cam.xmat.reshape(3, 3).copy(),
-        (height_px / 2) / math.tan(fovy / 2),
-        int(width_px),
-        int(height_px),
+        position_m=cam.xpos.copy(),
+        R_world_cam=cam.xmat.reshape(3, 3).copy(),
+        focal_px=(height_px / 2) / math.tan(fovy / 2),
+        width_px=int(width_px),
+        height_px=int(height_px),
     )

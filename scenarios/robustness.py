@@ -64,7 +64,7 @@ CASES: tuple[tuple[str, dict], ...] = (
 LABELS = tuple(label for label, _ in CASES)
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class Row:
     """One case over its seeds."""
 
@@ -167,16 +167,16 @@ def rows(results: list[dict]) -> list[Row]:
         discs = [d for r in runs for d in r.get("discs", [])]
         out.append(
             Row(
-                case,
-                len(runs),
-                float(np.mean([all_cleaned(r) for r in runs])),
-                float(np.mean([bool(r["passed"]) for r in runs])),
-                max(largest_force_n(r) for r in runs),
-                float(np.median([math.inf if r["finished_s"] is None else r["finished_s"] for r in runs])),
-                min((d["rim_share"] for d in discs), default=0.0),
-                min((d["top_share"] for d in discs), default=0.0),
-                any(r.get("refused") and "discs" not in r for r in runs),
-                max(discs_out_of_reach(r) for r in runs),
+                case=case,
+                runs=len(runs),
+                all_cleaned=float(np.mean([all_cleaned(r) for r in runs])),
+                passed=float(np.mean([bool(r["passed"]) for r in runs])),
+                peak_force_n=max(largest_force_n(r) for r in runs),
+                task_time_s=float(np.median([math.inf if r["finished_s"] is None else r["finished_s"] for r in runs])),
+                rim_share_min=min((d["rim_share"] for d in discs), default=0.0),
+                top_share_min=min((d["top_share"] for d in discs), default=0.0),
+                refused=any(r.get("refused") and "discs" not in r for r in runs),
+                out_of_reach=max(discs_out_of_reach(r) for r in runs),
             )
         )
     return out

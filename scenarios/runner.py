@@ -20,7 +20,7 @@ from control import ArmController
 from pneumatics.params import ParameterError
 from scenarios import controllers
 from scenarios.cleaning import DiscContact, disc_contacts
-from scenarios.criteria import DISC_KINDS, Verdict, as_dicts, judge
+from scenarios.criteria import CRITERIA, Verdict, When, as_dicts, judge
 from scenarios.faults import fault_events
 from scenarios.ik import RANGE_MARGIN_RAD, carrier_m, rim_drive_angles
 from scenarios.plan import expand
@@ -46,7 +46,7 @@ from twin.telemetry import Telemetry
 log = logging.getLogger(__name__)
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class Progress:
     """How far a run has got: simulated time and the run's length (s), discs done of the plan's."""
 
@@ -70,13 +70,14 @@ class _ProgressReport:
     def write(self, telemetry, start: int) -> None:
         if len(telemetry):
             done = sum(all(self.task.reached[k] for k in ks) for ks in self.by_disc.values())
-            self.report(Progress(telemetry.time_at(-1), self.duration_s, done, len(self.by_disc)))
+            now = telemetry.time_at(-1)
+            self.report(Progress(time_s=now, duration_s=self.duration_s, discs_done=done, discs=len(self.by_disc)))
 
     def close(self) -> None:
         pass
 
 
-@dataclass
+@dataclass(kw_only=True)
 class Result:
     scenario: Scenario
     telemetry: Telemetry
@@ -168,7 +169,7 @@ class Result:
 
 def _disc_row(d: DiscContact, verdicts: list[Verdict]) -> dict:
     """One disc's contact figures and whether its cleaning criteria held (None: not judged)."""
-    mine = [v for v in verdicts if v.kind in DISC_KINDS and v.subject == f"disc_{d.disc}"]
+    mine = [v for v in verdicts if CRITERIA[v.kind].when is When.PER_DISC and v.subject == f"disc_{d.disc}"]
     judged = [v for v in mine if v.judged]
     return {
         "disc": d.disc,
@@ -416,18 +417,18 @@ def run_scenario(
     events = list(getattr(controller, "events", []))
     discs = disc_contacts(plant.model, arrays) if scenario.model == "arm" and len(telemetry) else []
     return Result(
-        scenario,
-        telemetry,
-        verdicts,
-        targets,
-        error,
-        refusal,
-        events,
-        active,
-        reached,
-        discs,
-        finished,
-        pending,
+        scenario=scenario,
+        telemetry=telemetry,
+        verdicts=verdicts,
+        targets_rad=targets,
+        error=error,
+        refusal=refusal,
+        events=events,
+        active_target_rad=active,
+        reached=reached,
+        discs=discs,
+        finished_s=finished,
+        pending_faults=pending,
     )
 
 

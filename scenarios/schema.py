@@ -16,10 +16,11 @@ payload mass and centre, brush spring, friction, the cameras' noise),
 Beyond each field's own range, the file must agree with the model and with itself (refused
 otherwise, before any work): joints named in angles and effects are the model's, start and target
 angles inside the joints' ranges of the MJCF, brush targets within the arm's reach, a standoff only
-with a brush target, a fault's joint and value as its kind needs them, arm-only criteria (brush,
-contact force, payload drop) not on the rig, a disc only on the disc criteria, min <= max, a
-criterion judged against targets only with a target of that joint and a controller, a
-max_travel_deg criterion with its joint, and a file that is not empty. A shipped scenario may be
+with a brush target, a fault's joint and value as its kind needs them (its row in
+scenarios/faults.py), arm-only criteria (brush, contact force, payload drop) not on the rig, a disc
+only on the disc criteria, min <= max, a criterion judged against targets only with a target of
+that joint and a controller, a max_travel_deg criterion with its joint (each kind's row in
+scenarios/criteria.py says what it needs), and a file that is not empty. A shipped scenario may be
 named without its path (`load("insulator_cleaning")`).
 """
 
@@ -57,58 +58,14 @@ from pneumatics.fields import (
 )
 from pneumatics.params import JointParamsSubset, ParameterError, check_related
 from pneumatics.paths import path_problem
+from scenarios.criteria import CRITERIA
+from scenarios.faults import FAULTS
 from scenarios.ik import disc_drive_angles, drive_to_qpos, qpos_to_drive
+from scenarios.kinds import kind_of
 from scenarios.string import MAX_DISCS, discs_of
 from twin.errors import UserError
 
 SHIPPED_DIR = Path(__file__).resolve().parent  # the scenario files ship as package data (pyproject.toml)
-ARM_ONLY_CRITERIA = (
-    "brush_on_disc",
-    "contact_force_n",
-    "disc_contact_s",
-    "disc_force_n",
-    "disc_brushed_m",
-    "disc_rim_share",
-    "disc_top_share",
-    "max_drop_m",
-    "task_time_s",
-    "contact_after_plan_n",
-)  # need the brush, the discs, the payload, the task's plan
-# judged against the targets or the plan's end: need one
-TARGET_CRITERIA = ("final_error_deg", "max_error_deg", "task_time_s", "contact_after_plan_n")
-FAULT_KINDS = ("supply_lost", "hose_leak", "valve_stuck_open", "brake_fails", "sensor_bias")
-# a fault's value: (low, high, unit) per kind that has one
-FAULT_VALUES = {
-    # at most the whole bore of the hose: 8 mm the widest (assets/joints/*.toml); per joint below
-    "hose_leak": (0.0, 5.1e-5, "m^2"),
-    "sensor_bias": (-1e6, 1e6, "Pa"),  # +-10 bar: beyond the 0.5-0.8 MPa supply's whole span
-}
-JOINT_CRITERIA = ("final_error_deg", "max_error_deg", "max_travel_deg", "prediction_error_deg")
-# may name one disc
-DISC_CRITERIA = (
-    "brush_on_disc",
-    "disc_contact_s",
-    "disc_force_n",
-    "disc_brushed_m",
-    "disc_rim_share",
-    "disc_top_share",
-)
-CRITERIA = (
-    "final_error_deg",
-    "max_error_deg",
-    "brush_on_disc",
-    "contact_force_n",
-    "disc_contact_s",
-    "disc_force_n",
-    "disc_brushed_m",
-    "disc_rim_share",
-    "disc_top_share",
-    "max_drop_m",
-    "max_travel_deg",
-    "prediction_error_deg",
-    "task_time_s",
-    "contact_after_plan_n",
-)
 # who keeps the arm on its task (scenarios/task.py): the predictor alone; the predictor re-referenced
 # at the shoulder's end stop after every disc; the operator correcting by eye through the global
 # camera (scenarios/operator.py); or, as a bound that breaks the sensorless rule, the same
@@ -251,19 +208,19 @@ class Target:
 
 @dataclass(frozen=True, config=TABLE)
 class Fault:
-    kind: choice(*FAULT_KINDS)
+    kind: kind_of(FAULTS)  # a row of scenarios.faults.FAULTS
     at_s: number(0.0, math.inf, "s")  # within the run: 0 <= at_s < duration_s
-    joint: TEXT = ""  # every kind but supply_lost
-    value: REAL = 0.0  # hose_leak: area m^2 up to the hose's bore; sensor_bias: Pa (FAULT_VALUES); not 0
+    joint: TEXT = ""  # the joint it strikes: every kind but those that strike the whole arm (supply_lost)
+    value: REAL = 0.0  # only for the kinds that take one, in the range and unit of its row; not 0
 
 
 @dataclass(frozen=True, config=TABLE)
 class Criterion:
-    kind: choice(*CRITERIA)
-    joint: TEXT = ""  # JOINT_CRITERIA only; none: every joint it applies to
+    kind: kind_of(CRITERIA)  # a row of scenarios.criteria.CRITERIA; min and max in its unit
+    joint: TEXT = ""  # the kinds by_joint only; none: every joint it applies to
     max: number(0.0, math.inf) = math.inf
     min: number(-math.inf, math.inf) = -math.inf
-    disc: whole(0, MAX_DISCS) = 0  # DISC_CRITERIA only; 0: every disc
+    disc: whole(0, MAX_DISCS) = 0  # the kinds by_disc only; 0: every disc
 
 
 @dataclass(frozen=True, config=TABLE)
@@ -480,22 +437,18 @@ def _check_target(s: Scenario, i: int, t: Target, standoff_given: bool) -> None:
 
 
 def _check_fault(s: Scenario, i: int, f: Fault, value_given: bool) -> None:
-    where = f"faults[{i}]"
-    if f.kind != "supply_lost" and f.joint not in s.joints:
+    where, kind = f"faults[{i}]", FAULTS[f.kind]
+    if not kind.whole_arm and f.joint not in s.joints:
         raise _fail(s.path, f"{where}.joint", f.joint, " | ".join(s.joints))
-    if f.kind in FAULT_VALUES:
+    if kind.value:
         _check_fault_value(s.path, where, f, value_given)
     elif value_given:
+        with_value = ", ".join(name for name, k in FAULTS.items() if k.value)
         raise _fail(
-            s.path,
-            f"{where}.value",
-            f.value,
-            f"no value for kind = {f.kind!r} (a value only with {', '.join(FAULT_VALUES)})",
+            s.path, f"{where}.value", f.value, f"no value for kind = {f.kind!r} (a value only with {with_value})"
         )
-    if f.kind == "supply_lost" and f.joint:
-        raise _fail(
-            s.path, f"{where}.joint", f.joint, "no joint for kind = 'supply_lost' (the supply feeds every joint)"
-        )
+    if kind.whole_arm and f.joint:
+        raise _fail(s.path, f"{where}.joint", f.joint, f"no joint for kind = {f.kind!r} ({kind.whole_arm})")
     if f.at_s >= s.duration_s:  # a fault at the run's very end would never act
         raise _fail(
             s.path, f"{where}.at_s", f.at_s, f"a number from 0 up to, not at, {s.duration_s:g} s (the run's end)"
@@ -503,8 +456,10 @@ def _check_fault(s: Scenario, i: int, f: Fault, value_given: bool) -> None:
 
 
 def _check_fault_value(path: str, where: str, f: Fault, given: bool) -> None:
-    """A hose leak's area (up to the whole bore of its joint's hose) or a sensor's bias, not 0."""
-    check, allowed = number_check(*FAULT_VALUES[f.kind])
+    """The fault's value within its kind's range (and its joint's limit, e.g. a leak up to the whole
+    bore of the hose), not 0."""
+    kind = FAULTS[f.kind]
+    check, allowed = number_check(*kind.value)
     if not given:
         raise _fail(path, f"{where}.value", MISSING, allowed)
     try:
@@ -513,38 +468,36 @@ def _check_fault_value(path: str, where: str, f: Fault, given: bool) -> None:
         raise _fail(path, f"{where}.value", f.value, allowed) from None
     if f.value == 0.0:
         raise _fail(path, f"{where}.value", f.value, f"a {f.kind} other than 0 (0 is no fault)")
-    if f.kind == "hose_leak" and f.value > _hose_bore_m2(f.joint):
-        bore = f"a leak area in 0..{_hose_bore_m2(f.joint):.3g} m^2 (the whole bore of {f.joint}'s hose)"
-        raise _fail(path, f"{where}.value", f.value, bore)
+    if kind.value_limit:
+        high, allowed = kind.value_limit(f.joint)
+        if f.value > high:
+            raise _fail(path, f"{where}.value", f.value, allowed)
 
 
 def _check_criterion(s: Scenario, i: int, c: Criterion, disc_given: bool) -> None:
-    where, joint_names = f"criteria[{i}]", " | ".join(s.joints)
+    where, joint_names, kind = f"criteria[{i}]", " | ".join(s.joints), CRITERIA[c.kind]
     if c.joint and c.joint not in s.joints:
         raise _fail(s.path, f"{where}.joint", c.joint, joint_names)
-    if c.joint and c.kind not in JOINT_CRITERIA:
-        only = f"no joint for kind = {c.kind!r} (a joint only with {', '.join(JOINT_CRITERIA)})"
-        raise _fail(s.path, f"{where}.joint", c.joint, only)
-    if c.kind == "max_travel_deg" and not c.joint:
+    if c.joint and not kind.by_joint:
+        by_joint = ", ".join(name for name, k in CRITERIA.items() if k.by_joint)
+        raise _fail(s.path, f"{where}.joint", c.joint, f"no joint for kind = {c.kind!r} (a joint only with {by_joint})")
+    if kind.joint_required and not c.joint:
         raise _fail(s.path, f"{where}.joint", MISSING, joint_names)
-    if c.kind in ARM_ONLY_CRITERIA and s.model != "arm":
-        rig = ", ".join(k for k in CRITERIA if k not in ARM_ONLY_CRITERIA)
+    if kind.arm_only and s.model != "arm":
+        rig = ", ".join(name for name, k in CRITERIA.items() if not k.arm_only)
         raise _fail(
             s.path,
             f"{where}.kind",
             c.kind,
             f"a criterion the rig can be judged by ({rig}); {c.kind} needs model = 'arm'",
         )
-    if disc_given and c.kind not in DISC_CRITERIA:
-        raise _fail(s.path, f"{where}.disc", c.disc, f"only with kind = {' | '.join(map(repr, DISC_CRITERIA))}")
+    if disc_given and not kind.by_disc:
+        by_disc = " | ".join(repr(name) for name, k in CRITERIA.items() if k.by_disc)
+        raise _fail(s.path, f"{where}.disc", c.disc, f"only with kind = {by_disc}")
     if c.min > c.max:
         raise _fail(s.path, f"{where}.min", c.min, f"min <= max (max = {c.max:g})")
-    if c.kind in TARGET_CRITERIA or c.kind == "prediction_error_deg":
+    if kind.needs_controller or kind.needs_targets:
         _needs_a_plan(s, where, c)
-
-
-def _hose_bore_m2(joint: str) -> float:
-    return math.pi / 4 * load_joint_params(assets.joint_param_path(joint)).hose_diameter_m ** 2
 
 
 def _needs_a_plan(s: Scenario, where: str, c: Criterion) -> None:
@@ -557,7 +510,7 @@ def _needs_a_plan(s: Scenario, where: str, c: Criterion) -> None:
             "a criterion that holds without a controller (control.mode = 'none' moves nothing, predicts nothing): "
             "max_travel_deg, max_drop_m, ...",
         )
-    if c.kind not in TARGET_CRITERIA:
+    if not CRITERIA[c.kind].needs_targets:
         return
     targeted = {j for t in s.targets for j in (JOINTS if t.brush_at_disc or t.clean_string else t.angles_deg)}
     if not targeted:

@@ -32,7 +32,7 @@ from scenarios.pinhole import Pinhole
 from scenarios.string import Disc
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class Sighting:
     """The string as the operator found it in the picture."""
 
@@ -109,5 +109,5 @@ def sight_string(
     else:
         pitch, axis = 0.0, np.array([0.0, 0.0, 1.0])
     mean_range = float(np.mean(np.linalg.norm(centres - front.position_m, axis=1)))
-    discs = [Disc(c, axis, radius_m, half_thickness_m) for c in centres]
-    return Sighting(discs, mean_range, mean_range / front.focal_px, pitch)
+    discs = [Disc(centre_m=c, axis=axis, radius_m=radius_m, half_thickness_m=half_thickness_m) for c in centres]
+    return Sighting(discs=discs, range_m=mean_range, m_per_px=mean_range / front.focal_px, pitch_m=pitch)

@@ -30,7 +30,7 @@ HANGER_TOP_Z_M = 1.655  # the hanger's top, under the gantry's beam (scene.xml: 
 MAX_DISCS = 12  # a 110-150 kV string (IEC 60383 practice: 7-10 U70 discs at 110 kV, more with fouling)
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class Disc:
     """One disc's shell: centre (3,) m, axis (3,) unit up the string, radius m, half-thickness m."""
 
@@ -77,7 +77,10 @@ def string_discs(
     radial /= max(float(np.linalg.norm(radial)), 1e-12)  # from the base axis out to the string
     tilt = math.radians(tilt_deg)
     axis = math.cos(tilt) * np.array([0.0, 0.0, 1.0]) + math.sin(tilt) * radial  # up: the bottom leans in
-    return [Disc(top - k * pitch_m * axis, axis, radius_m, half_thickness_m) for k in range(discs)]
+    return [
+        Disc(centre_m=top - k * pitch_m * axis, axis=axis, radius_m=radius_m, half_thickness_m=half_thickness_m)
+        for k in range(discs)
+    ]
 
 
 def discs_of(model: mujoco.MjModel) -> list[Disc]:
@@ -87,7 +90,8 @@ def discs_of(model: mujoco.MjModel) -> list[Disc]:
         g = model.geom(f"disc_{len(out) + 1}")
         rot = np.zeros(9)
         mujoco.mju_quat2Mat(rot, g.quat)
-        out.append(Disc(g.pos.copy(), rot.reshape(3, 3)[:, 2].copy(), float(g.size[0]), float(g.size[1])))
+        axis = rot.reshape(3, 3)[:, 2].copy()  # the geom's z: the disc's axis
+        out.append(Disc(centre_m=g.pos.copy(), axis=axis, radius_m=float(g.size[0]), half_thickness_m=float(g.size[1])))
     return out
 
 

@@ -26,7 +26,7 @@ SCENARIO = Path(__file__).resolve().parent / "insulator_cleaning.toml"
 SUPPLIES_MPA = (0.5, 0.6, 0.7, 0.8)  # the paper's working range
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class Row:
     """One strategy at one supply, over its seeds."""
 
@@ -74,15 +74,15 @@ def rows(results: list[dict]) -> list[Row]:
         errors = [max(abs(j["error_deg"]) for j in r["joints"].values() if j["error_deg"] is not None) for r in runs]
         out.append(
             Row(
-                strategy,
-                mpa,
-                len(runs),
-                min(n),
-                float(np.mean(n)),
-                max(peaks) if peaks else math.nan,
-                float(np.mean([sum(d["brushed_m"] for d in r["discs"]) for r in runs])),
-                float(np.mean(finished)) if all(f is not None for f in finished) else math.nan,
-                float(np.mean(errors)),
+                strategy=strategy,
+                supply_mpa=mpa,
+                runs=len(runs),
+                cleaned_min=min(n),
+                cleaned_mean=float(np.mean(n)),
+                peak_force_n=max(peaks) if peaks else math.nan,
+                brushed_m=float(np.mean([sum(d["brushed_m"] for d in r["discs"]) for r in runs])),
+                finished_s=float(np.mean(finished)) if all(f is not None for f in finished) else math.nan,
+                final_error_deg=float(np.mean(errors)),
             )
         )
     return out

@@ -240,9 +240,8 @@ def _synthetic_run(mpa: float, gap_deg: float):
 
     t = np.linspace(0.0, 1.0, 51)
     measured = 60.0 * t
-    return ValidationRun(
-        mpa, t, measured, {"with_hose_loss": measured.copy(), "without_hose_loss": measured + gap_deg * t}
-    )
+    predicted = {"with_hose_loss": measured.copy(), "without_hose_loss": measured + gap_deg * t}
+    return ValidationRun(supply_mpa=mpa, time_s=t, measured_deg=measured, predicted_deg=predicted)
 
 
 def test_the_fit_leaves_out_only_the_figures_the_nominal_model_puts_out_of_reach():

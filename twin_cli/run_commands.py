@@ -170,6 +170,8 @@ def run_state(summary: dict) -> str:
 
 
 def print_summary(summary: dict) -> None:
+    from scenarios.criteria import CRITERIA, When
+
     print(f"{summary['scenario']}: {run_state(summary)} after {summary['duration_s']:.2f} s simulated")
     if summary.get("error"):
         print(f"  stopped: {summary['error']}")
@@ -194,7 +196,7 @@ def print_summary(summary: dict) -> None:
         cleaned = sum(bool(d["cleaned"]) for d in judged)
         print(f"  discs cleaned: {cleaned} of {len(judged)} judged (contact, force band, brushed rim)")
     for c in summary["criteria"]:
-        if summary.get("discs") and c["kind"].startswith("disc_"):
+        if summary.get("discs") and CRITERIA[c["kind"]].when is When.PER_DISC:
             continue  # in the disc table above
         mark = "ok  " if c["passed"] else "FAIL" if c.get("judged", True) else "----"
         print(f"  [{mark}] {c['kind']} {c['subject']}: {c['value']:.4g} (allowed {c['limit']})")
