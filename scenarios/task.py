@@ -19,6 +19,13 @@ Whatever the strategy, the platform's load model is told the rim each disc targe
 plan's, moved by the operator's aim), so that its predictor meets the head spring's reaction where
 the true arm does (ArmController.expect_press).
 
+The task is a state machine (scenarios/task_states.py, drawn in docs/task_states.md): its state
+(`TaskController.state`: moving to a target, closing in, the operator looking, backing out of a
+press, ...) and the target under way (`k`); each state's behaviour (`BEHAVIOURS`: a move's arrival
+noted, a look taken) and the rows of `TRANSITIONS` (from-state, condition, to-state, action), each
+a small method. The task is asked at each tick the platform is at rest (done, not faulted), and
+takes the transitions due then one after another while the arm stays at rest.
+
 The task controller is what the run loop ticks (twin/sim.py's Controller protocol). It hands the
 platform's controller only the sensors; the operator sees only the camera's frames; the bound alone
 reads the plant.
@@ -27,6 +34,7 @@ reads the plant.
 from __future__ import annotations
 
 import contextlib
+import logging
 import math
 from dataclasses import dataclass
 
@@ -40,7 +48,10 @@ from scenarios.operator import GlobalCamera, Operator
 from scenarios.plan import CLEAR_M, TOUCH_STANDOFF_M
 from scenarios.schema import Scenario
 from scenarios.string import Disc, believed_discs
+from scenarios.task_states import AT_REST, TaskState, Transition, name_of, rows_from
 from twin.plant import Plant
+
+log = logging.getLogger(__name__)
 
 STOP_JOINT = "shoulder_pitch"  # the joint whose error grows (docs/validation/predictor_and_control.md)
 STOP_DRIVE_S = 1.0  # open-loop drive into the stop: this long ...
@@ -87,7 +98,9 @@ class _StopDrive:
 
 
 class TaskController:
-    """Feeds `targets` (drive angles per scenario target) to `controller` one by one."""
+    """Feeds `targets` (drive angles per scenario target) to `controller` one by one, as the state
+    machine TRANSITIONS says (docs/task_states.md): `state` is where the task stands, `k` the target
+    under way."""
 
     def __init__(
         self,
@@ -104,6 +117,7 @@ class TaskController:
         self.reached: list[bool] = [False] * len(targets)
         self.finished_s: list[float] = [math.nan] * len(targets)
         self.k = -1  # the target under way
+        self.state = TaskState.START
         self.strategy = scenario.control.strategy
         self.model = plant.model
         # the string the plan was made for, as the platform sees it (the operator's sighting, or the
@@ -112,16 +126,12 @@ class TaskController:
         self._plant = plant if self.strategy == "true_angle" else None  # the bound's only window on the truth
         self.camera = scenario_camera(scenario, plant) if self.strategy == "operator" else None
         self.operator = Operator(plant.model, self.camera, scenario.operator, rng) if self.camera else None
-        self._review_from_s = math.nan
-        self._closing_in = False  # the operator's extra stop at TOUCH_STANDOFF_M before a press is under way
-        self._backing_out = False  # ... and after it, on the way out (the press's move reversed)
-        self._repressing = False  # ... and out of a press he saw off, before he presses again
+        self._review_from_s = math.nan  # when the arm came to rest at target k: his look is of a picture after it
+        self._seen: bool | None = None  # the verdict of his latest look (Operator.review, review_press)
+        self._why = ""  # ... and why he does not believe it ('': he does)
         self._came_in_again: set[int] = set()  # discs on which he backed off from touching distance once
-        self._retreating = False  # he saw something he does not believe: backing off to CLEAR_M to look again
-        self._stopped_on: list[int] = []  # the disc of each time he stopped and backed off so
-        self._skip_press = False  # the operator gave up the coming press
-        self._stop: _StopDrive | None = None
-        self._stopped_after: set[int] = set()  # back-off targets after which the stop drive was tried
+        self._stopped_on: list[int] = []  # the disc of each time he stopped and backed off to CLEAR_M
+        self._stop: _StopDrive | None = None  # the stop drive under way (STOP_DRIVE)
         self._notes: list[str] = []
         self._commands = np.zeros_like(controller.commands)
         self._kinematics = mujoco.MjData(plant.model)  # scratch: where a move would take the brush
@@ -152,17 +162,29 @@ class TaskController:
                 self.controller.reference(j, q, w)
         if self.camera is not None:
             self.camera.capture(t)
-        if self._stop is not None:
+        if self.state is not TaskState.STOP_DRIVE:
+            if self._fault_to_clear():
+                # the operator sees the fault (a move that did not end in time, a refusal), clears it and
+                # goes on from where the arm is: the camera tells him whether the brush is where it must be
+                self.controller.clear_fault()
+            if self._platform_at_rest():
+                self._decide(t)
+        if self.state is TaskState.STOP_DRIVE:
             return self._drive_into_stop(sensors)
-        if self.controller.faulted and self.operator is not None and 0 <= self.k < len(self.targets):
-            # the operator sees the fault (a move that did not end in time, a refusal), clears it and
-            # goes on from where the arm is: the camera tells him whether the brush is where it must be
-            self.controller.clear_fault()
-        if self.controller.done and not self.controller.faulted and self.k < len(self.targets):
-            self._between_targets(t)
-            if self._stop is not None:
-                return self._drive_into_stop(sensors)
         return self.controller.tick(sensors)
+
+    def _fault_to_clear(self) -> bool:
+        """A fault of the platform's that the operator clears: he is there and a target is under way."""
+        return (
+            self.controller.faulted
+            and self.operator is not None
+            and self.state not in (TaskState.START, TaskState.FINISHED)
+        )
+
+    def _platform_at_rest(self) -> bool:
+        """The platform done with what it was sent (not faulted), targets still to come: the task's turn."""
+        c = self.controller
+        return c.done and not c.faulted and self.state is not TaskState.FINISHED
 
     def compiled_ticks(self, time_s: float) -> tuple[ArmController | None, float]:
         """(the platform's controller, until when) where the coming ticks would only tick it, as
@@ -172,16 +194,12 @@ class TaskController:
         (`compiled_camera`); while the operator waits for a picture, until he can have seen one.
         (None, ...): `tick` must run (twin/compiled_loop.py)."""
         c = self.controller
-        if (
-            self._plant is not None
-            or self._stop is not None
-            or (c.faulted and self.operator is not None and 0 <= self.k < len(self.targets))
-        ):
+        if self._plant is not None or self.state is TaskState.STOP_DRIVE or self._fault_to_clear():
             return None, time_s
         until = math.inf
         if self.camera is not None and not self._camera_compiled:
             until = self.camera.next_frame_s
-        if c.done and not c.faulted and self.k < len(self.targets):
+        if self._platform_at_rest():
             # waiting for the operator's picture: until he can have seen one (the frames are taken
             # in compiled code meanwhile; when they are not, `until` stops at each already)
             until = min(until, self._waiting_until(time_s))
@@ -196,18 +214,9 @@ class TaskController:
         return self.camera.compiled_state()
 
     def _waiting_until(self, time_s: float) -> float:
-        """Until when `_between_targets` only waits for the operator's picture of the arm at rest
-        (`time_s`: it does more now)."""
-        k = self.k
-        if (
-            k < 0
-            or not self.reached[k]
-            or self._backing_out
-            or self._repressing
-            or self._retreating
-            or self.operator is None
-            or not (self._is_looked_at(k) or self._is_press(k))
-        ):
+        """Until when the task, the platform at rest, only waits for the operator's picture of the
+        arm (`time_s`: it does more now)."""
+        if self.state not in LOOKS:
             return time_s
         return self.operator.review_due_s(self._review_from_s)
 
@@ -229,111 +238,247 @@ class TaskController:
         merged = self.controller.events + self._notes + (self.operator.log if self.operator else [])
         return sorted(merged, key=_event_time)
 
-    # -- sequencing ----------------------------------------------------------------------------
-    def _between_targets(self, t: float) -> None:
-        if self.k >= 0 and not self.reached[self.k]:
-            self.reached[self.k] = True
-            self.finished_s[self.k] = t
-            self._review_from_s = t
-        if self._repressing:
-            # out of the press to touching distance: the press again, by what he saw, as the first one
-            self._repressing = False
-            self._issue(self.k, self.scenario.targets[self.k].dwell_s)
-            self._review_from_s = math.inf  # set when this press is done
-            self.reached[self.k] = False
-            return
-        if self._retreating:
-            # backed off from a look he did not believe: in again, to look afresh
-            self._retreating = False
-            self._issue(self.k, dwell_s=0.0, pressed=True)
-            self._review_from_s = math.inf
-            self.reached[self.k] = False
-            return
-        if self.k >= 0 and self.operator is not None and self._is_press(self.k):
-            # he looks at the press as he looks at every standoff; if it is off, he backs out to
-            # touching distance (out of the rim first, wrist held) and presses again from there: a
-            # corrected press made from inside the first one (shoulder and elbow together, the brush
-            # on the rim) can lift the head off and swing its side onto the disc's rim (682 N seen
-            # on disc 1, as-built arm at 0.5 MPa)
-            target = self.scenario.targets[self.k]
-            verdict = self.operator.review_press(t, self._review_from_s, target.brush_at_disc, -target.standoff_m)
-            if verdict is None:
-                return  # waiting to see the arm pressed
-            if verdict:
-                self._repressing = True
-                self._notes.append(
-                    f"t = {t:.3f} s: disc_{target.brush_at_disc}: operator backs out to "
-                    f"{TOUCH_STANDOFF_M * 100:.0f} cm to press again"
-                )
-                self._issue(self.k, dwell_s=0.0, pressed=True)
-                self._review_from_s = math.inf  # set when the press again is done
-                self.reached[self.k] = False
-                return
-        if self._backing_out:
-            # out of the press to touching distance: now the plan's back-off, out of the rim first too
-            # (2 cm off it, joints turning one after another swung the brush back onto disc 1's rim
-            # at 153 N under a slightly different integration of the air, as-built, 0.6 MPa)
-            self._backing_out = False
-            self._issue(self.k, dwell_s=0.0, pressed=True)
-            self.reached[self.k] = False
-            return
-        if self.k >= 0 and self.operator is not None and self._is_looked_at(self.k):
-            # he looks wherever the brush stands clear of a disc (not only before a press): a drift
-            # left until the next press has by then rammed a disc on the way
-            target = self.scenario.targets[self.k]
-            verdict = self.operator.review(
-                t,
-                self._review_from_s,
-                target.brush_at_disc,
-                self._standoff_m(self.k) if target.brush_at_disc else math.inf,
-                self.controller,
-                aim=self._is_approach(self.k),
-            )
-            if verdict is None:
-                return  # waiting to see the arm at rest
-            if self.operator.implausible:
-                verdict = self._stop_and_back_off(t, target)
-            elif not verdict and self._is_approach(self.k):
-                verdict = self._close_in(t, target)
-            if verdict:
-                # backing off from a look he does not believe: the joints that draw the brush out of
-                # the rim first (the elbow's drop that the look asks for, with the others, brought
-                # the head down on the rim's edge from 5 cm off it)
-                self._issue(self.k, dwell_s=0.0, pressed=self._retreating)
-                self._review_from_s = math.inf  # set when this correction is done
-                self.reached[self.k] = False
-                return
-        if (
-            self.k >= 0
-            and self.strategy == "rereference"
-            and self._is_back_off(self.k)
-            and self.k not in self._stopped_after
-        ):
-            self._stopped_after.add(self.k)
-            if self._start_stop_drive(t):
-                return
-        self.k += 1
-        if self._skip_press:
-            self._skip_press = False
-            self.k += 1
-        if self.k < len(self.targets):
-            # the operator backs out of a press the way he went in, to touching distance with the
-            # wrist held, before the plan's back-off: the back-off whole (7.5 cm, a 16 deg shoulder
-            # and 9 deg elbow move at disc 1) let the faster elbow swing the brush back onto the rim
-            # on the way out (57 N, as-built, 0.6 MPa)
-            self._backing_out = self.operator is not None and self._is_back_off(self.k)
-            if self._backing_out:
-                disc = self.scenario.targets[self.k].brush_at_disc
-                self._notes.append(
-                    f"t = {t:.3f} s: disc_{disc}: operator backs out to {TOUCH_STANDOFF_M * 100:.0f} cm, wrist held"
-                )
-            self._issue(self.k, self.scenario.targets[self.k].dwell_s, pressed=self._backing_out)
+    # -- the state machine ---------------------------------------------------------------------
+    def _decide(self, t: float) -> None:
+        """The platform at rest: take the transitions due now (one after another while the arm is
+        at rest, `AT_REST`), until a move is sent or the task waits for a picture."""
+        while self.fire(t) and self.state in AT_REST:
+            pass
 
-    def _issue(self, k: int, dwell_s: float, pressed: bool = False) -> None:
-        """Send target k; `pressed`: the brush is in a press or at touching distance from the rim now
+    def fire(self, t: float) -> Transition | None:
+        """Do what the state does when asked (`BEHAVIOURS`), then take its first row whose condition
+        holds; the row taken (None: none holds, the task stays)."""
+        behaviour = BEHAVIOURS.get(self.state)
+        if behaviour is not None:
+            behaviour(self, t)
+        for row in ROWS[self.state]:
+            if row.when(self, t):
+                log.debug(
+                    "t = %.3f s: target %d: %s -> %s (%s; %s)",
+                    t,
+                    self.k,
+                    row.source.name,
+                    row.target.name,
+                    name_of(row.when),
+                    name_of(row.action),
+                )
+                self.state = row.target
+                if row.action is not None:
+                    row.action(self, t)
+                return row
+        return None
+
+    # what a state does when asked
+    def _arrive(self, t: float) -> None:
+        """The platform has finished the move to target k: noted, and his look is of a picture after now."""
+        self.reached[self.k] = True
+        self.finished_s[self.k] = t
+        self._review_from_s = t
+
+    def _look(self, t: float) -> None:
+        """He looks wherever the brush stands clear of a disc (not only before a press: a drift left
+        until the next press has by then rammed a disc on the way), and at the plan's last pose."""
+        target = self.scenario.targets[self.k]
+        self._seen = self.operator.review(
+            t,
+            self._review_from_s,
+            target.brush_at_disc,
+            self._standoff_m(self.k) if target.brush_at_disc else math.inf,
+            self.controller,
+            aim=self._is_approach(self.k),
+        )
+        self._why = self.operator.implausible if self._seen is not None else ""
+
+    def _look_at_press(self, t: float) -> None:
+        """He looks at the press as he looks at every standoff (the head's stroke)."""
+        target = self.scenario.targets[self.k]
+        self._seen = self.operator.review_press(t, self._review_from_s, target.brush_at_disc, -target.standoff_m)
+        self._why = ""
+
+    # conditions
+    def _always(self, t: float) -> bool:
+        return True
+
+    def _plan_done(self, t: float) -> bool:
+        """No target after k."""
+        return self.k + 1 >= len(self.targets)
+
+    def _back_off_after_press(self, t: float) -> bool:
+        """The next target is the plan's back-off from a press, with the operator: he backs out of the
+        press the way he went in, to touching distance with the wrist held, first (the back-off whole,
+        7.5 cm, a 16 deg shoulder and 9 deg elbow move at disc 1, let the faster elbow swing the brush
+        back onto the rim on the way out: 57 N, as-built, 0.6 MPa)."""
+        return self.operator is not None and self._is_back_off(self.k + 1)
+
+    def _press_to_look_at(self, t: float) -> bool:
+        return self.operator is not None and self._is_press(self.k)
+
+    def _pose_to_look_at(self, t: float) -> bool:
+        return self.operator is not None and self._is_looked_at(self.k)
+
+    def _stop_to_drive_into(self, t: float) -> bool:
+        """Rereference, after the back-off from a disc, where the elbow stays in its range with the
+        shoulder at its upper stop (the parallelogram holds the forearm's pitch while it turns)."""
+        if self.strategy != "rereference" or not self._is_back_off(self.k):
+            return False
+        c = self.controller
+        i, e = c.joints.index(STOP_JOINT), c.joints.index("elbow_pitch")
+        elbow_relative = c.predicted_angles()[e] - float(c.arm.joint_upper[i])
+        return elbow_relative >= c.arm.joint_lower[e] + ELBOW_MARGIN_RAD
+
+    def _stop_settled(self, t: float) -> bool:
+        return t >= self._stop.settle_until_s
+
+    def _not_believed_clear_of_string(self, t: float) -> bool:
+        """A look he does not believe (`Operator.implausible`) with the brush off the string or
+        already clear of it: he goes to the target again from where it is."""
+        disc = self.scenario.targets[self.k].brush_at_disc
+        return bool(self._why) and (not disc or self._standoff_m(self.k) >= CLEAR_M)
+
+    def _not_believed(self, t: float) -> bool:
+        """A look he does not believe, near the string, up to STOPS_PER_DISC times on a disc: he backs
+        off to CLEAR_M and comes in again, looking at each standoff."""
+        disc = self.scenario.targets[self.k].brush_at_disc
+        return bool(self._why) and self._stopped_on.count(disc) < STOPS_PER_DISC
+
+    def _not_believed_again_before_press(self, t: float) -> bool:
+        """A look he does not believe once more than STOPS_PER_DISC on a disc, a press to come: he
+        leaves the disc unpressed."""
+        return bool(self._why) and self._is_approach(self.k)
+
+    def _not_believed_again(self, t: float) -> bool:
+        """... no press to come: he goes on."""
+        return bool(self._why)
+
+    def _moved(self, t: float) -> bool:
+        """He reset the platform's belief or moved his aim: the arm is sent there again."""
+        return self._seen is True
+
+    def _placed(self, t: float) -> bool:
+        """Close enough (or out of looks)."""
+        return self._seen is False
+
+    def _placed_to_close_in(self, t: float) -> bool:
+        """Placed at an approach further off the rim than TOUCH_STANDOFF_M: he closes in and looks again."""
+        return self._seen is False and self._is_approach(self.k) and self._plan_standoff_m() > TOUCH_STANDOFF_M
+
+    def _placed_off_for_press(self, t: float) -> bool:
+        """Out of looks at touching distance with the brush further off than the press can take
+        (PRESS_MISS_M): he backs off to the plan's standoff and comes in again, once per disc (a press
+        aimed by a last look 3.3 cm off rammed disc 8 with 408 N, 0.8 MPa)."""
+        return self._seen is False and self.operator.last_miss_m > PRESS_MISS_M
+
+    def _placed_off_for_press_again(self, t: float) -> bool:
+        """... a second time on the disc: he leaves it unpressed."""
+        disc = self.scenario.targets[self.k].brush_at_disc
+        return self._placed_off_for_press(t) and disc in self._came_in_again
+
+    def _press_off(self, t: float) -> bool:
+        """The press seen off by more than his tolerance: he presses again."""
+        return self._seen is True
+
+    def _pressed_at_last_pose(self, t: float) -> bool:
+        """Pressed as planned at the plan's last target, where he looks at the pose the arm is left in."""
+        return self._seen is False and self._pose_to_look_at(t)
+
+    # actions
+    def _next_target(self, t: float) -> None:
+        self.k += 1
+        self._send(self.scenario.targets[self.k].dwell_s)
+
+    def _back_out_of_press(self, t: float) -> None:
+        self.k += 1
+        disc = self.scenario.targets[self.k].brush_at_disc
+        self._notes.append(
+            f"t = {t:.3f} s: disc_{disc}: operator backs out to {TOUCH_STANDOFF_M * 100:.0f} cm, wrist held"
+        )
+        self._send(self.scenario.targets[self.k].dwell_s, pressed=True)
+
+    def _finish(self, t: float) -> None:
+        self.k += 1
+
+    def _back_off_as_planned(self, t: float) -> None:
+        """Out of the press to touching distance: now the plan's back-off, out of the rim first too (2 cm
+        off it, joints turning one after another swung the brush back onto disc 1's rim at 153 N under a
+        slightly different integration of the air, as-built, 0.6 MPa)."""
+        self._send(0.0, pressed=True)
+
+    def _go_again(self, t: float) -> None:
+        self._send(0.0)
+
+    def _close_in(self, t: float) -> None:
+        disc = self.scenario.targets[self.k].brush_at_disc
+        self._notes.append(
+            f"t = {t:.3f} s: disc_{disc}: operator closes in to {TOUCH_STANDOFF_M * 100:.0f} cm before the press"
+        )
+        self._send(0.0)
+
+    def _come_in_again(self, t: float) -> None:
+        disc, standoff = self.scenario.targets[self.k].brush_at_disc, self._plan_standoff_m()
+        self._came_in_again.add(disc)
+        self._notes.append(
+            f"t = {t:.3f} s: disc_{disc}: operator backs off to {standoff * 100:.0f} cm "
+            f"and comes in again (seen {self.operator.last_miss_m * 100:.1f} cm off)"
+        )
+        self._send(0.0)
+
+    def _leave_unpressed_off(self, t: float) -> None:
+        disc = self.scenario.targets[self.k].brush_at_disc
+        self._notes.append(
+            f"t = {t:.3f} s: disc_{disc}: operator leaves the disc unpressed "
+            f"(seen {self.operator.last_miss_m * 100:.1f} cm off again)"
+        )
+        self.k += 1  # past the press
+
+    def _stop_and_go_again(self, t: float) -> None:
+        disc = self.scenario.targets[self.k].brush_at_disc
+        self._notes.append(f"t = {t:.3f} s: disc_{disc}: operator stops ({self._why}), clear of the string")
+        self._send(0.0)
+
+    def _stop_and_retreat(self, t: float) -> None:
+        """Backing off from a look he does not believe: the joints that draw the brush out of the rim
+        first (the elbow's drop that the look asks for, with the others, brought the head down on the
+        rim's edge from 5 cm off it)."""
+        disc = self.scenario.targets[self.k].brush_at_disc
+        self._stopped_on.append(disc)
+        self._notes.append(
+            f"t = {t:.3f} s: disc_{disc}: operator stops ({self._why}), backs off to {CLEAR_M * 100:.0f} cm "
+            "and comes in again to look afresh"
+        )
+        self._send(0.0, pressed=True)
+
+    def _come_in_after_retreat(self, t: float) -> None:
+        """Backed off from a look he did not believe: in again, to look afresh."""
+        self._send(0.0, pressed=True)
+
+    def _leave_unpressed_not_believed(self, t: float) -> None:
+        disc = self.scenario.targets[self.k].brush_at_disc
+        self._notes.append(f"t = {t:.3f} s: disc_{disc}: operator leaves the disc unpressed ({self._why} again)")
+        self.k += 1  # past the press
+
+    def _back_out_to_press_again(self, t: float) -> None:
+        """The press seen off: he backs out to touching distance (out of the rim first, wrist held) and
+        presses again from there: a corrected press made from inside the first one (shoulder and elbow
+        together, the brush on the rim) can lift the head off and swing its side onto the disc's rim
+        (682 N seen on disc 1, as-built arm at 0.5 MPa)."""
+        disc = self.scenario.targets[self.k].brush_at_disc
+        self._notes.append(
+            f"t = {t:.3f} s: disc_{disc}: operator backs out to {TOUCH_STANDOFF_M * 100:.0f} cm to press again"
+        )
+        self._send(0.0, pressed=True)
+
+    def _press_again(self, t: float) -> None:
+        """Out of the press to touching distance: the press again, by what he saw, as the first one."""
+        self._send(self.scenario.targets[self.k].dwell_s)
+
+    def _send(self, dwell_s: float, pressed: bool = False) -> None:
+        """Send target k (as the state the task is in places it: `_standoff_m`), not reached until the
+        platform says so; `pressed`: the brush is in a press or at touching distance from the rim now
         (see `_out_of_the_rim_first`)."""
+        k = self.k
         target = self._aimed(k)
         self.issued[k] = target
+        self.reached[k] = False
         self.controller.expect_press(*self._expected_surface(k))
         steps = self._out_of_the_rim_first(target) if pressed else [target]
         try:
@@ -371,60 +516,6 @@ class TaskController:
         mujoco.mj_kinematics(self.model, d)
         return d.site("brush_tip").xpos.copy()
 
-    def _stop_and_back_off(self, t: float, target) -> bool:
-        """He saw the arm too far from the platform's belief to correct it near the rim
-        (`Operator.implausible`): True to back off to CLEAR_M and come in again, looking at each
-        standoff, up to STOPS_PER_DISC times on a disc; then he leaves the disc unpressed (on a
-        target with no press to come, he goes on). Already clear of the string, he goes again."""
-        disc, why = target.brush_at_disc, self.operator.implausible
-        self.operator.implausible = ""
-        if not disc or self._standoff_m(self.k) >= CLEAR_M:  # already clear of the string: he goes again from here
-            self._notes.append(f"t = {t:.3f} s: disc_{disc}: operator stops ({why}), clear of the string")
-            return True
-        self._closing_in = False
-        if self._stopped_on.count(disc) < STOPS_PER_DISC:
-            self._stopped_on.append(disc)
-            self._retreating = True
-            self._notes.append(
-                f"t = {t:.3f} s: disc_{disc}: operator stops ({why}), backs off to {CLEAR_M * 100:.0f} cm "
-                "and comes in again to look afresh"
-            )
-            return True
-        if self._is_approach(self.k):
-            self._skip_press = True
-            self._notes.append(f"t = {t:.3f} s: disc_{disc}: operator leaves the disc unpressed ({why} again)")
-        return False
-
-    def _close_in(self, t: float, target) -> bool:
-        """Placed at an approach: True to go there again. From the plan's standoff he closes in to
-        TOUCH_STANDOFF_M and looks again; from there he presses, unless he ran out of looks with
-        the brush further off than the press can take (PRESS_MISS_M): then he backs off to the
-        plan's standoff and comes in again, once per disc (a press aimed by a last look 3.3 cm off
-        rammed disc 8 with 408 N, 0.8 MPa); a second time, he leaves the disc unpressed."""
-        disc = target.brush_at_disc
-        if self._closing_in and self.operator.last_miss_m > PRESS_MISS_M:
-            self._closing_in = False
-            if disc in self._came_in_again:
-                # still too far off the second time: he does not press this disc at all
-                self._skip_press = True
-                self._notes.append(
-                    f"t = {t:.3f} s: disc_{disc}: operator leaves the disc unpressed "
-                    f"(seen {self.operator.last_miss_m * 100:.1f} cm off again)"
-                )
-                return False
-            self._came_in_again.add(disc)
-            self._notes.append(
-                f"t = {t:.3f} s: disc_{disc}: operator backs off to {target.standoff_m * 100:.0f} cm "
-                f"and comes in again (seen {self.operator.last_miss_m * 100:.1f} cm off)"
-            )
-            return True
-        self._closing_in = not self._closing_in and target.standoff_m > TOUCH_STANDOFF_M
-        if self._closing_in:
-            self._notes.append(
-                f"t = {t:.3f} s: disc_{disc}: operator closes in to {TOUCH_STANDOFF_M * 100:.0f} cm before the press"
-            )
-        return self._closing_in
-
     def _expected_surface(self, k: int) -> tuple[np.ndarray | None, np.ndarray | None]:
         """The rim target k works at, as the platform's load model should expect it (the plan's
         rim, moved by the operator's aim: where he has placed it in the platform's belief), and
@@ -439,13 +530,17 @@ class TaskController:
         return surface, normal
 
     def _standoff_m(self, k: int) -> float:
-        """Where target k holds the brush's face off its disc's rim (closer while closing in, clear
-        while backing off from a look he did not believe)."""
-        if self._retreating:
+        """Where target k holds the brush's face off its disc's rim in the state the task is in: at
+        touching distance closing in, backing out of a press or out to press again; clear of the
+        string retreating; else the plan's."""
+        if self.state is TaskState.RETREATING:
             return max(self.scenario.targets[k].standoff_m, CLEAR_M)
-        if self._closing_in or self._backing_out or self._repressing:
+        if self.state in AT_TOUCHING_DISTANCE:
             return TOUCH_STANDOFF_M
         return self.scenario.targets[k].standoff_m
+
+    def _plan_standoff_m(self) -> float:
+        return self.scenario.targets[self.k].standoff_m
 
     def _aimed(self, k: int) -> dict[str, float]:
         """Target k as sent: the plan's, aimed by the operator where he looks (a joint he left where
@@ -537,20 +632,16 @@ class TaskController:
         )
 
     # -- re-referencing at a known stop -----------------------------------------------------------
-    def _start_stop_drive(self, t: float) -> bool:
+    def _start_stop_drive(self, t: float) -> None:
         c = self.controller
         i = c.joints.index(STOP_JOINT)
-        e = c.joints.index("elbow_pitch")
         stop = float(c.arm.joint_upper[i])
-        theta = c.predicted_angles()
-        elbow_relative = theta[e] - stop  # the parallelogram holds the forearm's pitch while the shoulder turns
-        if elbow_relative < c.arm.joint_lower[e] + ELBOW_MARGIN_RAD:
-            return False
-        drive_s = STOP_DRIVE_S + STOP_DRIVE_S_PER_RAD * max(stop - theta[i], 0.0)
+        drive_s = STOP_DRIVE_S + STOP_DRIVE_S_PER_RAD * max(stop - c.predicted_angles()[i], 0.0)
         self._stop = _StopDrive(i, stop, t + drive_s, t + drive_s + STOP_SETTLE_S)
-        return True
 
     def _drive_into_stop(self, sensors) -> np.ndarray:
+        """The stop drive's commands this tick (the joint driven open loop, then braked to settle),
+        the platform's controller ticked alongside; settled, the task goes on (`_re_reference`)."""
         s, t = self._stop, float(sensors.time_s)
         c = self.controller
         self.controller.tick(sensors)  # keeps predicting (with its valves shut: its prediction is reset below)
@@ -559,16 +650,20 @@ class TaskController:
             self._commands[s.joint, C_DIRECTION] = 1.0
             self._commands[s.joint, C_PV_SET_GAUGE_PA] = max(float(sensors.supply_pa) - c.gas.p_atm_pa, 0.0)
             self._commands[s.joint, C_BRAKE_RELEASE] = 1.0
-            return self._commands
-        if t >= s.settle_until_s:
-            before = math.degrees(c.predicted_angles()[s.joint])
-            c.reference(c.joints[s.joint], s.stop_rad)
-            self._notes.append(
-                f"t = {t:.3f} s: {c.joints[s.joint]} re-referenced at its stop {math.degrees(s.stop_rad):.2f} deg "
-                f"(predicted {before:.2f} deg)"
-            )
-            self._stop = None
+        else:
+            self.fire(t)
         return self._commands
+
+    def _re_reference(self, t: float) -> None:
+        """Settled at the stop: the joint's predicted angle set to it."""
+        s, c = self._stop, self.controller
+        before = math.degrees(c.predicted_angles()[s.joint])
+        c.reference(c.joints[s.joint], s.stop_rad)
+        self._notes.append(
+            f"t = {t:.3f} s: {c.joints[s.joint]} re-referenced at its stop {math.degrees(s.stop_rad):.2f} deg "
+            f"(predicted {before:.2f} deg)"
+        )
+        self._stop = None
 
     # -- what the run reached ------------------------------------------------------------------
     def active_target(self) -> dict[str, float]:
@@ -577,6 +672,55 @@ class TaskController:
         for k in range(0, min(self.k, len(self.issued) - 1) + 1):
             out.update(self.issued[k])
         return out
+
+
+S, C = TaskState, TaskController
+# The task's transitions (docs/task_states.md draws them): of a state's rows the first whose
+# condition holds is taken, its action done with the task in the row's target state.
+TRANSITIONS: tuple[Transition, ...] = (
+    Transition(S.START, C._always, S.GOING_ON),
+    Transition(S.GOING_ON, C._plan_done, S.FINISHED, C._finish),
+    Transition(S.GOING_ON, C._back_off_after_press, S.BACKING_OUT, C._back_out_of_press),
+    Transition(S.GOING_ON, C._always, S.MOVING, C._next_target),
+    Transition(S.MOVING, C._press_to_look_at, S.LOOKING_AT_PRESS),
+    Transition(S.MOVING, C._pose_to_look_at, S.LOOKING),
+    Transition(S.MOVING, C._stop_to_drive_into, S.STOP_DRIVE, C._start_stop_drive),
+    Transition(S.MOVING, C._always, S.GOING_ON),
+    Transition(S.LOOKING, C._not_believed_clear_of_string, S.MOVING, C._stop_and_go_again),
+    Transition(S.LOOKING, C._not_believed, S.RETREATING, C._stop_and_retreat),
+    Transition(S.LOOKING, C._not_believed_again_before_press, S.GOING_ON, C._leave_unpressed_not_believed),
+    Transition(S.LOOKING, C._not_believed_again, S.GOING_ON),
+    Transition(S.LOOKING, C._moved, S.MOVING, C._go_again),
+    Transition(S.LOOKING, C._placed_to_close_in, S.CLOSING_IN, C._close_in),
+    Transition(S.LOOKING, C._placed, S.GOING_ON),
+    Transition(S.CLOSING_IN, C._always, S.LOOKING_CLOSE),
+    Transition(S.LOOKING_CLOSE, C._not_believed, S.RETREATING, C._stop_and_retreat),
+    Transition(S.LOOKING_CLOSE, C._not_believed_again, S.GOING_ON, C._leave_unpressed_not_believed),
+    Transition(S.LOOKING_CLOSE, C._moved, S.CLOSING_IN, C._go_again),
+    Transition(S.LOOKING_CLOSE, C._placed_off_for_press_again, S.GOING_ON, C._leave_unpressed_off),
+    Transition(S.LOOKING_CLOSE, C._placed_off_for_press, S.MOVING, C._come_in_again),
+    Transition(S.LOOKING_CLOSE, C._placed, S.GOING_ON),
+    Transition(S.RETREATING, C._always, S.MOVING, C._come_in_after_retreat),
+    Transition(S.LOOKING_AT_PRESS, C._press_off, S.OUT_TO_PRESS_AGAIN, C._back_out_to_press_again),
+    Transition(S.LOOKING_AT_PRESS, C._pressed_at_last_pose, S.LOOKING),
+    Transition(S.LOOKING_AT_PRESS, C._placed, S.GOING_ON),
+    Transition(S.OUT_TO_PRESS_AGAIN, C._always, S.MOVING, C._press_again),
+    Transition(S.BACKING_OUT, C._always, S.MOVING, C._back_off_as_planned),
+    Transition(S.STOP_DRIVE, C._stop_settled, S.GOING_ON, C._re_reference),
+)
+ROWS = rows_from(TRANSITIONS)
+# what a state does each time the task is asked in it, before its rows are tried: a move's state
+# notes the arrival (the task is asked only once the platform is done), a look's state looks
+MOVES = (S.MOVING, S.CLOSING_IN, S.RETREATING, S.BACKING_OUT, S.OUT_TO_PRESS_AGAIN)
+LOOKS = (S.LOOKING, S.LOOKING_CLOSE, S.LOOKING_AT_PRESS)
+BEHAVIOURS = {
+    **dict.fromkeys(MOVES, C._arrive),
+    S.LOOKING: C._look,
+    S.LOOKING_CLOSE: C._look,
+    S.LOOKING_AT_PRESS: C._look_at_press,
+}
+# the states in which a target is placed at TOUCH_STANDOFF_M off its rim (`_standoff_m`)
+AT_TOUCHING_DISTANCE = (S.CLOSING_IN, S.LOOKING_CLOSE, S.BACKING_OUT, S.OUT_TO_PRESS_AGAIN)
 
 
 def _event_time(event: str) -> float:
