@@ -29,9 +29,9 @@ from gap.diagnose import diagnose
 from gap.effects import BY_NAME, CATALOGUE
 from gap.result import Diagnosis
 from gap.verdict import families_of
-from twin.checks import BENCH_SEEDS, BENCH_SHIFT, check_number
-from twin.errors import UserError
-from twin.outputs import write_atomic
+from twin_plumbing.checks import BENCH_SEEDS, BENCH_SHIFT, check_number
+from twin_plumbing.errors import UserError
+from twin_plumbing.outputs import write_atomic
 
 KINDS = ("single", "form", "pair", "outside", "none")
 
@@ -381,7 +381,7 @@ def make_case_campaign(
 
 def check_variant(variant: Variant) -> None:
     """Refuse (UserError) a protocol the library does not have, a shift or seed offset out of its range
-    (twin.checks, as the command line's flags)."""
+    (twin_plumbing.checks, as the command line's flags)."""
     names = tuple(protocols.library(0.5))
     if variant.protocol is not None and variant.protocol not in names:
         raise UserError(f"--protocol {variant.protocol!r}: no such protocol; allowed: {', '.join(names)}")

@@ -49,12 +49,12 @@ from pydantic import BaseModel, ValidationError
 
 import assets
 from pneumatics import load_joint_params
-from pneumatics.fields import FLAG, MISSING, REAL, TABLE, TEXT, Problem, choice, first_problem, number, read_toml
 from pneumatics.gas import AIR
 from pneumatics.params import SPEC
-from pneumatics.paths import input_problem, path_problem
-from twin.errors import UserError
 from twin.mcap_log import read_mcap
+from twin_plumbing.errors import UserError
+from twin_plumbing.fields import FLAG, MISSING, REAL, TABLE, TEXT, Problem, choice, first_problem, number, read_toml
+from twin_plumbing.paths import input_problem, path_problem
 
 REQUIRED_COLUMNS = ("time_s", "direction", "brake_released", "supply_pa", "angle_rad")
 OPTIONAL_COLUMNS = ("valve_set_gauge_pa", "valve_opening", "p_a_pa", "p_b_pa")

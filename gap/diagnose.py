@@ -66,7 +66,7 @@ from gap.result import (
 )
 from gap.stats import bootstrap_ci, normalised_rms, residual_vector, rms_ci_deg, rms_deg, rms_kpa
 from pneumatics import JointParams, load_joint_params, params_row
-from twin.cluster import dask_client
+from twin_plumbing.cluster import dask_client
 
 # The angle's model tolerance (below it a residual is no gap): twice the worst replay-vs-plant rms
 # over the protocol library (gap.protocols, measured per protocol), not one motion's.

@@ -11,8 +11,8 @@ from gap.diagnose import MODEL_TOLERANCE_DEG as DEFAULT_TOLERANCE_DEG
 from gap.diagnose import diagnose
 from gap.report import write
 from gap.result import Diagnosis
-from twin.checks import JOBS, MODEL_TOLERANCE_DEG, check_number
-from twin.outputs import OutputLock, check_output, publish_folder
+from twin_plumbing.checks import JOBS, MODEL_TOLERANCE_DEG, check_number
+from twin_plumbing.outputs import OutputLock, check_output, publish_folder
 
 
 def run_diagnose(

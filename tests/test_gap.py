@@ -789,7 +789,7 @@ def test_bench_under_a_variant_of_its_settings(tmp_path):
     slice on the paper's moves, with the instrument of the case one place along and another seed;
     bench.json says so. A protocol the library lacks is refused before any work."""
     from gap.bench import QUICK, Variant, cases, check_variant, run_bench, setting
-    from twin.errors import UserError
+    from twin_plumbing.errors import UserError
 
     i = [c.name for c in cases()].index("none_1")
     _, inst, _ = setting(i + 1, cases()[i], np.random.default_rng(1000 + i))

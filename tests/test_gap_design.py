@@ -115,7 +115,7 @@ def test_design_without_a_campaign_needs_a_joint_and_an_instrument(tmp_path):
     """`twin gap design --out DIR` with neither a campaign nor --joint is refused in one line naming what
     is allowed, before any work; so is a campaign given with --instrument."""
     from gap.design_cli import run_design
-    from twin.errors import UserError
+    from twin_plumbing.errors import UserError
 
     with pytest.raises(UserError, match=r"--joint \(one of base_yaw.*got None\) and --instrument"):
         run_design(None, tmp_path / "out", None, "camera")

@@ -32,13 +32,14 @@ import assets
 import twin.plant
 from gap import protocols, synth
 from gap.replay import replay_run
-from pneumatics import ParameterError, load_joint_params, params_row, vane_torque
 from pneumatics import joint as J
+from pneumatics import load_joint_params, params_row, vane_torque
 from pneumatics import params as P
 from pneumatics.brake import brake_feed_gauge_pa, brake_target
 from pneumatics.reducer import damping, is_rigid, stiffness, transmitted_torque
 from twin.model import warning_counts
 from twin.plant import Plant
+from twin_plumbing.errors import ParameterError
 
 P_ATM = 101_325.0
 SUPPLY_05 = P_ATM + 0.5e6  # the paper's "0.5 MPa" is gauge

@@ -1,6 +1,6 @@
 """Checked numbers and places on the command line: an argparse `type` that refuses NaN, infinities
 and values out of range with what is allowed (argparse adds the flag's name), by the ranges of
-twin.checks, which the Python API checks with, in the words of pneumatics.fields.range_text; and
+twin_plumbing.checks, which the Python API checks with, in the words of twin_plumbing.fields.range_text; and
 one that refuses an empty place."""
 
 from __future__ import annotations
@@ -8,8 +8,8 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from pneumatics.fields import range_text
-from twin.checks import WORKERS, problem
+from twin_plumbing.checks import WORKERS, problem
+from twin_plumbing.fields import range_text
 
 
 def number(low: float, high: float, unit: str = "", *, above: bool = False, integer: bool = False):

@@ -6,10 +6,10 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-from twin.checks import BENCH_SEEDS, DURATION_S, JOBS
-from twin.errors import UserError
-from twin.outputs import OutputLock, check_output
 from twin_cli.args import number, place
+from twin_plumbing.checks import BENCH_SEEDS, DURATION_S, JOBS
+from twin_plumbing.errors import UserError
+from twin_plumbing.outputs import OutputLock, check_output
 
 INSTRUMENTS = ("camera", "encoder")
 

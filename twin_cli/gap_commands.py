@@ -4,11 +4,11 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from twin.checks import BENCH_SEEDS, BENCH_SHIFT, JOBS, MODEL_TOLERANCE_DEG
-from twin.outputs import OutputLock, check_output, publish_folder
 from twin_cli import gap_arm_commands
 from twin_cli.args import number, place
 from twin_cli.figures import figure_lines
+from twin_plumbing.checks import BENCH_SEEDS, BENCH_SHIFT, JOBS, MODEL_TOLERANCE_DEG
+from twin_plumbing.outputs import OutputLock, check_output, publish_folder
 
 BENCH_OUTPUTS = ("campaigns", "rounds", "bench.json")  # what `gap bench` writes into DIR, replacing an earlier bench's
 

@@ -7,8 +7,8 @@ from __future__ import annotations
 import math
 import numbers
 
-from pneumatics.fields import range_text
-from twin.errors import UserError
+from twin_plumbing.errors import UserError
+from twin_plumbing.fields import range_text
 
 
 def problem(value, low: float, high: float, above: bool, integer: bool) -> str | None:
