@@ -29,11 +29,14 @@ from gap.diagnose import diagnose
 from gap.effects import BY_NAME, CATALOGUE
 from gap.result import Diagnosis
 from gap.verdict import families_of
-from twin_plumbing.checks import BENCH_SEEDS, BENCH_SHIFT, check_number
+from twin_plumbing.checks import check_number
 from twin_plumbing.errors import UserError
 from twin_plumbing.outputs import write_atomic
 
 KINDS = ("single", "form", "pair", "outside", "none")
+# the ranges of the bench's numbers (check_number), the command line's flags too
+BENCH_SHIFT = {"low": 0, "high": 10**6, "integer": True}  # `twin gap bench --shift`: cases along, a bound against typos
+BENCH_SEEDS = {"low": 0, "high": 10**9, "integer": True}  # `twin gap bench --seeds`: the campaigns' seed offset
 
 
 @dataclass
@@ -381,7 +384,7 @@ def make_case_campaign(
 
 def check_variant(variant: Variant) -> None:
     """Refuse (UserError) a protocol the library does not have, a shift or seed offset out of its range
-    (twin_plumbing.checks, as the command line's flags)."""
+    (BENCH_SHIFT, BENCH_SEEDS, as the command line's flags)."""
     names = tuple(protocols.library(0.5))
     if variant.protocol is not None and variant.protocol not in names:
         raise UserError(f"--protocol {variant.protocol!r}: no such protocol; allowed: {', '.join(names)}")

@@ -6,6 +6,7 @@ one that refuses an empty place."""
 from __future__ import annotations
 
 import argparse
+from collections.abc import Callable
 from pathlib import Path
 
 from twin_plumbing.checks import WORKERS, problem
@@ -26,6 +27,17 @@ def number(low: float, high: float, unit: str = "", *, above: bool = False, inte
         return value
 
     parse.__name__ = "number"  # argparse names the type in some messages
+    return parse
+
+
+def number_from(ranges: Callable[[], dict]):
+    """`number` with the range `ranges()` gives, looked up when a value is given rather than when
+    the parser is built: for the ranges gap/ owns, which takes seconds to import (twin_cli/cli.py)."""
+
+    def parse(text: str):
+        return number(**ranges())(text)
+
+    parse.__name__ = "number"
     return parse
 
 

@@ -6,12 +6,19 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-from twin_cli.args import number, place
-from twin_plumbing.checks import BENCH_SEEDS, DURATION_S, JOBS
+from twin_cli.args import number, number_from, place
+from twin_plumbing.checks import DURATION_S, JOBS
 from twin_plumbing.errors import UserError
 from twin_plumbing.outputs import OutputLock, check_output
 
 INSTRUMENTS = ("camera", "encoder")
+
+
+def seeds_range() -> dict:
+    """gap.bench's range of seeds, imported when a flag is given: importing gap takes seconds (twin_cli/cli.py)."""
+    from gap.bench import BENCH_SEEDS
+
+    return BENCH_SEEDS
 
 
 def register(sub) -> None:
@@ -30,7 +37,7 @@ def register(sub) -> None:
     c.add_argument("--supplies", default="0.5,0.6,0.7,0.8", metavar="MPA,...", help="supplies, gauge MPa")
     c.add_argument("--instrument", choices=INSTRUMENTS, default="camera", help="the angle instrument's model")
     c.add_argument("--duration", type=number(**DURATION_S), default=60.0, metavar="S", help="seconds a run")
-    c.add_argument("--seed", type=number(**BENCH_SEEDS), default=0, metavar="N", help="the instruments' noise")
+    c.add_argument("--seed", type=number_from(seeds_range), default=0, metavar="N", help="the instruments' noise")
     c.set_defaults(func=cmd_arm_campaign)
     d = sub.add_parser("arm-diagnose", help="diagnose an arm campaign into DIR (diagnosis.json)")
     d.add_argument("campaign", help="folder with campaign.toml and the run files")
