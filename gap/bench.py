@@ -32,6 +32,7 @@ from gap.verdict import families_of
 from twin_plumbing.checks import check_number
 from twin_plumbing.errors import UserError
 from twin_plumbing.outputs import write_atomic
+from wrist_rig import commanded_run
 
 KINDS = ("single", "form", "pair", "outside", "none")
 # the ranges of the bench's numbers (check_number), the command line's flags too
@@ -189,7 +190,7 @@ def form_and_pair_cases() -> list[Case]:
 
 def single_cases() -> list[Case]:
     """One catalogue effect hidden in the plant each, with its true value where it has one."""
-    p0 = synth.wrist_params()
+    p0 = commanded_run.wrist_params()
     return [
         Case("hose_loss", "single", {}, ("hose_loss",), twin_hose_loss=False),
         Case("vane_leakage", "single", {"leak_area_m2": 4e-7}, ("vane_leakage",), truth={"vane_leakage": 4e-7}),
@@ -340,7 +341,7 @@ def run_case(
 def round_of(case: Case, seed: int, campaign, diag: Diagnosis, folder: Path, inst, with_p: bool, jobs: int) -> dict:
     """One design round on the case's hidden reality (gap.design_round): its cost and the scores after."""
     catalogue = tuple(e for e in CATALOGUE if e.name not in case.exclude)
-    reality = synth.wrist_params()._replace(**case.reality)
+    reality = commanded_run.wrist_params()._replace(**case.reality)
     again, cost = run_design_round(
         campaign,
         diag,
@@ -367,7 +368,7 @@ def make_case_campaign(
     with_p = with_p if chamber_pressures is None else chamber_pressures
     synth.make_campaign(
         folder,
-        synth.wrist_params()._replace(**case.reality),
+        commanded_run.wrist_params()._replace(**case.reality),
         seed=100 + i + variant.seeds,
         pressures_mpa=pressures,
         twin_hose_loss=case.twin_hose_loss,
@@ -449,7 +450,7 @@ def scores(case: Case, diag: Diagnosis) -> dict:
             r["top1"] = len(named) >= 1 and named[0] in case.expect and w.verdict in ("explained", "ambiguous")
         r["shrink"] = top.heldout_rms_deg / diag.before_rms_deg if top else None
     for eff, true in case.truth.items():
-        nominal = BY_NAME[eff].value_of(synth.wrist_params())
+        nominal = BY_NAME[eff].value_of(commanded_run.wrist_params())
         fitted = [c for c in w.ranking if c.name == eff][0].fitted_values[0]
         r["param"] = {
             "effect": eff,

@@ -54,6 +54,7 @@ from gap.result import Diagnosis
 from gap.verdict import families_of
 from pneumatics import load_joint_params
 from pneumatics.gas import AIR
+from wrist_rig import commanded_run
 
 N_FAMILIES = 4  # the leading families a diagnosis's design tells apart (by the family call's evidence)
 GRID_POINTS = 6  # values per member in a hypothesis's alternatives (gap.diagnose._grid: 7 with 0 on a log grid)
@@ -242,7 +243,7 @@ def planned_run(
     t = np.round(np.arange(0.0, protocol.total_s() + 1e-9, 1e-3), 6)
     d, u, b = protocol.commands(t, supply_mpa * 1e6, k_u_per_pa)
     ts = np.round(np.arange(0.0, t[-1] + 1e-9, 1.0 / rate_hz), 3)
-    tp = np.round(np.arange(0.0, t[-1] + 1e-9, synth.SAMPLE_PERIOD_S), 3) if pressures else np.zeros(0)
+    tp = np.round(np.arange(0.0, t[-1] + 1e-9, commanded_run.SAMPLE_PERIOD_S), 3) if pressures else np.zeros(0)
     return PlannedRun(
         f"{protocol.name}_{int(round(supply_mpa * 100)):03d}",
         supply_mpa,
@@ -439,7 +440,7 @@ def design_before_campaign(
         math.hypot(PRESSURE_NOISE_KPA, worst_tolerance_kpa()) if pressures else None,
     )
     crit = Criterion(twin, hyps, pairs, reading, n_jobs)
-    inertia = nominal_inertia(synth.RIG_INERTIA_KG_M2, params)
+    inertia = nominal_inertia(commanded_run.RIG_INERTIA_KG_M2, params)
     candidates = proposals(twin, list(synth.PRESSURES_MPA), inertia, instrument.rate_hz, pressures)
     ranking, chosen, together = choose(crit, candidates, None, None)
     unseparated = [k for k, s in together.items() if s < SEPARATED_FLOORS]

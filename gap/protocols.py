@@ -8,7 +8,7 @@ partial openings with braked pauses, back-and-forth moves, stop-and-go, and dire
 
 The model tolerance is measured, not assumed: `python -m gap.protocols` runs the nominal plant
 (MuJoCo + pneumatics, twin.plant) through every protocol at every supply of the paper and replays
-the same commands through the one-joint twin (gap.replay); TOLERANCE_DEG holds the rms of the
+the same commands through the one-joint twin (wrist_rig.one_joint); TOLERANCE_DEG holds the rms of the
 difference per protocol as that command printed it. The diagnosis takes twice the worst of them
 as its tolerance (below it a residual is no gap): a campaign's protocol is not declared, and the
 twin must not call its own error on any of them an effect.
@@ -162,17 +162,17 @@ def measure_tolerance(pressures_mpa=(0.5, 0.6, 0.7, 0.8)) -> dict[str, dict]:
     chamber pressures (kPa) over the given supplies, nominal wrist, no instrument noise."""
     # imported here, not at the top: gap.diagnose takes its tolerance from this module (a circle),
     # and only this measurement needs the plant (MuJoCo)
-    from gap import synth
     from gap.campaign import Campaign, Run
     from gap.diagnose import Twin
+    from wrist_rig import commanded_run
 
-    p0 = synth.wrist_params()
+    p0 = commanded_run.wrist_params()
     out = {}
     for name in library(0.5):
         ang, pres = [], []
         for mpa in pressures_mpa:
             proto = library(mpa)[name]
-            run = synth.simulate_run(p0, mpa, proto)
+            run = commanded_run.simulate_run(p0, mpa, proto)
             measured = Run(
                 name,
                 None,
@@ -186,7 +186,11 @@ def measure_tolerance(pressures_mpa=(0.5, 0.6, 0.7, 0.8)) -> dict[str, dict]:
                 run["angle_rad"],
                 {k: run[k] for k in ("p_a_pa", "p_b_pa")},
             )
-            twin = Twin(Campaign(None, synth.JOINT, 0.0, p0.hose_length_m, synth.RIG_INERTIA_KG_M2, None, [measured]))
+            twin = Twin(
+                Campaign(
+                    None, commanded_run.JOINT, 0.0, p0.hose_length_m, commanded_run.RIG_INERTIA_KG_M2, None, [measured]
+                )
+            )
             ((a, p),) = twin.residuals_with([], [0], 0.0).values()
             ang.append(a)
             pres.append(p)

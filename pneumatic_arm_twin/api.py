@@ -13,7 +13,6 @@ import numpy as np
 from gap import CATALOGUE, Campaign, GapError, load_campaign, make_campaign, write_report
 from gap.diagnose import MODEL_TOLERANCE_DEG
 from gap.diagnose import diagnose as _diagnose  # not gap.diagnose: the submodule's name hides gap's function
-from gap.synth import wrist_params
 from scenarios.recording import open_recorders
 from scenarios.runner import run_scenario, scenario_files
 from scenarios.schema import Scenario, ScenarioError, load, with_overrides
@@ -23,6 +22,7 @@ from scenarios.sweep import sweep as _sweep
 from twin.mcap_log import read_mcap
 from twin.pictures import plot_angles_png
 from twin.telemetry import SIGNALS
+from wrist_rig.commanded_run import wrist_params
 
 if TYPE_CHECKING:
     from gap.result import Diagnosis as GapDiagnosis
@@ -235,7 +235,7 @@ def study(
 def synthetic_campaign(reality=None, **kwargs) -> Campaign:
     """A calibration campaign made by the plant (gap.make_campaign's arguments: seed,
     pressures_mpa, repeats, motion, instrument, ...), held in memory: the wrist rig with `reality`
-    (pneumatics JointParams; default the nominal wrist, gap.synth.wrist_params()) as the real
+    (pneumatics JointParams; default the nominal wrist, wrist_rig.commanded_run.wrist_params()) as the real
     arm, each run measured by the campaign's instrument."""
     with tempfile.TemporaryDirectory(prefix="twin-campaign-") as folder:
         return load_campaign(make_campaign(folder, reality or wrist_params(), **kwargs))

@@ -956,13 +956,13 @@ def test_a_signal_met_by_compiled_code_is_still_a_stop():
     line turns into exit 143 or 130."""
     import threading
 
-    from gap import synth
-    from gap.replay import DT_S, replay_run
     from pneumatics import params_row
     from twin_plumbing.errors import Terminated
     from twin_plumbing.signals import stop_behind, stop_on_sigterm
+    from wrist_rig.commanded_run import wrist_params
+    from wrist_rig.one_joint import DT_S, replay_run
 
-    p, n = params_row(synth.wrist_params()), 3
+    p, n = params_row(wrist_params()), 3
     commands = (np.arange(n) * 1.0, np.zeros(n), np.zeros(n), np.zeros(n), np.full(n, 6e5), False, 0.0, 0.02, 0.0)
     replay_run(p, *commands, 0.01, DT_S)  # compiled before the timer starts
     with stop_on_sigterm():
