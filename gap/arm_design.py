@@ -45,7 +45,7 @@ from pneumatics.as_built import load_as_built
 from pneumatics.gas import AIR
 from pneumatics.motor import displacement_per_rad
 
-PRESSURE_PERIOD_S = 0.02  # the platform's port transducers at 50 Hz (scenarios.arm_rehearsal.PRESSURE_PERIOD_S)
+PRESSURE_PERIOD_S = 0.02  # the platform's port transducers at 50 Hz (gap.arm_rehearsal.PRESSURE_PERIOD_S)
 PITCH_JOINTS = ("shoulder_pitch", "elbow_pitch", "wrist_pitch")  # the joints gravity loads
 BASE_YAW_DEG = 40.0  # the base turned away from the insulator string (scenarios/arm_protocols/one_joint.toml)
 # the exercised joint's own angle scanned at these fractions of its range (assets/arm.xml), 15 % in

@@ -16,9 +16,9 @@ from gap.arm_campaign import CAMERA, JOINTS, Reality, add_arm_runs, load_arm_cam
 from gap.arm_design import changed
 from gap.arm_diagnose import twin_of
 from gap.arm_effects import candidate_named
+from gap.arm_rehearsal import make_arm_campaign, play_arm_plan
 from gap.arm_replay import replay
 from gap.design_cli import run_arm_design
-from scenarios.arm_rehearsal import make_arm_campaign, play_arm_plan
 from scenarios.schema import load
 from twin_plumbing.errors import UserError
 

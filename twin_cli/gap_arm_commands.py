@@ -56,7 +56,7 @@ def register(sub) -> None:
 
 def add_bench_options(b) -> None:
     """`twin gap bench`'s options for the arm's bench."""
-    b.add_argument("--arm", action="store_true", help="the arm-level bench (scenarios/arm_bench.py) instead")
+    b.add_argument("--arm", action="store_true", help="the arm-level bench (gap/arm_bench.py) instead")
     b.add_argument(
         "--arm-duration", type=number(**DURATION_S), default=20.0, metavar="S", help="with --arm: seconds a run"
     )
@@ -81,7 +81,7 @@ def _reality(text: str | None):
 
 def cmd_arm_campaign(args) -> int:
     from gap.arm_campaign import CAMERA, ENCODER
-    from scenarios.arm_rehearsal import make_arm_campaign
+    from gap.arm_rehearsal import make_arm_campaign
     from scenarios.schema import load
 
     reality = _reality(args.reality)
@@ -128,7 +128,7 @@ def cmd_arm_diagnose(args) -> int:
 
 
 def cmd_arm_bench(args) -> int:
-    from scenarios.arm_bench import run_arm_bench
+    from gap.arm_bench import run_arm_bench
 
     Path(args.out).mkdir(parents=True, exist_ok=True)
     s = run_arm_bench(

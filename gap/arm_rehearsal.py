@@ -190,7 +190,7 @@ def make_arm_campaign(
         base.reality.arm,
         base.reality.hose_loss,
         reality,
-        comment="rehearsal campaign made by scenarios.arm_rehearsal from the twin's own scenario runs",
+        comment="rehearsal campaign made by gap.arm_rehearsal from the twin's own scenario runs",
     )
     (folder / "campaign.toml").write_text(text)
     return folder
