@@ -344,8 +344,9 @@ def test_the_model_tolerance_is_what_the_replay_misses_on_each_protocol_today():
     replay's disagreement with the plant measured afresh (or the twin calls its own error an
     effect), and none may be stale by more than its rounding (or real gaps hide under it)."""
     from gap import protocols
+    from gap.tolerance import measure_tolerance
 
-    measured = protocols.measure_tolerance()
+    measured = measure_tolerance()
     assert set(measured) == set(protocols.TOLERANCE_DEG) == set(protocols.TOLERANCE_KPA)
     for name, m in measured.items():
         assert m["rms_deg"] <= protocols.TOLERANCE_DEG[name] <= m["rms_deg"] + 0.001 + 1e-9, name
