@@ -89,14 +89,15 @@ class PlannedRun:
 
 
 @dataclass(frozen=True)
-class Twin:
-    """The nominal twin the hypotheses change: its parameters and end stops."""
+class ReplayedJoint:
+    """The joint the hypotheses change, as the one-joint model replays it: the nominal twin's
+    parameters and end stops."""
 
     params: JointParams
     stops: tuple[float, float]
 
 
-def trajectory(twin: Twin, change: Change, run: PlannedRun) -> tuple[np.ndarray, ...]:
+def trajectory(twin: ReplayedJoint, change: Change, run: PlannedRun) -> tuple[np.ndarray, ...]:
     """(t, theta, p_a, p_b) of the twin with `change` through `run`'s commands."""
     p, rig = apply_effects(twin.params, change)
     t_end = max(float(run.time_s[-1]), *run.angle_times_s[-1:], *run.pressure_times_s[-1:])
@@ -127,7 +128,7 @@ class Response:
     pressure: np.ndarray
 
 
-def response(twin: Twin, change: Change, run: PlannedRun, reading: Reading) -> Response:
+def response(twin: ReplayedJoint, change: Change, run: PlannedRun, reading: Reading) -> Response:
     t, th, pa, pb = trajectory(twin, change, run)
     ts = run.angle_times_s
     angle = np.interp(ts[None, :] - reading.latencies_s[:, None], t, th) / math.radians(reading.floor_deg)

@@ -13,7 +13,7 @@ from gap import protocols, synth
 from gap.campaign import load_campaign
 from gap.design import Criterion, Pair, alternatives, choose, hypotheses_of, planned_run
 from gap.diagnose import joint_stops, nominal_inertia
-from gap.discrimination import Hypothesis, Reading, Twin, misfits, response, trajectory
+from gap.discrimination import Hypothesis, Reading, ReplayedJoint, misfits, response, trajectory
 from gap.effects import BY_NAME, CATALOGUE
 from gap.plan import Header, add_runs, play_plan, read_plan, write_plan
 from pneumatics import params_row
@@ -21,7 +21,7 @@ from wrist_rig import commanded_run
 from wrist_rig.one_joint import DT_S, replay_run
 
 P0 = commanded_run.wrist_params()
-TWIN = Twin(P0, joint_stops(commanded_run.JOINT))
+TWIN = ReplayedJoint(P0, joint_stops(commanded_run.JOINT))
 INERTIA = nominal_inertia(commanded_run.RIG_INERTIA_KG_M2, P0)
 READING = Reading(0.3, np.array([0.0, 0.02, 0.04]))
 
