@@ -37,7 +37,7 @@ import assets
 from gap.arm_campaign import JOINTS, ArmCampaign, ArmRun
 from gap.arm_effects import ArmSetup, Candidate, candidates
 from gap.arm_replay import TICK_S, Replay, arm_plant, joint_angles, replay
-from gap.campaign import Run
+from gap.campaign import MeasuredRun
 from gap.diagnose import _parallel
 from gap.where import breakdown, labels_of
 from pneumatics import JointParams, load_joint_params
@@ -253,17 +253,17 @@ def where(
         ts = run.time_s[:n][sampled]
         angle = np.interp(ts, rep.time_s, rep.angle_rad[:, j])
         speed = np.gradient(rep.angle_rad[:, j], rep.time_s)
-        one = Run(
-            run.name,
-            run.path,
-            (float(np.mean(run.supply_pa)) - AIR.p_atm_pa) / 1e6,
-            float(run.start_rad[j]),
-            run.time_s[:n],
-            run.commands[:n, j, 0],
-            run.commands[:n, j, 2],
-            run.commands[:n, j, 1],
-            run.supply_pa[:n],
-            run.angle_rad[:n, j],
+        one = MeasuredRun(
+            name=run.name,
+            path=run.path,
+            supply_mpa=(float(np.mean(run.supply_pa)) - AIR.p_atm_pa) / 1e6,
+            start_rad=float(run.start_rad[j]),
+            time_s=run.time_s[:n],
+            direction=run.commands[:n, j, 0],
+            brake_released=run.commands[:n, j, 2],
+            valve_gauge_pa=run.commands[:n, j, 1],
+            supply_pa=run.supply_pa[:n],
+            angle_rad=run.angle_rad[:n, j],
         )
         lab = labels_of(one, ts, angle, np.interp(ts, rep.time_s, speed))
         poses = _angles_at(rep, ts)

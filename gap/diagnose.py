@@ -46,7 +46,7 @@ from tqdm import tqdm
 import assets
 from control.arm_model import ArmModel
 from gap import instrument, verdict, where
-from gap.campaign import Campaign, GapError, Run
+from gap.campaign import Campaign, GapError, MeasuredRun
 from gap.effects import BY_NAME, CATALOGUE, Effect, Rig
 from gap.instrument import Nuisance
 from gap.members import at_fold_latencies, family_members
@@ -104,7 +104,7 @@ PAIR_SCREEN = 5
 
 @dataclass
 class Prepared:
-    run: Run
+    run: MeasuredRun
     args: tuple  # cmd arrays for replay
     ts: np.ndarray  # sample times
     meas: np.ndarray  # measured angle at ts, less the instrument's offset
@@ -140,7 +140,7 @@ def nominal_inertia(rig_inertia_kg_m2: float, p: JointParams) -> float:
     return rig_inertia_kg_m2 + p.ratio**2 * p.rotor_inertia_kg_m2
 
 
-def prepare(run: Run, p: JointParams, offset_rad: float = 0.0) -> Prepared:
+def prepare(run: MeasuredRun, p: JointParams, offset_rad: float = 0.0) -> Prepared:
     m = run.sampled
     args = (run.time_s, run.direction, run.valve_gauge_pa, run.brake_released, run.supply_pa, run.valve_is_output)
     nan = np.full(run.time_s.shape, np.nan)

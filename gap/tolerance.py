@@ -14,7 +14,7 @@ import json
 
 import numpy as np
 
-from gap.campaign import Campaign, Run
+from gap.campaign import Campaign, MeasuredRun
 from gap.diagnose import Twin
 from gap.protocols import library
 from wrist_rig import commanded_run
@@ -30,24 +30,29 @@ def measure_tolerance(pressures_mpa=(0.5, 0.6, 0.7, 0.8)) -> dict[str, dict]:
         for mpa in pressures_mpa:
             proto = library(mpa)[name]
             run = commanded_run.simulate_run(p0, mpa, proto)
-            measured = Run(
-                name,
-                None,
-                mpa,
-                0.0,
-                run["time_s"],
-                run["direction"],
-                run["brake_released"],
-                run["valve_set_gauge_pa"],
-                run["supply_pa"],
-                run["angle_rad"],
-                {k: run[k] for k in ("p_a_pa", "p_b_pa")},
+            measured = MeasuredRun(
+                name=name,
+                path=None,
+                supply_mpa=mpa,
+                start_rad=0.0,
+                time_s=run["time_s"],
+                direction=run["direction"],
+                brake_released=run["brake_released"],
+                valve_gauge_pa=run["valve_set_gauge_pa"],
+                supply_pa=run["supply_pa"],
+                angle_rad=run["angle_rad"],
+                extra={k: run[k] for k in ("p_a_pa", "p_b_pa")},
             )
-            twin = Twin(
-                Campaign(
-                    None, commanded_run.JOINT, 0.0, p0.hose_length_m, commanded_run.RIG_INERTIA_KG_M2, None, [measured]
-                )
+            campaign = Campaign(
+                folder=None,
+                joint=commanded_run.JOINT,
+                payload_kg=0.0,
+                hose_length_m=p0.hose_length_m,
+                rig_inertia_kg_m2=commanded_run.RIG_INERTIA_KG_M2,
+                twin_hose_loss=None,
+                runs=[measured],
             )
+            twin = Twin(campaign)
             ((a, p),) = twin.residuals_with([], [0], 0.0).values()
             ang.append(a)
             pres.append(p)
