@@ -29,11 +29,12 @@ import assets
 from gap import protocols, synth
 from gap.campaign import load_campaign
 from gap.diagnose import Twin
-from gap.replay import DT_S, replay_run
 from gap.run import run_diagnose
 from pneumatics import params_row
 from twin.plant import Plant
 from twin.sim import CommandSchedule, run
+from wrist_rig import commanded_run
+from wrist_rig.one_joint import DT_S, replay_run
 
 HIDDEN = {"leak_area_m2": 3e-7, "coulomb_nm": 30.0}  # the bench's pair case (gap/bench.py)
 
@@ -51,13 +52,13 @@ def _time_replay(twin: Twin, rounds: int) -> float:
     return best
 
 
-def _time_plant(reality, supply_mpa: float, motion: synth.Motion, rounds: int) -> float:
+def _time_plant(reality, supply_mpa: float, motion: commanded_run.Motion, rounds: int) -> float:
     """Best wall time (s) of the plant simulating the same run (twin.sim.run on the wrist rig)."""
     best = np.inf
     for _ in range(rounds):
-        plant = Plant(assets.WRIST_RIG_XML, joint_params={synth.JOINT: reality})
+        plant = Plant(assets.WRIST_RIG_XML, joint_params={commanded_run.JOINT: reality})
         plant.set_supply(101_325.0 + supply_mpa * 1e6)
-        i = plant.joints.index(synth.JOINT)
+        i = plant.joints.index(commanded_run.JOINT)
         n = len(plant.joints)
 
         def commands_at(t: float, i: int = i, n: int = n) -> np.ndarray:
@@ -67,7 +68,7 @@ def _time_plant(reality, supply_mpa: float, motion: synth.Motion, rounds: int) -
             return c
 
         t0 = time.perf_counter()
-        run(plant, CommandSchedule(commands_at, n), motion.total_s(), log_period_s=synth.SAMPLE_PERIOD_S)
+        run(plant, CommandSchedule(commands_at, n), motion.total_s(), log_period_s=commanded_run.SAMPLE_PERIOD_S)
         best = min(best, time.perf_counter() - t0)
     return best
 
@@ -86,7 +87,7 @@ CAMPAIGNS = (
 
 
 def bench_gap(jobs: int = 2, rounds: int = 3) -> dict:
-    p0 = synth.wrist_params()
+    p0 = commanded_run.wrist_params()
     timings = []
     with tempfile.TemporaryDirectory() as tmp:
         for i, (name, hidden, protos, repeats, inst) in enumerate(CAMPAIGNS):
@@ -124,7 +125,7 @@ def bench_gap(jobs: int = 2, rounds: int = 3) -> dict:
                 }
             )
     reality = p0._replace(**HIDDEN)
-    plant_s = _time_plant(reality, synth.PRESSURES_MPA[0], synth.Motion(), rounds)
+    plant_s = _time_plant(reality, synth.PRESSURES_MPA[0], commanded_run.Motion(), rounds)
     walls = [t["diagnose_wall_s"] for t in timings]
     return {
         "campaigns": timings,

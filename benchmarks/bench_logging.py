@@ -26,8 +26,8 @@ from benchmarks.stats import spread
 from scenarios.recording import open_recorders
 from scenarios.runner import run_scenario, scenario_files
 from scenarios.schema import load
-from twin.checks import RECORDING_CAMERA_FPS
 from twin.sim import CommandSchedule
+from twin_plumbing.checks import RECORDING_CAMERA_FPS
 
 SCENARIO = "insulator_cleaning"  # the multi-joint task: all five controllers, contact, moving bodies
 SUPPLY_PA = 101_325.0 + 0.6e6  # 0.6 MPa gauge, the paper's mean supply

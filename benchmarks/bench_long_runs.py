@@ -30,6 +30,7 @@ from gap import synth
 from gap.campaign import load_campaign
 from gap.protocols import library
 from gap.run import run_diagnose
+from wrist_rig import commanded_run
 
 PRESSURES_MPA = (0.5, 0.6, 0.7, 0.8)
 PROTOCOLS = ("paper_60", "staircase", "back_and_forth", "stop_and_go")
@@ -47,7 +48,7 @@ def short_campaign(folder: Path) -> Path:
         for p in PRESSURES_MPA
     }
     return synth.make_campaign(
-        folder, synth.wrist_params(), seed=3, pressures_mpa=PRESSURES_MPA, repeats=1, motion=motion
+        folder, commanded_run.wrist_params(), seed=3, pressures_mpa=PRESSURES_MPA, repeats=1, motion=motion
     )
 
 

@@ -14,7 +14,7 @@ Command line: `twin gap diagnose CAMPAIGN --out DIR`, `twin gap bench --out DIR`
 """
 
 from gap.bench import run_bench
-from gap.campaign import Campaign, GapError, Run, load_campaign
+from gap.campaign import Campaign, GapError, MeasuredRun, load_campaign
 from gap.diagnose import diagnose
 from gap.effects import CATALOGUE, NOT_IN_CATALOGUE, Effect
 from gap.report import write as write_report
@@ -30,7 +30,7 @@ __all__ = [
     "Effect",
     "GapError",
     "NOT_IN_CATALOGUE",
-    "Run",
+    "MeasuredRun",
     "diagnose",
     "load_campaign",
     "make_campaign",

@@ -57,9 +57,9 @@ from gap.campaign import (
     csv_text,
     joint_ranges_rad,
 )
-from pneumatics.fields import FLAG, MISSING, REAL, TABLE, TEXT, choice, first_problem, number, read_toml
-from pneumatics.paths import input_problem
 from twin.mcap_log import LogError, read_mcap
+from twin_plumbing.fields import FLAG, MISSING, REAL, TABLE, TEXT, choice, first_problem, number, read_toml
+from twin_plumbing.paths import input_problem
 
 JOINTS = assets.JOINTS
 COMMAND_FIELDS = ("direction", "brake_released", "valve_set_gauge_pa")  # per joint, required

@@ -35,7 +35,7 @@ import numpy as np
 import assets
 from gap import protocols
 from gap.arm_campaign import JOINTS, ArmCampaign, ArmInstrument, ArmRun
-from gap.arm_diagnose import LATENCY_GRID_S, ArmDiagnosis, Twin, axis_of, gravity_torques, probe_value, twin_of
+from gap.arm_diagnose import LATENCY_GRID_S, ArmDiagnosis, ReplayedArm, axis_of, gravity_torques, probe_value, twin_of
 from gap.arm_effects import ARM_CATALOGUE, JOINT_CATALOGUE, ArmSetup, Candidate, candidate_named
 from gap.arm_replay import arm_plant, replay
 from gap.design import GRID_POINTS, MAX_PROPOSALS, SEPARATED_FLOORS, Criterion, Design, Pair, choose, family_pairs
@@ -45,7 +45,7 @@ from pneumatics.as_built import load_as_built
 from pneumatics.gas import AIR
 from pneumatics.motor import displacement_per_rad
 
-PRESSURE_PERIOD_S = 0.02  # the platform's port transducers at 50 Hz (scenarios.arm_rehearsal.PRESSURE_PERIOD_S)
+PRESSURE_PERIOD_S = 0.02  # the platform's port transducers at 50 Hz (gap.arm_rehearsal.PRESSURE_PERIOD_S)
 PITCH_JOINTS = ("shoulder_pitch", "elbow_pitch", "wrist_pitch")  # the joints gravity loads
 BASE_YAW_DEG = 40.0  # the base turned away from the insulator string (scenarios/arm_protocols/one_joint.toml)
 # the exercised joint's own angle scanned at these fractions of its range (assets/arm.xml), 15 % in
@@ -110,7 +110,7 @@ class ArmDesign:
     apart) with the arm's own: the twin, the instrument, and the exercise of each proposal."""
 
     design: Design
-    twin: Twin
+    twin: ReplayedArm
     instrument: ArmInstrument
     arm_reading: ArmReading
     departing: str  # the joint the diagnosis names ("" before any campaign)
@@ -120,7 +120,7 @@ class ArmDesign:
     exercises: dict[str, Exercise] = field(default_factory=dict)  # proposal name -> its exercise
 
 
-def changed(twin: Twin, change: Change) -> tuple[dict[str, JointParams], ArmSetup]:
+def changed(twin: ReplayedArm, change: Change) -> tuple[dict[str, JointParams], ArmSetup]:
     """The twin's (params, setup) with each (candidate, value) of `change`."""
     params, setup = twin.params, twin.setup
     for c, v in change:
@@ -128,7 +128,7 @@ def changed(twin: Twin, change: Change) -> tuple[dict[str, JointParams], ArmSetu
     return params, setup
 
 
-def arm_response(twin: Twin, change: Change, run: ArmPlannedRun, ar: ArmReading) -> Response:
+def arm_response(twin: ReplayedArm, change: Change, run: ArmPlannedRun, ar: ArmReading) -> Response:
     """A change's predicted readings of `run` in floors: every seen joint's angle at each latency of
     the grid (latencies x samples of all seen joints) and every joint's two ports (2 x joints rows)."""
     rep = replay(run.run, *changed(twin, change))
@@ -148,7 +148,7 @@ def arm_samples(run: ArmPlannedRun, ar: ArmReading) -> int:
     return run.angle_times_s.size * len(ar.seen) + ports
 
 
-def value_grid(c: Candidate, twin: Twin, n: int, extra: tuple[float, ...] = ()) -> list[float]:
+def value_grid(c: Candidate, twin: ReplayedArm, n: int, extra: tuple[float, ...] = ()) -> list[float]:
     """`n` values of candidate `c` across its bounds (log-spaced where the catalogue says), the twin's
     own value and `extra`, sorted and distinct."""
     axis = axis_of(c)
@@ -157,7 +157,7 @@ def value_grid(c: Candidate, twin: Twin, n: int, extra: tuple[float, ...] = ()) 
     return sorted({float(v) for v in (*grid, own, *extra)})
 
 
-def hypotheses_of(diag: ArmDiagnosis, twin: Twin) -> tuple[list[Hypothesis], list[Pair]]:
+def hypotheses_of(diag: ArmDiagnosis, twin: ReplayedArm) -> tuple[list[Hypothesis], list[Pair]]:
     """Each fitted candidate of the diagnosis at its value, free over its own values; every two a pair."""
     hyps = []
     for f in diag.fits:  # best first (on the withheld runs)
@@ -170,7 +170,7 @@ def hypotheses_of(diag: ArmDiagnosis, twin: Twin) -> tuple[list[Hypothesis], lis
     return hyps, pairs
 
 
-def catalogue_hypotheses(joint: str, twin: Twin, latency_s: float) -> tuple[list[Hypothesis], list[Pair]]:
+def catalogue_hypotheses(joint: str, twin: ReplayedArm, latency_s: float) -> tuple[list[Hypothesis], list[Pair]]:
     """Every effect `joint` and the arm can take at the screen's probe size, free over its family's
     members and values; every two families a pair (gap.design.family_pairs)."""
     cands = [Candidate(e.name, joint) for e in JOINT_CATALOGUE] + [Candidate(e.name) for e in ARM_CATALOGUE]
@@ -201,7 +201,7 @@ def stall_torque_nm(p: JointParams, supply_mpa: float) -> float:
     return supply_mpa * 1e6 * d * p.ratio * p.efficiency_forward
 
 
-def postures(joint: str, twin: Twin, supply_mpa: float) -> list[tuple[float, np.ndarray, float]]:
+def postures(joint: str, twin: ReplayedArm, supply_mpa: float) -> list[tuple[float, np.ndarray, float]]:
     """(joint angle deg, start drive angles, gravity torque N·m) of the exercise's postures: the home
     pose with `joint` at one of POSTURE_SCAN fractions of its range, among those where the gravity
     torque on it is at most HOLD_SHARE of its stall torque at the supply (the joint lifts its load
@@ -250,7 +250,7 @@ def planned(name: str, run: ArmRun, supply_mpa: float, rate_hz: float, pressures
 
 
 def library(
-    twin: Twin, joints: list[str], fast_only: list[str], supply_mpa: float, rate_hz: float, pressures: bool
+    twin: ReplayedArm, joints: list[str], fast_only: list[str], supply_mpa: float, rate_hz: float, pressures: bool
 ) -> tuple[list[tuple[str, tuple[ArmPlannedRun, ...]]], dict[str, Exercise]]:
     """The proposals: each joint of `joints` at each posture playing each exercise (only the first,
     fast, for those in `fast_only`), one run each, at most MAX_CANDIDATES."""
@@ -281,7 +281,7 @@ def base_runs(campaign: ArmCampaign, seen: tuple[int, ...], pressures: bool) -> 
     return out
 
 
-def _criterion(twin: Twin, hyps, pairs, ar: ArmReading, n_jobs: int) -> Criterion:
+def _criterion(twin: ReplayedArm, hyps, pairs, ar: ArmReading, n_jobs: int) -> Criterion:
     return Criterion(
         twin,
         hyps,
@@ -336,12 +336,12 @@ def design_arm(campaign: ArmCampaign, diag: ArmDiagnosis, n_jobs: int = 1) -> Ar
     return ArmDesign(d, exercises=exercises, **common)
 
 
-def nominal_twin(arm: str = "as_built", payload_kg: float = 20.0) -> Twin:
+def nominal_twin(arm: str = "as_built", payload_kg: float = 20.0) -> ReplayedArm:
     """The twin before any campaign: the arm's joints (as built or nominal) carrying `payload_kg`."""
     base = {j: load_joint_params(assets.joint_param_path(j)) for j in JOINTS}
     if arm == "as_built":
         base = {j: load_as_built(p, assets.as_built_path(j)) for j, p in base.items()}
-    return Twin(base, ArmSetup(payload_kg=payload_kg))
+    return ReplayedArm(base, ArmSetup(payload_kg=payload_kg))
 
 
 def design_arm_before_campaign(

@@ -37,7 +37,7 @@ import assets
 from gap.arm_campaign import JOINTS, ArmCampaign, ArmRun
 from gap.arm_effects import ArmSetup, Candidate, candidates
 from gap.arm_replay import TICK_S, Replay, arm_plant, joint_angles, replay
-from gap.campaign import Run
+from gap.campaign import MeasuredRun
 from gap.diagnose import _parallel
 from gap.where import breakdown, labels_of
 from pneumatics import JointParams, load_joint_params
@@ -54,21 +54,22 @@ GRAVITY_BINS_NM = (-100.0, -30.0, -10.0, 10.0, 30.0, 100.0)  # the posture facto
 
 
 @dataclass(frozen=True)
-class Twin:
-    """The twin the diagnosis replays: each joint's parameters and the arm's setup."""
+class ReplayedArm:
+    """The arm the diagnosis replays (the twin, or the twin with a candidate): each joint's
+    parameters and the arm's setup."""
 
     params: dict[str, JointParams]
     setup: ArmSetup
 
 
-def twin_of(campaign: ArmCampaign) -> Twin:
+def twin_of(campaign: ArmCampaign) -> ReplayedArm:
     """campaign.toml's twin: its base arm (as built or nominal), hose switch and payload."""
     base = {j: load_joint_params(assets.joint_param_path(j)) for j in JOINTS}
     if campaign.arm == "as_built":
         base = {j: load_as_built(p, assets.as_built_path(j)) for j, p in base.items()}
     if campaign.hose_loss is not None:
         base = {j: p._replace(hose_loss=1.0 if campaign.hose_loss else 0.0) for j, p in base.items()}
-    return Twin(base, ArmSetup(payload_kg=campaign.payload_kg))
+    return ReplayedArm(base, ArmSetup(payload_kg=campaign.payload_kg))
 
 
 @dataclass(frozen=True)
@@ -136,7 +137,9 @@ class ArmDiagnosis:
         return asdict(self)
 
 
-def _replays(run_jobs, runs: list[ArmRun], twins: list[Twin], t_end_s: float | None = None) -> list[list[Replay]]:
+def _replays(
+    run_jobs, runs: list[ArmRun], twins: list[ReplayedArm], t_end_s: float | None = None
+) -> list[list[Replay]]:
     """Every twin's replay of every run, one job a (twin, run)."""
     jobs = [delayed(replay)(r, t.params, t.setup, t_end_s) for t in twins for r in runs]
     out = run_jobs(jobs)
@@ -206,7 +209,7 @@ def fit_latency(campaign: ArmCampaign, runs: list[ArmRun], reps: list[Replay]) -
     return float(LATENCY_GRID_S[int(np.argmin(costs))])
 
 
-def gravity_torques(joint: str, twin: Twin, start_rad: np.ndarray, drive_rad: np.ndarray) -> np.ndarray:
+def gravity_torques(joint: str, twin: ReplayedArm, start_rad: np.ndarray, drive_rad: np.ndarray) -> np.ndarray:
     """The gravity torque on `joint`'s drive (N·m, holding the arm up is positive) at each row of
     drive angles (the twin's pose): MuJoCo's bias force at rest (`qfrc_bias` with no velocity,
     by its recursive Newton-Euler pass after the kinematics: what mj_forward gives, without the
@@ -239,7 +242,7 @@ def gravity_torques(joint: str, twin: Twin, start_rad: np.ndarray, drive_rad: np
 
 
 def where(
-    joint: str, twin: Twin, runs: list[ArmRun], reps: list[Replay], residuals: list[Residual], latency_s: float
+    joint: str, twin: ReplayedArm, runs: list[ArmRun], reps: list[Replay], residuals: list[Residual], latency_s: float
 ) -> dict[str, dict[str, dict]]:
     """The departing joint's angle residual broken down by gap/where.py's factors and by posture."""
     j = JOINTS.index(joint)
@@ -250,17 +253,17 @@ def where(
         ts = run.time_s[:n][sampled]
         angle = np.interp(ts, rep.time_s, rep.angle_rad[:, j])
         speed = np.gradient(rep.angle_rad[:, j], rep.time_s)
-        one = Run(
-            run.name,
-            run.path,
-            (float(np.mean(run.supply_pa)) - AIR.p_atm_pa) / 1e6,
-            float(run.start_rad[j]),
-            run.time_s[:n],
-            run.commands[:n, j, 0],
-            run.commands[:n, j, 2],
-            run.commands[:n, j, 1],
-            run.supply_pa[:n],
-            run.angle_rad[:n, j],
+        one = MeasuredRun(
+            name=run.name,
+            path=run.path,
+            supply_mpa=(float(np.mean(run.supply_pa)) - AIR.p_atm_pa) / 1e6,
+            start_rad=float(run.start_rad[j]),
+            time_s=run.time_s[:n],
+            direction=run.commands[:n, j, 0],
+            brake_released=run.commands[:n, j, 2],
+            valve_gauge_pa=run.commands[:n, j, 1],
+            supply_pa=run.supply_pa[:n],
+            angle_rad=run.angle_rad[:n, j],
         )
         lab = labels_of(one, ts, angle, np.interp(ts, rep.time_s, speed))
         poses = _angles_at(rep, ts)
@@ -324,7 +327,7 @@ def axis_of(c: Candidate) -> Axis:
     return Axis(lo, hi, c.log and lo > 0)
 
 
-def probe_value(c: Candidate, twin: Twin) -> float | None:
+def probe_value(c: Candidate, twin: ReplayedArm) -> float | None:
     """The screen's probe: a quarter of the way from the twin's value towards the upper bound (a
     catalogue effect is mostly more of something: friction, leakage, lag), towards the lower one
     where the twin is at the upper; log-spaced where the effect is. None: nowhere to move."""
@@ -338,9 +341,9 @@ def probe_value(c: Candidate, twin: Twin) -> float | None:
     return None
 
 
-def _with(twin: Twin, c: Candidate, value: float) -> Twin:
+def _with(twin: ReplayedArm, c: Candidate, value: float) -> ReplayedArm:
     params, setup = c.apply(twin.params, twin.setup, JOINTS, value)
-    return Twin(params, setup)
+    return ReplayedArm(params, setup)
 
 
 @dataclass(frozen=True)
@@ -362,7 +365,7 @@ def _shortened(rep: Replay, t_end_s: float) -> Replay:
 def screen(
     run_jobs,
     campaign: ArmCampaign,
-    twin: Twin,
+    twin: ReplayedArm,
     runs: list[ArmRun],
     latency_s: float,
     cands: list[Candidate],
@@ -418,7 +421,7 @@ def screen(
     return sorted(best.values(), key=lambda s: s.ratio)
 
 
-def _scaled(base: np.ndarray, corr: np.ndarray, c: Candidate, twin: Twin, probe: float) -> Screened:
+def _scaled(base: np.ndarray, corr: np.ndarray, c: Candidate, twin: ReplayedArm, probe: float) -> Screened:
     """The probe's correction `corr` (what the effect at `probe` adds to the twin, in the residual's
     units) scaled to fit the residual `base` best, the value it points at kept inside the bounds."""
     axis = axis_of(c)
@@ -479,7 +482,7 @@ def _vertex(axis: Axis, costs: dict[float, float]) -> float:
 def fit_all(
     run_jobs,
     campaign: ArmCampaign,
-    twin: Twin,
+    twin: ReplayedArm,
     train: list[ArmRun],
     latency_s: float,
     screened: list[Screened],
@@ -548,7 +551,7 @@ def knife_edges(runs: list[ArmRun], at: list[Replay], nudged: list[list[Replay]]
 def shrink_before_knife_edges(
     run_jobs,
     campaign: ArmCampaign,
-    twin: Twin,
+    twin: ReplayedArm,
     runs: list[ArmRun],
     latency_s: float,
     c: Candidate,
@@ -612,7 +615,7 @@ def signature(campaign: ArmCampaign, c: Candidate, value: float, latency_s: floa
 def judge(
     run_jobs,
     campaign: ArmCampaign,
-    twin: Twin,
+    twin: ReplayedArm,
     withheld: list[ArmRun],
     latency_s: float,
     cands: list[Candidate],

@@ -34,7 +34,7 @@ import rerun as rr
 import rerun.blueprint as rrb
 
 from gap.arm_campaign import JOINTS, ArmCampaign, ArmRun
-from gap.arm_diagnose import ArmDiagnosis, Twin, _replays, _with, residual, twin_of
+from gap.arm_diagnose import ArmDiagnosis, ReplayedArm, _replays, _with, residual, twin_of
 from gap.arm_effects import candidate_named
 from gap.arm_replay import TICK_S, Replay, arm_plant
 from gap.diagnose import _parallel
@@ -78,7 +78,7 @@ def departing_link(model: mujoco.MjModel, joint: str) -> str:
     return model.body(int(model.jnt_bodyid[model.joint(joint).id])).name
 
 
-def fitted_twin(campaign: ArmCampaign, diagnosis: ArmDiagnosis) -> tuple[Twin, str]:
+def fitted_twin(campaign: ArmCampaign, diagnosis: ArmDiagnosis) -> tuple[ReplayedArm, str]:
     """The twin with the diagnosis' best candidate at its fitted value (the nominal twin when it
     fitted none), and a label saying which."""
     twin = twin_of(campaign)

@@ -29,11 +29,15 @@ from gap.diagnose import diagnose
 from gap.effects import BY_NAME, CATALOGUE
 from gap.result import Diagnosis
 from gap.verdict import families_of
-from twin.checks import BENCH_SEEDS, BENCH_SHIFT, check_number
-from twin.errors import UserError
-from twin.outputs import write_atomic
+from twin_plumbing.checks import check_number
+from twin_plumbing.errors import UserError
+from twin_plumbing.outputs import write_atomic
+from wrist_rig import commanded_run
 
 KINDS = ("single", "form", "pair", "outside", "none")
+# the ranges of the bench's numbers (check_number), the command line's flags too
+BENCH_SHIFT = {"low": 0, "high": 10**6, "integer": True}  # `twin gap bench --shift`: cases along, a bound against typos
+BENCH_SEEDS = {"low": 0, "high": 10**9, "integer": True}  # `twin gap bench --seeds`: the campaigns' seed offset
 
 
 @dataclass
@@ -186,7 +190,7 @@ def form_and_pair_cases() -> list[Case]:
 
 def single_cases() -> list[Case]:
     """One catalogue effect hidden in the plant each, with its true value where it has one."""
-    p0 = synth.wrist_params()
+    p0 = commanded_run.wrist_params()
     return [
         Case("hose_loss", "single", {}, ("hose_loss",), twin_hose_loss=False),
         Case("vane_leakage", "single", {"leak_area_m2": 4e-7}, ("vane_leakage",), truth={"vane_leakage": 4e-7}),
@@ -337,7 +341,7 @@ def run_case(
 def round_of(case: Case, seed: int, campaign, diag: Diagnosis, folder: Path, inst, with_p: bool, jobs: int) -> dict:
     """One design round on the case's hidden reality (gap.design_round): its cost and the scores after."""
     catalogue = tuple(e for e in CATALOGUE if e.name not in case.exclude)
-    reality = synth.wrist_params()._replace(**case.reality)
+    reality = commanded_run.wrist_params()._replace(**case.reality)
     again, cost = run_design_round(
         campaign,
         diag,
@@ -364,7 +368,7 @@ def make_case_campaign(
     with_p = with_p if chamber_pressures is None else chamber_pressures
     synth.make_campaign(
         folder,
-        synth.wrist_params()._replace(**case.reality),
+        commanded_run.wrist_params()._replace(**case.reality),
         seed=100 + i + variant.seeds,
         pressures_mpa=pressures,
         twin_hose_loss=case.twin_hose_loss,
@@ -381,7 +385,7 @@ def make_case_campaign(
 
 def check_variant(variant: Variant) -> None:
     """Refuse (UserError) a protocol the library does not have, a shift or seed offset out of its range
-    (twin.checks, as the command line's flags)."""
+    (BENCH_SHIFT, BENCH_SEEDS, as the command line's flags)."""
     names = tuple(protocols.library(0.5))
     if variant.protocol is not None and variant.protocol not in names:
         raise UserError(f"--protocol {variant.protocol!r}: no such protocol; allowed: {', '.join(names)}")
@@ -446,7 +450,7 @@ def scores(case: Case, diag: Diagnosis) -> dict:
             r["top1"] = len(named) >= 1 and named[0] in case.expect and w.verdict in ("explained", "ambiguous")
         r["shrink"] = top.heldout_rms_deg / diag.before_rms_deg if top else None
     for eff, true in case.truth.items():
-        nominal = BY_NAME[eff].value_of(synth.wrist_params())
+        nominal = BY_NAME[eff].value_of(commanded_run.wrist_params())
         fitted = [c for c in w.ranking if c.name == eff][0].fitted_values[0]
         r["param"] = {
             "effect": eff,

@@ -49,19 +49,19 @@ from pydantic import BaseModel, ValidationError
 
 import assets
 from pneumatics import load_joint_params
-from pneumatics.fields import FLAG, MISSING, REAL, TABLE, TEXT, Problem, choice, first_problem, number, read_toml
 from pneumatics.gas import AIR
 from pneumatics.params import SPEC
-from pneumatics.paths import input_problem, path_problem
-from twin.errors import UserError
 from twin.mcap_log import read_mcap
+from twin_plumbing.errors import UserError
+from twin_plumbing.fields import FLAG, MISSING, REAL, TABLE, TEXT, Problem, choice, first_problem, number, read_toml
+from twin_plumbing.paths import input_problem, path_problem
 
 REQUIRED_COLUMNS = ("time_s", "direction", "brake_released", "supply_pa", "angle_rad")
 OPTIONAL_COLUMNS = ("valve_set_gauge_pa", "valve_opening", "p_a_pa", "p_b_pa")
 NAN_COLUMNS = ("angle_rad", "p_a_pa", "p_b_pa")  # empty or nan: not sampled
 WRIST_RIG_INERTIA_KG_M2 = 0.02  # assets/wrist_rig.xml, body rig_load
 MIN_RUNS = 2  # the diagnosis fits on some runs and judges on others
-# Run files: a calibration log samples at 1 kHz..50 Hz (the twin's own MCAP at 50 Hz); a step
+# MeasuredRun files: a calibration log samples at 1 kHz..50 Hz (the twin's own MCAP at 50 Hz); a step
 # longer than this is a hole in the record, not a sample period (assumed).
 MAX_TIME_STEP_S = 1.0
 # The replay integrates at 1 ms and the effect search replays each run thousands of times; the
@@ -90,8 +90,11 @@ class GapError(UserError):
     """A campaign or run file that cannot be diagnosed: names the file, the line and what is wrong."""
 
 
-@dataclass
-class Run:
+@dataclass(kw_only=True)
+class MeasuredRun:
+    """One run of a calibration campaign as its file holds it: the commands the rig sent, the
+    supply and the reference instrument's angle of the joint under test (built by keyword)."""
+
     name: str
     path: Path
     supply_mpa: float
@@ -137,15 +140,17 @@ class Instrument:
     rate_hz: number(0.1, 1e5, "Hz") | None = None
 
 
-@dataclass
+@dataclass(kw_only=True)
 class Campaign:
+    """A calibration campaign (campaign.toml and its runs), built by keyword."""
+
     folder: Path
     joint: str
     payload_kg: float
     hose_length_m: float
     rig_inertia_kg_m2: float
     twin_hose_loss: float | None
-    runs: list[Run]
+    runs: list[MeasuredRun]
     instrument: Instrument = field(default_factory=Instrument)
 
 
@@ -207,7 +212,7 @@ def _inside(folder: Path, name: str, where: str) -> Path:
     return path
 
 
-def _check_run(run: Run, where: str, joint: str) -> None:
+def _check_run(run: MeasuredRun, where: str, joint: str) -> None:
     """What a run must hold beyond its own file's format: its supply is the one it is filed
     under, its angles lie in the joint's range, it is no longer than the replay can afford."""
     gauge_mpa = (float(np.mean(run.supply_pa)) - AIR.p_atm_pa) / 1e6
@@ -358,11 +363,18 @@ def load_campaign(folder: str | Path) -> Campaign:
         runs.append(run)
     hose_loss = None if c.twin.hose_loss is None else float(c.twin.hose_loss)
     return Campaign(
-        path.parent, c.joint, c.payload_kg, c.hose_length_m, c.rig_inertia_kg_m2, hose_loss, runs, c.instrument
+        folder=path.parent,
+        joint=c.joint,
+        payload_kg=c.payload_kg,
+        hose_length_m=c.hose_length_m,
+        rig_inertia_kg_m2=c.rig_inertia_kg_m2,
+        twin_hose_loss=hose_loss,
+        runs=runs,
+        instrument=c.instrument,
     )
 
 
-def fit_window(run: Run) -> Run:
+def fit_window(run: MeasuredRun) -> MeasuredRun:
     """`run`, or its first FIT_WINDOW_S seconds if it is longer (recorded_s: its whole length)."""
     if run.time_s[-1] <= FIT_WINDOW_S:
         return run
@@ -375,7 +387,9 @@ def fit_window(run: Run) -> Run:
     return dataclasses.replace(run, **cut, extra=extra, recorded_s=float(run.time_s[-1]))
 
 
-def read_run_file(path: Path, supply_mpa: float, start_rad: float, where: str = "", joint: str = "wrist_pitch") -> Run:
+def read_run_file(
+    path: Path, supply_mpa: float, start_rad: float, where: str = "", joint: str = "wrist_pitch"
+) -> MeasuredRun:
     problem = input_problem(path)
     if problem:
         raise GapError(f"{where}: run file {path} {problem}; allowed: a CSV or .mcap file")
@@ -646,7 +660,7 @@ def _row_checks(a: dict[str, np.ndarray]) -> list[tuple[int, str]]:
     return found
 
 
-def _read_csv_run(path: Path, supply_mpa: float, start_rad: float, joint: str) -> Run:
+def _read_csv_run(path: Path, supply_mpa: float, start_rad: float, joint: str) -> MeasuredRun:
     a = _read_csv_columns(path)
     n, samples = len(a["time_s"]), int(np.isfinite(a["angle_rad"]).sum())
     if n < 2 or samples < 2:
@@ -658,22 +672,22 @@ def _read_csv_run(path: Path, supply_mpa: float, start_rad: float, joint: str) -
     else:
         valve = a["supply_pa"] - AIR.p_atm_pa
     extra = {k: a[k] for k in ("p_a_pa", "p_b_pa") if k in a}
-    return Run(
-        path.stem,
-        path,
-        supply_mpa,
-        start_rad,
-        a["time_s"] - a["time_s"][0],
-        a["direction"],
-        a["brake_released"],
-        valve,
-        a["supply_pa"],
-        a["angle_rad"],
-        extra,
+    return MeasuredRun(
+        name=path.stem,
+        path=path,
+        supply_mpa=supply_mpa,
+        start_rad=start_rad,
+        time_s=a["time_s"] - a["time_s"][0],
+        direction=a["direction"],
+        brake_released=a["brake_released"],
+        valve_gauge_pa=valve,
+        supply_pa=a["supply_pa"],
+        angle_rad=a["angle_rad"],
+        extra=extra,
     )
 
 
-def _read_mcap_run(path: Path, supply_mpa: float, start_rad: float, joint: str = "wrist_pitch") -> Run:
+def _read_mcap_run(path: Path, supply_mpa: float, start_rad: float, joint: str = "wrist_pitch") -> MeasuredRun:
     """A run logged by the twin itself (twin.mcap_log.McapRecorder): commands, supply, valve output
     pressure and true angle of `joint` at every log sample (20 ms by default).
 
@@ -698,20 +712,20 @@ def _read_mcap_run(path: Path, supply_mpa: float, start_rad: float, joint: str =
     t = np.asarray(arrays["time_s"], dtype=float)
     if len(t) < 2:
         raise GapError(f"{path}: {len(t)} log sample(s); a run needs at least 2")
-    return Run(
-        path.stem,
-        path,
-        supply_mpa,
-        start_rad,
-        t - t[0],
-        np.asarray(arrays["direction"])[:, j].astype(float),
-        np.asarray(arrays["brake_release"])[:, j].astype(float),
-        np.asarray(arrays["valve_gauge_pa"])[:, j].astype(float),
-        np.broadcast_to(np.asarray(arrays["supply_pa"], dtype=float).reshape(-1), t.shape).copy(),
-        np.asarray(arrays["true_angle_rad"])[:, j].astype(float),
+    return MeasuredRun(
+        name=path.stem,
+        path=path,
+        supply_mpa=supply_mpa,
+        start_rad=start_rad,
+        time_s=t - t[0],
+        direction=np.asarray(arrays["direction"])[:, j].astype(float),
+        brake_released=np.asarray(arrays["brake_release"])[:, j].astype(float),
+        valve_gauge_pa=np.asarray(arrays["valve_gauge_pa"])[:, j].astype(float),
+        supply_pa=np.broadcast_to(np.asarray(arrays["supply_pa"], dtype=float).reshape(-1), t.shape).copy(),
+        angle_rad=np.asarray(arrays["true_angle_rad"])[:, j].astype(float),
         valve_is_output=True,
     )
 
 
-def supply_gauge_pa(run: Run) -> float:
+def supply_gauge_pa(run: MeasuredRun) -> float:
     return float(np.mean(run.supply_pa)) - AIR.p_atm_pa

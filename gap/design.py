@@ -40,7 +40,7 @@ from gap.discrimination import (
     Hypothesis,
     PlannedRun,
     Reading,
-    Twin,
+    ReplayedJoint,
     latency_index,
     misfits,
     response,
@@ -54,6 +54,7 @@ from gap.result import Diagnosis
 from gap.verdict import families_of
 from pneumatics import load_joint_params
 from pneumatics.gas import AIR
+from wrist_rig import commanded_run
 
 N_FAMILIES = 4  # the leading families a diagnosis's design tells apart (by the family call's evidence)
 GRID_POINTS = 6  # values per member in a hypothesis's alternatives (gap.diagnose._grid: 7 with 0 on a log grid)
@@ -100,7 +101,7 @@ class Design:
     chosen: list[Proposal]
     separation: dict[str, float]  # per pair, on the chosen proposals' runs together
     unseparated: list[str]
-    twin: Twin
+    twin: ReplayedJoint
     source: str  # what the design started from: a campaign's diagnosis or the catalogue
 
     def runs(self) -> list[PlannedRun]:
@@ -211,7 +212,9 @@ def reference_value(e: Effect, nominal: float) -> float:
     return float(nominal + REFERENCE_STEP * (far - nominal))
 
 
-def catalogue_hypotheses(twin: Twin, latency_s: float, catalogue=CATALOGUE) -> tuple[list[Hypothesis], list[Pair]]:
+def catalogue_hypotheses(
+    twin: ReplayedJoint, latency_s: float, catalogue=CATALOGUE
+) -> tuple[list[Hypothesis], list[Pair]]:
     """Every catalogue effect at its reference size (`reference_value`), read `latency_s` late, free
     over its family's members; every two families a pair, each member of one against the other
     family."""
@@ -242,7 +245,7 @@ def planned_run(
     t = np.round(np.arange(0.0, protocol.total_s() + 1e-9, 1e-3), 6)
     d, u, b = protocol.commands(t, supply_mpa * 1e6, k_u_per_pa)
     ts = np.round(np.arange(0.0, t[-1] + 1e-9, 1.0 / rate_hz), 3)
-    tp = np.round(np.arange(0.0, t[-1] + 1e-9, synth.SAMPLE_PERIOD_S), 3) if pressures else np.zeros(0)
+    tp = np.round(np.arange(0.0, t[-1] + 1e-9, commanded_run.SAMPLE_PERIOD_S), 3) if pressures else np.zeros(0)
     return PlannedRun(
         f"{protocol.name}_{int(round(supply_mpa * 100)):03d}",
         supply_mpa,
@@ -258,7 +261,7 @@ def planned_run(
 
 
 def proposals(
-    twin: Twin, supplies_mpa: list[float], inertia_kg_m2: float, rate_hz: float, pressures: bool
+    twin: ReplayedJoint, supplies_mpa: list[float], inertia_kg_m2: float, rate_hz: float, pressures: bool
 ) -> list[tuple[str, tuple[PlannedRun, ...]]]:
     """Each protocol of the design library played once at each supply."""
     names = protocols.design_library(supplies_mpa[0])
@@ -276,7 +279,7 @@ def proposals(
     ]
 
 
-def base_runs(campaign: Campaign, twin: Twin) -> list[PlannedRun]:
+def base_runs(campaign: Campaign, twin: ReplayedJoint) -> list[PlannedRun]:
     """The campaign's own runs as the criterion reads them: their commands and sample times."""
     out = []
     for r in campaign.runs:
@@ -396,7 +399,7 @@ def _adds(before: dict[str, float], after: dict[str, float]) -> bool:
 
 def design(campaign: Campaign, diag: Diagnosis, catalogue=CATALOGUE, n_jobs: int = 1) -> Design:
     """The next runs for `campaign`, from its diagnosis `diag` (module docstring)."""
-    twin = Twin(nominal_params(campaign), joint_stops(campaign.joint))
+    twin = ReplayedJoint(nominal_params(campaign), joint_stops(campaign.joint))
     hyps, pairs = hypotheses_of(diag, catalogue)
     declared = campaign.instrument.latency_s
     reading = Reading(
@@ -430,7 +433,7 @@ def design_before_campaign(
     params = load_joint_params(assets.joint_param_path(joint))
     if hose_length_m is not None:
         params = params._replace(hose_length_m=hose_length_m)
-    twin = Twin(params, joint_stops(joint))
+    twin = ReplayedJoint(params, joint_stops(joint))
     hyps, pairs = catalogue_hypotheses(twin, instrument.latency_s, catalogue)
     latencies = np.array([instrument.latency_s]) if "latency_s" in instrument.declare else LATENCY_GRID_S
     reading = Reading(
@@ -439,7 +442,7 @@ def design_before_campaign(
         math.hypot(PRESSURE_NOISE_KPA, worst_tolerance_kpa()) if pressures else None,
     )
     crit = Criterion(twin, hyps, pairs, reading, n_jobs)
-    inertia = nominal_inertia(synth.RIG_INERTIA_KG_M2, params)
+    inertia = nominal_inertia(commanded_run.RIG_INERTIA_KG_M2, params)
     candidates = proposals(twin, list(synth.PRESSURES_MPA), inertia, instrument.rate_hz, pressures)
     ranking, chosen, together = choose(crit, candidates, None, None)
     unseparated = [k for k, s in together.items() if s < SEPARATED_FLOORS]

@@ -18,9 +18,9 @@ from gap.design_report import write_design
 from gap.diagnose import diagnose
 from gap.plan import Header
 from gap.report import write
-from twin.checks import JOBS, check_number
-from twin.errors import UserError
-from twin.outputs import OutputLock, check_output, publish_folder
+from twin_plumbing.checks import JOBS, check_number
+from twin_plumbing.errors import UserError
+from twin_plumbing.outputs import OutputLock, check_output, publish_folder
 
 INSTRUMENTS = {"encoder": synth.ENCODER, "camera": synth.CAMERA}
 ARM_INSTRUMENTS = {"encoder": ENCODER, "camera": CAMERA}  # the arm's (gap.arm_campaign)

@@ -4,7 +4,7 @@ how far the gap shrinks on runs withheld from the fit.
 Steps (each a plain function of the campaign):
 1. the reference instrument's nuisance first (gap.instrument): its zero offset from the rest
    samples, its latency (declared, or fitted with every candidate, the nominal twin included);
-   replay every run through the nominal twin (gap.replay; repeats share one replay) -> residual
+   replay every run through the nominal twin (wrist_rig.one_joint; repeats share one replay) -> residual
    = measured - twin, in angle and, where the campaign measured them, chamber pressures;
 2. where (gap.where): break the angle residual down by motion phase, supply, direction, load,
    angle, speed and time since start, beside a floor of the instrument's noise and the drift
@@ -46,13 +46,12 @@ from tqdm import tqdm
 import assets
 from control.arm_model import ArmModel
 from gap import instrument, verdict, where
-from gap.campaign import Campaign, GapError, Run
+from gap.campaign import Campaign, GapError, MeasuredRun
 from gap.effects import BY_NAME, CATALOGUE, Effect, Rig
 from gap.instrument import Nuisance
 from gap.members import at_fold_latencies, family_members
 from gap.noise import RepeatNoise, repeat_noise
 from gap.protocols import worst_tolerance_deg, worst_tolerance_kpa
-from gap.replay import DT_S, replay_run
 from gap.result import (
     CandidateSummary,
     Diagnosis,
@@ -66,7 +65,8 @@ from gap.result import (
 )
 from gap.stats import bootstrap_ci, normalised_rms, residual_vector, rms_ci_deg, rms_deg, rms_kpa
 from pneumatics import JointParams, load_joint_params, params_row
-from twin.cluster import dask_client
+from twin_plumbing.cluster import dask_client
+from wrist_rig.one_joint import DT_S, replay_run
 
 # The angle's model tolerance (below it a residual is no gap): twice the worst replay-vs-plant rms
 # over the protocol library (gap.protocols, measured per protocol), not one motion's.
@@ -104,7 +104,7 @@ PAIR_SCREEN = 5
 
 @dataclass
 class Prepared:
-    run: Run
+    run: MeasuredRun
     args: tuple  # cmd arrays for replay
     ts: np.ndarray  # sample times
     meas: np.ndarray  # measured angle at ts, less the instrument's offset
@@ -140,7 +140,7 @@ def nominal_inertia(rig_inertia_kg_m2: float, p: JointParams) -> float:
     return rig_inertia_kg_m2 + p.ratio**2 * p.rotor_inertia_kg_m2
 
 
-def prepare(run: Run, p: JointParams, offset_rad: float = 0.0) -> Prepared:
+def prepare(run: MeasuredRun, p: JointParams, offset_rad: float = 0.0) -> Prepared:
     m = run.sampled
     args = (run.time_s, run.direction, run.valve_gauge_pa, run.brake_released, run.supply_pa, run.valve_is_output)
     nan = np.full(run.time_s.shape, np.nan)

@@ -16,7 +16,7 @@ Fedorov (1975), "Optimal design: experiments for discriminating between several 
 62(2), 289-303). Samples count in units of their channel's floor (the diagnosis's: the instrument's
 noise with the twin's model tolerance, angle and, where measured, chamber pressures), so T is the
 non-centrality of the rival's misfit, the statistic the diagnosis's own ranking reads. Responses
-are the one-joint twin's replays (gap.replay), the model the diagnosis fits; no measurement enters.
+are the one-joint twin's replays (wrist_rig.one_joint), the model the diagnosis fits; no measurement enters.
 
 A pair is told apart by a set of runs when the rival, refitted, still misses the truth by more than
 SEPARATED_FLOORS floors rms over the samples of the runs (`separation_floors`), both ways round.
@@ -31,10 +31,10 @@ import numpy as np
 
 from gap.diagnose import apply_effects
 from gap.effects import Effect
-from gap.replay import DT_S, replay_run
 from pneumatics import JointParams, params_row
+from wrist_rig.one_joint import DT_S, replay_run
 
-PRESSURE_PERIOD_S = 0.02  # chamber-pressure transducers sampled every 20 ms (gap.synth.SAMPLE_PERIOD_S)
+PRESSURE_PERIOD_S = 0.02  # chamber-pressure transducers sampled every 20 ms (wrist_rig.commanded_run.SAMPLE_PERIOD_S)
 # The diagnosis tells a candidate from a rival when the rival's held-out score (rms in floors, noise
 # counting 1) is more than 10 % above its own (gap.verdict.Judge.rivals_of): sqrt(1 + d^2) > 1.1, a
 # mean squared difference d^2 > 0.21 floors^2 over all the campaign's runs. A proposal of n runs
@@ -89,14 +89,15 @@ class PlannedRun:
 
 
 @dataclass(frozen=True)
-class Twin:
-    """The nominal twin the hypotheses change: its parameters and end stops."""
+class ReplayedJoint:
+    """The joint the hypotheses change, as the one-joint model replays it: the nominal twin's
+    parameters and end stops."""
 
     params: JointParams
     stops: tuple[float, float]
 
 
-def trajectory(twin: Twin, change: Change, run: PlannedRun) -> tuple[np.ndarray, ...]:
+def trajectory(twin: ReplayedJoint, change: Change, run: PlannedRun) -> tuple[np.ndarray, ...]:
     """(t, theta, p_a, p_b) of the twin with `change` through `run`'s commands."""
     p, rig = apply_effects(twin.params, change)
     t_end = max(float(run.time_s[-1]), *run.angle_times_s[-1:], *run.pressure_times_s[-1:])
@@ -127,7 +128,7 @@ class Response:
     pressure: np.ndarray
 
 
-def response(twin: Twin, change: Change, run: PlannedRun, reading: Reading) -> Response:
+def response(twin: ReplayedJoint, change: Change, run: PlannedRun, reading: Reading) -> Response:
     t, th, pa, pb = trajectory(twin, change, run)
     ts = run.angle_times_s
     angle = np.interp(ts[None, :] - reading.latencies_s[:, None], t, th) / math.radians(reading.floor_deg)

@@ -20,7 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from gap.campaign import Campaign, Instrument, Run
+from gap.campaign import Campaign, Instrument, MeasuredRun
 from gap.noise import sample_period
 
 # 0..60 ms in 5 ms: a camera's 10-40 ms and more than a 30 Hz frame beyond; no wider, for a latency
@@ -35,7 +35,7 @@ class Nuisance:
     latencies_s: np.ndarray  # the latency grid the fits search ([declared] if declared)
 
 
-def first_command_time(run: Run) -> float:
+def first_command_time(run: MeasuredRun) -> float:
     moving = np.nonzero((run.direction != 0) | (run.brake_released > 0.5))[0]
     return float(run.time_s[moving[0]]) if len(moving) else math.inf
 
@@ -75,7 +75,7 @@ class InstrumentFacts:
     samples: int
 
 
-def describe(instrument: Instrument, nuisance: Nuisance, latency_s: float, runs: list[Run]) -> InstrumentFacts:
+def describe(instrument: Instrument, nuisance: Nuisance, latency_s: float, runs: list[MeasuredRun]) -> InstrumentFacts:
     """What the diagnosis knows of the instrument: declared, estimated, observed in the files."""
     periods = [sample_period(r.time_s[r.sampled]) for r in runs]
     period = float(np.median(periods))

@@ -24,6 +24,7 @@ from gap import synth
 from gap.campaign import Campaign, GapError
 from gap.discrimination import PlannedRun
 from pneumatics import JointParams
+from wrist_rig import commanded_run
 
 COMMAND_COLUMNS = ("time_s", "direction", "brake_released", "valve_set_gauge_pa", "supply_pa")
 
@@ -32,10 +33,10 @@ COMMAND_COLUMNS = ("time_s", "direction", "brake_released", "valve_set_gauge_pa"
 class Header:
     """What a plan's campaign.toml says besides its runs: the campaign's own (`of_campaign`)."""
 
-    joint: str = synth.JOINT
+    joint: str = commanded_run.JOINT
     payload_kg: float = 0.0
     hose_length_m: float = 8.0  # assets/joints/wrist_pitch.toml hose_length_m
-    rig_inertia_kg_m2: float = synth.RIG_INERTIA_KG_M2
+    rig_inertia_kg_m2: float = commanded_run.RIG_INERTIA_KG_M2
     twin_hose_loss: bool | None = None
     instrument: tuple[tuple[str, float], ...] = ()  # what the campaign declares of its instrument
     pressures: bool = False  # the runs carry chamber-pressure columns
@@ -97,7 +98,7 @@ def write_plan(runs: list[PlannedRun], header: Header, folder: Path, comment: st
 
 @dataclass(frozen=True)
 class Recorded:
-    """A plan run's command rows as a motion the plant plays (gap.synth.simulate_run): each row held
+    """A plan run's command rows as a motion the plant plays (wrist_rig.commanded_run.simulate_run): each row held
     until the next (zero-order hold, as the platform sends them)."""
 
     time_s: np.ndarray
@@ -165,7 +166,7 @@ def play_plan(
     _, entries = read_plan(plan)
     played.mkdir(parents=True, exist_ok=True)
     for e in entries:
-        run = synth.simulate_run(
+        run = commanded_run.simulate_run(
             reality,
             e.supply_mpa,
             e.motion,

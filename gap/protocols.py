@@ -6,23 +6,22 @@ duration): what a calibration rig sends to one joint. The library covers what su
 the paper's open-loop 60-degree moves at each supply (Sec. IV, Fig. 10-16), a staircase of
 partial openings with braked pauses, back-and-forth moves, stop-and-go, and direct reversals.
 
-The model tolerance is measured, not assumed: `python -m gap.protocols` runs the nominal plant
+The model tolerance is measured, not assumed: `python -m gap.tolerance` runs the nominal plant
 (MuJoCo + pneumatics, twin.plant) through every protocol at every supply of the paper and replays
-the same commands through the one-joint twin (gap.replay); TOLERANCE_DEG holds the rms of the
-difference per protocol as that command printed it. The diagnosis takes twice the worst of them
+the same commands through the one-joint model (wrist_rig.one_joint); TOLERANCE_DEG holds the rms of
+the difference per protocol as that command printed it. The diagnosis takes twice the worst of them
 as its tolerance (below it a residual is no gap): a campaign's protocol is not declared, and the
 twin must not call its own error on any of them an effect.
 """
 
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass
 
 import numpy as np
 
 # rms difference replay - plant per protocol over 0.5-0.8 MPa, nominal wrist, in angle (deg) and
-# chamber pressures (kPa), rounded up; measured by `python -m gap.protocols` on the plant (its air
+# chamber pressures (kPa), rounded up; measured by `python -m gap.tolerance` on the plant (its air
 # by ROS2) and the replay. tests/test_gap.py measures them again and fails when the physics has
 # moved them: re-run the command and copy its figures.
 TOLERANCE_DEG = {
@@ -127,8 +126,7 @@ def library(supply_mpa: float) -> dict[str, Protocol]:
 
 # The design library (gap.design proposes runs from it): the library above and runs made to tell
 # parts of the joint apart, each inside the wrist's +-90 deg from a start at 0 at every supply of the
-# paper. Not in `library`: the diagnosis's tolerance is the worst of the library's protocols, and these
-# are measured apart (`python -m gap.protocols --design`, DESIGN_TOLERANCE_DEG below), under it.
+# paper. Not in `library`: the diagnosis's tolerance is the worst of the library's protocols.
 # Slow constant-speed runs: a partial opening held long (0.75 / 0.85 of full: set points 3.8 / 4.3 bar,
 # both under the brake's full release, 4.75 bar, so a motor-fed brake drags and the joint crawls),
 # up and back down at the same opening.
@@ -155,49 +153,3 @@ DESIGN_PROTOCOLS = (SLOW_075, SLOW_085, HELD, PULSES, DWELL_THEN_MOVE, LOW_STEPS
 def design_library(supply_mpa: float) -> dict[str, Protocol]:
     """The library (`library`) and the runs made to tell parts apart (DESIGN_PROTOCOLS) at `supply_mpa`."""
     return {**library(supply_mpa), **{p.name: p for p in DESIGN_PROTOCOLS}}
-
-
-def measure_tolerance(pressures_mpa=(0.5, 0.6, 0.7, 0.8)) -> dict[str, dict]:
-    """Replay vs plant per protocol: rms and max |difference| of the angle (deg) and rms of the
-    chamber pressures (kPa) over the given supplies, nominal wrist, no instrument noise."""
-    # imported here, not at the top: gap.diagnose takes its tolerance from this module (a circle),
-    # and only this measurement needs the plant (MuJoCo)
-    from gap import synth
-    from gap.campaign import Campaign, Run
-    from gap.diagnose import Twin
-
-    p0 = synth.wrist_params()
-    out = {}
-    for name in library(0.5):
-        ang, pres = [], []
-        for mpa in pressures_mpa:
-            proto = library(mpa)[name]
-            run = synth.simulate_run(p0, mpa, proto)
-            measured = Run(
-                name,
-                None,
-                mpa,
-                0.0,
-                run["time_s"],
-                run["direction"],
-                run["brake_released"],
-                run["valve_set_gauge_pa"],
-                run["supply_pa"],
-                run["angle_rad"],
-                {k: run[k] for k in ("p_a_pa", "p_b_pa")},
-            )
-            twin = Twin(Campaign(None, synth.JOINT, 0.0, p0.hose_length_m, synth.RIG_INERTIA_KG_M2, None, [measured]))
-            ((a, p),) = twin.residuals_with([], [0], 0.0).values()
-            ang.append(a)
-            pres.append(p)
-        a = np.rad2deg(np.concatenate(ang))
-        out[name] = {
-            "rms_deg": float(np.sqrt(np.mean(a**2))),
-            "max_deg": float(np.max(np.abs(a))),
-            "pressure_rms_kpa": float(np.sqrt(np.mean(np.concatenate(pres) ** 2)) / 1e3),
-        }
-    return out
-
-
-if __name__ == "__main__":
-    print(json.dumps(measure_tolerance(), indent=1))

@@ -144,6 +144,27 @@ class Diagnosis:
     residuals: Residuals = field(metadata=PRIVATE, repr=False)
     out: Path | None = field(default=None, metadata=PRIVATE)  # where the report was written
 
+    # the answer in brief, for a notebook (pneumatic_arm_twin.diagnose); diagnosis.json holds the fields only
+    @property
+    def verdict(self) -> str:
+        """explained, ambiguous, outside the catalogue, or no significant gap (`which.verdict`)."""
+        return self.which.verdict
+
+    @property
+    def effect(self) -> str | None:
+        """The effect that explains the gap: the top candidate's name, or None."""
+        return self.which.top.name if self.which.top else None
+
+    @property
+    def after_rms_deg(self) -> float | None:
+        """The held-out rms angle error with the top candidate (`before_rms_deg`: without), or None."""
+        return self.which.top.heldout_rms_deg if self.which.top else None
+
+    def ranking(self) -> dict[str, list]:
+        """The single-effect candidates, best first, as columns: name, held-out rms, shrink, fitted values."""
+        columns = ("name", "heldout_rms_deg", "shrink", "fitted_values", "explains")
+        return {k: [getattr(c, k) for c in self.which.ranking] for k in columns}
+
 
 def to_json(x):
     """`x` as JSON-ready values: dataclasses by their fields (less the private ones), tuples as

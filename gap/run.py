@@ -11,8 +11,11 @@ from gap.diagnose import MODEL_TOLERANCE_DEG as DEFAULT_TOLERANCE_DEG
 from gap.diagnose import diagnose
 from gap.report import write
 from gap.result import Diagnosis
-from twin.checks import JOBS, MODEL_TOLERANCE_DEG, check_number
-from twin.outputs import OutputLock, check_output, publish_folder
+from twin_plumbing.checks import JOBS, check_number
+from twin_plumbing.outputs import OutputLock, check_output, publish_folder
+
+# the range of `model_tolerance_deg` (check_number), the command line's flag too
+MODEL_TOLERANCE_DEG = {"low": 0.0, "high": 45.0, "unit": "deg"}  # a tolerance this wide hides any gap worth diagnosing
 
 
 def run_diagnose(

@@ -10,7 +10,7 @@ from dataclasses import dataclass, fields
 
 import numpy as np
 
-from gap.campaign import Run
+from gap.campaign import MeasuredRun
 
 PHASE_WINDOW_S = 0.3  # start / reversal / braking: this long after the command change
 ANGLE_BIN_DEG = 30.0  # the angle (position) factor's bin width
@@ -45,7 +45,7 @@ class Breakdown:
 FACTORS = tuple(f.name for f in fields(Breakdown))
 
 
-def phases(run: Run, ts: np.ndarray) -> np.ndarray:
+def phases(run: MeasuredRun, ts: np.ndarray) -> np.ndarray:
     """Motion phase of each sample from the commands: start, moving, reversal, braking, holding."""
     d = run.direction
     out_idx = np.searchsorted(run.time_s, ts, side="right") - 1
@@ -76,7 +76,9 @@ def phases(run: Run, ts: np.ndarray) -> np.ndarray:
     return labels
 
 
-def labels_of(run: Run, ts: np.ndarray, angle_rad: np.ndarray, speed_rad_s: np.ndarray) -> dict[str, np.ndarray]:
+def labels_of(
+    run: MeasuredRun, ts: np.ndarray, angle_rad: np.ndarray, speed_rad_s: np.ndarray
+) -> dict[str, np.ndarray]:
     """Every factor's label at each sample time `ts` of `run`; angle and speed are the nominal
     twin's at those times (the measured angle would put the instrument's noise into the bins)."""
     idx = np.clip(np.searchsorted(run.time_s, ts, side="right") - 1, 0, len(run.time_s) - 1)

@@ -15,7 +15,7 @@ or a pandas DataFrame, sweep it, read a logged run, diagnose a calibration campa
     sw = pat.sweep("wrist_closed_loop_60deg", {"supply.pressure_mpa": [0.5, 0.7]}, duration_s=2.0)
     sw.summaries, sw.table(), sw.to_dataframe(), sw.to_csv("sweep.csv")
     st = pat.study(["sensorless"], [0.6], seeds=1)    # the cleaning study; st.to_dataframe()
-    d = pat.diagnose("my_campaign/", out="report/")   # d.verdict, d.effect, d.details
+    d = pat.diagnose("my_campaign/", out="report/")   # d.verdict, d.effect, d.ranking(), d.which
     d = pat.diagnose(pat.synthetic_campaign(seed=1))  # a campaign made by the plant, in memory
     # sweep(..., scheduler="tcp://host:8786") and diagnose(..., scheduler=...) run on a Dask cluster
     plan = pat.design_runs("my_campaign/", out="next/")   # the next runs: plan.chosen, next/plan/
@@ -28,8 +28,8 @@ from a notebook; the command line (`twin`) offers the same.
 """
 
 from gap import Campaign, make_campaign
+from gap.result import Diagnosis
 from pneumatic_arm_twin.api import (
-    Diagnosis,
     Log,
     Run,
     Study,

@@ -6,14 +6,13 @@ from __future__ import annotations
 import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 import numpy as np
 
 from gap import CATALOGUE, Campaign, GapError, load_campaign, make_campaign, write_report
 from gap.diagnose import MODEL_TOLERANCE_DEG
 from gap.diagnose import diagnose as _diagnose  # not gap.diagnose: the submodule's name hides gap's function
-from gap.synth import wrist_params
+from gap.result import Diagnosis
 from scenarios.recording import open_recorders
 from scenarios.runner import run_scenario, scenario_files
 from scenarios.schema import Scenario, ScenarioError, load, with_overrides
@@ -23,9 +22,7 @@ from scenarios.sweep import sweep as _sweep
 from twin.mcap_log import read_mcap
 from twin.pictures import plot_angles_png
 from twin.telemetry import SIGNALS
-
-if TYPE_CHECKING:
-    from gap.result import Diagnosis as GapDiagnosis
+from wrist_rig.commanded_run import wrist_params
 
 
 def shipped_scenario_path(name: str) -> Path:
@@ -235,30 +232,10 @@ def study(
 def synthetic_campaign(reality=None, **kwargs) -> Campaign:
     """A calibration campaign made by the plant (gap.make_campaign's arguments: seed,
     pressures_mpa, repeats, motion, instrument, ...), held in memory: the wrist rig with `reality`
-    (pneumatics JointParams; default the nominal wrist, gap.synth.wrist_params()) as the real
+    (pneumatics JointParams; default the nominal wrist, wrist_rig.commanded_run.wrist_params()) as the real
     arm, each run measured by the campaign's instrument."""
     with tempfile.TemporaryDirectory(prefix="twin-campaign-") as folder:
         return load_campaign(make_campaign(folder, reality or wrist_params(), **kwargs))
-
-
-@dataclass
-class Diagnosis:
-    """A gap diagnosis: `verdict` (explained, ambiguous, outside the catalogue, no significant
-    gap), the `effect` that explains the gap (the top candidate's name, or None), the held-out
-    rms angle error before and after it, and the whole diagnosis (`details`, gap.result.Diagnosis:
-    what diagnosis.json holds)."""
-
-    verdict: str
-    effect: str | None
-    before_rms_deg: float
-    after_rms_deg: float | None
-    details: GapDiagnosis
-
-    def ranking(self) -> dict[str, list]:
-        """The single-effect candidates, best first, as columns: name, held-out rms, shrink, fitted values."""
-        rank = self.details.which.ranking
-        columns = ("name", "heldout_rms_deg", "shrink", "fitted_values", "explains")
-        return {k: [getattr(c, k) for c in rank] for k in columns}
 
 
 def diagnose(
@@ -273,7 +250,9 @@ def diagnose(
 ) -> Diagnosis:
     """Diagnose a calibration campaign (`twin gap diagnose`): a folder, or a gap.Campaign in
     memory (synthetic_campaign); `effects` limits the catalogue to those names; `out` also writes
-    diagnosis.json, report.md and the plots there; `scheduler` runs the fits on that Dask cluster."""
+    diagnosis.json, report.md and the plots there; `scheduler` runs the fits on that Dask cluster.
+    The answer in brief: `verdict`, `effect`, `before_rms_deg`, `after_rms_deg`, `ranking()`; the
+    rest is diagnosis.json's fields (gap.result.Diagnosis)."""
     catalogue = CATALOGUE
     if effects is not None:
         known = {e.name for e in CATALOGUE}
@@ -288,6 +267,4 @@ def diagnose(
     )
     if out is not None:
         write_report(d, out)
-    top = d.which.top
-    after = top.heldout_rms_deg if top else None
-    return Diagnosis(d.which.verdict, top.name if top else None, d.before_rms_deg, after, d)
+    return d

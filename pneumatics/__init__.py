@@ -3,10 +3,10 @@
 Each law is written once here and used by the plant (twin/), the angle predictor (control/)
 and the gap diagnosis (gap/). Pressures are absolute Pa unless a name says `gauge`.
 
-The names below load on first use (PEP 562), so importing one light module of the package
-(`pneumatics.fields`, `pneumatics.paths`, as `twin --help` does) does not load the compiled laws
-and numba with them: 0.45 s of `twin --version`'s 0.5 s before they were lazy (`python -X
-importtime -c "import twin_cli.cli"`).
+The names below load on first use (PEP 562), so importing the package or one light module of it
+does not load the compiled laws and numba with them: 0.45 s of `twin --version`'s 0.5 s before
+they were lazy (`python -X importtime -c "import twin_cli.cli"`). A parameter file's errors are
+twin_plumbing.errors.ParameterError.
 """
 
 from __future__ import annotations
@@ -34,7 +34,6 @@ _PUBLIC = {  # module -> the names the package gives from it
         "orifice_mass_flow",
         "orifice_mass_flow_between",
     ),
-    "pneumatics.fields": ("ParameterError",),  # light: what the command line catches
     "pneumatics.params": ("JointParams", "load_joint_params", "paper_model", "params_row", "validated"),
     "pneumatics.reducer": ("transmitted_torque",),
     "pneumatics.valves": (

@@ -21,8 +21,9 @@ from typing import NamedTuple
 
 from pydantic import BaseModel, Field, ValidationError
 
-from pneumatics.fields import MISSING, TABLE, TEXT, choice, first_problem, read_toml
-from pneumatics.params import SPEC, JointParams, ParameterError, check_value, validated
+from pneumatics.params import SPEC, JointParams, check_value, validated
+from twin_plumbing.errors import ParameterError
+from twin_plumbing.fields import MISSING, TABLE, TEXT, choice, first_problem, read_toml
 
 SOURCES = ("datasheet", "literature", "assumed", "calibrated")
 

@@ -22,17 +22,6 @@ import numpy as np
 from pydantic import BaseModel, Field, ValidationError, create_model
 from pydantic_core import PydanticCustomError
 
-from pneumatics.fields import (
-    MISSING,
-    TABLE,
-    TEXT,
-    ParameterError,
-    Problem,
-    first_problem,
-    number,
-    number_check,
-    read_toml,
-)
 from pneumatics.gas import AIR, Gas
 from pneumatics.heat import vane_cell
 from pneumatics.hose import hose_constants, hose_mass_flow_with, hose_volume
@@ -40,6 +29,17 @@ from pneumatics.line import LINE_ROW_FIELDS, N_LINE_ROW, PLANT_BAND_HZ, line_row
 from pneumatics.motor import half_pitch_volume
 from pneumatics.orifice import choked_flux
 from pneumatics.valves import lag_factors
+from twin_plumbing.errors import ParameterError
+from twin_plumbing.fields import (
+    MISSING,
+    TABLE,
+    TEXT,
+    Problem,
+    first_problem,
+    number,
+    number_check,
+    read_toml,
+)
 
 
 class JointParams(NamedTuple):

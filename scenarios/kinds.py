@@ -13,7 +13,7 @@ from typing import Annotated, Any, Protocol, TypeVar
 
 from pydantic import BeforeValidator
 
-from pneumatics.fields import Allowed, refuse
+from twin_plumbing.fields import Allowed, refuse
 
 
 class Named(Protocol):

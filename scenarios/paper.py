@@ -39,8 +39,8 @@ from control.experiments import (
 from pneumatics.as_built import load_as_built_effects
 from scenarios.paper_report import write_plots, write_report
 from scenarios.paper_validation import KINDS, OPEN_S, PAPER, PRESSURES_MPA, rig_inertia, validation_run, wrist_models
-from twin.outputs import write_atomic
 from twin.plant import Plant
+from twin_plumbing.outputs import write_atomic
 
 P_ATM_PA = 101_325.0
 

@@ -3,7 +3,7 @@
 Protocol (the paper's, as written): at each supply 0.5-0.8 MPa the wrist is released and its
 valve opened fully for 1 s; the measured angle (here: the as-built plant's) is compared with two
 predictions driven by the same commands, the nominal model with the hose's pressure loss and
-without it (gap.replay: the predictor's own one-joint model). The error is |measured - predicted|
+without it (wrist_rig.one_joint: the predictor's own one-joint model). The error is |measured - predicted|
 over that 1 s ("in a one second simulation", Sec. III-C): its mean and its max. The run starts at
 -85 deg so the move stays inside the wrist's -90..90 deg slewing area (Sec. IV).
 
@@ -24,10 +24,10 @@ import numpy as np
 
 import assets
 from control.arm_model import ArmModel
-from gap.replay import DT_S, replay_run
-from gap.synth import SAMPLE_PERIOD_S, Motion, simulate_run
 from pneumatics import JointParams, load_joint_params, paper_model, params_row
 from pneumatics.as_built import load_as_built
+from wrist_rig.commanded_run import SAMPLE_PERIOD_S, Motion, simulate_run
+from wrist_rig.one_joint import DT_S, replay_run
 
 JOINT = "wrist_pitch"
 PRESSURES_MPA = (0.5, 0.6, 0.7, 0.8)

@@ -7,13 +7,13 @@ from pathlib import Path
 
 from scenarios.runner import build_plant, plan
 from twin.camera import FrameFeed
-from twin.checks import RECORDING_CAMERA_FPS
-from twin.errors import UserError
 from twin.mcap_log import McapRecorder
 from twin.mcap_log import start_time as start_meta
-from twin.provenance import run_metadata
 from twin.rerun_log import RerunRecorder, moving_joint
-from twin.signals import shielded
+from twin_plumbing.checks import RECORDING_CAMERA_FPS
+from twin_plumbing.errors import UserError
+from twin_plumbing.provenance import run_metadata
+from twin_plumbing.signals import shielded
 
 
 def open_recorders(

@@ -17,7 +17,6 @@ import numpy as np
 
 import assets
 from control import ArmController
-from pneumatics.params import ParameterError
 from scenarios import controllers
 from scenarios.cleaning import DiscContact, disc_contacts
 from scenarios.criteria import CRITERIA, Verdict, When, as_dicts, judge
@@ -37,11 +36,12 @@ from scenarios.schema import (
 from scenarios.string import Disc, scene_spec
 from scenarios.supply import supply_profile
 from scenarios.task import TaskController, platform_string
-from twin.checks import DURATION_S, SEED, check_number
 from twin.model import SimulationError
 from twin.plant import Plant
 from twin.sim import Recorder, run
 from twin.telemetry import Telemetry
+from twin_plumbing.checks import DURATION_S, SEED, check_number
+from twin_plumbing.errors import ParameterError
 
 log = logging.getLogger(__name__)
 

@@ -40,7 +40,14 @@ import assets
 from assets import JOINTS
 from pneumatics import JointParams, load_joint_params, paper_model
 from pneumatics.as_built import load_as_built
-from pneumatics.fields import (
+from pneumatics.params import JointParamsSubset, check_related
+from scenarios.criteria import CRITERIA
+from scenarios.faults import FAULTS
+from scenarios.ik import disc_drive_angles, drive_to_qpos, qpos_to_drive
+from scenarios.kinds import kind_of
+from scenarios.string import MAX_DISCS, discs_of
+from twin_plumbing.errors import ParameterError, UserError
+from twin_plumbing.fields import (
     FLAG,
     MISSING,
     REAL,
@@ -56,14 +63,7 @@ from pneumatics.fields import (
     refuse,
     whole,
 )
-from pneumatics.params import JointParamsSubset, ParameterError, check_related
-from pneumatics.paths import path_problem
-from scenarios.criteria import CRITERIA
-from scenarios.faults import FAULTS
-from scenarios.ik import disc_drive_angles, drive_to_qpos, qpos_to_drive
-from scenarios.kinds import kind_of
-from scenarios.string import MAX_DISCS, discs_of
-from twin.errors import UserError
+from twin_plumbing.paths import path_problem
 
 SHIPPED_DIR = Path(__file__).resolve().parent  # the scenario files ship as package data (pyproject.toml)
 # who keeps the arm on its task (scenarios/task.py): the predictor alone; the predictor re-referenced

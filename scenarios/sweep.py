@@ -34,9 +34,9 @@ from tqdm import tqdm
 
 from scenarios.runner import run_scenario
 from scenarios.schema import Scenario, ScenarioError, with_overrides
-from twin.checks import DURATION_S, MONTE_CARLO, WORKERS, check_number
-from twin.cluster import dask_client
-from twin.outputs import write_atomic
+from twin_plumbing.checks import DURATION_S, MONTE_CARLO, WORKERS, check_number
+from twin_plumbing.cluster import dask_client
+from twin_plumbing.outputs import write_atomic
 
 
 def grid_points(grid: dict[str, list]) -> list[dict]:

@@ -14,6 +14,7 @@ import pneumatic_arm_twin as pat
 from gap import GapError
 from scenarios.schema import ScenarioError
 from twin_cli.cli import main as twin_main
+from wrist_rig import commanded_run
 
 SCENARIO = "wrist_closed_loop_60deg"  # the paper's Fig. 23 rig: one joint, 60 deg at 0.5 MPa
 
@@ -145,11 +146,10 @@ def test_sweep_command_writes_the_table_beside_the_json(tmp_path, capsys):
 
 def test_diagnose_names_a_hidden_leak(tmp_path):
     """A campaign from the plant with a vane leak the twin lacks: the API's diagnosis names it."""
-    from gap import synth
 
     # in memory: no campaign folder is left on disk
     campaign = pat.synthetic_campaign(
-        synth.wrist_params()._replace(leak_area_m2=4e-7), seed=2, pressures_mpa=(0.5, 0.8)
+        commanded_run.wrist_params()._replace(leak_area_m2=4e-7), seed=2, pressures_mpa=(0.5, 0.8)
     )
     assert not campaign.folder.exists() and len(campaign.runs) == 4
     d = pat.diagnose(campaign, effects=["vane_leakage", "coulomb_friction"], out=tmp_path / "report")

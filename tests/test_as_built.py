@@ -13,7 +13,6 @@ import pytest
 import assets
 from pneumatics import (
     AIR,
-    ParameterError,
     chamber_volumes,
     load_joint_params,
     orifice_mass_flow,
@@ -35,6 +34,7 @@ from pneumatics.joint import (
 from scenarios import controllers
 from scenarios.runner import build_plant, reality_params
 from scenarios.schema import ScenarioError, joint_params_for, parse
+from twin_plumbing.errors import ParameterError
 
 RIG = """
 model = "wrist_rig"

@@ -16,6 +16,7 @@ from gap import synth
 from gap.campaign import GapError, load_campaign
 from gap.diagnose import diagnose
 from gap.effects import BY_NAME, CATALOGUE
+from wrist_rig import commanded_run
 
 FAST = tuple(
     e
@@ -28,7 +29,7 @@ FAST = tuple(
 @pytest.fixture(scope="module")
 def campaigns(tmp_path_factory):
     root = tmp_path_factory.mktemp("gap")
-    p0 = synth.wrist_params()
+    p0 = commanded_run.wrist_params()
     return {
         # the paper's protocol: at each supply the wrist turns 60 deg at full opening, then holds
         "paper": synth.make_campaign(root / "paper", p0, seed=1, twin_hose_loss=False, motion=synth.paper_motions(p0)),
@@ -127,7 +128,7 @@ def test_a_form_outside_the_catalogue_is_called_so_and_given_its_family(
     is called outside the catalogue with the family of the best candidate's leading effect."""
     folder = synth.make_campaign(
         tmp_path / "c",
-        synth.wrist_params()._replace(**hidden),
+        commanded_run.wrist_params()._replace(**hidden),
         seed=7,
         pressures_mpa=(0.5, 0.6, 0.8),
         chamber_pressures=True,
@@ -175,7 +176,7 @@ def test_hidden_reducer_compliance_is_found_and_recovered(tmp_path):
     # the catalogue's reducer entries are configuration of the same one-joint model
     folder = synth.make_campaign(
         tmp_path / "compliant",
-        synth.wrist_params()._replace(reducer_compliance_rad_per_nm=1e-3),
+        commanded_run.wrist_params()._replace(reducer_compliance_rad_per_nm=1e-3),
         seed=4,
         pressures_mpa=(0.5, 0.8),
     )
@@ -296,16 +297,16 @@ def test_mcap_runs_from_the_plant_are_diagnosed(tmp_path):
     # runs logged by the twin's own MCAP recorder (20 ms samples of commands, valve OUTPUT pressure
     # and true angle) from the plant with a hidden vane leak, put in a campaign folder
     from gap.diagnose import DT_S, Twin
-    from gap.replay import replay_run
     from pneumatics import params_row
+    from wrist_rig.one_joint import replay_run
 
-    p0 = synth.wrist_params()
+    p0 = commanded_run.wrist_params()
     folder = tmp_path / "mcap"
     folder.mkdir()
     lines = ['joint = "wrist_pitch"', "hose_length_m = 8.0", "rig_inertia_kg_m2 = 0.02"]
     for mpa in (0.5, 0.8):
         for name, reality in (("leak", p0._replace(leak_area_m2=4e-7)), ("nominal", p0)):
-            synth.write_mcap_run(folder / f"{name}_{int(mpa * 100)}.mcap", reality, mpa)
+            commanded_run.write_mcap_run(folder / f"{name}_{int(mpa * 100)}.mcap", reality, mpa)
     for mpa in (0.5, 0.8):
         lines += [
             "[[runs]]",
@@ -343,8 +344,9 @@ def test_the_model_tolerance_is_what_the_replay_misses_on_each_protocol_today():
     replay's disagreement with the plant measured afresh (or the twin calls its own error an
     effect), and none may be stale by more than its rounding (or real gaps hide under it)."""
     from gap import protocols
+    from gap.tolerance import measure_tolerance
 
-    measured = protocols.measure_tolerance()
+    measured = measure_tolerance()
     assert set(measured) == set(protocols.TOLERANCE_DEG) == set(protocols.TOLERANCE_KPA)
     for name, m in measured.items():
         assert m["rms_deg"] <= protocols.TOLERANCE_DEG[name] <= m["rms_deg"] + 0.001 + 1e-9, name
@@ -396,7 +398,7 @@ def camera_campaign(tmp_path_factory):
     motion = {q: protocols.STOP_AND_GO for q in (0.5, 0.8)}
     return synth.make_campaign(
         tmp_path_factory.mktemp("gap") / "camera",
-        synth.wrist_params(),
+        commanded_run.wrist_params(),
         seed=11,
         pressures_mpa=(0.5, 0.8),
         motion=motion,
@@ -496,7 +498,7 @@ def _resting_spring_campaign(folder, protocol: str):
 
     return synth.make_campaign(
         folder,
-        synth.wrist_params(),
+        commanded_run.wrist_params(),
         seed=16,
         pressures_mpa=(0.5, 0.6, 0.8),
         motion={q: protocols.library(q)[protocol] for q in (0.5, 0.6, 0.8)},
@@ -550,7 +552,7 @@ def test_a_pair_that_acts_through_its_interaction_is_found(tmp_path):
     camera = synth.SimInstrument("camera_30hz", 30.0, 0.2, 0.017, 0.03, phase_s=0.013)
     folder = synth.make_campaign(
         tmp_path / "leak_coulomb",
-        synth.wrist_params()._replace(leak_area_m2=2e-7, coulomb_nm=25.0),
+        commanded_run.wrist_params()._replace(leak_area_m2=2e-7, coulomb_nm=25.0),
         seed=5119,
         motion={q: library(q)["paper_60"] for q in synth.PRESSURES_MPA},
         instrument=camera,
@@ -582,7 +584,7 @@ def test_a_run_on_a_knife_edge_is_held_to_the_twins_own_spread(tmp_path):
     camera = synth.SimInstrument("camera_30hz", 30.0, 0.2, 0.021, 0.03, phase_s=0.012)
     folder = synth.make_campaign(
         tmp_path / "coulomb",
-        synth.wrist_params()._replace(coulomb_nm=30.0),
+        commanded_run.wrist_params()._replace(coulomb_nm=30.0),
         seed=5102,
         motion={q: library(q)["back_and_forth"] for q in synth.PRESSURES_MPA},
         instrument=camera,
@@ -635,7 +637,7 @@ def test_verdict_rules_refuse_a_pair_at_nominal_flag_bounds_and_name_only_a_fami
     from gap.diagnose import Candidate
     from gap.run import verdict_line
 
-    p0 = synth.wrist_params()
+    p0 = commanded_run.wrist_params()
     at_nominal = Candidate("vane_leakage+heat_exchange", ["vane_leakage", "heat_exchange"], [], [4e-7, 1.4])
     assert verdict.off_nominal(at_nominal, p0) == [True, False]
     moved = Candidate("vane_leakage+heat_exchange", ["vane_leakage", "heat_exchange"], [], [4e-7, 1.2])
@@ -662,7 +664,7 @@ def test_hidden_angle_load_is_found_and_located_by_angle(tmp_path):
 
     folder = synth.make_campaign(
         tmp_path / "spring",
-        synth.wrist_params(),
+        commanded_run.wrist_params(),
         seed=12,
         pressures_mpa=(0.5, 0.8),
         motion={q: protocols.paper_60(q) for q in (0.5, 0.8)},
@@ -682,7 +684,7 @@ def test_hidden_hose_leak_is_found_and_told_from_the_vane_leak(tmp_path):
     (A -> B), the same family, does not stand in for it; the area is recovered."""
     folder = synth.make_campaign(
         tmp_path / "hose_leak",
-        synth.wrist_params()._replace(hose_leak_area_m2=3e-7),
+        commanded_run.wrist_params()._replace(hose_leak_area_m2=3e-7),
         seed=14,
         pressures_mpa=(0.5, 0.6, 0.8),
     )
@@ -698,7 +700,7 @@ def test_hidden_slow_brake_release_is_found_and_told_from_a_late_valve(tmp_path)
     rise; the catalogue's slow release explains the gap and recovers the time constant."""
     folder = synth.make_campaign(
         tmp_path / "slow_brake",
-        synth.wrist_params()._replace(brake_release_time_constant_s=0.4),
+        commanded_run.wrist_params()._replace(brake_release_time_constant_s=0.4),
         seed=16,
         pressures_mpa=(0.5, 0.6, 0.8),
     )
@@ -718,7 +720,7 @@ def test_hidden_slow_brake_engagement_is_found_and_told_from_a_weak_lining(tmp_p
     pressures = (0.5, 0.6, 0.8)
     folder = synth.make_campaign(
         tmp_path / "slow_engage",
-        synth.wrist_params()._replace(brake_engage_time_constant_s=0.1),
+        commanded_run.wrist_params()._replace(brake_engage_time_constant_s=0.1),
         seed=19,
         pressures_mpa=pressures,
         motion={q: protocols.library(q)["stop_and_go"] for q in pressures},
@@ -733,13 +735,13 @@ def test_hidden_slow_brake_engagement_is_found_and_told_from_a_weak_lining(tmp_p
 def test_a_run_that_homes_against_the_end_stop_is_no_gap(tmp_path):
     """No hidden effect; each run drives the wrist wide open into its +90 deg end stop, holds it
     there, brakes, and drives back (a rig homing against its stop). The replay stops the joint
-    where the plant's stop does (gap.replay), so the twin's own motion is no gap; before, the
+    where the plant's stop does (wrist_rig.one_joint), so the twin's own motion is no gap; before, the
     replay turned on past the stop and the campaign was a 37 deg "outside the catalogue"."""
     from gap.protocols import Protocol, Segment
 
     homing = Protocol("homing", (Segment(1.6, +1), Segment(0.3, 0, None, False), Segment(0.8, -1)))
     folder = synth.make_campaign(
-        tmp_path / "homing", synth.wrist_params(), seed=21, pressures_mpa=(0.5, 0.8), motion=homing
+        tmp_path / "homing", commanded_run.wrist_params(), seed=21, pressures_mpa=(0.5, 0.8), motion=homing
     )
     campaign = load_campaign(folder)
     assert max(np.nanmax(r.angle_rad) for r in campaign.runs) > np.deg2rad(89.5)  # the runs reach the stop
@@ -753,7 +755,7 @@ def test_hidden_incomplete_brake_release_is_given_to_the_brake(tmp_path):
     bar fits alike (the brake never clears), so a fold's value is not identified there."""
     folder = synth.make_campaign(
         tmp_path / "brake",
-        synth.wrist_params()._replace(brake_release_gauge_pa=6.0e5),
+        commanded_run.wrist_params()._replace(brake_release_gauge_pa=6.0e5),
         seed=13,
         pressures_mpa=(0.5, 0.6, 0.8),
     )
@@ -789,7 +791,7 @@ def test_bench_under_a_variant_of_its_settings(tmp_path):
     slice on the paper's moves, with the instrument of the case one place along and another seed;
     bench.json says so. A protocol the library lacks is refused before any work."""
     from gap.bench import QUICK, Variant, cases, check_variant, run_bench, setting
-    from twin.errors import UserError
+    from twin_plumbing.errors import UserError
 
     i = [c.name for c in cases()].index("none_1")
     _, inst, _ = setting(i + 1, cases()[i], np.random.default_rng(1000 + i))
@@ -837,7 +839,7 @@ def test_a_campaign_may_run_several_protocols_at_each_supply(tmp_path):
 
     folder = synth.make_campaign(
         tmp_path / "mixed",
-        synth.wrist_params(),
+        commanded_run.wrist_params(),
         seed=4,
         pressures_mpa=(0.5, 0.8),
         repeats=1,

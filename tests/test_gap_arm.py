@@ -22,11 +22,11 @@ from gap.arm_diagnose import (
     twin_of,
 )
 from gap.arm_effects import Candidate
+from gap.arm_rehearsal import CAMERA, make_arm_campaign, simulate
+from gap.arm_rehearsal import twin_of as scenario_twin
 from gap.arm_replay import replay
 from gap.campaign import GapError
 from gap.diagnose import _parallel
-from scenarios.arm_rehearsal import CAMERA, make_arm_campaign, simulate
-from scenarios.arm_rehearsal import twin_of as scenario_twin
 from scenarios.schema import load
 
 ONE_JOINT = "scenarios/arm_protocols/one_joint.toml"

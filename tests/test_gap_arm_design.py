@@ -16,11 +16,11 @@ from gap.arm_campaign import CAMERA, JOINTS, Reality, add_arm_runs, load_arm_cam
 from gap.arm_design import changed
 from gap.arm_diagnose import twin_of
 from gap.arm_effects import candidate_named
+from gap.arm_rehearsal import make_arm_campaign, play_arm_plan
 from gap.arm_replay import replay
 from gap.design_cli import run_arm_design
-from scenarios.arm_rehearsal import make_arm_campaign, play_arm_plan
 from scenarios.schema import load
-from twin.errors import UserError
+from twin_plumbing.errors import UserError
 
 ONE_JOINT = "scenarios/arm_protocols/one_joint.toml"
 SECONDS = 9.0  # the exercise's moves of the base, the shoulder and the elbow

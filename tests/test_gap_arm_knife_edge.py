@@ -13,9 +13,9 @@ import pytest
 from gap.arm_campaign import JOINTS, ArmRun, Reality, load_arm_campaign
 from gap.arm_diagnose import EXPLAINED_SHRINK, judge, knife_edges, residual, twin_of
 from gap.arm_effects import candidate_named
+from gap.arm_rehearsal import CAMERA, make_arm_campaign
 from gap.arm_replay import Replay, replay
 from gap.diagnose import _parallel
-from scenarios.arm_rehearsal import CAMERA, make_arm_campaign
 from scenarios.schema import load
 
 POINT_TO_POINT = "scenarios/arm_protocols/point_to_point.toml"

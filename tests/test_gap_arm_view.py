@@ -14,9 +14,9 @@ import assets
 from gap.arm_campaign import JOINTS, Reality, load_arm_campaign
 from gap.arm_diagnose import twin_of
 from gap.arm_effects import candidate_named
+from gap.arm_rehearsal import CAMERA, make_arm_campaign
 from gap.arm_replay import TICK_S, replay
 from gap.arm_view import DEPARTS_RGBA, MEASURED_PATH, REPLAYED_PATH, REPLAYED_RGBA, VERDICT_PATH
-from scenarios.arm_rehearsal import CAMERA, make_arm_campaign
 from scenarios.schema import load
 from twin_cli.cli import main as twin_main
 

@@ -13,15 +13,16 @@ from gap import protocols, synth
 from gap.campaign import load_campaign
 from gap.design import Criterion, Pair, alternatives, choose, hypotheses_of, planned_run
 from gap.diagnose import joint_stops, nominal_inertia
-from gap.discrimination import Hypothesis, Reading, Twin, misfits, response, trajectory
+from gap.discrimination import Hypothesis, Reading, ReplayedJoint, misfits, response, trajectory
 from gap.effects import BY_NAME, CATALOGUE
 from gap.plan import Header, add_runs, play_plan, read_plan, write_plan
-from gap.replay import DT_S, replay_run
 from pneumatics import params_row
+from wrist_rig import commanded_run
+from wrist_rig.one_joint import DT_S, replay_run
 
-P0 = synth.wrist_params()
-TWIN = Twin(P0, joint_stops(synth.JOINT))
-INERTIA = nominal_inertia(synth.RIG_INERTIA_KG_M2, P0)
+P0 = commanded_run.wrist_params()
+TWIN = ReplayedJoint(P0, joint_stops(commanded_run.JOINT))
+INERTIA = nominal_inertia(commanded_run.RIG_INERTIA_KG_M2, P0)
 READING = Reading(0.3, np.array([0.0, 0.02, 0.04]))
 
 
@@ -31,7 +32,7 @@ def _run(name: str, mpa: float = 0.6, rate_hz: float = 50.0, pressures: bool = F
 
 def test_the_criterion_is_the_sum_of_squared_differences_in_floors_computed_directly():
     """discrimination.misfits of one alternative at one latency equals sum((theta_a - theta_b)/floor)^2
-    with both angles replayed straight through gap.replay and read at the sample times."""
+    with both angles replayed straight through wrist_rig.one_joint and read at the sample times."""
     run = _run("reversal")
     a, b = ((BY_NAME["coulomb_friction"], 30.0),), ((BY_NAME["viscous_friction"], 8.0),)
     m = misfits(response(TWIN, a, run, READING), 1, [response(TWIN, b, run, READING)])
@@ -115,7 +116,7 @@ def test_design_without_a_campaign_needs_a_joint_and_an_instrument(tmp_path):
     """`twin gap design --out DIR` with neither a campaign nor --joint is refused in one line naming what
     is allowed, before any work; so is a campaign given with --instrument."""
     from gap.design_cli import run_design
-    from twin.errors import UserError
+    from twin_plumbing.errors import UserError
 
     with pytest.raises(UserError, match=r"--joint \(one of base_yaw.*got None\) and --instrument"):
         run_design(None, tmp_path / "out", None, "camera")

@@ -27,11 +27,11 @@ from test_scenarios import MINIMAL
 
 from gap.campaign import GapError, load_campaign
 from scenarios.schema import SHIPPED_DIR, ScenarioError, load, parse
-from twin.errors import UserError
 from twin.mcap_log import LogError, McapWriter, read_mcap
-from twin.outputs import OutputLock, check_output, keep_result, publish_folder, write_atomic
 from twin.telemetry import SIGNALS
 from twin_cli.cli import build_parser, main
+from twin_plumbing.errors import UserError
+from twin_plumbing.outputs import OutputLock, check_output, keep_result, publish_folder, write_atomic
 
 ROOT = Path(__file__).resolve().parent.parent
 RIG = MINIMAL.replace('mode = "none"', 'mode = "closed_loop"')  # a 0.2 s wrist-rig scenario
@@ -133,9 +133,9 @@ def test_a_study_refuses_empty_unknown_or_repeated_items(tmp_path, capsys, flag,
 
 def test_an_unreachable_scheduler_is_refused_before_any_run(tmp_path, monkeypatch, capsys):
     import scenarios.sweep
-    import twin.cluster
+    import twin_plumbing.cluster
 
-    monkeypatch.setattr(twin.cluster, "SCHEDULER_TIMEOUT_S", 1.0)
+    monkeypatch.setattr(twin_plumbing.cluster, "SCHEDULER_TIMEOUT_S", 1.0)
     f = tmp_path / "s.toml"
     f.write_text(RIG)
     ran = []
@@ -168,9 +168,9 @@ def test_a_sweep_grid_that_would_lose_points_is_refused(tmp_path, capsys):
 def test_gap_diagnose_refuses_a_scheduler_that_does_not_answer_before_any_work(tmp_path, monkeypatch, capsys, address):
     """`twin gap diagnose --scheduler` checks the address as `twin sweep --scheduler` does (one
     line, exit 2), before the diagnosis starts, not with a traceback at its fits."""
-    import twin.cluster
+    import twin_plumbing.cluster
 
-    monkeypatch.setattr(twin.cluster, "SCHEDULER_TIMEOUT_S", 1.0)
+    monkeypatch.setattr(twin_plumbing.cluster, "SCHEDULER_TIMEOUT_S", 1.0)
     out = tmp_path / "out"
     assert main(["gap", "diagnose", str(campaign(tmp_path / "c")), "--out", str(out), "--scheduler", address]) == 2
     one_line_error(capsys, f"--scheduler {address}: no Dask scheduler answers there", "allowed")
@@ -744,7 +744,7 @@ def test_a_folder_of_results_arrives_whole_or_is_kept_beside(tmp_path, caplog):
         (out / "b.json" / "x").write_text("")
         return "done"
 
-    with caplog.at_level("WARNING", logger="twin.outputs"):
+    with caplog.at_level("WARNING", logger="twin_plumbing.outputs"):
         result, kept = publish_folder(out, work_then_block, "results")
     assert result == "done" and kept != out and (kept / "b.json").read_text() == "[]"
     assert str(kept) in caplog.text  # the library logs where it kept them; the command line shows it
@@ -956,13 +956,13 @@ def test_a_signal_met_by_compiled_code_is_still_a_stop():
     line turns into exit 143 or 130."""
     import threading
 
-    from gap import synth
-    from gap.replay import DT_S, replay_run
     from pneumatics import params_row
-    from twin.errors import Terminated
-    from twin.signals import stop_behind, stop_on_sigterm
+    from twin_plumbing.errors import Terminated
+    from twin_plumbing.signals import stop_behind, stop_on_sigterm
+    from wrist_rig.commanded_run import wrist_params
+    from wrist_rig.one_joint import DT_S, replay_run
 
-    p, n = params_row(synth.wrist_params()), 3
+    p, n = params_row(wrist_params()), 3
     commands = (np.arange(n) * 1.0, np.zeros(n), np.zeros(n), np.zeros(n), np.full(n, 6e5), False, 0.0, 0.02, 0.0)
     replay_run(p, *commands, 0.01, DT_S)  # compiled before the timer starts
     with stop_on_sigterm():
@@ -1019,8 +1019,8 @@ def test_the_python_api_checks_its_numbers_too(tmp_path):
 
 def test_closing_logs_is_not_cut_short_by_a_signal():
     """A signal that arrives while logs are being closed waits until they are closed."""
-    from twin.errors import Terminated
-    from twin.signals import shielded, stop_on_sigterm
+    from twin_plumbing.errors import Terminated
+    from twin_plumbing.signals import shielded, stop_on_sigterm
 
     finished = []
     with stop_on_sigterm():

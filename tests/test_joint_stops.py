@@ -23,8 +23,8 @@ import pytest
 from located_events import Command, solve
 
 import assets
-from gap.replay import replay_run
 from pneumatics import load_joint_params, paper_model, params_row
+from wrist_rig.one_joint import replay_run
 
 WRIST = load_joint_params(assets.JOINTS_DIR / "wrist_pitch.toml")
 P_ATM = 101_325.0

@@ -16,12 +16,12 @@ import pytest
 
 import assets
 from benchmarks.bench_logging import SUPPLY_PA, wrist_schedule
-from twin.errors import UserError
 from twin.mcap_log import LogError, McapRecorder, read_mcap
 from twin.plant import Plant
 from twin.rerun_log import RerunRecorder
 from twin.sim import run
 from twin_cli.cli import main as twin_main
+from twin_plumbing.errors import UserError
 
 ROOT = Path(__file__).resolve().parents[1]
 META = {

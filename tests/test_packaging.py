@@ -71,7 +71,7 @@ def _prints_outside_main(path: Path) -> list[int]:
 def test_library_modules_log_rather_than_print():
     """Only the command line (twin_cli) and the benchmarks' reports print; the libraries log."""
     found = {}
-    for package in ("pneumatics", "control", "twin", "scenarios", "gap", "pneumatic_arm_twin"):
+    for package in ("twin_plumbing", "pneumatics", "control", "twin", "scenarios", "gap", "pneumatic_arm_twin"):
         for path in sorted((ROOT / package).rglob("*.py")):
             lines = _prints_outside_main(path)
             if lines:

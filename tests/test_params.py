@@ -12,8 +12,9 @@ from pathlib import Path
 import pytest
 
 import assets
-from pneumatics import JointParams, ParameterError, load_joint_params
+from pneumatics import JointParams, load_joint_params
 from pneumatics.params import SPEC
+from twin_plumbing.errors import ParameterError
 
 REAL = assets.joint_param_path("wrist_pitch")
 TEXT = REAL.read_text()

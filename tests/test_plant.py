@@ -30,15 +30,17 @@ from scipy.integrate import solve_ivp
 
 import assets
 import twin.plant
-from gap import protocols, synth
-from gap.replay import replay_run
-from pneumatics import ParameterError, load_joint_params, params_row, vane_torque
+from gap import protocols
 from pneumatics import joint as J
+from pneumatics import load_joint_params, params_row, vane_torque
 from pneumatics import params as P
 from pneumatics.brake import brake_feed_gauge_pa, brake_target
 from pneumatics.reducer import damping, is_rigid, stiffness, transmitted_torque
 from twin.model import warning_counts
 from twin.plant import Plant
+from twin_plumbing.errors import ParameterError
+from wrist_rig import commanded_run
+from wrist_rig.one_joint import replay_run
 
 P_ATM = 101_325.0
 SUPPLY_05 = P_ATM + 0.5e6  # the paper's "0.5 MPa" is gauge
@@ -457,8 +459,8 @@ def test_reducer_fields_explicitly_zero_give_the_default_run_bit_identically() -
         assert np.array_equal(plant.motor_angles(), plant.drive_angles())
     assert_identical(*runs)
     # the one-joint model: the same run, and q_m, w_m slaved to theta, w at every step
-    motion = synth.Motion(t_move_s=0.4, t_reverse_s=0.5, opening_2=1.0, t_hold_s=0.3)
-    wrist = synth.wrist_params()
+    motion = commanded_run.Motion(t_move_s=0.4, t_reverse_s=0.5, opening_2=1.0, t_hold_s=0.3)
+    wrist = commanded_run.wrist_params()
     out = []
     for params in (wrist, rigid["wrist_pitch"]):
         p = params_row(params)
@@ -486,7 +488,7 @@ def test_compliant_wrist_held_by_its_brake_twists_by_torque_over_stiffness() -> 
     kernel winds the motor side up until the spring carries the stall torque: twist = tau / k.
     The rotor's inertia leaves MuJoCo's armature for the kernel's motor side."""
     compliance = 1e-3
-    params = synth.wrist_params()._replace(
+    params = commanded_run.wrist_params()._replace(
         reducer_compliance_rad_per_nm=compliance, efficiency_forward=1.0, efficiency_backward=1.0
     )
     plant = Plant(assets.WRIST_RIG_XML, joint_params={"wrist_pitch": params})
@@ -519,8 +521,8 @@ def test_plant_and_one_joint_replay_agree_with_a_compliant_or_backlashed_reducer
     with compliance 1e-3 rad/N·m and with 0.02 rad of backlash they agree as closely as with the
     rigid reducer (measured here as the baseline), while the gear changes the move by more than
     that: the agreement is the model's, not the effect's smallness."""
-    motion = synth.Motion(t_move_s=0.4, t_reverse_s=0.5, opening_2=1.0, t_hold_s=0.3)
-    wrist = synth.wrist_params()
+    motion = commanded_run.Motion(t_move_s=0.4, t_reverse_s=0.5, opening_2=1.0, t_hold_s=0.3)
+    wrist = commanded_run.wrist_params()
     cases = {
         "rigid": wrist,
         "compliance 1e-3": wrist._replace(reducer_compliance_rad_per_nm=1e-3),
@@ -528,7 +530,7 @@ def test_plant_and_one_joint_replay_agree_with_a_compliant_or_backlashed_reducer
     }
     plant_deg, diff_deg = {}, {}
     for name, params in cases.items():
-        run = synth.simulate_run(params, 0.6, motion)
+        run = commanded_run.simulate_run(params, 0.6, motion)
         _, theta, _, _, _ = replay_run(
             params_row(params),
             run["time_s"],
@@ -562,7 +564,7 @@ def test_plant_and_one_joint_replay_agree_with_a_compliant_or_backlashed_reducer
 
 def test_a_gear_too_stiff_for_the_physics_step_is_refused() -> None:
     # the spring acts on MuJoCo's joint explicitly: its joint-side mode must be resolved by the step
-    params = synth.wrist_params()._replace(reducer_compliance_rad_per_nm=1e-6)
+    params = commanded_run.wrist_params()._replace(reducer_compliance_rad_per_nm=1e-6)
     with pytest.raises(ParameterError) as info:
         Plant(assets.WRIST_RIG_XML, joint_params={"wrist_pitch": params})
     message = str(info.value)
@@ -580,9 +582,9 @@ def test_the_plant_holds_a_joint_whose_drive_stays_under_its_static_friction() -
     # MuJoCo's friction limit, the static level at rest), so the joint never breaks away; with
     # Coulomb friction alone the same move turns it tens of degrees
     move = protocols.paper_60(0.5)
-    stribeck = synth.wrist_params()._replace(stribeck_excess_nm=40.0, stribeck_speed_rad_s=0.2)
-    held = synth.simulate_run(stribeck, 0.5, move)["angle_rad"]
-    free = synth.simulate_run(synth.wrist_params(), 0.5, move)["angle_rad"]
+    stribeck = commanded_run.wrist_params()._replace(stribeck_excess_nm=40.0, stribeck_speed_rad_s=0.2)
+    held = commanded_run.simulate_run(stribeck, 0.5, move)["angle_rad"]
+    free = commanded_run.simulate_run(commanded_run.wrist_params(), 0.5, move)["angle_rad"]
     assert np.degrees(np.nanmax(free) - np.nanmin(free)) > 10.0
     # MuJoCo's friction constraint is soft: under the push it gives 0.007 deg over the move
     assert np.degrees(np.nanmax(np.abs(held))) < 0.05

@@ -24,8 +24,7 @@ import pytest
 
 import assets
 import scenarios
-from gap.replay import replay_run
-from pneumatics import AIR, ParameterError, load_joint_params, paper_model, params_row
+from pneumatics import AIR, load_joint_params, paper_model, params_row
 from pneumatics import joint as J
 from pneumatics import params as P
 from pneumatics.hose import line_response
@@ -33,6 +32,8 @@ from pneumatics.line import state_size, stored_mass
 from pneumatics.motor import chamber_geometry
 from twin.model import warning_counts
 from twin.plant import Plant
+from twin_plumbing.errors import ParameterError
+from wrist_rig.one_joint import replay_run
 
 SUPPLY_05 = AIR.p_atm_pa + 0.5e6  # the paper's 0.5 MPa, gauge
 WRIST = load_joint_params(assets.joint_param_path("wrist_pitch"))

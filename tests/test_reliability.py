@@ -247,9 +247,9 @@ def test_no_alias_lets_two_runs_write_one_file_or_folder(tmp_path, monkeypatch, 
     """Through a symbolic link to the file, to a folder above it, `..`, a relative path, or (as
     root) a bind mount of its folder, a second writer meets the first one's lock. Before, the lock
     was keyed by the path as given: two runs through a link both wrote, and one's log was lost."""
-    from twin.errors import UserError
-    from twin.outputs import OutputLock
     from twin_cli.cli import main
+    from twin_plumbing.errors import UserError
+    from twin_plumbing.outputs import OutputLock
 
     real = tmp_path / "real"
     real.mkdir()

@@ -76,9 +76,9 @@ from mcap.writer import CompressionType, Writer
 from mcap_protobuf.schema import build_file_descriptor_set
 
 from twin import worker
-from twin.errors import UserError
-from twin.provenance import package_versions
 from twin.telemetry import SIGNALS
+from twin_plumbing.errors import UserError
+from twin_plumbing.provenance import package_versions
 
 log = logging.getLogger(__name__)
 
@@ -154,7 +154,7 @@ class McapWriter:
     """Writes the MCAP file in the calling process: what McapRecorder's writer process runs.
 
     `bodies` are the body names in telemetry order, `scene` the serialised foxglove.SceneUpdate
-    of the model's geometry, `meta` the run's metadata (twin.provenance.run_metadata);
+    of the model's geometry, `meta` the run's metadata (twin_plumbing.provenance.run_metadata);
     `predicted_scene` the moving bodies' geoms in the predicted arm's frames (written with the
     first predicted pose), `camera` the camera's serialised (FrameTransforms, CameraCalibration).
     """
@@ -415,7 +415,7 @@ class McapRecorder:
     """Writes an MCAP file while a run goes (Recorder protocol of twin.sim).
 
     `plant_model` is the run's MjModel (body names and geometry), `joints` the joint names in
-    telemetry order, `meta` the run's metadata (twin.provenance.run_metadata: scenario_text,
+    telemetry order, `meta` the run's metadata (twin_plumbing.provenance.run_metadata: scenario_text,
     seed, versions, ...).
 
     The encoding (protobuf, JSON, zstd: ~0.12 ms a sample in pure Python, a fifth of the run's

@@ -176,7 +176,7 @@ def angles_figure(arrays: dict, joints: tuple[str, ...] = assets.JOINTS, only_mo
 
 
 def picture_bytes(fig: Figure, fmt: str, dpi: float = ANGLES_DPI) -> bytes:
-    """`fig` as a file of format `fmt` (one of PICTURE_FORMATS), e.g. for twin.outputs.write_atomic."""
+    """`fig` as a file of format `fmt` (one of PICTURE_FORMATS), e.g. for twin_plumbing.outputs.write_atomic."""
     buffer = io.BytesIO()
     fig.savefig(buffer, format=fmt, dpi=dpi)
     return buffer.getvalue()

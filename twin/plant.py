@@ -24,12 +24,13 @@ import mujoco
 import numpy as np
 
 import assets
-from pneumatics import AIR, Gas, JointParams, ParameterError, load_joint_params, params_row
+from pneumatics import AIR, Gas, JointParams, load_joint_params, params_row
 from pneumatics import joint as J
 from pneumatics import params as P
 from pneumatics.reducer import is_rigid, stiffness
 from twin.kernel import finish_air_pairs, keep_force_peak, plant_steps, pneumatic_step
 from twin.model import drive_map, ids, load_model, raise_on_new_warnings, warning_counts
+from twin_plumbing.errors import ParameterError
 
 # a non-rigid reducer's spring acts on MuJoCo's joint explicitly (twin/kernel.py): its mode on the
 # joint side, sqrt(k / J_joint), must stay under this many rad per physics step. Measured on the

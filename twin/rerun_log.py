@@ -53,9 +53,9 @@ import rerun.blueprint as rrb
 
 from twin.camera import FrameFeed
 from twin.camera_pose import camera_pose
-from twin.errors import UserError
 from twin.ghost import GhostArm
 from twin.model import body_name, geom_rgba, has_camera
+from twin_plumbing.errors import UserError
 
 log = logging.getLogger(__name__)
 

@@ -18,7 +18,7 @@ import subprocess
 import sys
 from pathlib import Path
 
-from twin.errors import UserError
+from twin_plumbing.errors import UserError
 
 VULKAN_ICD_DIRS = ("/usr/share/vulkan/icd.d", "/etc/vulkan/icd.d")
 

@@ -1,15 +1,16 @@
 """Checked numbers and places on the command line: an argparse `type` that refuses NaN, infinities
 and values out of range with what is allowed (argparse adds the flag's name), by the ranges of
-twin.checks, which the Python API checks with, in the words of pneumatics.fields.range_text; and
+twin_plumbing.checks, which the Python API checks with, in the words of twin_plumbing.fields.range_text; and
 one that refuses an empty place."""
 
 from __future__ import annotations
 
 import argparse
+from collections.abc import Callable
 from pathlib import Path
 
-from pneumatics.fields import range_text
-from twin.checks import WORKERS, problem
+from twin_plumbing.checks import WORKERS, problem
+from twin_plumbing.fields import range_text
 
 
 def number(low: float, high: float, unit: str = "", *, above: bool = False, integer: bool = False):
@@ -26,6 +27,17 @@ def number(low: float, high: float, unit: str = "", *, above: bool = False, inte
         return value
 
     parse.__name__ = "number"  # argparse names the type in some messages
+    return parse
+
+
+def number_from(ranges: Callable[[], dict]):
+    """`number` with the range `ranges()` gives, looked up when a value is given rather than when
+    the parser is built: for the ranges gap/ owns, which takes seconds to import (twin_cli/cli.py)."""
+
+    def parse(text: str):
+        return number(**ranges())(text)
+
+    parse.__name__ = "number"
     return parse
 
 

@@ -21,10 +21,9 @@ import signal
 import sys
 from importlib import metadata
 
-from pneumatics import ParameterError
-from twin.errors import Terminated, UserError
-from twin.signals import stop_behind, stop_on_sigterm
 from twin_cli import gap_commands, log_commands, plot_command, run_commands, study_commands
+from twin_plumbing.errors import ParameterError, Terminated, UserError
+from twin_plumbing.signals import stop_behind, stop_on_sigterm
 
 # each defines `register(subparsers)`; the order is that of `twin --help`
 COMMAND_MODULES = (run_commands, log_commands, plot_command, gap_commands, study_commands)

@@ -6,12 +6,19 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-from twin.checks import BENCH_SEEDS, DURATION_S, JOBS
-from twin.errors import UserError
-from twin.outputs import OutputLock, check_output
-from twin_cli.args import number, place
+from twin_cli.args import number, number_from, place
+from twin_plumbing.checks import DURATION_S, JOBS
+from twin_plumbing.errors import UserError
+from twin_plumbing.outputs import OutputLock, check_output
 
 INSTRUMENTS = ("camera", "encoder")
+
+
+def seeds_range() -> dict:
+    """gap.bench's range of seeds, imported when a flag is given: importing gap takes seconds (twin_cli/cli.py)."""
+    from gap.bench import BENCH_SEEDS
+
+    return BENCH_SEEDS
 
 
 def register(sub) -> None:
@@ -30,7 +37,7 @@ def register(sub) -> None:
     c.add_argument("--supplies", default="0.5,0.6,0.7,0.8", metavar="MPA,...", help="supplies, gauge MPa")
     c.add_argument("--instrument", choices=INSTRUMENTS, default="camera", help="the angle instrument's model")
     c.add_argument("--duration", type=number(**DURATION_S), default=60.0, metavar="S", help="seconds a run")
-    c.add_argument("--seed", type=number(**BENCH_SEEDS), default=0, metavar="N", help="the instruments' noise")
+    c.add_argument("--seed", type=number_from(seeds_range), default=0, metavar="N", help="the instruments' noise")
     c.set_defaults(func=cmd_arm_campaign)
     d = sub.add_parser("arm-diagnose", help="diagnose an arm campaign into DIR (diagnosis.json)")
     d.add_argument("campaign", help="folder with campaign.toml and the run files")
@@ -49,7 +56,7 @@ def register(sub) -> None:
 
 def add_bench_options(b) -> None:
     """`twin gap bench`'s options for the arm's bench."""
-    b.add_argument("--arm", action="store_true", help="the arm-level bench (scenarios/arm_bench.py) instead")
+    b.add_argument("--arm", action="store_true", help="the arm-level bench (gap/arm_bench.py) instead")
     b.add_argument(
         "--arm-duration", type=number(**DURATION_S), default=20.0, metavar="S", help="with --arm: seconds a run"
     )
@@ -74,7 +81,7 @@ def _reality(text: str | None):
 
 def cmd_arm_campaign(args) -> int:
     from gap.arm_campaign import CAMERA, ENCODER
-    from scenarios.arm_rehearsal import make_arm_campaign
+    from gap.arm_rehearsal import make_arm_campaign
     from scenarios.schema import load
 
     reality = _reality(args.reality)
@@ -121,7 +128,7 @@ def cmd_arm_diagnose(args) -> int:
 
 
 def cmd_arm_bench(args) -> int:
-    from scenarios.arm_bench import run_arm_bench
+    from gap.arm_bench import run_arm_bench
 
     Path(args.out).mkdir(parents=True, exist_ok=True)
     s = run_arm_bench(

@@ -4,13 +4,26 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from twin.checks import BENCH_SEEDS, BENCH_SHIFT, JOBS, MODEL_TOLERANCE_DEG
-from twin.outputs import OutputLock, check_output, publish_folder
 from twin_cli import gap_arm_commands
-from twin_cli.args import number, place
+from twin_cli.args import number, number_from, place
 from twin_cli.figures import figure_lines
+from twin_plumbing.checks import JOBS
+from twin_plumbing.outputs import OutputLock, check_output, publish_folder
 
 BENCH_OUTPUTS = ("campaigns", "rounds", "bench.json")  # what `gap bench` writes into DIR, replacing an earlier bench's
+
+
+# the ranges gap/ owns, imported when a flag is given: importing gap takes seconds (twin_cli/cli.py)
+def _tolerance_range() -> dict:
+    from gap.run import MODEL_TOLERANCE_DEG
+
+    return MODEL_TOLERANCE_DEG
+
+
+def _shift_range() -> dict:
+    from gap.bench import BENCH_SHIFT
+
+    return BENCH_SHIFT
 
 
 def register(subparsers) -> None:
@@ -31,7 +44,7 @@ def register(subparsers) -> None:
     )
     d.add_argument(
         "--model-tolerance-deg",
-        type=number(**MODEL_TOLERANCE_DEG),
+        type=number_from(_tolerance_range),
         default=None,
         metavar="DEG",
         help=(
@@ -74,18 +87,18 @@ def register(subparsers) -> None:
     for flag, spec, meta, text in (
         (
             "--shift",
-            BENCH_SHIFT,
+            _shift_range,
             "K",
             "each case with the protocol, instrument and pressure transducers of the case K places along",
         ),
         (
             "--seeds",
-            BENCH_SEEDS,
+            gap_arm_commands.seeds_range,
             "S",
             "each campaign's seed S further on: other noise, dropped frames and camera latencies",
         ),
     ):
-        b.add_argument(flag, type=number(**spec), default=0, metavar=meta, help=text)
+        b.add_argument(flag, type=number_from(spec), default=0, metavar=meta, help=text)
     gap_arm_commands.add_bench_options(b)
     b.add_argument(
         "--design-round",

@@ -10,10 +10,10 @@ import sys
 import time
 from pathlib import Path
 
-from pneumatics.paths import input_problem
-from twin.errors import UserError
-from twin.outputs import OutputLock, check_output
 from twin_cli.args import place
+from twin_plumbing.errors import UserError
+from twin_plumbing.outputs import OutputLock, check_output
+from twin_plumbing.paths import input_problem
 
 
 def register(sub: argparse._SubParsersAction) -> None:

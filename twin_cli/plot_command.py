@@ -6,9 +6,9 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from twin.errors import UserError
-from twin.outputs import OutputLock, check_output, keep_result, write_atomic
 from twin_cli.args import place
+from twin_plumbing.errors import UserError
+from twin_plumbing.outputs import OutputLock, check_output, keep_result, write_atomic
 
 
 def register(sub: argparse._SubParsersAction) -> None:

@@ -8,13 +8,13 @@ import json
 import sys
 from pathlib import Path
 
-from twin.checks import CAMERA_FPS as CAMERA_FPS_RANGE
-from twin.checks import DURATION_S, MONTE_CARLO, RECORDING_CAMERA_FPS, SEED
-from twin.outputs import OutputLock, check_output, keep_result, publish_folder, write_atomic
-from twin.signals import shielded, stop_behind
 from twin_cli.args import add_workers, number, place
 from twin_cli.figures import figure_lines
 from twin_cli.progress import ProgressLine
+from twin_plumbing.checks import CAMERA_FPS as CAMERA_FPS_RANGE
+from twin_plumbing.checks import DURATION_S, MONTE_CARLO, RECORDING_CAMERA_FPS, SEED
+from twin_plumbing.outputs import OutputLock, check_output, keep_result, publish_folder, write_atomic
+from twin_plumbing.signals import shielded, stop_behind
 
 
 def _add_run(sub: argparse._SubParsersAction) -> None:

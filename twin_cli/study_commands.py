@@ -5,11 +5,11 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from twin.checks import DURATION_S
-from twin.errors import UserError
-from twin.outputs import OutputLock, check_output, publish_folder
-from twin.signals import shielded, stop_behind
 from twin_cli.args import add_workers, number, place
+from twin_plumbing.checks import DURATION_S
+from twin_plumbing.errors import UserError
+from twin_plumbing.outputs import OutputLock, check_output, publish_folder
+from twin_plumbing.signals import shielded, stop_behind
 
 PARTIAL = "study.partial.json"  # a stopped study's finished runs (and study.partial.csv, their table)
 

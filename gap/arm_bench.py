@@ -1,7 +1,7 @@
 """The blind check at the arm level (`twin gap bench --arm`): rehearsal campaigns made from the
 plant with one effect hidden in one joint (or an arm-level effect), or nothing, on three
 protocols (the cleaning task, point-to-point moves across the workspace, a one-joint exercise),
-read through the camera (scenarios/arm_rehearsal.py), diagnosed blind (gap/arm_diagnose.py) and scored:
+read through the camera (gap/arm_rehearsal.py), diagnosed blind (gap/arm_diagnose.py) and scored:
 false alarms on the no-effect campaigns, the right joint, the right effect, the held-out shrink.
 A case whose hidden effect leaves a signature below the noise on its protocol (gap.arm_diagnose.
 signature: no joint's rms would reach the significance rule) is said so and scored apart.
@@ -20,7 +20,7 @@ import numpy as np
 from gap.arm_campaign import Reality, load_arm_campaign
 from gap.arm_diagnose import diagnose_arm, signature
 from gap.arm_effects import candidate_named
-from scenarios.arm_rehearsal import CAMERA, make_arm_campaign
+from gap.arm_rehearsal import CAMERA, make_arm_campaign
 from scenarios.schema import load
 
 PROTOCOLS = {

@@ -21,14 +21,10 @@ from typing import Annotated, Any, Literal, NamedTuple, Union, get_args, get_ori
 from pydantic import BeforeValidator, ConfigDict, ValidationError
 from pydantic_core import PydanticCustomError
 
-from pneumatics.paths import input_problem
+from twin_plumbing.paths import input_problem
 
 MISSING = "<missing>"  # the value of a field the file does not give
 TABLE = ConfigDict(extra="forbid")  # every table refuses keys it does not know
-
-
-class ParameterError(ValueError):
-    """A parameter file is missing, malformed, or holds a value outside its allowed range."""
 
 
 class Allowed(NamedTuple):

@@ -3,7 +3,7 @@ scheduler there, or a one-line refusal before any work when Dask is missing or n
 
 from __future__ import annotations
 
-from twin.errors import UserError
+from twin_plumbing.errors import UserError
 
 SCHEDULER_TIMEOUT_S = 10.0  # a scheduler that has not answered by then is taken as unreachable
 

@@ -14,7 +14,7 @@ import contextlib
 import signal
 import threading
 
-from twin.errors import Terminated
+from twin_plumbing.errors import Terminated
 
 
 def _terminate(signum, frame) -> None:

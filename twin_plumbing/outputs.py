@@ -22,9 +22,9 @@ from pathlib import Path
 
 from filelock import lock_descriptor
 
-from pneumatics.paths import is_special, path_problem
-from twin.errors import UserError
-from twin.signals import shielded, stop_behind
+from twin_plumbing.errors import UserError
+from twin_plumbing.paths import is_special, path_problem
+from twin_plumbing.signals import shielded, stop_behind
 
 log = logging.getLogger(__name__)
 

@@ -42,7 +42,7 @@ from scenarios.schema import Scenario, Supply, joint_params_for, nominal_params,
 from scenarios.supply import supply_profile
 from scenarios.task import TaskController
 
-PRESSURE_PERIOD_S = 0.02  # the platform's port transducers read at 50 Hz (assumed, as gap/synth.py's)
+PRESSURE_PERIOD_S = 0.02  # the platform's port transducers read at 50 Hz (assumed, as wrist_rig.commanded_run's)
 PRESSURE_NOISE_PA = 1.0e3  # 0.25 % of a 0-1 MPa transducer's span, as gap/synth.py's NOISE_PA
 
 
@@ -190,7 +190,7 @@ def make_arm_campaign(
         base.reality.arm,
         base.reality.hose_loss,
         reality,
-        comment="rehearsal campaign made by scenarios.arm_rehearsal from the twin's own scenario runs",
+        comment="rehearsal campaign made by gap.arm_rehearsal from the twin's own scenario runs",
     )
     (folder / "campaign.toml").write_text(text)
     return folder

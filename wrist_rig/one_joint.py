@@ -1,6 +1,6 @@
-"""Replay a run's commands through the one-joint twin (paper eq. 7), compiled in one loop.
+"""Replay a run's commands through the one-joint model (paper eq. 7), compiled in one loop.
 
-The twin used for fitting is `pneumatics.joint.single_joint_step` (the predictor's model) driven
+The model is `pneumatics.joint.single_joint_step` (the predictor's model) driven
 by the run's own command rows: per 1 ms step the valves advance with `advance_discrete`
 (solenoid delay, proportional valve lag), then the rigid body (with the motor side of a
 non-rigid reducer) and the four node pressures take one RK4 step and the brake follows its air.
@@ -116,7 +116,7 @@ def replay_run(
 
     The load on the joint (a torque toward negative angles) is `load_torque_nm +
     load_spring_nm_per_rad * theta` (the static load the same at every angle, and a spring pulling
-    back to 0: gap.effects' static_load and angle_load), taken at each step's start and held over it
+    back to 0: the gap diagnosis's static_load and angle_load), taken at each step's start and held over it
     (the one-joint model takes its load as a constant per step; over 1 ms the joint turns at most
     ~3 mrad, a 0.3 % change of the load at 1 rad).
 
