@@ -494,6 +494,13 @@ def _check_criterion(s: Scenario, i: int, c: Criterion, disc_given: bool) -> Non
     if disc_given and not kind.by_disc:
         by_disc = " | ".join(repr(name) for name, k in CRITERIA.items() if k.by_disc)
         raise _fail(s.path, f"{where}.disc", c.disc, f"only with kind = {by_disc}")
+    if c.disc > s.string.discs:
+        raise _fail(
+            s.path,
+            f"{where}.disc",
+            c.disc,
+            f"1..{s.string.discs} (the discs of the scenario's [string]; 0: every disc)",
+        )
     if c.min > c.max:
         raise _fail(s.path, f"{where}.min", c.min, f"min <= max (max = {c.max:g})")
     if kind.needs_controller or kind.needs_targets:

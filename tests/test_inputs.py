@@ -249,6 +249,12 @@ def test_every_argument_has_help_and_there_is_a_version(capsys):
         (RIG + "[[criteria]]\nkind = 'max_drop_m'\nmax = 0.1", "criteria[0].kind", "'max_drop_m'"),
         (RIG + "[[criteria]]\nkind = 'max_travel_deg'\nmax = 1.0", "criteria[0].joint", "<missing>"),
         (ARM + "[[criteria]]\nkind = 'contact_force_n'\nmax = 100.0\ndisc = 3", "criteria[0].disc", "3"),
+        (
+            ARM + "[string]\ndiscs = 4\n[[criteria]]\nkind = 'brush_on_disc'\nmax = 0.1\ndisc = 8",
+            "criteria[0].disc",
+            "1..4",
+        ),
+        (ARM + "[[criteria]]\nkind = 'disc_force_n'\nmin = 10.0\ndisc = 9", "criteria[0].disc", "1..8"),
         (RIG + "[supply]\nkind = 'steps'\nsteps = [[inf, 0.5]]", "supply.steps", "inf"),
         (RIG + "[supply]\nkind = 'steps'\nsteps = [[1.0, 0.5], [0.5, 0.6]]", "supply.steps", "[0.5, 0.6]"),
         (
