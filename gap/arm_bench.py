@@ -21,15 +21,14 @@ from gap.arm_campaign import Reality, load_arm_campaign
 from gap.arm_diagnose import diagnose_arm, signature
 from gap.arm_effects import candidate_named
 from gap.arm_rehearsal import CAMERA, make_arm_campaign
-from scenarios.schema import load
+from scenarios.schema import SHIPPED_DIR, load
 
-PROTOCOLS = {
-    "cleaning": "scenarios/insulator_cleaning.toml",
-    "point_to_point": "scenarios/arm_protocols/point_to_point.toml",
-    "one_joint": "scenarios/arm_protocols/one_joint.toml",
+PROTOCOLS = {  # the shipped scenario files (package data: an installed twin has them too)
+    "cleaning": SHIPPED_DIR / "insulator_cleaning.toml",
+    "point_to_point": SHIPPED_DIR / "arm_protocols" / "point_to_point.toml",
+    "one_joint": SHIPPED_DIR / "arm_protocols" / "one_joint.toml",
 }
 SUPPLIES_MPA = (0.5, 0.6, 0.7, 0.8)  # the paper's working range (Fig. 10-16)
-ROOT = Path(__file__).resolve().parent.parent
 
 
 @dataclass(frozen=True)
@@ -56,7 +55,7 @@ CASES: tuple[Case, ...] = (
 
 def run_case(case: Case, folder: Path, duration_s: float, jobs: int, seed: int) -> dict:
     """Make the case's campaign, diagnose it blind, and score it."""
-    scenario = load(ROOT / PROTOCOLS[case.protocol])
+    scenario = load(PROTOCOLS[case.protocol])
     t0 = time.perf_counter()
     make_arm_campaign(folder, [scenario], SUPPLIES_MPA, case.reality, CAMERA, seed=seed, duration_s=duration_s)
     made = time.perf_counter() - t0

@@ -86,3 +86,20 @@ def test_verbose_shows_what_the_libraries_log(capsys):
     assert twin_main(["--verbose", "run", "wrist_closed_loop_60deg", "--duration", "0.1"]) == 1
     assert "twin: wrist_closed_loop_60deg: 0.1 s simulated, seed" in capsys.readouterr().err
     twin_main(["run", "wrist_closed_loop_60deg", "--duration", "0.1"])  # back to warnings only
+
+
+def test_every_data_file_inside_a_package_ships_with_it():
+    # a file the code reads beside its modules (a scenario, a joint file, an arm protocol) must be in
+    # the wheel too, or an installed twin cannot find it
+    packages = PYPROJECT["tool"]["setuptools"]["packages"]
+    data = PYPROJECT["tool"]["setuptools"]["package-data"]
+    left_out = []
+    for p in packages:
+        globs = data.get(p, []) + data.get("*", [])
+        for f in (ROOT / p).rglob("*"):
+            rel = f.relative_to(ROOT / p)
+            if f.is_dir() or f.suffix in (".py", ".pyc") or "__pycache__" in rel.parts:
+                continue
+            if not any(rel.match(g) and len(rel.parts) == len(Path(g).parts) for g in globs):
+                left_out.append(f"{p}/{rel}")
+    assert not left_out, left_out
