@@ -38,7 +38,7 @@ from gap.arm_campaign import JOINTS, ArmCampaign, ArmRun
 from gap.arm_effects import ArmSetup, Candidate, candidates
 from gap.arm_replay import TICK_S, Replay, arm_plant, joint_angles, replay
 from gap.campaign import Run
-from gap.diagnose import _parallel
+from gap.jobs import parallel_jobs
 from gap.where import breakdown, labels_of
 from pneumatics import JointParams, load_joint_params
 from pneumatics.as_built import load_as_built
@@ -600,7 +600,7 @@ def signature(campaign: ArmCampaign, c: Candidate, value: float, latency_s: floa
     """The signature of `c` at `value` in `campaign`'s runs (see Signature), the instrument read
     `latency_s` late."""
     twin = twin_of(campaign)
-    with _parallel(n_jobs, None) as run_jobs:
+    with parallel_jobs(n_jobs, None) as run_jobs:
         nominal, with_it = _replays(run_jobs, campaign.runs, [twin, _with(twin, c, value)])
     diff = []
     for run, a, b in zip(campaign.runs, nominal, with_it, strict=True):
@@ -649,7 +649,7 @@ def diagnose_arm(campaign: ArmCampaign, n_jobs: int = 1, scheduler: str | None =
     runs = campaign.runs
     withheld = runs[1::2]
     train = runs[0::2]
-    with _parallel(n_jobs, scheduler) as run_jobs:
+    with parallel_jobs(n_jobs, scheduler) as run_jobs:
         reps = _replays(run_jobs, runs, [twin])[0]
         latency = fit_latency(campaign, runs, reps)
         residuals = [residual(r, p, latency) for r, p in zip(runs, reps, strict=True)]

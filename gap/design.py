@@ -33,7 +33,7 @@ from joblib import Parallel, delayed
 import assets
 from gap import protocols, synth
 from gap.campaign import Campaign
-from gap.diagnose import _grid, joint_stops, nominal_inertia, nominal_params, supplies
+from gap.campaign_replay import joint_stops, nominal_inertia, nominal_params, supplies
 from gap.discrimination import (
     SEPARATED_FLOORS,
     Change,
@@ -51,12 +51,15 @@ from gap.effects import BY_NAME, CATALOGUE, Effect
 from gap.instrument import LATENCY_GRID_S
 from gap.protocols import worst_tolerance_deg, worst_tolerance_kpa
 from gap.result import Diagnosis
+from gap.single_fits import effect_grid
 from gap.verdict import families_of
 from pneumatics import load_joint_params
 from pneumatics.gas import AIR
 
 N_FAMILIES = 4  # the leading families a diagnosis's design tells apart (by the family call's evidence)
-GRID_POINTS = 6  # values per member in a hypothesis's alternatives (gap.diagnose._grid: 7 with 0 on a log grid)
+GRID_POINTS = (
+    6  # values per member in a hypothesis's alternatives (gap.single_fits.effect_grid: 7 with 0 on a log grid)
+)
 MAX_PROPOSALS = 2  # from a diagnosis: at most this many protocols in one round (each at every supply)
 PRESSURE_NOISE_KPA = synth.NOISE_PA / 1e3  # the bench's transducers (gap.synth), before any campaign
 # Before any campaign, each catalogue effect at a reference size: a quarter of the way from its
@@ -117,7 +120,7 @@ def soft_count(separation: dict[str, float]) -> float:
 
 def alternatives(effects: list[Effect], extra: tuple[Change, ...] = ()) -> tuple[Change, ...]:
     """Every effect of `effects` at each value of its grid, one change each, and `extra`."""
-    return (*extra, *(((e, float(v)),) for e in effects for v in _grid(e, GRID_POINTS)))
+    return (*extra, *(((e, float(v)),) for e in effects for v in effect_grid(e, GRID_POINTS)))
 
 
 def family_members(family: str, catalogue) -> list[Effect]:

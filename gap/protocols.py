@@ -160,11 +160,10 @@ def design_library(supply_mpa: float) -> dict[str, Protocol]:
 def measure_tolerance(pressures_mpa=(0.5, 0.6, 0.7, 0.8)) -> dict[str, dict]:
     """Replay vs plant per protocol: rms and max |difference| of the angle (deg) and rms of the
     chamber pressures (kPa) over the given supplies, nominal wrist, no instrument noise."""
-    # imported here, not at the top: gap.diagnose takes its tolerance from this module (a circle),
-    # and only this measurement needs the plant (MuJoCo)
+    # imported here, not at the top: only this measurement needs the plant (MuJoCo)
     from gap import synth
     from gap.campaign import Campaign, Run
-    from gap.diagnose import Twin
+    from gap.campaign_replay import CampaignReplay
 
     p0 = synth.wrist_params()
     out = {}
@@ -186,8 +185,10 @@ def measure_tolerance(pressures_mpa=(0.5, 0.6, 0.7, 0.8)) -> dict[str, dict]:
                 run["angle_rad"],
                 {k: run[k] for k in ("p_a_pa", "p_b_pa")},
             )
-            twin = Twin(Campaign(None, synth.JOINT, 0.0, p0.hose_length_m, synth.RIG_INERTIA_KG_M2, None, [measured]))
-            ((a, p),) = twin.residuals_with([], [0], 0.0).values()
+            campaign = Campaign(None, synth.JOINT, 0.0, p0.hose_length_m, synth.RIG_INERTIA_KG_M2, None, [measured])
+            # the residuals alone, no fit: the objective's pressure weight is not used
+            replay = CampaignReplay(campaign, pressure_weight=0.0)
+            ((a, p),) = replay.residuals_with([], [0], 0.0).values()
             ang.append(a)
             pres.append(p)
         a = np.rad2deg(np.concatenate(ang))

@@ -11,7 +11,7 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from gap.campaign import FIT_WINDOW_S
-from gap.diagnose import SPREAD_START_DEG
+from gap.campaign_replay import SPREAD_START_DEG
 from gap.effects import FAMILY_VARIATIONS, IN_TWIN_VARIATIONS, NOT_IN_CATALOGUE
 from gap.instrument import InstrumentFacts
 from gap.result import CandidateSummary, Diagnosis, PressureFloor, to_json

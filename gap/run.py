@@ -7,8 +7,8 @@ from __future__ import annotations
 from pathlib import Path
 
 from gap.campaign import load_campaign
-from gap.diagnose import MODEL_TOLERANCE_DEG as DEFAULT_TOLERANCE_DEG
 from gap.diagnose import diagnose
+from gap.floors import MODEL_TOLERANCE_DEG as DEFAULT_TOLERANCE_DEG
 from gap.report import write
 from gap.result import Diagnosis
 from twin.checks import JOBS, MODEL_TOLERANCE_DEG, check_number

@@ -11,8 +11,8 @@ import pytest
 
 from gap import protocols, synth
 from gap.campaign import load_campaign
+from gap.campaign_replay import joint_stops, nominal_inertia
 from gap.design import Criterion, Pair, alternatives, choose, hypotheses_of, planned_run
-from gap.diagnose import joint_stops, nominal_inertia
 from gap.discrimination import Hypothesis, Reading, Twin, misfits, response, trajectory
 from gap.effects import BY_NAME, CATALOGUE
 from gap.plan import Header, add_runs, play_plan, read_plan, write_plan
