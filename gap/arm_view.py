@@ -149,7 +149,7 @@ def _log_static(rec, model: mujoco.MjModel, diagnosis: ArmDiagnosis, label: str)
 
 def verdict_lines(diagnosis: ArmDiagnosis, label: str) -> list[tuple[str, str]]:
     """(text, level) rows of the verdict: the line, the arm replayed, each joint's gap before and after."""
-    level = "INFO" if diagnosis.verdict == "no significant gap" else "WARN"
+    level = "WARN" if diagnosis.verdict.alarm else "INFO"
     rows = [(diagnosis.line(), level), (f"replayed arm: {label}", "INFO")]
     after = {g.joint: g for g in diagnosis.withheld_after}
     for g in diagnosis.withheld_before:

@@ -54,7 +54,7 @@ def result_of(
         pairs_refused=call.pairs_refused,
         # the family-level answer where no one candidate is (gap.verdict.Judge.family_call): outside the
         # catalogue, among every family; ambiguous, among the families of the candidates that explain
-        nearest=family if call.verdict in ("outside the catalogue", "ambiguous") else None,
+        nearest=family if call.verdict.names_family else None,
         families=family.evidence,
         ranking=[summarise(c, judge, before_rms, rng) for c in fits.singles],
         pairs=[summarise(c, judge, before_rms, rng) for c in fits.pairs],

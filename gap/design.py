@@ -49,6 +49,7 @@ from gap.discrimination import (
 )
 from gap.effects import BY_NAME, CATALOGUE, Effect
 from gap.instrument import LATENCY_GRID_S
+from gap.kinds import Family
 from gap.protocols import worst_tolerance_deg, worst_tolerance_kpa
 from gap.result import Diagnosis
 from gap.single_fits import effect_grid
@@ -123,7 +124,7 @@ def alternatives(effects: list[Effect], extra: tuple[Change, ...] = ()) -> tuple
     return (*extra, *(((e, float(v)),) for e in effects for v in effect_grid(e, GRID_POINTS)))
 
 
-def family_members(family: str, catalogue) -> list[Effect]:
+def family_members(family: Family, catalogue) -> list[Effect]:
     return [e for e in catalogue if e.family == family and e.discrete_value is None]
 
 
@@ -161,7 +162,7 @@ def hypotheses_of(diag: Diagnosis, catalogue=CATALOGUE) -> tuple[list[Hypothesis
         alts = alternatives(family_members(f, catalogue), tuple(fitted))
         hyps.append(Hypothesis(f"{f} ({_describe(fitted[0])})", f, fitted[0], best[f].latency_s, alts))
     pairs = leading_pairs(hyps)
-    if w.verdict == "ambiguous" and w.top is not None:
+    if w.verdict.tied and w.top is not None:
         top = len(hyps)
         for k, name in enumerate([w.top.name, *w.rivals]):
             c = by_name[name]
@@ -179,7 +180,7 @@ def leading_pairs(hyps: list[Hypothesis]) -> list[Pair]:
     return [Pair(f"{hyps[0].family} / {h.family}", ((0, k), (k, 0))) for k, h in enumerate(hyps) if k]
 
 
-def family_pairs(hyps: list[Hypothesis], families: list[str]) -> list[Pair]:
+def family_pairs(hyps: list[Hypothesis], families: list[Family]) -> list[Pair]:
     """Every two families a pair: each hypothesis of one against the first of the other (its
     stand-in, free over that family's alternatives)."""
     stand_in = {f: next(i for i, h in enumerate(hyps) if h.family == f) for f in families}
@@ -407,7 +408,7 @@ def design(campaign: Campaign, diag: Diagnosis, catalogue=CATALOGUE, n_jobs: int
         np.array([declared]) if declared is not None else LATENCY_GRID_S,
         diag.pressure.floor_kpa if diag.pressure.measured else None,
     )
-    if diag.which.verdict == "no significant gap" or len(hyps) < 2:
+    if not diag.which.verdict.alarm or len(hyps) < 2:
         return Design(hyps, pairs, reading, [], [], {}, [p.name for p in pairs], twin, str(campaign.folder))
     crit = Criterion(twin, hyps, pairs, reading, n_jobs)
     base = crit.sums(base_runs(campaign, twin))

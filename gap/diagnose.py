@@ -82,7 +82,7 @@ def diagnose(
         gap,
         folds,
         corrections,
-        among=verdict.families_of([call.top.name, *call.rivals]) if call.verdict == "ambiguous" else None,
+        among=verdict.families_of([call.top.name, *call.rivals]) if call.verdict.tied else None,
     )
     # the instrument as best understood: the latency fitted with the answer (with the nominal twin
     # alone a latency soaks up part of any gap that makes the twin run ahead); the nominal twin's

@@ -38,6 +38,7 @@ import numpy as np
 
 from gap import family, where
 from gap.effects import BY_NAME
+from gap.kinds import Family, Verdict
 from gap.stats import mean_lower_bound, residual_vector, rms_beyond_deg, rms_deg, rms_kpa, run_ms
 from pneumatics import JointParams
 
@@ -84,7 +85,7 @@ def at_bounds(c) -> list[str | None]:
     return out
 
 
-def families_of(names: list[str]) -> set[str]:
+def families_of(names: list[str]) -> set[Family]:
     """The families of candidates by name (a pair "a+b": both its effects')."""
     return {BY_NAME[e].family for n in names for e in n.split("+")}
 
@@ -102,7 +103,7 @@ class FamilyEvidence:
     """A family's best member and its held-out misfit; the family's free-form fit (gap.family) on
     withheld runs and how its correction matches the gap's where-pattern."""
 
-    family: str
+    family: Family
     best: str  # the member (a single effect)
     score_in_floors: float
     shrink: float  # held-out rms / the nominal twin's
@@ -120,15 +121,15 @@ class FamilyCall:
     """The family-level answer (None when there is no candidate) and the evidence behind it (every
     family's, also those the call could not choose)."""
 
-    family: str | None
+    family: Family | None
     where_match: float | None
-    tied: list[str]  # other families the withheld runs do not tell apart from it (the where-profile chose)
+    tied: list[Family]  # other families the withheld runs do not tell apart from it (the where-profile chose)
     evidence: list[FamilyEvidence]  # families by held-out misfit, best first
 
 
 @dataclass
 class Call:
-    verdict: str
+    verdict: Verdict
     top: object | None
     rivals: list[str]
     pairs_refused: list[Refusal]
@@ -195,14 +196,14 @@ class Judge:
             why = self.pair_counts(p, best)
             (refused.append(Refusal(p.name, why)) if why else counting.append(p))
         if not significant:
-            return Call("no significant gap", None, [], refused)
+            return Call(Verdict.NO_GAP, None, [], refused)
         if counting:
             rivals = self.rivals_of(counting[0], counting)
-            return Call("ambiguous" if rivals else "explained", counting[0], rivals, refused)
+            return Call(Verdict.AMBIGUOUS if rivals else Verdict.EXPLAINED, counting[0], rivals, refused)
         if best is not None and self.explains(best):
             rivals = self.rivals_of(best, singles)
-            return Call("ambiguous" if rivals else "explained", best, rivals, refused)
-        return Call("outside the catalogue", best, [], refused)
+            return Call(Verdict.AMBIGUOUS if rivals else Verdict.EXPLAINED, best, rivals, refused)
+        return Call(Verdict.OUTSIDE, best, [], refused)
 
     def family_call(
         self,
@@ -211,7 +212,7 @@ class Judge:
         gap: np.ndarray,
         folds,
         corrections: family.Corrections,
-        among: set[str] | None = None,
+        among: set[Family] | None = None,
     ) -> FamilyCall:
         """The families ranked by the fit of their own corrections on withheld runs (gap.family),
         ties told apart by the gap's where-profile (module docstring). `gap`: the nominal twin's

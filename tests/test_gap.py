@@ -16,6 +16,7 @@ from gap import synth
 from gap.campaign import GapError, load_campaign
 from gap.diagnose import diagnose
 from gap.effects import BY_NAME, CATALOGUE
+from gap.kinds import Verdict
 
 FAST = tuple(
     e
@@ -695,7 +696,7 @@ def test_verdict_rules_refuse_a_pair_at_nominal_flag_bounds_and_name_only_a_fami
     outside = SimpleNamespace(
         before_rms_deg=3.0,
         which=SimpleNamespace(
-            verdict="outside the catalogue",
+            verdict=Verdict.OUTSIDE,
             top=SimpleNamespace(name="coulomb_friction"),
             nearest=SimpleNamespace(family="friction"),
         ),

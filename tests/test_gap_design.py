@@ -15,6 +15,7 @@ from gap.campaign_replay import joint_stops, nominal_inertia
 from gap.design import Criterion, Pair, alternatives, choose, hypotheses_of, planned_run
 from gap.discrimination import Hypothesis, Reading, Twin, misfits, response, trajectory
 from gap.effects import BY_NAME, CATALOGUE
+from gap.kinds import Verdict
 from gap.plan import Header, add_runs, play_plan, read_plan, write_plan
 from gap.replay import DT_S, replay_run
 from pneumatics import params_row
@@ -146,7 +147,7 @@ def _outside_the_catalogue():
         for n, v, lat in fitted
     ]
     which = SimpleNamespace(
-        verdict="outside the catalogue",
+        verdict=Verdict.OUTSIDE,
         top=ranking[0],
         rivals=[],
         pairs=[],
