@@ -494,6 +494,21 @@ def test_a_replay_is_given_its_pressure_weight_and_cannot_be_made_without_it(tmp
     )
 
 
+def test_each_verdict_is_one_row_and_reads_back_from_its_text():
+    """A verdict is a kind with one row (its text and what it counts as); its text is what
+    diagnosis.json, bench.json and the reports carry, and reading that text gives the kind back."""
+    rows = {v.value: (v.alarm, v.explained, v.tied, v.names_family) for v in Verdict}
+    assert rows == {
+        "no significant gap": (False, False, False, False),
+        "explained": (True, True, False, False),
+        "ambiguous": (True, True, True, True),
+        "outside the catalogue": (True, False, False, True),
+    }
+    for v in Verdict:
+        text = json.loads(json.dumps({"verdict": v}))["verdict"]
+        assert text == f"{v}" == str(v) == v.value and Verdict(text) is v
+
+
 def test_a_pair_search_follows_the_narrow_valley_of_two_effects_acting_alike():
     """More leakage and less Coulomb friction move the joint alike: their misfit is a narrow curved
     valley (the shape and scale measured on a leak + Coulomb campaign's staircase runs). The pair's
