@@ -28,7 +28,7 @@ import numpy as np
 import assets
 from gap import protocols, synth
 from gap.campaign import load_campaign
-from gap.diagnose import Twin
+from gap.campaign_replay import CampaignReplay
 from gap.run import run_diagnose
 from pneumatics import params_row
 from twin.plant import Plant
@@ -39,10 +39,10 @@ from wrist_rig.one_joint import DT_S, replay_run
 HIDDEN = {"leak_area_m2": 3e-7, "coulomb_nm": 30.0}  # the bench's pair case (gap/bench.py)
 
 
-def _time_replay(twin: Twin, rounds: int) -> float:
+def _time_replay(replay: CampaignReplay, rounds: int) -> float:
     """Best wall time (s) of one replay of run 0 through the compiled twin."""
-    pr = twin.runs[0]
-    p = params_row(twin.params)
+    pr = replay.runs[0]
+    p = params_row(replay.params)
     best = np.inf
     for _ in range(rounds):
         t0 = time.perf_counter()
@@ -105,7 +105,7 @@ def bench_gap(jobs: int = 2, rounds: int = 3) -> dict:
             )
             campaign = load_campaign(folder)
             if i == 0:
-                replay_s = _time_replay(Twin(campaign), rounds)  # also the warm-up
+                replay_s = _time_replay(CampaignReplay(campaign, pressure_weight=0.0), rounds)  # also the warm-up
             t0 = time.perf_counter()
             run_diagnose(folder, Path(tmp) / f"out{i}", jobs=jobs)
             wall = time.perf_counter() - t0

@@ -11,6 +11,11 @@ Public surface (everything else in gap/ is internal):
     make_campaign(folder, reality, ...)      a synthetic campaign from the plant (gap.synth)
     run_bench(out_dir, quick=False, chamber_pressures=None) -> dict  the blind check (gap.bench)
 Command line: `twin gap diagnose CAMPAIGN --out DIR`, `twin gap bench --out DIR`.
+
+The one joint's diagnosis by job: diagnose (the orchestration), campaign_replay (the campaign's
+runs replayed through the nominal twin, the fit's objective), single_fits, pair_search, floors,
+members and family (the family call), verdict (its rules) with kinds (verdicts and families, one
+row each), assembly (the typed result, gap.result), jobs (threads or a Dask cluster).
 """
 
 from gap.bench import run_bench

@@ -66,7 +66,7 @@ def run_case(case: Case, folder: Path, duration_s: float, jobs: int, seed: int) 
     out = {"case": case.name, "protocol": case.protocol, "verdict": d.verdict, "joint": d.joint, "effect": d.effect}
     out |= {"family": d.family, "make_s": round(made, 1), "diagnose_s": round(took, 1), "line": d.line()}
     if case.reality is None:
-        out["false_alarm"] = d.verdict != "no significant gap"
+        out["false_alarm"] = d.verdict.alarm
         return out
     truth = candidate_named(case.reality.effect)
     out["truth"] = truth.name

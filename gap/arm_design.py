@@ -312,7 +312,7 @@ def design_arm(campaign: ArmCampaign, diag: ArmDiagnosis, n_jobs: int = 1) -> Ar
         seen,
         campaign.pressures.noise_pa if pressures else None,
     )
-    hyps, pairs = hypotheses_of(diag, twin) if diag.verdict != "no significant gap" else ([], [])
+    hyps, pairs = hypotheses_of(diag, twin) if diag.verdict.alarm else ([], [])
     common = dict(
         twin=twin,
         instrument=inst,

@@ -38,7 +38,8 @@ from gap.arm_campaign import JOINTS, ArmCampaign, ArmRun
 from gap.arm_effects import ArmSetup, Candidate, candidates
 from gap.arm_replay import TICK_S, Replay, arm_plant, joint_angles, replay
 from gap.campaign import MeasuredRun
-from gap.diagnose import _parallel
+from gap.jobs import parallel_jobs
+from gap.kinds import Verdict
 from gap.where import breakdown, labels_of
 from pneumatics import JointParams, load_joint_params
 from pneumatics.as_built import load_as_built
@@ -103,7 +104,7 @@ class Fit:
 
 @dataclass
 class ArmDiagnosis:
-    verdict: str  # "no significant gap", "explained", "outside the catalogue"
+    verdict: Verdict  # no significant gap, explained or outside the catalogue (no tie is called)
     joint: str  # the departing joint ("" when no significant gap)
     effect: str  # the candidate named ("" unless explained)
     family: str  # its family (outside: the nearest)
@@ -118,9 +119,9 @@ class ArmDiagnosis:
     withheld_runs: list[str]
 
     def line(self) -> str:
-        if self.verdict == "no significant gap":
+        if not self.verdict.alarm:
             return "no significant gap: every joint within its floors"
-        if self.verdict == "explained":
+        if self.verdict.explained:
             best = self.fits[0]
             before_edges = (
                 f"; x{best.shrink_before_knife_edges:.3f} before the runs' knife edges"
@@ -603,7 +604,7 @@ def signature(campaign: ArmCampaign, c: Candidate, value: float, latency_s: floa
     """The signature of `c` at `value` in `campaign`'s runs (see Signature), the instrument read
     `latency_s` late."""
     twin = twin_of(campaign)
-    with _parallel(n_jobs, None) as run_jobs:
+    with parallel_jobs(n_jobs, None) as run_jobs:
         nominal, with_it = _replays(run_jobs, campaign.runs, [twin, _with(twin, c, value)])
     diff = []
     for run, a, b in zip(campaign.runs, nominal, with_it, strict=True):
@@ -652,7 +653,7 @@ def diagnose_arm(campaign: ArmCampaign, n_jobs: int = 1, scheduler: str | None =
     runs = campaign.runs
     withheld = runs[1::2]
     train = runs[0::2]
-    with _parallel(n_jobs, scheduler) as run_jobs:
+    with parallel_jobs(n_jobs, scheduler) as run_jobs:
         reps = _replays(run_jobs, runs, [twin])[0]
         latency = fit_latency(campaign, runs, reps)
         residuals = [residual(r, p, latency) for r, p in zip(runs, reps, strict=True)]
@@ -664,7 +665,7 @@ def diagnose_arm(campaign: ArmCampaign, n_jobs: int = 1, scheduler: str | None =
         common["withheld_runs"] = [r.name for r in withheld]
         if worst.floors <= SIGNIFICANT:
             return ArmDiagnosis(
-                "no significant gap", "", "", "", where={}, screen=[], fits=[], withheld_after=before, **common
+                Verdict.NO_GAP, "", "", "", where={}, screen=[], fits=[], withheld_after=before, **common
             )
         joint = worst.joint
         place = where(joint, twin, runs, reps, residuals, latency)
@@ -675,7 +676,7 @@ def diagnose_arm(campaign: ArmCampaign, n_jobs: int = 1, scheduler: str | None =
         fits, explained = judge(run_jobs, campaign, twin, withheld, latency, [s.candidate for s in top], fitted, held)
         best = fits[0]
     return ArmDiagnosis(
-        "explained" if explained else "outside the catalogue",
+        Verdict.EXPLAINED if explained else Verdict.OUTSIDE,
         joint,
         best.candidate if explained else "",
         best.family,

@@ -25,6 +25,7 @@ import mujoco
 import numpy as np
 
 from gap.effects import BY_NAME, INERTIA, LOAD_SPRING, LOAD_TORQUE, Effect
+from gap.kinds import Family
 from pneumatics import JointParams
 
 PAYLOAD_BODY = "payload"  # assets/arm.xml
@@ -58,7 +59,7 @@ class ArmEffect:
     field: str
     low: float
     high: float
-    family: str
+    family: Family
     equation: str
 
 
@@ -67,21 +68,29 @@ class ArmEffect:
 # (the rods lumped in, a counterweight); a slope up to 10 deg (a truck-mounted platform on a verge,
 # assumed); a shared line losing up to 2e7 Pa·s/kg (a 1 MPa drop at 0.05 kg/s, all five valves open)
 ARM_CATALOGUE: tuple[ArmEffect, ...] = (
-    ArmEffect("payload_mass", "payload mass", "payload_kg", 0.0, 40.0, "payload", "payload mass (kg)"),
+    ArmEffect("payload_mass", "payload mass", "payload_kg", 0.0, 40.0, Family.PAYLOAD, "payload mass (kg)"),
     ArmEffect(
-        "payload_com", "payload centre of mass", "payload_com_m", -0.15, 0.15, "payload", "offset along the tool (m)"
+        "payload_com",
+        "payload centre of mass",
+        "payload_com_m",
+        -0.15,
+        0.15,
+        Family.PAYLOAD,
+        "offset along the tool (m)",
     ),
-    ArmEffect("upper_arm_mass", "upper arm mass", "upper_arm_mass_scale", 0.5, 2.0, "links", "upper arm mass x scale"),
-    ArmEffect("forearm_mass", "forearm mass", "forearm_mass_scale", 0.5, 2.0, "links", "forearm mass x scale"),
-    ArmEffect("mounting_tilt_x", "mounting tilt about x", "tilt_x_deg", -10.0, 10.0, "mounting", "tilt (deg)"),
-    ArmEffect("mounting_tilt_y", "mounting tilt about y", "tilt_y_deg", -10.0, 10.0, "mounting", "tilt (deg)"),
+    ArmEffect(
+        "upper_arm_mass", "upper arm mass", "upper_arm_mass_scale", 0.5, 2.0, Family.LINKS, "upper arm mass x scale"
+    ),
+    ArmEffect("forearm_mass", "forearm mass", "forearm_mass_scale", 0.5, 2.0, Family.LINKS, "forearm mass x scale"),
+    ArmEffect("mounting_tilt_x", "mounting tilt about x", "tilt_x_deg", -10.0, 10.0, Family.MOUNTING, "tilt (deg)"),
+    ArmEffect("mounting_tilt_y", "mounting tilt about y", "tilt_y_deg", -10.0, 10.0, Family.MOUNTING, "tilt (deg)"),
     ArmEffect(
         "shared_supply_droop",
         "shared supply line droop",
         "supply_line_droop_pa_s_per_kg",
         0.0,
         2.0e7,
-        "supply",
+        Family.SUPPLY,
         "p_s' = p_s - k * sum of every joint's inlet flow (Pa·s/kg)",
     ),
 )
@@ -109,7 +118,7 @@ class Candidate:
         return f"{self.joint}:{self.effect}" if self.joint else f"arm:{self.effect}"
 
     @property
-    def family(self) -> str:
+    def family(self) -> Family:
         return JOINT_BY_NAME[self.effect].family if self.joint else ARM_BY_NAME[self.effect].family
 
     @property

@@ -37,7 +37,7 @@ from gap.arm_campaign import JOINTS, ArmCampaign, ArmRun
 from gap.arm_diagnose import ArmDiagnosis, ReplayedArm, _replays, _with, residual, twin_of
 from gap.arm_effects import candidate_named
 from gap.arm_replay import TICK_S, Replay, arm_plant
-from gap.diagnose import _parallel
+from gap.jobs import parallel_jobs
 from twin.ghost import GhostArm
 from twin.rerun_log import (
     PA_PER_BAR,
@@ -104,7 +104,7 @@ def write_arm_view(
     nominal = twin_of(campaign)
     fitted, label = fitted_twin(campaign, diagnosis)
     runs = [r for r in campaign.runs if r.name in diagnosis.withheld_runs] or campaign.runs
-    with _parallel(n_jobs, scheduler) as run_jobs:
+    with parallel_jobs(n_jobs, scheduler) as run_jobs:
         nom, rep = _replays(run_jobs, runs, [nominal, fitted])
     views = [RunView(r, n, p) for r, n, p in zip(runs, nom, rep, strict=True)]
     model = arm_plant(fitted.params, fitted.setup, runs[0].start_rad).model
@@ -149,7 +149,7 @@ def _log_static(rec, model: mujoco.MjModel, diagnosis: ArmDiagnosis, label: str)
 
 def verdict_lines(diagnosis: ArmDiagnosis, label: str) -> list[tuple[str, str]]:
     """(text, level) rows of the verdict: the line, the arm replayed, each joint's gap before and after."""
-    level = "INFO" if diagnosis.verdict == "no significant gap" else "WARN"
+    level = "WARN" if diagnosis.verdict.alarm else "INFO"
     rows = [(diagnosis.line(), level), (f"replayed arm: {label}", "INFO")]
     after = {g.joint: g for g in diagnosis.withheld_after}
     for g in diagnosis.withheld_before:

@@ -27,6 +27,7 @@ from gap.campaign import load_campaign
 from gap.design_round import design_round as run_design_round
 from gap.diagnose import diagnose
 from gap.effects import BY_NAME, CATALOGUE
+from gap.kinds import Verdict
 from gap.result import Diagnosis
 from gap.verdict import families_of
 from twin_plumbing.checks import check_number
@@ -447,7 +448,7 @@ def scores(case: Case, diag: Diagnosis) -> dict:
             r["call"] = [w.nearest.family] if w.nearest else sorted(families_of(list(named)))
             r["top1"] = bool(r["call"]) and set(r["call"]) <= family
         else:
-            r["top1"] = len(named) >= 1 and named[0] in case.expect and w.verdict in ("explained", "ambiguous")
+            r["top1"] = len(named) >= 1 and named[0] in case.expect and w.verdict.explained
         r["shrink"] = top.heldout_rms_deg / diag.before_rms_deg if top else None
     for eff, true in case.truth.items():
         nominal = BY_NAME[eff].value_of(commanded_run.wrist_params())
@@ -493,14 +494,14 @@ def summarise(
             "or a spring resting off the joint's zero -> load)"
         ),
         "false_alarm_by_instrument": {
-            i.name: _rate_of([r["verdict"] != "no significant gap" for r in none if r["instrument"] == i.name])
+            i.name: _rate_of([Verdict(r["verdict"]).alarm for r in none if r["instrument"] == i.name])
             for i in INSTRUMENTS
         },
         "diagnose_s_median": float(np.median([r["diagnose_s"] for r in results])) if results else None,
         "diagnose_s_max": float(np.max([r["diagnose_s"] for r in results])) if results else None,
         "median_shrink": float(np.median([r["shrink"] for r in att if r["shrink"] is not None])) if att else None,
-        "false_alarm_rate": sum(r["verdict"] != "no significant gap" for r in none) / len(none) if none else None,
-        "confident_wrong_rate_outside": sum(r["verdict"] == "explained" for r in outside) / len(outside)
+        "false_alarm_rate": sum(Verdict(r["verdict"]).alarm for r in none) / len(none) if none else None,
+        "confident_wrong_rate_outside": sum(r["verdict"] == Verdict.EXPLAINED for r in outside) / len(outside)
         if outside
         else None,
         "median_param_error": float(np.median(perr)) if perr else None,
@@ -529,9 +530,9 @@ def summarise_round(results: list[dict]) -> dict:
     form = [r for r in done if r["kind"] == "form"]
     exact = [r for r in done if r["kind"] in ("single", "pair")]
     none = [r for r in done if r["kind"] == "none"]
-    ambiguous = [r for r in done if r["verdict"] == "ambiguous"]
+    ambiguous = [r for r in done if Verdict(r["verdict"]).tied]
     added = [r["round"] for r in done if r["round"]["runs_added"]]
-    designed = [r for r in done if r["verdict"] != "no significant gap"]
+    designed = [r for r in done if Verdict(r["verdict"]).alarm]
 
     def count(rs, ok) -> str:
         return f"{sum(ok(r) for r in rs)}/{len(rs)}"
@@ -541,12 +542,12 @@ def summarise_round(results: list[dict]) -> dict:
         "forms_right_after": count(form, lambda r: r["round"]["top1"]),
         "exact_right_before": count(exact, lambda r: r["top1"]),
         "exact_right_after": count(exact, lambda r: r["round"]["top1"]),
-        "false_alarms_before": count(none, lambda r: r["verdict"] != "no significant gap"),
-        "false_alarms_after": count(none, lambda r: r["round"]["verdict"] != "no significant gap"),
+        "false_alarms_before": count(none, lambda r: Verdict(r["verdict"]).alarm),
+        "false_alarms_after": count(none, lambda r: Verdict(r["round"]["verdict"]).alarm),
         "ambiguous_before": len(ambiguous),
-        "ambiguous_resolved": count(ambiguous, lambda r: r["round"]["verdict"] != "ambiguous"),
+        "ambiguous_resolved": count(ambiguous, lambda r: not Verdict(r["round"]["verdict"]).tied),
         "ambiguous_resolved_right": count(
-            ambiguous, lambda r: r["round"]["verdict"] != "ambiguous" and r["round"].get("top1", True)
+            ambiguous, lambda r: not Verdict(r["round"]["verdict"]).tied and r["round"].get("top1", True)
         ),
         "cases_with_runs_added": len(added),
         "runs_added_median": float(np.median([a["runs_added"] for a in added])) if added else 0.0,

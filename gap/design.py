@@ -33,7 +33,7 @@ from joblib import Parallel, delayed
 import assets
 from gap import protocols, synth
 from gap.campaign import Campaign
-from gap.diagnose import _grid, joint_stops, nominal_inertia, nominal_params, supplies
+from gap.campaign_replay import joint_stops, nominal_inertia, nominal_params, supplies
 from gap.discrimination import (
     SEPARATED_FLOORS,
     Change,
@@ -49,15 +49,19 @@ from gap.discrimination import (
 )
 from gap.effects import BY_NAME, CATALOGUE, Effect
 from gap.instrument import LATENCY_GRID_S
+from gap.kinds import Family
 from gap.protocols import worst_tolerance_deg, worst_tolerance_kpa
 from gap.result import Diagnosis
+from gap.single_fits import effect_grid
 from gap.verdict import families_of
 from pneumatics import load_joint_params
 from pneumatics.gas import AIR
 from wrist_rig import commanded_run
 
 N_FAMILIES = 4  # the leading families a diagnosis's design tells apart (by the family call's evidence)
-GRID_POINTS = 6  # values per member in a hypothesis's alternatives (gap.diagnose._grid: 7 with 0 on a log grid)
+GRID_POINTS = (
+    6  # values per member in a hypothesis's alternatives (gap.single_fits.effect_grid: 7 with 0 on a log grid)
+)
 MAX_PROPOSALS = 2  # from a diagnosis: at most this many protocols in one round (each at every supply)
 PRESSURE_NOISE_KPA = synth.NOISE_PA / 1e3  # the bench's transducers (gap.synth), before any campaign
 # Before any campaign, each catalogue effect at a reference size: a quarter of the way from its
@@ -118,10 +122,10 @@ def soft_count(separation: dict[str, float]) -> float:
 
 def alternatives(effects: list[Effect], extra: tuple[Change, ...] = ()) -> tuple[Change, ...]:
     """Every effect of `effects` at each value of its grid, one change each, and `extra`."""
-    return (*extra, *(((e, float(v)),) for e in effects for v in _grid(e, GRID_POINTS)))
+    return (*extra, *(((e, float(v)),) for e in effects for v in effect_grid(e, GRID_POINTS)))
 
 
-def family_members(family: str, catalogue) -> list[Effect]:
+def family_members(family: Family, catalogue) -> list[Effect]:
     return [e for e in catalogue if e.family == family and e.discrete_value is None]
 
 
@@ -159,7 +163,7 @@ def hypotheses_of(diag: Diagnosis, catalogue=CATALOGUE) -> tuple[list[Hypothesis
         alts = alternatives(family_members(f, catalogue), tuple(fitted))
         hyps.append(Hypothesis(f"{f} ({_describe(fitted[0])})", f, fitted[0], best[f].latency_s, alts))
     pairs = leading_pairs(hyps)
-    if w.verdict == "ambiguous" and w.top is not None:
+    if w.verdict.tied and w.top is not None:
         top = len(hyps)
         for k, name in enumerate([w.top.name, *w.rivals]):
             c = by_name[name]
@@ -177,7 +181,7 @@ def leading_pairs(hyps: list[Hypothesis]) -> list[Pair]:
     return [Pair(f"{hyps[0].family} / {h.family}", ((0, k), (k, 0))) for k, h in enumerate(hyps) if k]
 
 
-def family_pairs(hyps: list[Hypothesis], families: list[str]) -> list[Pair]:
+def family_pairs(hyps: list[Hypothesis], families: list[Family]) -> list[Pair]:
     """Every two families a pair: each hypothesis of one against the first of the other (its
     stand-in, free over that family's alternatives)."""
     stand_in = {f: next(i for i, h in enumerate(hyps) if h.family == f) for f in families}
@@ -407,7 +411,7 @@ def design(campaign: Campaign, diag: Diagnosis, catalogue=CATALOGUE, n_jobs: int
         np.array([declared]) if declared is not None else LATENCY_GRID_S,
         diag.pressure.floor_kpa if diag.pressure.measured else None,
     )
-    if diag.which.verdict == "no significant gap" or len(hyps) < 2:
+    if not diag.which.verdict.alarm or len(hyps) < 2:
         return Design(hyps, pairs, reading, [], [], {}, [p.name for p in pairs], twin, str(campaign.folder))
     crit = Criterion(twin, hyps, pairs, reading, n_jobs)
     base = crit.sums(base_runs(campaign, twin))

@@ -29,7 +29,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from gap.diagnose import apply_effects
+from gap.campaign_replay import apply_effects
 from gap.effects import Effect
 from pneumatics import JointParams, params_row
 from wrist_rig.one_joint import DT_S, replay_run

@@ -9,6 +9,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import NamedTuple
 
+from gap.kinds import Family
 from pneumatics import JointParams
 
 INERTIA = "inertia_scale"  # not a JointParams field: scales the joint-side inertia given to the replay
@@ -37,7 +38,7 @@ class Effect:
     high: float
     log: bool = False  # search grid spaced logarithmically (value 0 allowed as the low end)
     discrete_value: float | None = None  # a switch: added with this value, nothing to fit
-    family: str = ""  # the part of the joint it is in (below)
+    family: Family | None = None  # the part of the joint it is in (below)
     equation: str = ""
 
     def value_of(self, params: JointParams) -> float:
@@ -70,7 +71,7 @@ CATALOGUE: tuple[Effect, ...] = (
         0.0,
         1.0,
         discrete_value=1.0,
-        family="hose",
+        family=Family.HOSE,
         equation="Darcy-Weisbach hose resistance on both ports (paper eq. 1-5)",
     ),
     Effect(
@@ -80,7 +81,7 @@ CATALOGUE: tuple[Effect, ...] = (
         0.0,
         2.0e-6,
         log=True,
-        family="leakage",
+        family=Family.LEAKAGE,
         equation="orifice A->B past the vanes, area fitted (m^2)",
     ),
     # a leak to atmosphere in port A's hose (a cut hose, a loose fitting: the scenarios' hose_leak
@@ -94,7 +95,7 @@ CATALOGUE: tuple[Effect, ...] = (
         0.0,
         2.0e-6,
         log=True,
-        family="leakage",
+        family=Family.LEAKAGE,
         equation="orifice from port A's hose to atmosphere at its valve end, area fitted (m^2)",
     ),
     Effect(
@@ -103,7 +104,7 @@ CATALOGUE: tuple[Effect, ...] = (
         "coulomb_nm",
         0.0,
         60.0,
-        family="friction",
+        family=Family.FRICTION,
         equation="Coulomb level C_s (N·m), Karnopp stick rule",
     ),
     Effect(
@@ -112,11 +113,17 @@ CATALOGUE: tuple[Effect, ...] = (
         "stribeck_excess_nm",
         0.0,
         60.0,
-        family="friction",
+        family=Family.FRICTION,
         equation="static-minus-Coulomb excess (N·m), exp(-(w/ws)^2)",
     ),
     Effect(
-        "viscous_friction", "viscous friction", "viscous_nm_s", 0.0, 20.0, family="friction", equation="C_f (N·m·s/rad)"
+        "viscous_friction",
+        "viscous friction",
+        "viscous_nm_s",
+        0.0,
+        20.0,
+        family=Family.FRICTION,
+        equation="C_f (N·m·s/rad)",
     ),
     Effect(
         "valve_dead_time",
@@ -124,7 +131,7 @@ CATALOGUE: tuple[Effect, ...] = (
         "solenoid_delay_s",
         0.0,
         0.3,
-        family="valve",
+        family=Family.VALVE,
         equation="direction valve switches after a delay (s)",
     ),
     Effect(
@@ -133,7 +140,7 @@ CATALOGUE: tuple[Effect, ...] = (
         "valve_set_dead_time_s",
         0.0,
         0.3,
-        family="valve",
+        family=Family.VALVE,
         equation="the proportional valve's set point takes effect after a delay (s)",
     ),
     Effect(
@@ -143,7 +150,7 @@ CATALOGUE: tuple[Effect, ...] = (
         0.005,
         0.6,
         log=True,
-        family="valve",
+        family=Family.VALVE,
         equation="proportional valve first-order lag tau (s)",
     ),
     Effect(
@@ -152,7 +159,7 @@ CATALOGUE: tuple[Effect, ...] = (
         "valve_dead_zone",
         0.0,
         0.6,
-        family="valve",
+        family=Family.VALVE,
         equation="u' = (u - dz)/(1 - dz)",
     ),
     Effect(
@@ -162,7 +169,7 @@ CATALOGUE: tuple[Effect, ...] = (
         0.3,
         2.5,
         log=True,
-        family="valve",
+        family=Family.VALVE,
         equation="valve areas x scale",
     ),
     Effect(
@@ -171,7 +178,7 @@ CATALOGUE: tuple[Effect, ...] = (
         "polytropic_n",
         1.0,
         1.4,
-        family="thermal",
+        family=Family.THERMAL,
         equation="chamber law with n in 1..1.4",
     ),
     Effect(
@@ -180,7 +187,7 @@ CATALOGUE: tuple[Effect, ...] = (
         "supply_droop_pa_s_per_kg",
         0.0,
         5.0e7,
-        family="supply",
+        family=Family.SUPPLY,
         equation="p_s' = p_s - k * choked inlet flow (Pa·s/kg)",
     ),
     Effect(
@@ -190,7 +197,7 @@ CATALOGUE: tuple[Effect, ...] = (
         0.3,
         3.0,
         log=True,
-        family="load",
+        family=Family.LOAD,
         equation="joint-side inertia x scale",
     ),
     # a static load that depends on the angle (a cable or hose bundle, a counterbalance spring set
@@ -201,7 +208,7 @@ CATALOGUE: tuple[Effect, ...] = (
         LOAD_SPRING,
         0.0,
         60.0,
-        family="load",
+        family=Family.LOAD,
         equation="load torque -k theta (N·m/rad), theta from the joint's zero",
     ),
     # the brake (pneumatics/brake.py): its full-release pressure above nominal (4.0 bar; a weak
@@ -213,7 +220,7 @@ CATALOGUE: tuple[Effect, ...] = (
         "brake_release_gauge_pa",
         3.25e5,
         9.0e5,
-        family="brake",
+        family=Family.BRAKE,
         equation="engagement (p_full - p_feed)/(p_full - p_start) while released (Pa)",
     ),
     # the brake's piston fills slowly (a restricted or long brake line, a sticking piston): the lining
@@ -225,7 +232,7 @@ CATALOGUE: tuple[Effect, ...] = (
         0.0,
         1.0,
         log=True,
-        family="brake",
+        family=Family.BRAKE,
         equation="engagement lags its target with time constant tau while releasing (s)",
     ),
     # the brake's springs engage slowly (a restricted brake exhaust, a sticking piston): the lining
@@ -238,7 +245,7 @@ CATALOGUE: tuple[Effect, ...] = (
         0.0,
         1.0,
         log=True,
-        family="brake",
+        family=Family.BRAKE,
         equation="engagement lags its target with time constant tau while engaging (s)",
     ),
     # a worn lining holds and stops with less torque (nominal 100 N·m): a longer slide at every stop
@@ -248,7 +255,7 @@ CATALOGUE: tuple[Effect, ...] = (
         "brake_holding_nm",
         20.0,
         300.0,
-        family="brake",
+        family=Family.BRAKE,
         equation="holding and slipping torque of the engaged brake (N·m)",
     ),
     # the reducer (pneumatics/reducer.py): lost motion up to 0.05 rad (3 deg, a badly worn gear;
@@ -261,7 +268,7 @@ CATALOGUE: tuple[Effect, ...] = (
         0.0,
         0.05,
         log=True,
-        family="reducer",
+        family=Family.REDUCER,
         equation="dead zone of width b between motor and joint side (rad)",
     ),
     Effect(
@@ -271,7 +278,7 @@ CATALOGUE: tuple[Effect, ...] = (
         0.0,
         2.0e-3,
         log=True,
-        family="reducer",
+        family=Family.REDUCER,
         equation="torsional spring 1/k between motor and joint side (rad/N·m)",
     ),
 )
@@ -292,7 +299,7 @@ HOSE_BORE = Effect(
     "hose_diameter_m",
     1.0e-3,
     0.05,
-    family="hose",
+    family=Family.HOSE,
     equation="both hoses' inner diameter (m): their loss and their volume",
 )
 HOSE_LENGTH = Effect(
@@ -301,7 +308,7 @@ HOSE_LENGTH = Effect(
     "hose_length_m",
     2.0,
     100.0,
-    family="hose",
+    family=Family.HOSE,
     equation="both hoses' length (m): their loss and their volume",
 )
 IN_TWIN_VARIATIONS: dict[str, tuple[tuple[Effect, tuple[float, ...]], ...]] = {
@@ -323,11 +330,11 @@ STATIC_LOAD = Effect(
     LOAD_TORQUE,
     -40.0,
     40.0,
-    family="load",
+    family=Family.LOAD,
     equation="load torque -tau0 (N·m), the same at every angle",
 )
-FAMILY_VARIATIONS: dict[str, tuple[tuple[Effect, tuple[float, ...]], ...]] = {
-    "load": ((STATIC_LOAD, (-40.0, -20.0, -10.0, -5.0, 5.0, 10.0, 20.0, 40.0)),)
+FAMILY_VARIATIONS: dict[Family, tuple[tuple[Effect, tuple[float, ...]], ...]] = {
+    Family.LOAD: ((STATIC_LOAD, (-40.0, -20.0, -10.0, -5.0, 5.0, 10.0, 20.0, 40.0)),)
 }
 
 NOT_IN_CATALOGUE = (

@@ -3,7 +3,7 @@ withheld runs, and how much of the gap's where-profile its shapes explain.
 
 A family's effects move the twin in characteristic ways: the corrections (twin with the effect at a
 value minus the nominal twin) that its members make at every value the single fits replayed
-(gap.diagnose.fit_single keeps them), and for a member the nominal twin already has (the hose loss)
+(gap.single_fits.fit_single keeps them), and for a member the nominal twin already has (the hose loss)
 the correction of taking it out, its opposite, and the part at other values (its bore and length:
 gap.effects.IN_TWIN_VARIATIONS, replayed); a family may also have a part varied for the call only
 (the load's static torque the same at every angle: gap.effects.FAMILY_VARIATIONS, replayed). A
@@ -39,8 +39,8 @@ ENERGY = 0.999  # shapes kept until they carry this fraction of the corrections'
 @dataclass(frozen=True)
 class Member:
     """A member's replayed rows: per row the effects added to the nominal twin, the row's residual
-    vector at the twin's reference latency (gap.diagnose.Twin.run_sses_and_residual) and its objective
-    per run at every latency of the instrument's grid. `mirrored`: the opposite of the first row's
+    vector at the twin's reference latency (gap.campaign_replay.CampaignReplay.run_sses_and_residual)
+    and its objective per run at every latency of the instrument's grid. `mirrored`: the opposite of the first row's
     correction is a row too (for a part the twin already has: more of it, to first order)."""
 
     effects: list  # per row, [(Effect, value), ...]

@@ -8,32 +8,28 @@ latency and, per fold, at the latency the family's best row fits the fold's trai
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
-
 import numpy as np
 from joblib import delayed
 
+from gap.campaign_replay import CampaignReplay
 from gap.effects import BY_NAME, FAMILY_VARIATIONS, IN_TWIN_VARIATIONS, Effect
 from gap.family import Corrections, Member, fold_latencies
 
-if TYPE_CHECKING:  # gap.diagnose imports this module
-    from gap.diagnose import Twin
 
-
-def family_members(twin: Twin, singles: list, catalogue) -> dict[str, list[Member]]:
-    """Per family, its members: each single candidate (gap.diagnose.Candidate) at every value its fit
+def family_members(replay: CampaignReplay, singles: list, catalogue) -> dict[str, list[Member]]:
+    """Per family, its members: each single candidate (gap.candidate.Candidate) at every value its fit
     replayed, then the family's members from the twin (`in_twin_members`)."""
     out: dict[str, list[Member]] = {}
     for c in singles:
         e = BY_NAME[c.name]
         rows = [[(e, float(v))] for v in c.grid_values]
         out.setdefault(e.family, []).append(Member(rows, c.grid_residuals, c.grid_sses))
-    for f, ms in in_twin_members(twin, catalogue).items():
+    for f, ms in in_twin_members(replay, catalogue).items():
         out.setdefault(f, []).extend(ms)
     return out
 
 
-def in_twin_members(twin: Twin, catalogue) -> dict[str, list[Member]]:
+def in_twin_members(replay: CampaignReplay, catalogue) -> dict[str, list[Member]]:
     """Per family, for each catalogue switch the nominal twin already has on (the hose loss): the
     correction of switching it off, and its opposite (more of it, to first order), so that a family
     is in the family call even when none of its members is a candidate (a narrower hose); and the
@@ -43,18 +39,18 @@ def in_twin_members(twin: Twin, catalogue) -> dict[str, list[Member]]:
     only (gap.effects.FAMILY_VARIATIONS: the load's static torque the same at every angle), one
     member per part."""
     out: dict[str, list[Member]] = {}
-    every = list(range(len(twin.runs)))
+    every = list(range(len(replay.runs)))
 
     def member(varied: list[tuple[Effect, float]], mirrored: bool = False) -> Member:
-        evals = [twin.run_sses_and_residual([ev], every) for ev in varied]
+        evals = [replay.run_sses_and_residual([ev], every) for ev in varied]
         residuals = np.array([r for _, r in evals])
         return Member([[ev] for ev in varied], residuals, np.array([s for s, _ in evals]), mirrored)
 
     for e in catalogue:
-        if e.discrete_value is not None and e.value_of(twin.params) == e.discrete_value:
+        if e.discrete_value is not None and e.value_of(replay.params) == e.discrete_value:
             varied = [(e, e.low)]
             for part, factors in IN_TWIN_VARIATIONS.get(e.name, ()):
-                varied += [(part, k * part.value_of(twin.params)) for k in factors]
+                varied += [(part, k * part.value_of(replay.params)) for k in factors]
             out.setdefault(e.family, []).append(member(varied, mirrored=True))
     in_catalogue = {e.family for e in catalogue}
     for family, parts in FAMILY_VARIATIONS.items():
@@ -63,19 +59,19 @@ def in_twin_members(twin: Twin, catalogue) -> dict[str, list[Member]]:
     return out
 
 
-def at_fold_latencies(twin: Twin, members: dict[str, list[Member]], folds, run_jobs) -> Corrections:
+def at_fold_latencies(replay: CampaignReplay, members: dict[str, list[Member]], folds, run_jobs) -> Corrections:
     """Per family, its members' corrections of the gap at the nominal twin's latency (the reference)
     and, per fold of `folds` ((training, withheld) run lists), at the latency its best row fits the
     training runs with (gap.family.fold_latencies): the rows as replayed where that is the
     reference, replayed again on `run_jobs` where not (one replay gives every latency)."""
-    every = list(range(len(twin.runs)))
-    i_ref = twin.latency_index(twin.ref_latency_s)
+    every = list(range(len(replay.runs)))
+    i_ref = replay.latency_index(replay.ref_latency_s)
     index = {f: fold_latencies(ms, [list(tr) for tr, _ in folds]) for f, ms in members.items()}
     others = {f: sorted(set(ix) - {i_ref}) for f, ix in index.items()}
     again = [(effects, others[f]) for f, ms in members.items() for m in ms for effects in m.effects if others[f]]
-    replayed = iter(run_jobs(delayed(twin.residual_vectors)(effects, every, ix) for effects, ix in again))
+    replayed = iter(run_jobs(delayed(replay.residual_vectors)(effects, every, ix) for effects, ix in again))
     needed = sorted(set().union(*others.values()))
-    gaps = {i_ref: twin.gap_vector, **(twin.residual_vectors([], every, needed) if needed else {})}
+    gaps = {i_ref: replay.gap_vector, **(replay.residual_vectors([], every, needed) if needed else {})}
     reference: dict[str, list[np.ndarray]] = {}
     per_fold: dict[str, list[tuple[list[np.ndarray], np.ndarray]]] = {}
     for f, ms in members.items():
@@ -89,5 +85,5 @@ def at_fold_latencies(twin: Twin, members: dict[str, list[Member]], folds, run_j
         }
         reference[f] = by_latency[i_ref]
         per_fold[f] = [(by_latency[i], gaps[i]) for i in index[f]]
-    latency_s = {f: [float(twin.latencies[i]) for i in ix] for f, ix in index.items()}
+    latency_s = {f: [float(replay.latencies[i]) for i in ix] for f, ix in index.items()}
     return Corrections(reference, per_fold, latency_s)

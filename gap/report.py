@@ -11,9 +11,10 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from gap.campaign import FIT_WINDOW_S
-from gap.diagnose import SPREAD_START_DEG
+from gap.campaign_replay import SPREAD_START_DEG
 from gap.effects import FAMILY_VARIATIONS, IN_TWIN_VARIATIONS, NOT_IN_CATALOGUE
 from gap.instrument import InstrumentFacts
+from gap.kinds import Verdict
 from gap.result import CandidateSummary, Diagnosis, PressureFloor, to_json
 
 WHERE_PLOTTED = ("phase", "angle_deg", "supply_mpa")  # the factors where.png shows
@@ -197,7 +198,7 @@ def _nearest(nb) -> str:
 
 def _verdict(diag: Diagnosis) -> list[str]:
     w, top, lines = diag.which, diag.which.top, []
-    if w.verdict == "outside the catalogue" and w.nearest:
+    if w.verdict == Verdict.OUTSIDE and w.nearest:
         lines += [
             f"No catalogue entry or pair explains the gap. Nearest family: **{w.nearest.family}** "
             f"({_nearest(w.nearest)}). The unmodelled effect may be another form of it, or something not catalogued.",
@@ -236,7 +237,7 @@ def _verdict(diag: Diagnosis) -> list[str]:
         lines += ["Pairs that do not count: " + "; ".join(f"{r.pair} ({r.why})" for r in w.pairs_refused) + ".", ""]
     if w.rivals:
         lines += [f"Rivals that fit the withheld runs as well: {', '.join(w.rivals)}.", ""]
-    if w.verdict == "ambiguous" and w.nearest:
+    if w.verdict.tied and w.nearest:
         lines += [
             f"Of their families, nearest: **{w.nearest.family}** ({_nearest(w.nearest)}).",
             "",

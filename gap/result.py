@@ -12,6 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from gap.instrument import InstrumentFacts
+from gap.kinds import Family, Verdict
 from gap.verdict import OMIT_NONE, FamilyCall, FamilyEvidence, Refusal
 from gap.where import Breakdown
 
@@ -59,7 +60,7 @@ class CandidateSummary:
     name: str
     effects: list[str]
     labels: list[str]
-    families: list[str]
+    families: list[Family]
     fields: list[str]  # the JointParams (or rig) field of each effect
     nominal_values: list[float]
     fitted_values: list[float]  # fitted on all runs
@@ -83,11 +84,11 @@ class CandidateSummary:
 class Which:
     """The verdict, the answer and the candidates behind it (rules: gap.verdict)."""
 
-    verdict: str  # explained | ambiguous | outside the catalogue | no significant gap
+    verdict: Verdict
     top: CandidateSummary | None
     rivals: list[str]
     pairs_refused: list[Refusal]
-    nearest: FamilyCall | None  # the family-level answer, for "outside the catalogue" and "ambiguous"
+    nearest: FamilyCall | None  # the family-level answer, for the verdicts that name one (Verdict.names_family)
     families: list[FamilyEvidence]
     ranking: list[CandidateSummary]  # singles, best first
     pairs: list[CandidateSummary]

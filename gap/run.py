@@ -7,8 +7,9 @@ from __future__ import annotations
 from pathlib import Path
 
 from gap.campaign import load_campaign
-from gap.diagnose import MODEL_TOLERANCE_DEG as DEFAULT_TOLERANCE_DEG
 from gap.diagnose import diagnose
+from gap.floors import MODEL_TOLERANCE_DEG as DEFAULT_TOLERANCE_DEG
+from gap.kinds import Verdict
 from gap.report import write
 from gap.result import Diagnosis
 from twin_plumbing.checks import JOBS, check_number
@@ -54,7 +55,7 @@ def verdict_line(diag: Diagnosis) -> str:
     w = diag.which
     top = w.top
     before = f"{diag.before_rms_deg:.2f}"
-    if w.verdict == "outside the catalogue":
+    if w.verdict == Verdict.OUTSIDE:
         return f"verdict: outside the catalogue (nearest family: {w.nearest.family}; nominal twin {before} deg rms)"
     if top is None:
         threshold = diag.noise_floor.significance_threshold_deg

@@ -1,5 +1,5 @@
 """The model tolerance measured: how far the one-joint model's replay (wrist_rig.one_joint, through
-the nominal campaign replay of gap.diagnose) departs from the plant (twin.plant, MuJoCo) on each
+the nominal campaign replay, gap.campaign_replay) departs from the plant (twin.plant, MuJoCo) on each
 protocol of the library (gap.protocols) at each supply of the paper, nominal wrist, no instrument
 noise. `python -m gap.tolerance` prints the figures gap.protocols.TOLERANCE_DEG and TOLERANCE_KPA
 hold, rounded up; tests/test_gap.py measures them again.
@@ -15,7 +15,7 @@ import json
 import numpy as np
 
 from gap.campaign import Campaign, MeasuredRun
-from gap.diagnose import Twin
+from gap.campaign_replay import CampaignReplay
 from gap.protocols import library
 from wrist_rig import commanded_run
 
@@ -52,8 +52,9 @@ def measure_tolerance(pressures_mpa=(0.5, 0.6, 0.7, 0.8)) -> dict[str, dict]:
                 twin_hose_loss=None,
                 runs=[measured],
             )
-            twin = Twin(campaign)
-            ((a, p),) = twin.residuals_with([], [0], 0.0).values()
+            # the residuals alone, no fit: the objective's pressure weight is not used
+            replay = CampaignReplay(campaign, pressure_weight=0.0)
+            ((a, p),) = replay.residuals_with([], [0], 0.0).values()
             ang.append(a)
             pres.append(p)
         a = np.rad2deg(np.concatenate(ang))

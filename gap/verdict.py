@@ -2,10 +2,10 @@
 
 Rules:
 - a gap is significant above SIGNIFICANCE x floor in either channel, the angle or (where measured)
-  the chamber pressures, each against its own floor (gap.diagnose.Floors.above);
+  the chamber pressures, each against its own floor (gap.floors.Floors.above);
 - a candidate explains it if, in every channel measured, its held-out rms is under the threshold,
   or under EXPLAIN_SHRINK of the nominal twin's; in the angle, what it leaves beyond the twin's own
-  spread on each run (gap.diagnose.Twin.spread) may count instead;
+  spread on each run (gap.campaign_replay.CampaignReplay.spread) may count instead;
 - a pair counts only if both its effects moved off their nominal values (an effect left at its
   nominal value is no effect: the pair is its other member alone) and it beats the best single by
   a clear margin (score <= PAIR_MARGIN x the best single's);
@@ -38,6 +38,7 @@ import numpy as np
 
 from gap import family, where
 from gap.effects import BY_NAME
+from gap.kinds import Family, Verdict
 from gap.stats import mean_lower_bound, residual_vector, rms_beyond_deg, rms_deg, rms_kpa, run_ms
 from pneumatics import JointParams
 
@@ -84,7 +85,7 @@ def at_bounds(c) -> list[str | None]:
     return out
 
 
-def families_of(names: list[str]) -> set[str]:
+def families_of(names: list[str]) -> set[Family]:
     """The families of candidates by name (a pair "a+b": both its effects')."""
     return {BY_NAME[e].family for n in names for e in n.split("+")}
 
@@ -102,7 +103,7 @@ class FamilyEvidence:
     """A family's best member and its held-out misfit; the family's free-form fit (gap.family) on
     withheld runs and how its correction matches the gap's where-pattern."""
 
-    family: str
+    family: Family
     best: str  # the member (a single effect)
     score_in_floors: float
     shrink: float  # held-out rms / the nominal twin's
@@ -120,25 +121,25 @@ class FamilyCall:
     """The family-level answer (None when there is no candidate) and the evidence behind it (every
     family's, also those the call could not choose)."""
 
-    family: str | None
+    family: Family | None
     where_match: float | None
-    tied: list[str]  # other families the withheld runs do not tell apart from it (the where-profile chose)
+    tied: list[Family]  # other families the withheld runs do not tell apart from it (the where-profile chose)
     evidence: list[FamilyEvidence]  # families by held-out misfit, best first
 
 
 @dataclass
 class Call:
-    verdict: str
+    verdict: Verdict
     top: object | None
     rivals: list[str]
     pairs_refused: list[Refusal]
 
 
 class Judge:
-    def __init__(self, twin, floors, before_rms: float, score, rng: np.random.Generator, before_kpa=None):
-        """`before_rms` (deg) and `before_kpa` (None: no chamber pressure measured): the nominal
-        twin's rms residuals."""
-        self.twin, self.floors, self.before_rms, self.score, self.rng = twin, floors, before_rms, score, rng
+    def __init__(self, replay, floors, before_rms: float, score, rng: np.random.Generator, before_kpa=None):
+        """`replay`: the campaign's (gap.campaign_replay.CampaignReplay); `before_rms` (deg) and
+        `before_kpa` (None: no chamber pressure measured): the nominal twin's rms residuals."""
+        self.replay, self.floors, self.before_rms, self.score, self.rng = replay, floors, before_rms, score, rng
         self.before_kpa = before_kpa
 
     def explains(self, c) -> bool:
@@ -153,16 +154,16 @@ class Judge:
 
     def beyond_spread_deg(self, c) -> float:
         """The held-out angle rms of candidate c beyond the twin's own spread with c on each run
-        (gap.diagnose.Twin.spread, replayed once per candidate when first asked): a run on a knife
+        (gap.campaign_replay.CampaignReplay.spread, replayed once per candidate when first asked): a run on a knife
         edge, a drive that only just beats the friction, is not held to more than the twin itself
         can say of it."""
         if c.spread is None:
-            c.spread = self.twin.spread([(BY_NAME[n], v) for n, v in zip(c.effects, c.full_values, strict=True)])
+            c.spread = self.replay.spread([(BY_NAME[n], v) for n, v in zip(c.effects, c.full_values, strict=True)])
         return rms_beyond_deg(c.heldout, c.spread)
 
     def pair_counts(self, pair, best) -> str:
         """'' if the pair counts, else why not."""
-        off = off_nominal(pair, self.twin.params)
+        off = off_nominal(pair, self.replay.params)
         if not all(off):
             stayed = ", ".join(e for e, o in zip(pair.effects, off, strict=True) if not o)
             return f"{stayed} stayed at its nominal value"
@@ -195,14 +196,14 @@ class Judge:
             why = self.pair_counts(p, best)
             (refused.append(Refusal(p.name, why)) if why else counting.append(p))
         if not significant:
-            return Call("no significant gap", None, [], refused)
+            return Call(Verdict.NO_GAP, None, [], refused)
         if counting:
             rivals = self.rivals_of(counting[0], counting)
-            return Call("ambiguous" if rivals else "explained", counting[0], rivals, refused)
+            return Call(Verdict.AMBIGUOUS if rivals else Verdict.EXPLAINED, counting[0], rivals, refused)
         if best is not None and self.explains(best):
             rivals = self.rivals_of(best, singles)
-            return Call("ambiguous" if rivals else "explained", best, rivals, refused)
-        return Call("outside the catalogue", best, [], refused)
+            return Call(Verdict.AMBIGUOUS if rivals else Verdict.EXPLAINED, best, rivals, refused)
+        return Call(Verdict.OUTSIDE, best, [], refused)
 
     def family_call(
         self,
@@ -211,17 +212,17 @@ class Judge:
         gap: np.ndarray,
         folds,
         corrections: family.Corrections,
-        among: set[str] | None = None,
+        among: set[Family] | None = None,
     ) -> FamilyCall:
         """The families ranked by the fit of their own corrections on withheld runs (gap.family),
         ties told apart by the gap's where-profile (module docstring). `gap`: the nominal twin's
-        residual vector (Twin.run_sses_and_residual), the held-out shrinks' denominator; `folds`:
+        residual vector (CampaignReplay.run_sses_and_residual), the held-out shrinks' denominator; `folds`:
         (training, withheld) run lists; `corrections`: per family, its members' corrections of the gap
         at the nominal twin's latency and at each fold's own (gap.members.at_fold_latencies);
         `among`: the families the call may choose from (None: every one; the evidence lists all)."""
-        twin = self.twin
-        angle = twin.angle_mask()
-        masks = [(twin.sample_mask(tr), twin.sample_mask(te)) for tr, te in folds]
+        replay = self.replay
+        angle = replay.angle_mask()
+        masks = [(replay.sample_mask(tr), replay.sample_mask(te)) for tr, te in folds]
         profile = where.profile_matrix(labels)
         fits = family.family_fits(corrections, gap, masks, angle, profile)
         if not fits:
@@ -230,9 +231,9 @@ class Judge:
         for c in singles:  # singles come sorted by score: the first of a family is its best
             best_of.setdefault(BY_NAME[c.name].family, c)
         for f, c in best_of.items():  # a family does on withheld runs at least what its best member does
-            held_out = residual_vector(c.heldout, c.heldout_p, twin.pressure_weight)
+            held_out = residual_vector(c.heldout, c.heldout_p, replay.pressure_weight)
             fits[f] = family.at_least(fits[f], held_out, masks, angle)
-        run_masks = [twin.sample_mask([k]) for k in range(len(twin.runs))]
+        run_masks = [replay.sample_mask([k]) for k in range(len(replay.runs))]
         per_run = {f: np.array([np.sum(ft.heldout[m] ** 2) for m in run_masks]) for f, ft in fits.items()}
         nominal = sum(float(np.sum(gap[te] ** 2)) for _, te in masks)
         nominal_angle = sum(float(np.sum(gap[te & angle] ** 2)) for _, te in masks)
@@ -258,7 +259,7 @@ class Judge:
         twin), the fit of its own corrections (gap.family.FamilyFit) at its folds' latencies, in all and, where
         chamber pressures are measured, per channel (`nominal`, `nominal_angle`: the gap's withheld SSE)."""
         per_channel = {}
-        if self.twin.has_pressure:
+        if self.replay.has_pressure:
             per_channel = {
                 "heldout_shrink_angle": _shrink(fit.heldout_sse_angle, nominal_angle),
                 "heldout_shrink_pressure": _shrink(fit.heldout_sse - fit.heldout_sse_angle, nominal - nominal_angle),

@@ -10,8 +10,8 @@ from pathlib import Path
 import numpy as np
 
 from gap import CATALOGUE, Campaign, GapError, load_campaign, make_campaign, write_report
-from gap.diagnose import MODEL_TOLERANCE_DEG
 from gap.diagnose import diagnose as _diagnose  # not gap.diagnose: the submodule's name hides gap's function
+from gap.floors import MODEL_TOLERANCE_DEG
 from gap.result import Diagnosis
 from scenarios.recording import open_recorders
 from scenarios.runner import run_scenario, scenario_files

@@ -16,6 +16,7 @@ from gap import synth
 from gap.campaign import GapError, load_campaign
 from gap.diagnose import diagnose
 from gap.effects import BY_NAME, CATALOGUE
+from gap.kinds import Verdict
 from wrist_rig import commanded_run
 
 FAST = tuple(
@@ -296,9 +297,9 @@ def test_cli_gap_diagnose_says_when_the_declared_rate_is_not_the_files(campaigns
 def test_mcap_runs_from_the_plant_are_diagnosed(tmp_path):
     # runs logged by the twin's own MCAP recorder (20 ms samples of commands, valve OUTPUT pressure
     # and true angle) from the plant with a hidden vane leak, put in a campaign folder
-    from gap.diagnose import DT_S, Twin
+    from gap.campaign_replay import CampaignReplay
     from pneumatics import params_row
-    from wrist_rig.one_joint import replay_run
+    from wrist_rig.one_joint import DT_S, replay_run
 
     p0 = commanded_run.wrist_params()
     folder = tmp_path / "mcap"
@@ -323,7 +324,7 @@ def test_mcap_runs_from_the_plant_are_diagnosed(tmp_path):
     # the nominal plant's logs replay within the twin's model tolerance because the logged valve
     # output is imposed on the valve state; taken as a set point it would be lagged a second time
     (folder / "campaign.toml").write_text("\n".join(lines).replace("leak_", "nominal_") + "\n")
-    twin = Twin(load_campaign(folder))
+    twin = CampaignReplay(load_campaign(folder), pressure_weight=0.0)
     assert all(pr.run.valve_is_output for pr in twin.runs)
     rms = {}
     for as_output in (True, False):
@@ -422,9 +423,9 @@ def test_an_undeclared_camera_latency_is_found_as_nuisance_not_an_effect(camera_
     )
     campaign = load_campaign(c)
     assert campaign.instrument.latency_s == 0.03
-    from gap.diagnose import Twin
+    from gap.campaign_replay import CampaignReplay
 
-    assert list(Twin(campaign).latencies) == [0.03]
+    assert list(CampaignReplay(campaign, pressure_weight=0.0).latencies) == [0.03]
     (c / "campaign.toml").write_text((c / "campaign.toml").read_text().replace("latency_s = 0.03", "latency_s = -0.1"))
     with pytest.raises(
         GapError, match=r"campaign\.toml:\d+ \(\[instrument\]\): latency_s = -0.1; allowed: a number in 0..1 s"
@@ -437,9 +438,21 @@ def test_each_channel_is_tested_against_its_own_floor():
     and a candidate that fits the angle but leaves the pressure gap does not explain it (the angle
     alone decided both before: a 0.02 rad backlash the pressures showed clearly was no gap)."""
     from gap import verdict
-    from gap.diagnose import Candidate, Floors
+    from gap.candidate import Candidate
+    from gap.floors import Floors
 
-    fl = Floors(0.2, None, 0.36, 0.4, 0.8, None, 2.5, 5.0)  # angle floor 0.4 deg, pressure 2.5 kPa
+    # angle floor 0.4 deg, pressure 2.5 kPa
+    fl = Floors(
+        noise_deg=0.2,
+        noise=None,
+        tolerance_deg=0.36,
+        floor_deg=0.4,
+        threshold_deg=0.8,
+        noise_p=None,
+        floor_kpa=2.5,
+        threshold_kpa=5.0,
+        pressure_weight=(np.radians(0.4) / 2.5e3) ** 2,
+    )
     assert fl.above(0.6, 8.0) and fl.above(0.9, 1.0)
     assert not fl.above(0.6, 4.0) and not fl.above(0.6, None)
     judge = verdict.Judge(None, fl, 0.6, fl.score, np.random.default_rng(0), before_kpa=8.0)
@@ -449,11 +462,61 @@ def test_each_channel_is_tested_against_its_own_floor():
     assert judge.explains(fits_both) and not judge.explains(angle_only)
 
 
+def test_a_replay_is_given_its_pressure_weight_and_cannot_be_made_without_it(tmp_path):
+    """The fit's objective counts the chamber pressures by the weight the campaign's replay is given
+    at construction (the floors' (angle floor / pressure floor)^2); a replay made without one is
+    refused. It used to start at weight 0 until the diagnosis set it: a fit made before fitted the
+    angle alone without a word."""
+    from gap.campaign_replay import CampaignReplay, prepared_runs
+    from gap.floors import MODEL_TOLERANCE_DEG, floors_of
+    from gap.instrument import estimate
+
+    reality = commanded_run.wrist_params()._replace(leak_area_m2=4e-7)
+    folder = synth.make_campaign(tmp_path / "c", reality, seed=5, pressures_mpa=(0.6,), chamber_pressures=True)
+    c = load_campaign(folder)
+    with pytest.raises(TypeError, match="pressure_weight"):
+        CampaignReplay(c)
+    fl = floors_of(c, prepared_runs(c, estimate(c)), MODEL_TOLERANCE_DEG)
+    w = fl.pressure_weight
+    assert w == pytest.approx((np.radians(fl.floor_deg) / (fl.floor_kpa * 1e3)) ** 2)
+    replay = CampaignReplay(c, pressure_weight=w)
+    i = replay.latency_index(replay.ref_latency_s)
+    ((a, p),) = replay.residuals_with([], [0], float(replay.latencies[i])).values()
+    angle_sse, pressure_sse = float(np.sum(a**2)), w * float(np.sum(p**2))
+    assert pressure_sse > 0.1 * angle_sse  # the leak shows in the pressures: they weigh in the fit
+    assert replay.run_sses([], [0])[0, i] == pytest.approx(angle_sse + pressure_sse, rel=1e-9)
+    # the nominal twin's residual vector, read at that latency: its squared norm is the objective
+    both = replay.run_sses([], [0, 1])[:, i].sum()
+    assert replay.gap_vector @ replay.gap_vector == pytest.approx(both, rel=1e-9)
+    # without chamber pressures there is nothing to weigh
+    no_pressure = load_campaign(synth.make_campaign(tmp_path / "n", reality, seed=5, pressures_mpa=(0.6,)))
+    assert (
+        floors_of(no_pressure, prepared_runs(no_pressure, estimate(no_pressure)), MODEL_TOLERANCE_DEG).pressure_weight
+        == 0
+    )
+
+
+def test_each_verdict_is_one_row_and_reads_back_from_its_text():
+    """A verdict is a kind with one row (its text and what it counts as); its text is what
+    diagnosis.json, bench.json and the reports carry, and reading that text gives the kind back."""
+    rows = {v.value: (v.alarm, v.explained, v.tied, v.names_family) for v in Verdict}
+    assert rows == {
+        "no significant gap": (False, False, False, False),
+        "explained": (True, True, False, False),
+        "ambiguous": (True, True, True, True),
+        "outside the catalogue": (True, False, False, True),
+    }
+    for v in Verdict:
+        text = json.loads(json.dumps({"verdict": v}))["verdict"]
+        assert text == f"{v}" == str(v) == v.value and Verdict(text) is v
+
+
 def test_a_pair_search_follows_the_narrow_valley_of_two_effects_acting_alike():
     """More leakage and less Coulomb friction move the joint alike: their misfit is a narrow curved
     valley (the shape and scale measured on a leak + Coulomb campaign's staircase runs). The pair's
     screen must reach its floor, not stop on its wall worse than the leak alone at its best value."""
-    from gap.diagnose import Candidate, screen_pair
+    from gap.candidate import Candidate
+    from gap.pair_search import screen_pair
 
     def sse(leak, coulomb):
         return 0.043 * (coulomb - 30.0 + 6e7 * (leak - 3e-7)) ** 2 + 5e12 * (leak - 3e-7) ** 2 + 4e-4
@@ -471,7 +534,8 @@ def test_a_pair_search_follows_the_narrow_valley_of_two_effects_acting_alike():
 def test_every_pair_of_the_best_single_is_screened_whatever_their_corrections_added_say():
     """Adding two effects' corrections ignores how they interact; the replayed screen sees every pair
     of the best single, and the PAIR_SCREEN other pairs whose added corrections fit best."""
-    from gap.diagnose import PAIR_SCREEN, Candidate, screened_pairs, superposed_sse
+    from gap.candidate import Candidate
+    from gap.pair_search import PAIR_SCREEN, screened_pairs, superposed_sse
 
     gap = np.linspace(1.0, 2.0, 12)
     rng = np.random.default_rng(3)
@@ -578,7 +642,7 @@ def test_a_run_on_a_knife_edge_is_held_to_the_twins_own_spread(tmp_path):
     stands 1.96 deg from the located-event reference there, the replay 0.013 deg. The twin's spread
     finds that run, and the true effect explains the gap beyond it. Until stop 22 its held-out
     1.05 deg (threshold 0.73) was called outside the catalogue."""
-    from gap.diagnose import Twin
+    from gap.campaign_replay import CampaignReplay
     from gap.protocols import library
 
     camera = synth.SimInstrument("camera_30hz", 30.0, 0.2, 0.021, 0.03, phase_s=0.012)
@@ -590,7 +654,7 @@ def test_a_run_on_a_knife_edge_is_held_to_the_twins_own_spread(tmp_path):
         instrument=camera,
     )
     campaign = load_campaign(folder)
-    spread = np.degrees(Twin(campaign).spread([(BY_NAME["coulomb_friction"], 30.0)]))
+    spread = np.degrees(CampaignReplay(campaign, pressure_weight=0.0).spread([(BY_NAME["coulomb_friction"], 30.0)]))
     at_06 = np.array([r.supply_mpa == 0.6 for r in campaign.runs])
     assert spread[at_06].min() > 1.0 and spread[~at_06].max() < 0.5, spread
     d = diagnose(campaign, progress=False)
@@ -610,10 +674,12 @@ def test_a_pair_search_starts_in_every_basin_of_the_grid():
     deeper one between grid points, whose nearest grid points read worse than the shallow one's.
     From the grid's best point alone the simplex settles in the shallow basin; the search must
     start from each of the grid's best local minima and reach the deeper one."""
-    from gap.diagnose import Candidate, _grid, screen_pair
+    from gap.candidate import Candidate
     from gap.effects import BY_NAME
+    from gap.pair_search import screen_pair
+    from gap.single_fits import effect_grid
 
-    ga, gb = _grid(BY_NAME["vane_leakage"], 5), _grid(BY_NAME["coulomb_friction"], 5)
+    ga, gb = effect_grid(BY_NAME["vane_leakage"], 5), effect_grid(BY_NAME["coulomb_friction"], 5)
 
     def sse(leak, coulomb):  # in grid-index coordinates: basin A on a grid point, basin B between
         i, j = np.interp(leak, ga, np.arange(len(ga))), np.interp(coulomb, gb, np.arange(len(gb)))
@@ -634,7 +700,7 @@ def test_a_pair_search_starts_in_every_basin_of_the_grid():
 
 def test_verdict_rules_refuse_a_pair_at_nominal_flag_bounds_and_name_only_a_family():
     from gap import verdict
-    from gap.diagnose import Candidate
+    from gap.candidate import Candidate
     from gap.run import verdict_line
 
     p0 = commanded_run.wrist_params()
@@ -647,7 +713,7 @@ def test_verdict_rules_refuse_a_pair_at_nominal_flag_bounds_and_name_only_a_fami
     outside = SimpleNamespace(
         before_rms_deg=3.0,
         which=SimpleNamespace(
-            verdict="outside the catalogue",
+            verdict=Verdict.OUTSIDE,
             top=SimpleNamespace(name="coulomb_friction"),
             nearest=SimpleNamespace(family="friction"),
         ),
@@ -834,7 +900,7 @@ def test_an_ambiguous_verdict_names_the_nearest_of_its_candidates_families(tmp_p
 def test_a_campaign_may_run_several_protocols_at_each_supply(tmp_path):
     """gap.synth.make_campaign with a list of protocols at a supply: each its own runs, lettered, each
     its own replay of the twin (16 distinct runs are benchmarks/bench_gap.py's costliest campaign)."""
-    from gap.diagnose import Twin
+    from gap.campaign_replay import CampaignReplay
     from gap.protocols import library
 
     folder = synth.make_campaign(
@@ -847,7 +913,7 @@ def test_a_campaign_may_run_several_protocols_at_each_supply(tmp_path):
     )
     c = load_campaign(folder)
     assert [r.name for r in c.runs] == ["run_050_a_1", "run_050_b_1", "run_080_a_1", "run_080_b_1"]
-    assert len(Twin(c).groups) == 4
+    assert len(CampaignReplay(c, pressure_weight=0.0).groups) == 4
     ends = [r.time_s[-1] for r in c.runs]
     assert ends[0] == ends[2] == pytest.approx(library(0.5)["reversal"].total_s(), abs=0.01)
     assert ends[1] == pytest.approx(library(0.5)["staircase"].total_s(), abs=0.01)

@@ -26,7 +26,7 @@ from gap.arm_rehearsal import CAMERA, make_arm_campaign, simulate
 from gap.arm_rehearsal import twin_of as scenario_twin
 from gap.arm_replay import replay
 from gap.campaign import GapError
-from gap.diagnose import _parallel
+from gap.jobs import parallel_jobs
 from scenarios.schema import load
 
 ONE_JOINT = "scenarios/arm_protocols/one_joint.toml"
@@ -158,7 +158,7 @@ def test_a_hidden_effect_is_located_to_its_joint(campaigns):
 
     cands = [Candidate(e, "wrist_pitch") for e in ("coulomb_friction", "viscous_friction", "valve_lag")]
     cands.append(Candidate("payload_mass"))
-    with _parallel(1, None) as run_jobs:
+    with parallel_jobs(1, None) as run_jobs:
         ranked = screen(run_jobs, c, twin, c.runs[:1], c.instrument.latency_s, cands)
     # the screen picks what the fits try: the hidden effect among the TOP fitted, ahead of those unlike it (on one
     # run of 11 s the wrist's viscous friction, which also slows it, can look as good)
@@ -228,7 +228,7 @@ def test_the_screen_finds_a_mounting_tilt_where_the_departing_joint_points(tmp_p
     c = load_arm_campaign(tmp_path)
     twin = twin_of(c)
     tilt, spring = Candidate("mounting_tilt_y"), Candidate("angle_load", "base_yaw")
-    with _parallel(1, None) as run_jobs:
+    with parallel_jobs(1, None) as run_jobs:
         whole = screen(run_jobs, c, twin, c.runs, c.instrument.latency_s, [tilt, spring])
         own = screen(run_jobs, c, twin, c.runs, c.instrument.latency_s, [tilt, spring], joint="base_yaw")
     by_name = {x.candidate.name: x for x in whole}

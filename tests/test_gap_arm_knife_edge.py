@@ -15,7 +15,7 @@ from gap.arm_diagnose import EXPLAINED_SHRINK, judge, knife_edges, residual, twi
 from gap.arm_effects import candidate_named
 from gap.arm_rehearsal import CAMERA, make_arm_campaign
 from gap.arm_replay import Replay, replay
-from gap.diagnose import _parallel
+from gap.jobs import parallel_jobs
 from scenarios.schema import load
 
 POINT_TO_POINT = "scenarios/arm_protocols/point_to_point.toml"
@@ -59,7 +59,7 @@ def test_a_fit_a_knife_edge_away_is_judged_up_to_the_edge(elbow_friction):
     twin, withheld, latency = twin_of(c), c.runs[1::2], c.instrument.latency_s
     held = [residual(r, replay(r, twin.params, twin.setup), latency) for r in withheld]
     right, wrong = candidate_named("elbow_pitch:coulomb_friction"), candidate_named("arm:payload_mass")
-    with _parallel(1, None) as run_jobs:
+    with parallel_jobs(1, None) as run_jobs:
         fits, explained = judge(run_jobs, c, twin, withheld, latency, [right, wrong], [(60.25, 0.0), (25.0, 0.0)], held)
         best = fits[0]
         assert best.candidate == right.name

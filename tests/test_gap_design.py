@@ -11,10 +11,11 @@ import pytest
 
 from gap import protocols, synth
 from gap.campaign import load_campaign
+from gap.campaign_replay import joint_stops, nominal_inertia
 from gap.design import Criterion, Pair, alternatives, choose, hypotheses_of, planned_run
-from gap.diagnose import joint_stops, nominal_inertia
 from gap.discrimination import Hypothesis, Reading, ReplayedJoint, misfits, response, trajectory
 from gap.effects import BY_NAME, CATALOGUE
+from gap.kinds import Verdict
 from gap.plan import Header, add_runs, play_plan, read_plan, write_plan
 from pneumatics import params_row
 from wrist_rig import commanded_run
@@ -147,7 +148,7 @@ def _outside_the_catalogue():
         for n, v, lat in fitted
     ]
     which = SimpleNamespace(
-        verdict="outside the catalogue",
+        verdict=Verdict.OUTSIDE,
         top=ranking[0],
         rivals=[],
         pairs=[],

@@ -163,7 +163,7 @@ def test_a_joint_with_stribeck_friction_breaks_away_and_stops_where_the_located_
     # one move: the breakaway at the static level and the stop through the Stribeck region. Later
     # moves start where this one stopped, and at 0.6 MPa the drive passes the static level so slowly
     # that the vanes' ripple at a stop 0.06 deg off moves the next breakaway by 8 ms (a knife edge
-    # the diagnosis meets as the twin's own spread, gap.diagnose.Twin.spread)
+    # the diagnosis meets as the twin's own spread, gap.campaign_replay.CampaignReplay.spread)
     check(compare(WRIST._replace(**STRIBECK), supply_mpa * 1e6, cycles=1), cycles=1)
 
 

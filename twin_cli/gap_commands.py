@@ -48,7 +48,7 @@ def register(subparsers) -> None:
         default=None,
         metavar="DEG",
         help=(
-            "twin model tolerance added to the noise floor (default: gap.diagnose.MODEL_TOLERANCE_DEG, "
+            "twin model tolerance added to the noise floor (default: gap.floors.MODEL_TOLERANCE_DEG, "
             "twice the worst replay-vs-plant rms of the protocol library, gap.protocols)"
         ),
     )
