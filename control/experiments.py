@@ -17,6 +17,7 @@ import assets
 from control.controller import ArmController
 from control.loop import run_ticks
 from control.pid import DEFAULT_GAINS, PidGains
+from control.schedule import Constant, HeldDraws, Schedule
 from pneumatics import JointParams
 from pneumatics.joint import S_PV
 
@@ -83,37 +84,33 @@ def random_supply(
     variance_pa2: float = 5e9,
     hold_s: float = 0.5,
     p_atm_pa: float = P_ATM_PA,
-) -> Callable[[float], float]:
-    """Supply pressure (absolute Pa) as a function of time: Gaussian values held `hold_s` each
+) -> HeldDraws:
+    """Supply pressure (absolute Pa) as a schedule of time: Gaussian values held `hold_s` each
     (paper Fig. 18: mean 0.6 MPa gauge, variance 5e9 Pa^2, 0.5 s each so that the 0.1 s valve
     settles), clipped to RANDOM_SUPPLY_MIN/MAX_GAUGE_PA. Drawn in time order from `seed` (a seed or
     a numpy Generator); a value starts at its nominal time even where a summed clock lands a hair
-    before it."""
-    rng = np.random.default_rng(seed)
-    values: list[float] = []
+    before it (control/schedule.py's HeldDraws)."""
+    sigma = math.sqrt(variance_pa2)
 
-    def at(t: float) -> float:
-        k = int(t / hold_s + 1e-9)
-        while len(values) <= k:
-            draw = rng.normal(mean_gauge_pa, math.sqrt(variance_pa2))
-            values.append(float(np.clip(draw, RANDOM_SUPPLY_MIN_GAUGE_PA, RANDOM_SUPPLY_MAX_GAUGE_PA)))
-        return p_atm_pa + values[k]
+    def draw(rng: np.random.Generator) -> float:
+        draw = rng.normal(mean_gauge_pa, sigma)
+        return p_atm_pa + float(np.clip(draw, RANDOM_SUPPLY_MIN_GAUGE_PA, RANDOM_SUPPLY_MAX_GAUGE_PA))
 
-    return at
+    return HeldDraws(np.random.default_rng(seed), draw, hold_s)
 
 
 def run_until_done(
     controller: ArmController,
     plant=None,
-    supply_pa_at: Callable[[float], float] | float = P_ATM_PA + 0.5e6,
+    supply: Schedule | float = P_ATM_PA + 0.5e6,
     max_s: float = 30.0,
     settle_s: float = 0.3,
     steps_per_tick: int = 2,
 ) -> float:
     """Tick the controller (and step the plant) until its plan is done, then `settle_s` more; returns
-    the simulated time of this call. `supply_pa_at` is a function of the plant's time. Without a
-    plant the controller's own valve state stands for the sensors (`SelfLoop`)."""
-    supply = supply_pa_at if callable(supply_pa_at) else (lambda t, s=float(supply_pa_at): s)
+    the simulated time of this call. `supply` is a schedule of the plant's time (absolute Pa) or a
+    constant. Without a plant the controller's own valve state stands for the sensors (`SelfLoop`)."""
+    supply = supply if isinstance(supply, Schedule) else Constant(supply)
     until = _UntilDone(controller, max_s, settle_s)
     run_ticks(controller, SelfLoop(controller) if plant is None else plant, steps_per_tick, until, supply)
     return until.t
@@ -213,7 +210,7 @@ def held_on_valve(
             worst[0] = max(worst[0], abs(plant.drive_angles()[0] - target))
             worst[1] = max(worst[1], abs(c.predicted_angles()[0] - target))
 
-    run_ticks(c, plant, 2, lambda k: k < n_ticks, lambda t: P_ATM_PA + supply_gauge_pa, on_tick=look)
+    run_ticks(c, plant, 2, lambda k: k < n_ticks, Constant(P_ATM_PA + supply_gauge_pa), on_tick=look)
     return math.degrees(worst[0]), math.degrees(worst[1])
 
 

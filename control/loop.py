@@ -1,6 +1,6 @@
 """The one run loop of a controller and a plant (DESIGN, "One control tick").
 
-    supply_pa_at(t) -> plant;  events(plant, t);  controller.tick(plant.sensors()) -> plant.commands;
+    supply.value_at(t) -> plant;  events.apply(plant, t);  controller.tick(plant.sensors()) -> plant.commands;
     on_tick(k, t);  plant.step x steps_per_tick
 
 It lives here, below twin/, because the paper's experiments (control/experiments.py) run the
@@ -14,6 +14,8 @@ from collections.abc import Callable
 from typing import Protocol
 
 import numpy as np
+
+from control.schedule import EventSchedule, Schedule, checked
 
 
 class SteppedPlant(Protocol):
@@ -37,37 +39,43 @@ def run_ticks(
     plant: SteppedPlant,
     steps_per_tick: int,
     keep_going: Callable[[int], bool],
-    supply_pa_at: Callable[[float], float] | None = None,
-    events: Callable[[SteppedPlant, float], None] | None = None,
+    supply: Schedule | None = None,
+    events: EventSchedule | None = None,
     on_tick: Callable[[int, float], None] | None = None,
     check_warnings: bool = True,
     batch: Callable[[int], int] | None = None,
 ) -> int:
     """Control ticks k = 0, 1, ... while `keep_going(k)`; returns the number of ticks run.
 
-    Each tick, at the plant's time t: the supply is set to `supply_pa_at(t)`, `events(plant, t)`
-    applies faults, the controller is handed the plant's sensors and its commands go to the plant,
-    `on_tick(k, t)` sees the state the commands were issued in (telemetry), then the plant steps
-    `steps_per_tick` physics steps (`check_warnings` passed on).
+    Each tick, at the plant's time t: the supply is set to `supply.value_at(t)`, `events.apply(plant,
+    t)` applies faults (control/schedule.py: each checked here to be what it claims), the
+    controller is handed the plant's sensors and its commands go to the plant, `on_tick(k, t)` sees
+    the state the commands were issued in (telemetry), then the plant steps `steps_per_tick`
+    physics steps (`check_warnings` passed on).
 
-    `batch(k)`, where given, runs ticks k, k+1, ... that need none of the above in Python, exactly
-    as this loop would (twin/compiled_loop.py), and returns how many it ran (0: tick k is the
-    loop's); it stops before `keep_going` would.
+    `batch(k, applied_s)`, where given, runs ticks k, k+1, ... that need none of the above in Python,
+    exactly as this loop would (twin/compiled_loop.py), and returns how many it ran (0: tick k is the
+    loop's); it stops before `keep_going` would, and before the schedules as applied at the time
+    `applied_s` of this loop's last tick change (their `next_change_s(applied_s)`, `due_s(applied_s)`).
+    The first tick is always this loop's: the schedules have not been applied before it.
     """
+    supply_at = None if supply is None else checked(supply, Schedule, "the run's supply").value_at
+    apply_events = None if events is None else checked(events, EventSchedule, "the run's events").apply
     # the loop's own cost is paid every tick: its calls bound once, not looked up each time
     sensors, tick, step, commands = plant.sensors, controller.tick, plant.step, plant.commands
     k = 0
+    applied_s = None  # the time of the last tick run here (its supply and events applied)
     while keep_going(k):
-        if batch is not None:
-            ran = batch(k)
+        if batch is not None and applied_s is not None:
+            ran = batch(k, applied_s)
             if ran:
                 k += ran
                 continue
-        t = plant.time
-        if supply_pa_at is not None:
-            plant.set_supply(supply_pa_at(t))
-        if events is not None:
-            events(plant, t)
+        t = applied_s = plant.time
+        if supply_at is not None:
+            plant.set_supply(supply_at(t))
+        if apply_events is not None:
+            apply_events(plant, t)
         commands[:] = tick(sensors())
         if on_tick is not None:
             on_tick(k, t)

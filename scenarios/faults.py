@@ -10,34 +10,37 @@ sensor_bias       the joint's proportional-valve pressure sensor reads `value` P
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
 
+from control.schedule import Schedule, Until
 from pneumatics import AIR
 from scenarios.schema import Fault
 from twin.plant import Plant
 
 
-def fault_events(faults: tuple[Fault, ...]) -> tuple[Callable[[Plant, float], None], Callable[[float], bool]]:
-    """(events(plant, t) applying each fault once its time has come, supply_lost(t)); `events.pending`
-    lists the faults it has not applied yet."""
-    pending = sorted(faults, key=lambda f: f.at_s)
-    supply_lost_at = min((f.at_s for f in faults if f.kind == "supply_lost"), default=float("inf"))
+class FaultEvents:
+    """The scenario's faults as the run loop's event schedule (control/schedule.py's EventSchedule):
+    `apply(plant, t)` applies each fault once its time has come, `due_s(t)` is the next one's time.
 
-    def events(plant: Plant, t: float) -> None:
-        if t >= supply_lost_at:
-            plant.set_supply(AIR.p_atm_pa)
-        while pending and pending[0].at_s <= t:
-            fault = pending.pop(0)
-            apply_fault(plant, fault)
+    A lost supply is the supply's own schedule (`supply`: atmosphere from the fault's time on), so
+    the loop writes the supply once a tick; `apply` leaves it to that schedule."""
 
-    def due_s(t: float) -> float:
-        # when `events` next does something a call before did not: the next fault (the lost supply
-        # stays lost: a call after it only sets it again)
-        return min(pending[0].at_s if pending else math.inf, supply_lost_at if t < supply_lost_at else math.inf)
+    def __init__(self, faults: tuple[Fault, ...]):
+        # the faults not applied yet, in time order (after a run: those it never reached)
+        self.pending = sorted(faults, key=lambda f: f.at_s)
+        self.supply_lost_s = min((f.at_s for f in faults if f.kind == "supply_lost"), default=math.inf)
 
-    events.due_s = due_s  # the run loop may skip calling `events` until then (twin/compiled_loop.py)
-    events.pending = pending  # the faults not applied yet, in time order (after a run: those it never reached)
-    return events, lambda t: t >= supply_lost_at
+    def supply(self, profile: Schedule) -> Schedule:
+        """The supply the plant gets: `profile`, at atmosphere from a `supply_lost` fault on."""
+        return profile if self.supply_lost_s == math.inf else Until(profile, self.supply_lost_s, AIR.p_atm_pa)
+
+    def apply(self, plant: Plant, t: float) -> None:
+        while self.pending and self.pending[0].at_s <= t:
+            fault = self.pending.pop(0)
+            if fault.kind != "supply_lost":  # the supply's schedule carries it (`supply`)
+                apply_fault(plant, fault)
+
+    def due_s(self, t: float) -> float:
+        return self.pending[0].at_s if self.pending else math.inf
 
 
 def apply_fault(plant: Plant, fault: Fault) -> None:

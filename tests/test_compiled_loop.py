@@ -38,8 +38,8 @@ def _run_both(name: str, seconds: float, monkeypatch) -> tuple:
     ran = []
     call = twin.compiled_loop.CompiledTicks.__call__
 
-    def counted(self, k):
-        n = call(self, k)
+    def counted(self, k, applied_s):
+        n = call(self, k, applied_s)
         ran.append(n)
         return n
 
@@ -59,6 +59,8 @@ def _run_both(name: str, seconds: float, monkeypatch) -> tuple:
         ("wrist_open_loop_60deg", 3.0),
         ("wrist_closed_loop_60deg+dwell", 6.0),
         ("fault_supply_lost", 4.0),
+        # a supply drawn at random every 0.5 s (its next draw's time is a schedule's due time)
+        ("wrist_random_supply", 3.0),
     ],
 )
 def test_compiled_ticks_give_the_python_loops_results(name, seconds, monkeypatch):

@@ -9,8 +9,8 @@ returns to Python on the first tick that needs it:
 
 * the controller says so (control/compiled_tick.py: a step of the plan ends or begins, a
   time-out, a sensor not a number, `done` changed);
-* a callback is due: a fault, a supply step, the task's camera frame while the operator waits
-  for one, the run's end (each tells when, `CompiledTicks.__call__`).
+* a schedule is due (control/schedule.py): a fault, a change of the supply; or the task's camera
+  frame while the operator waits for one, the run's end (each tells when, `CompiledTicks.__call__`).
 
 Two things a tick may need of Python it calls without returning, through ctypes callbacks: the
 Pinocchio load at the predicted angles, and the run's `on_tick` (the telemetry sample, the
@@ -223,9 +223,9 @@ MJ_STEP_ADDRESS = ctypes.cast(MJ_STEP, ctypes.c_void_p).value if MJ_STEP is not 
 class CompiledTicks:
     """`run_ticks`'s `batch`: from tick k on, the ticks that need no Python, in compiled code.
 
-    due_s: callables of the simulated time giving when each callback (the supply profile, the
-    faults) next needs its call (math.inf: never again); next_tick: the next tick index at or after
-    k whose `on_tick` has work (None: every tick); on_tick: the run loop's, called on such a tick
+    due_s: the schedules' (control/schedule.py) `next_change_s` and `due_s`: when each next needs
+    the Python loop after the time it was last applied (math.inf: never again); next_tick: the next
+    tick index at or after k whose `on_tick` has work (None: every tick); on_tick: the run loop's, called on such a tick
     when its controller part ran compiled (from the compiled ticks); n_ticks: the run's end.
     A controller with `compiled_camera` hands its camera's frames to the compiled ticks.
     sample_row: a telemetry row (twin/sample_row.py) the compiled ticks fill before each call of
@@ -264,9 +264,10 @@ class CompiledTicks:
         self._camera = (*((camera() if camera else None) or no_camera()), d.xpos, d.xmat, d.site_xpos)
         self._xquat = d.xquat
 
-    def __call__(self, k: int) -> int:
+    def __call__(self, k: int, applied_s: float) -> int:
         """Run ticks k, k+1, ... in compiled code while none needs Python; how many were run (0:
-        tick k needs the Python loop)."""
+        tick k needs the Python loop). `applied_s`: the time the run loop last applied the
+        schedules (the supply it set then holds until their next change after that time)."""
         plant = self.plant
         if plant._any_stuck or not plant.compiled_ticks:
             return 0
@@ -275,7 +276,7 @@ class CompiledTicks:
         if arm is None:
             return 0
         for due in self.due_s:
-            until_s = min(until_s, due(t))
+            until_s = min(until_s, due(applied_s))
         if self.n_ticks <= k or until_s - DUE_MARGIN_S <= t:
             return 0
         state = arm.compiled_state()

@@ -20,6 +20,7 @@ import mujoco
 import numpy as np
 
 from control.loop import run_ticks
+from control.schedule import Constant, EventSchedule, Schedule, checked
 from pneumatics import joint as J
 from twin.compiled_loop import compiled_ticks
 from twin.events import EventTail
@@ -121,8 +122,8 @@ def run(
     plant: Plant,
     controller: Controller,
     duration_s: float,
-    supply_pa_at: Callable[[float], float] | None = None,
-    events: Callable[[Plant, float], None] | None = None,
+    supply: Schedule | float | None = None,
+    events: EventSchedule | None = None,
     recorders: tuple[Recorder, ...] = (),
     telemetry: Telemetry | None = None,
     control_period_s: float = CONTROL_PERIOD_S,
@@ -131,7 +132,8 @@ def run(
 ) -> Telemetry:
     """Run the closed loop for `duration_s` simulated seconds; returns the telemetry.
 
-    `supply_pa_at(t)` sets the supply each tick; `events(plant, t)` applies faults. Recorders get
+    `supply` (a schedule, control/schedule.py, or a constant, absolute Pa) sets the supply each tick;
+    `events` applies faults. Recorders get
     the new samples every `flush_period_s` of simulated time and once more at the end, also when
     the run stops on an error, so what was logged stays readable.
     """
@@ -142,27 +144,29 @@ def run(
     if telemetry is None:
         telemetry = Telemetry(plant.joints, body_names(plant))
     recording = _Recording(plant, controller, telemetry, recorders, ticks_per_log, ticks_per_flush)
-    # ticks needing no Python run compiled when every callback says when it is next due
-    due = [getattr(f, "due_s", None) for f in (supply_pa_at, events) if f is not None]
-    batch = None
-    if all(d is not None for d in due):
-        batch = compiled_ticks(
-            plant,
-            controller,
-            steps_per_tick,
-            n_ticks,
-            due_s=due,
-            next_tick=recording.next_tick,
-            on_tick=recording.on_tick,
-            sample_row=recording.row,
-        )
+    if supply is not None and not isinstance(supply, Schedule):
+        supply = Constant(supply)
+    supply = checked(supply, Schedule, "twin.sim.run's supply")
+    events = checked(events, EventSchedule, "twin.sim.run's events")
+    # the ticks between the schedules' due times run compiled (where compiled code can run at all)
+    due = [s for s in (supply and supply.next_change_s, events and events.due_s) if s is not None]
+    batch = compiled_ticks(
+        plant,
+        controller,
+        steps_per_tick,
+        n_ticks,
+        due_s=due,
+        next_tick=recording.next_tick,
+        on_tick=recording.on_tick,
+        sample_row=recording.row,
+    )
     try:
         run_ticks(
             controller,
             plant,
             steps_per_tick,
             lambda k: k < n_ticks,
-            supply_pa_at,
+            supply,
             events,
             recording.on_tick,
             check_warnings=False,
