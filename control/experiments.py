@@ -50,22 +50,42 @@ class SelfLoop:
     def step(self, n: int = 1, check_warnings: bool = True) -> None:
         self.time += self.controller.dt
 
+    def ticks_batch(self, *args) -> None:
+        return None  # every tick in Python (the controller's own model has no compiled plant)
+
 
 class _UntilDone:
-    """`run_ticks`'s stop rule of `run_until_done`: the simulated time (summed tick by tick) under
-    `max_s` and the controller done for less than `settle_s`."""
+    """`run_ticks`'s stop rule of `run_until_done` (a StopRule): the simulated time (summed tick by
+    tick) under `max_s` and the controller done for less than `settle_s`.
+
+    Compiled ticks run many ticks between two calls of `keep_going`; the controller's `done` does
+    not change within them but at their last tick (they hand a change back to Python), so the sums
+    are taken tick by tick as before: `done` as it was for all but the last, as it is for that."""
 
     def __init__(self, controller: ArmController, max_s: float, settle_s: float):
         self.controller, self.max_s, self.settle_s = controller, max_s, settle_s
         self.t = 0.0
         self.after = 0.0
+        self._k = 0  # the ticks summed
+        self._done = controller.done  # `done` when they were summed
 
-    def __call__(self, k: int) -> bool:
-        if k > 0:  # a tick has run
-            self.t += self.controller.dt
-            if self.controller.done:
-                self.after += self.controller.dt
+    def keep_going(self, k: int) -> bool:
+        dt = self.controller.dt
+        for i in range(self._k, k):  # the ticks run since the last call
+            self.t += dt
+            if self.controller.done if i == k - 1 else self._done:
+                self.after += dt
+        self._k, self._done = k, self.controller.done
         return self.t < self.max_s and self.after < self.settle_s
+
+    def ticks_left(self, k: int) -> int:
+        # ticks that surely run (two short of either limit, for the sums' round-off): done does not
+        # change within compiled ticks, so the settling time counts only if it is done already
+        dt = self.controller.dt
+        left = math.floor((self.max_s - self.t) / dt) - 2 if math.isfinite(self.max_s) else 2**31
+        if self._done and math.isfinite(self.settle_s):
+            left = min(left, math.floor((self.settle_s - self.after) / dt) - 2)
+        return max(left, 0)
 
 
 # Paper Sec. IV (Fig. 18): "To ensure the pressure value at the range of about 0.5 MPa to 0.8 MPa, the
@@ -210,7 +230,7 @@ def held_on_valve(
             worst[0] = max(worst[0], abs(plant.drive_angles()[0] - target))
             worst[1] = max(worst[1], abs(c.predicted_angles()[0] - target))
 
-    run_ticks(c, plant, 2, lambda k: k < n_ticks, Constant(P_ATM_PA + supply_gauge_pa), on_tick=look)
+    run_ticks(c, plant, 2, n_ticks, Constant(P_ATM_PA + supply_gauge_pa), on_tick=look)
     return math.degrees(worst[0]), math.degrees(worst[1])
 
 

@@ -105,7 +105,7 @@ def simulate(
         log_a.append(plant.drive_angles())
         log_p.append(plant.air[:, [S_PA_VALVE, S_PB_VALVE]].copy())
 
-    run_ticks(controller, plant, steps, lambda k: k < n, supply, EveryTick(shared_line), record)
+    run_ticks(controller, plant, steps, n, supply, EveryTick(shared_line), record)
     plant.check_warnings()
     nan = np.full((len(log_t), len(JOINTS)), np.nan)
     run = ArmRun(

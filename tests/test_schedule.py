@@ -86,12 +86,13 @@ class _CountingPlant(Plant):
 
 def test_a_lost_supply_is_written_once_a_tick():
     plant = _CountingPlant()
-    faults = FaultEvents((Fault(kind="supply_lost", at_s=0.003),))
+    faults = FaultEvents((Fault(kind="supply_lost", at_s=0.0025),))
     supply = faults.supply(supply_profile(_supplies()["constant"], 1.0, np.random.default_rng(0)))
     hold = CommandSchedule(lambda t: np.zeros((1, 3)), 1)
-    assert run_ticks(hold, plant, 2, lambda k: k < 6, supply, faults) == 6
+    assert run_ticks(hold, plant, 2, 6, supply, faults) == 6
     assert len(plant.writes) == 6 and all(len(w) == 1 for w in plant.writes.values()), plant.writes
-    assert [w[0] for w in plant.writes.values()][2:] == [AIR.p_atm_pa] * 4  # from the tick at 3 ms on
+    supply_pa = AIR.p_atm_pa + 0.5e6
+    assert [w[0] for w in plant.writes.values()] == [supply_pa] * 3 + [AIR.p_atm_pa] * 3  # from the 3 ms tick on
 
 
 def test_a_function_where_a_schedule_belongs_is_refused():
@@ -100,7 +101,7 @@ def test_a_function_where_a_schedule_belongs_is_refused():
     with pytest.raises(TypeError, match="is no Schedule; allowed: an object with value_at"):
         run(plant, hold, 0.01, supply=lambda t: 6e5)
     with pytest.raises(TypeError, match="is no EventSchedule; allowed: an object with apply"):
-        run_ticks(hold, plant, 2, lambda k: k < 1, events=lambda plant, t: None)
+        run_ticks(hold, plant, 2, 1, events=lambda plant, t: None)
 
 
 def test_every_shipped_scenarios_schedules_are_schedules():

@@ -3,8 +3,9 @@
     controller.tick(sensors) --commands--> plant.step x n --> sensors (next tick)
     telemetry: true state from the plant beside the controller's prediction
 
-The loop itself is control/loop.py's `run_ticks` (the paper's experiments run it too); here it
-gets MuJoCo's plant, the telemetry and the recorders.
+The loop itself is control/loop.py's `run_ticks` (the paper's experiments run it too), with the
+plant's compiled ticks (twin/compiled_loop.py); here it gets MuJoCo's plant, the telemetry and the
+recorders.
 
 The controller is anything with `tick(sensors) -> (n_joints, 3) commands`, `predicted_angles()`
 and `target_angles()`; it is handed only `plant.sensors()`, never the plant.
@@ -20,9 +21,8 @@ import mujoco
 import numpy as np
 
 from control.loop import run_ticks
-from control.schedule import Constant, EventSchedule, Schedule, checked
+from control.schedule import Constant, EventSchedule, Schedule
 from pneumatics import joint as J
-from twin.compiled_loop import compiled_ticks
 from twin.events import EventTail
 from twin.model import SimulationError
 from twin.plant import Plant, Sensors
@@ -144,33 +144,20 @@ def run(
     if telemetry is None:
         telemetry = Telemetry(plant.joints, body_names(plant))
     recording = _Recording(plant, controller, telemetry, recorders, ticks_per_log, ticks_per_flush)
-    if supply is not None and not isinstance(supply, Schedule):
+    if isinstance(supply, int | float):
         supply = Constant(supply)
-    supply = checked(supply, Schedule, "twin.sim.run's supply")
-    events = checked(events, EventSchedule, "twin.sim.run's events")
-    # the ticks between the schedules' due times run compiled (where compiled code can run at all)
-    due = [s for s in (supply and supply.next_change_s, events and events.due_s) if s is not None]
-    batch = compiled_ticks(
-        plant,
-        controller,
-        steps_per_tick,
-        n_ticks,
-        due_s=due,
-        next_tick=recording.next_tick,
-        on_tick=recording.on_tick,
-        sample_row=recording.row,
-    )
     try:
         run_ticks(
             controller,
             plant,
             steps_per_tick,
-            lambda k: k < n_ticks,
+            n_ticks,
             supply,
             events,
             recording.on_tick,
             check_warnings=False,
-            batch=batch,
+            next_tick=recording.next_tick,
+            sample_row=recording.row,
         )
         plant.check_warnings()
         telemetry.append(plant.time, sample(plant, controller))
