@@ -42,8 +42,8 @@ from benchmarks.stats import spread
 from pneumatics import load_joint_params
 from pneumatics._jit import borrowed, njit
 from pneumatics.as_built import load_as_built
-from twin.kernel import pneumatic_step, replay_steps
-from twin.plant import SUBSTEPS, Plant
+from twin.kernel import SUBSTEPS, borrow_plant, pneumatic_step, replay_steps
+from twin.plant import Plant
 
 SUPPLY_PA = 101_325.0 + 0.5e6  # the paper's 0.5 MPa gauge
 REVERSE_S = 0.25  # moving joints reverse this often
@@ -133,59 +133,25 @@ def _record(plant: Plant, start, moving, seconds: float) -> _Recording:
 
 
 @njit(cache=False)
-def _kernel_only(
-    x,
-    commands,
-    params,
-    drive_map,
-    tendon_ids,
-    actuator_ids,
-    qpos,
-    qvel,
-    ctrl,
-    frictionloss,
-    supply_pa,
-    dt,
-    substeps,
-    q,
-    v,
-):
-    # as twin/kernel.py's plant_steps runs it (the arrays borrowed, without reference counting),
+def _kernel_only(a, commands, supply_pa, dt, substeps, q, v):
+    # as twin/kernel.py's step_plant runs it (the arrays borrowed, without reference counting),
     # each step at the recorded joint motion and commands instead of after an mj_step
-    x, commands, params, drive_map = borrowed(x), borrowed(commands), borrowed(params), borrowed(drive_map)
-    tendon_ids, actuator_ids = borrowed(tendon_ids), borrowed(actuator_ids)
-    qpos, qvel, ctrl, frictionloss = borrowed(qpos), borrowed(qvel), borrowed(ctrl), borrowed(frictionloss)
-    q, v = borrowed(q), borrowed(v)
+    a = borrow_plant(a)
+    commands, q, v = borrowed(commands), borrowed(q), borrowed(v)
     for i in range(q.shape[0]):
-        qpos[:] = q[i]
-        qvel[:] = v[i]
-        pneumatic_step(
-            x,
-            commands[i],
-            params,
-            drive_map,
-            tendon_ids,
-            actuator_ids,
-            qpos,
-            qvel,
-            ctrl,
-            frictionloss,
-            supply_pa,
-            dt,
-            substeps,
-        )
+        a.qpos[:] = q[i]
+        a.qvel[:] = v[i]
+        pneumatic_step(a, commands[i], supply_pa, dt, substeps)
 
 
 def _time_kernel(plant: Plant, start, rec: _Recording) -> float:
-    qpos, qvel, ctrl, frictionloss = (a.copy() for a in plant._mujoco_arrays)
+    # the plant's arrays, MuJoCo's own copied (the kernel writes ctrl and friction, reads qpos, qvel)
+    mujoco_copies = {f: getattr(plant.arrays, f).copy() for f in ("qpos", "qvel", "ctrl", "tendon_frictionloss")}
 
     def run(n: int) -> float:
-        x = start.air.copy()
-        args = (x, rec.commands[:n], plant.params, plant.drive_map, plant.tendon_ids, plant.actuator_ids)
+        a = plant.arrays._replace(air=start.air.copy(), **mujoco_copies)
         t0 = time.perf_counter()
-        _kernel_only(
-            *args, qpos, qvel, ctrl, frictionloss, plant.supply_pa, plant.dt, SUBSTEPS, rec.qpos[:n], rec.qvel[:n]
-        )
+        _kernel_only(a, rec.commands[:n], plant.supply_pa, plant.dt, SUBSTEPS, rec.qpos[:n], rec.qvel[:n])
         return time.perf_counter() - t0
 
     run(10)  # compile

@@ -74,7 +74,7 @@ def record_motion(scenario: Scenario, duration_s: float) -> Motion:
                 plant.check_warnings()
 
         plant.step = step
-        plant.compiled_ticks = False  # every step through `step`, recorded
+        plant.allow_compiled_ticks = False  # every step through `step`, recorded
         return plant
 
     scenarios.runner.build_plant = recording_plant

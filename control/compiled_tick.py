@@ -22,6 +22,7 @@ which `ArmController` keeps as the truth of those values.
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 
@@ -72,39 +73,64 @@ def _needs_python(flow, modes, step_joints, supply_pa, valve_gauge_pa) -> bool:
     return flow[FLOW_DWELL] <= 0.0 and flow[FLOW_PLAN] != 0.0  # the next step begins
 
 
+class ControllerArrays(NamedTuple):
+    """What `controller_tick` works on, one record for compiled code (`ArmController.compiled_state`
+    makes it; the controller keeps the arrays, but for `flow`, made from its scalars)."""
+
+    flow: np.ndarray  # (N_FLOW,) the controller's scalars, FLOW_DWELL written
+    step_joints: np.ndarray  # (n,) bool: the joints of the step under way
+    modes: np.ndarray  # control/pid.py's tables
+    moves: np.ndarray
+    drives: np.ndarray
+    y: np.ndarray  # the prediction (control/predictor.py)
+    x: np.ndarray
+    params: np.ndarray
+    g: np.ndarray
+    commands: np.ndarray  # (n, 3) written
+    load_nm: np.ndarray
+    inertia_kg_m2: np.ndarray
+    load_base: np.ndarray  # the load's tangent (control/predicted_load.py: advance_load's arrays)
+    load_slope: np.ndarray
+    c_inv: np.ndarray
+    load_bound: np.ndarray
+
+
+@njit(inline="always")
+def borrow_controller(c: ControllerArrays) -> ControllerArrays:
+    # every array without its reference count (`borrowed`): the caller holds them for the whole call
+    return ControllerArrays(
+        borrowed(c.flow),
+        borrowed(c.step_joints),
+        borrowed(c.modes),
+        borrowed(c.moves),
+        borrowed(c.drives),
+        borrowed(c.y),
+        borrowed(c.x),
+        borrowed(c.params),
+        borrowed(c.g),
+        borrowed(c.commands),
+        borrowed(c.load_nm),
+        borrowed(c.inertia_kg_m2),
+        borrowed(c.load_base),
+        borrowed(c.load_slope),
+        borrowed(c.c_inv),
+        borrowed(c.load_bound),
+    )
+
+
 @njit
 def controller_tick(
-    flow: np.ndarray,  # (N_FLOW,) the controller's scalars, FLOW_DWELL written
-    step_joints: np.ndarray,  # (n,) bool: the joints of the step under way
-    modes: np.ndarray,
-    moves: np.ndarray,
-    drives: np.ndarray,
-    y: np.ndarray,
-    x: np.ndarray,
-    params: np.ndarray,
-    g: np.ndarray,
-    commands: np.ndarray,  # (n, 3) written
-    load_nm: np.ndarray,
-    inertia_kg_m2: np.ndarray,
-    load_base: np.ndarray,  # the load's tangent (control/predicted_load.py: advance_load's arrays)
-    load_slope: np.ndarray,
-    c_inv: np.ndarray,
-    load_bound: np.ndarray,
+    c: ControllerArrays,
     valve_gauge_pa: np.ndarray,  # (n,) measured
     supply_pa: float,  # measured, absolute
     was_done: bool,  # `done` when the compiled ticks began: a change needs Python (the task acts on it)
     control_result: np.ndarray,  # (3,) written on MID_TICK: control_step's (moving, timed out, stale)
 ) -> int:
     """One tick of `ArmController.tick` where it needs no Python (see the module's docstring)."""
-    flow, step_joints, modes, moves, drives = (
-        borrowed(flow),
-        borrowed(step_joints),
-        borrowed(modes),
-        borrowed(moves),
-        borrowed(drives),
-    )
-    y, x, params, g, commands = borrowed(y), borrowed(x), borrowed(params), borrowed(g), borrowed(commands)
-    load_nm, inertia_kg_m2, valve_gauge_pa = borrowed(load_nm), borrowed(inertia_kg_m2), borrowed(valve_gauge_pa)
+    c = borrow_controller(c)
+    flow, step_joints, modes, moves, drives = c.flow, c.step_joints, c.modes, c.moves, c.drives
+    y, x, params, g, commands = c.y, c.x, c.params, c.g, c.commands
+    valve_gauge_pa = borrowed(valve_gauge_pa)
     if is_done(flow, modes) != was_done or _needs_python(flow, modes, step_joints, supply_pa, valve_gauge_pa):
         return NEEDS_PYTHON
     dt = flow[FLOW_DT]
@@ -113,18 +139,18 @@ def controller_tick(
     if not faulted and flow[FLOW_STEPPING] == 0.0 and flow[FLOW_DWELL] > 0.0:
         flow[FLOW_DWELL] -= dt
     moving, timed_out = control_step(modes, moves, drives, y, x, params, g, dt, commands)
-    load_stale = moving and advance_load(drives, y, load_base, load_slope, c_inv, load_bound)
+    load_stale = moving and advance_load(drives, y, c.load_base, c.load_slope, c.c_inv, c.load_bound)
     if moving and (load_stale or timed_out >= 0):
         control_result[0], control_result[1], control_result[2] = moving, timed_out, load_stale
         return MID_TICK
-    end_tick(flow, y, x, params, commands, load_nm, inertia_kg_m2, valve_gauge_pa, supply_pa)
+    end_tick(c, valve_gauge_pa, supply_pa)
     return TICKED
 
 
 @njit
-def end_tick(flow, y, x, params, commands, load_nm, inertia_kg_m2, valve_gauge_pa, supply_pa) -> None:
+def end_tick(c: ControllerArrays, valve_gauge_pa, supply_pa) -> None:
     """The tick after control_step where no time-out needs Python (`ArmController.finish_tick`,
     the load already taken): a fault's commands, the prediction's step."""
-    if flow[FLOW_FAULTED] != 0.0:
-        commands[:] = 0.0
-    predict_step(y, x, commands, valve_gauge_pa, supply_pa, load_nm, inertia_kg_m2, params, flow[FLOW_DT])
+    if c.flow[FLOW_FAULTED] != 0.0:
+        c.commands[:] = 0.0
+    predict_step(c.y, c.x, c.commands, valve_gauge_pa, supply_pa, c.load_nm, c.inertia_kg_m2, c.params, c.flow[FLOW_DT])

@@ -32,6 +32,7 @@ from control.compiled_tick import (
     FLOW_PLAN,
     FLOW_STEPPING,
     N_FLOW,
+    ControllerArrays,
 )
 from control.open_loop import open_loop_duration
 from control.pid import CLOSED, DEFAULT_GAINS, IDLE, OPEN, PidGains, control_step, gains_row
@@ -340,9 +341,9 @@ class ArmController:
         """(the controller whose ticks `controller_tick` can run, until when): always itself."""
         return self, math.inf
 
-    def compiled_state(self) -> tuple:
-        """The arrays `controller_tick` works on, after `flow` and `step_joints`, in its order; the
-        flow array is made from the controller's scalars (`take_compiled_state` reads it back)."""
+    def compiled_state(self) -> ControllerArrays:
+        """The arrays `controller_tick` works on; the flow array is made from the controller's
+        scalars (`take_compiled_state` reads it back)."""
         flow = np.zeros(N_FLOW)
         flow[FLOW_DWELL] = self._dwell_left
         flow[FLOW_STEPPING] = float(self._stepping)
@@ -351,9 +352,24 @@ class ArmController:
         flow[FLOW_BRAKE_RELEASE] = self._brake_release_pa
         flow[FLOW_DT] = self.dt
         flow[FLOW_ATM] = self.gas.p_atm_pa
-        arrays = (self._modes, self._moves, self._drives, self.y, self.x, self.params, self._g, self.commands)
-        load = (self._load_base, self._load_slope, self._c_inv, self._load_bound)
-        return (flow, self._step_joints, *arrays, self.load, self.inertia, *load)
+        return ControllerArrays(
+            flow=flow,
+            step_joints=self._step_joints,
+            modes=self._modes,
+            moves=self._moves,
+            drives=self._drives,
+            y=self.y,
+            x=self.x,
+            params=self.params,
+            g=self._g,
+            commands=self.commands,
+            load_nm=self.load,
+            inertia_kg_m2=self.inertia,
+            load_base=self._load_base,
+            load_slope=self._load_slope,
+            c_inv=self._c_inv,
+            load_bound=self._load_bound,
+        )
 
     @property
     def load_update_rad(self) -> float:

@@ -18,6 +18,7 @@ import assets
 from control.controller import ArmController
 from control.loop import run_ticks
 from control.pid import DEFAULT_GAINS, PidGains
+from control.schedule import Constant, HeldDraws, Schedule
 from pneumatics import JointParams
 from pneumatics.joint import S_PV
 
@@ -50,22 +51,42 @@ class SelfLoop:
     def step(self, n: int = 1, check_warnings: bool = True) -> None:
         self.time += self.controller.dt
 
+    def ticks_batch(self, *args) -> None:
+        return None  # every tick in Python (the controller's own model has no compiled plant)
+
 
 class _UntilDone:
-    """`run_ticks`'s stop rule of `run_until_done`: the simulated time (summed tick by tick) under
-    `max_s` and the controller done for less than `settle_s`."""
+    """`run_ticks`'s stop rule of `run_until_done` (a StopRule): the simulated time (summed tick by
+    tick) under `max_s` and the controller done for less than `settle_s`.
+
+    Compiled ticks run many ticks between two calls of `keep_going`; the controller's `done` does
+    not change within them but at their last tick (they hand a change back to Python), so the sums
+    are taken tick by tick as before: `done` as it was for all but the last, as it is for that."""
 
     def __init__(self, controller: ArmController, max_s: float, settle_s: float):
         self.controller, self.max_s, self.settle_s = controller, max_s, settle_s
         self.t = 0.0
         self.after = 0.0
+        self._k = 0  # the ticks summed
+        self._done = controller.done  # `done` when they were summed
 
-    def __call__(self, k: int) -> bool:
-        if k > 0:  # a tick has run
-            self.t += self.controller.dt
-            if self.controller.done:
-                self.after += self.controller.dt
+    def keep_going(self, k: int) -> bool:
+        dt = self.controller.dt
+        for i in range(self._k, k):  # the ticks run since the last call
+            self.t += dt
+            if self.controller.done if i == k - 1 else self._done:
+                self.after += dt
+        self._k, self._done = k, self.controller.done
         return self.t < self.max_s and self.after < self.settle_s
+
+    def ticks_left(self, k: int) -> int:
+        # ticks that surely run (two short of either limit, for the sums' round-off): done does not
+        # change within compiled ticks, so the settling time counts only if it is done already
+        dt = self.controller.dt
+        left = math.floor((self.max_s - self.t) / dt) - 2 if math.isfinite(self.max_s) else 2**31
+        if self._done and math.isfinite(self.settle_s):
+            left = min(left, math.floor((self.settle_s - self.after) / dt) - 2)
+        return max(left, 0)
 
 
 # Paper Sec. IV (Fig. 18): "To ensure the pressure value at the range of about 0.5 MPa to 0.8 MPa, the
@@ -84,37 +105,33 @@ def random_supply(
     variance_pa2: float = 5e9,
     hold_s: float = 0.5,
     p_atm_pa: float = P_ATM_PA,
-) -> Callable[[float], float]:
-    """Supply pressure (absolute Pa) as a function of time: Gaussian values held `hold_s` each
+) -> HeldDraws:
+    """Supply pressure (absolute Pa) as a schedule of time: Gaussian values held `hold_s` each
     (paper Fig. 18: mean 0.6 MPa gauge, variance 5e9 Pa^2, 0.5 s each so that the 0.1 s valve
     settles), clipped to RANDOM_SUPPLY_MIN/MAX_GAUGE_PA. Drawn in time order from `seed` (a seed or
     a numpy Generator); a value starts at its nominal time even where a summed clock lands a hair
-    before it."""
-    rng = np.random.default_rng(seed)
-    values: list[float] = []
+    before it (control/schedule.py's HeldDraws)."""
+    sigma = math.sqrt(variance_pa2)
 
-    def at(t: float) -> float:
-        k = int(t / hold_s + 1e-9)
-        while len(values) <= k:
-            draw = rng.normal(mean_gauge_pa, math.sqrt(variance_pa2))
-            values.append(float(np.clip(draw, RANDOM_SUPPLY_MIN_GAUGE_PA, RANDOM_SUPPLY_MAX_GAUGE_PA)))
-        return p_atm_pa + values[k]
+    def draw(rng: np.random.Generator) -> float:
+        draw = rng.normal(mean_gauge_pa, sigma)
+        return p_atm_pa + float(np.clip(draw, RANDOM_SUPPLY_MIN_GAUGE_PA, RANDOM_SUPPLY_MAX_GAUGE_PA))
 
-    return at
+    return HeldDraws(np.random.default_rng(seed), draw, hold_s)
 
 
 def run_until_done(
     controller: ArmController,
     plant=None,
-    supply_pa_at: Callable[[float], float] | float = P_ATM_PA + 0.5e6,
+    supply: Schedule | float = P_ATM_PA + 0.5e6,
     max_s: float = 30.0,
     settle_s: float = 0.3,
     steps_per_tick: int = 2,
 ) -> float:
     """Tick the controller (and step the plant) until its plan is done, then `settle_s` more; returns
-    the simulated time of this call. `supply_pa_at` is a function of the plant's time. Without a
-    plant the controller's own valve state stands for the sensors (`SelfLoop`)."""
-    supply = supply_pa_at if callable(supply_pa_at) else (lambda t, s=float(supply_pa_at): s)
+    the simulated time of this call. `supply` is a schedule of the plant's time (absolute Pa) or a
+    constant. Without a plant the controller's own valve state stands for the sensors (`SelfLoop`)."""
+    supply = supply if isinstance(supply, Schedule) else Constant(supply)
     until = _UntilDone(controller, max_s, settle_s)
     run_ticks(controller, SelfLoop(controller) if plant is None else plant, steps_per_tick, until, supply)
     return until.t
@@ -224,7 +241,7 @@ def held_on_valve(
             worst_true = max(worst_true, abs(plant.drive_angles()[i] - target))
             worst_predicted = max(worst_predicted, abs(c.predicted_angles()[i] - target))
 
-    run_ticks(c, plant, 2, lambda k: k < n_ticks, lambda t: P_ATM_PA + supply_gauge_pa, on_tick=look)
+    run_ticks(c, plant, 2, n_ticks, Constant(P_ATM_PA + supply_gauge_pa), on_tick=look)
     return math.degrees(worst_true), math.degrees(worst_predicted)
 
 

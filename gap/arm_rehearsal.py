@@ -19,6 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from control.loop import run_ticks
+from control.schedule import EveryTick
 from gap.arm_campaign import (
     CAMERA,
     JOINTS,
@@ -104,7 +105,7 @@ def simulate(
         log_a.append(plant.drive_angles())
         log_p.append(plant.air[:, [S_PA_VALVE, S_PB_VALVE]].copy())
 
-    run_ticks(controller, plant, steps, lambda k: k < n, supply, shared_line, record)
+    run_ticks(controller, plant, steps, n, supply, EveryTick(shared_line), record)
     plant.check_warnings()
     nan = np.full((len(log_t), len(JOINTS)), np.nan)
     run = ArmRun(

@@ -10,15 +10,14 @@ third), so a 60 s run replays in about 1.7 s (benchmarks: `python -m gap.arm_rep
 
 Per 1 ms control tick, as `twin.sim.run` drives the plant: the commands of the row in force (held
 from one row to the next), the supply of that row (less the shared line's droop under the air every
-joint draws, gap.arm_effects), then the plant's physics steps (`pneumatic_step` + MuJoCo's
-`mj_step`), then each rigid joint's air step completed (`finish_air_pairs`). The drive angles and
-the port pressures at the platform (each hose's valve-end node) are recorded every tick. With
+joint draws, gap.arm_effects), then the plant's physics steps, twin/kernel.py's `step_plant` as
+`Plant.step` takes them. The drive angles and the port pressures at the platform (each hose's
+valve-end node) are recorded every tick. With
 nothing hidden, a twin run's commands replay to its own angles (tests/test_gap_arm.py).
 """
 
 from __future__ import annotations
 
-import ctypes
 import math
 import time
 from dataclasses import dataclass
@@ -31,20 +30,14 @@ from gap.arm_campaign import ArmRun
 from gap.arm_effects import ArmSetup, apply_setup, model_defaults
 from pneumatics import JointParams
 from pneumatics import params as P
-from pneumatics._jit import borrowed, njit
+from pneumatics._jit import njit
 from pneumatics.joint import C_PV_SET_GAUGE_PA, S_DIR, S_PA_VALVE, S_PB_VALVE, S_PV, S_PV_SET, inlet_draw
 from pneumatics.valves import valve_opening
-from twin.kernel import MJ_STEP, _call_mj_step, finish_air_pairs, pneumatic_step
+from twin.kernel import MJ_STEP_ADDRESS, SUBSTEPS, borrow_plant, step_plant
 from twin.model import SimulationError
 from twin.plant import Plant
 
 TICK_S = 1e-3  # the platform's control period (twin.sim.CONTROL_PERIOD_S): commands change at most this often
-
-
-def _mj_step_address() -> int:
-    if MJ_STEP is None:
-        raise RuntimeError("the arm replay needs MuJoCo's shared library (twin.kernel.MJ_STEP)")
-    return int(ctypes.cast(MJ_STEP, ctypes.c_void_p).value)
 
 
 @njit
@@ -67,37 +60,23 @@ def shared_draw(x: np.ndarray, params: np.ndarray, supply_pa: float) -> float:
 @njit(nogil=True)
 def _replay_ticks(
     mj_step_address,
-    model_address,
-    data_address,
-    x,  # (n_joints, N_STATE) advanced in place
-    params,
-    drive_map,
-    tendon_ids,
-    actuator_ids,
-    qpos,
-    qvel,
-    ctrl,
-    tendon_frictionloss,
+    plant,  # twin/kernel.py's PlantArrays: the air advanced in place
+    cmd,  # (n_joints, 3) the plant's commands (written each tick)
     row_time_s,  # (n_rows,)
     row_commands,  # (n_rows, n_joints, 3)
     row_supply_pa,  # (n_rows,)
     valve_is_output,
     droop_pa_s_per_kg,
     dt_s,
+    substeps,
     steps_per_tick,
     tick_s,
     angle_out,  # (n_ticks + 1, n_joints) written
     port_out,  # (n_ticks + 1, n_joints, 2) written
 ):
-    x, params, drive_map = borrowed(x), borrowed(params), borrowed(drive_map)
-    qpos, qvel, ctrl, tendon_frictionloss = (
-        borrowed(qpos),
-        borrowed(qvel),
-        borrowed(ctrl),
-        borrowed(tendon_frictionloss),
-    )
+    a = borrow_plant(plant)
+    x, params, drive_map, qpos = a.air, a.params, a.drive_map, a.qpos
     n_joints = x.shape[0]
-    cmd = np.zeros((n_joints, 3))
     row = 0
     n_rows = row_time_s.shape[0]
     atm = params[0, P.GAS_P_ATM]
@@ -123,24 +102,7 @@ def _replay_ticks(
         supply = row_supply_pa[row]
         if droop_pa_s_per_kg > 0.0:
             supply = max(atm, supply - droop_pa_s_per_kg * shared_draw(x, params, supply))
-        for _ in range(steps_per_tick):
-            pneumatic_step(
-                x,
-                cmd,
-                params,
-                drive_map,
-                tendon_ids,
-                actuator_ids,
-                qpos,
-                qvel,
-                ctrl,
-                tendon_frictionloss,
-                supply,
-                dt_s,
-                1,
-            )
-            _call_mj_step(mj_step_address, model_address, data_address)
-        finish_air_pairs(x, params, drive_map, qpos, qvel, dt_s)
+        step_plant(mj_step_address, steps_per_tick, a, cmd, supply, dt_s, substeps)  # Plant.step
 
 
 def arm_plant(params: dict[str, JointParams], setup: ArmSetup, start_rad: np.ndarray) -> Plant:
@@ -194,25 +156,19 @@ def replay(run: ArmRun, params: dict[str, JointParams], setup: ArmSetup, t_end_s
     steps = max(1, round(TICK_S / plant.dt))
     angle = np.empty((n_ticks + 1, len(plant.joints)))
     port = np.empty((n_ticks + 1, len(plant.joints), 2))
+    if MJ_STEP_ADDRESS is None:
+        raise RuntimeError("the arm replay needs MuJoCo's shared library and compiled code (twin.kernel.MJ_STEP)")
     _replay_ticks(
-        _mj_step_address(),
-        plant.model._address,
-        plant.data._address,
-        plant.air,
-        plant.params,
-        plant.drive_map,
-        plant.tendon_ids,
-        plant.actuator_ids,
-        plant.data.qpos,
-        plant.data.qvel,
-        plant.data.ctrl,
-        plant.model.tendon_frictionloss,
+        MJ_STEP_ADDRESS,
+        plant.arrays,
+        plant.commands,
         np.ascontiguousarray(run.time_s),
         np.ascontiguousarray(run.commands),
         np.ascontiguousarray(run.supply_pa),
         run.valve_is_output,
         setup.supply_line_droop_pa_s_per_kg,
         plant.dt,
+        SUBSTEPS,
         steps,
         TICK_S,
         angle,

@@ -13,6 +13,7 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import assets
+from control.schedule import Schedule, Until
 from pneumatics import AIR, load_joint_params
 from scenarios.kinds import registry
 
@@ -33,29 +34,38 @@ class FaultKind:
     value: tuple[float, float, str] | None = None  # its `value`'s range and unit (not 0); None: it takes none
     # the largest value on a given joint and that limit in words (beyond `value`'s range), if any
     value_limit: Callable[[str], tuple[float, str]] | None = None
+    # a fault of the supply: the supply (Pa, absolute) from its time on, which the supply's schedule
+    # carries in a run (FaultEvents.supply); None: it acts on the plant through `act`
+    supply_pa: float | None = None
 
 
-def fault_events(faults: tuple[Fault, ...]) -> tuple[Callable[[Plant, float], None], Callable[[float], bool]]:
-    """(events(plant, t) applying each fault once its time has come, supply_lost(t)); `events.pending`
-    lists the faults it has not applied yet."""
-    pending = sorted(faults, key=lambda f: f.at_s)
-    supply_lost_at = min((f.at_s for f in faults if f.kind == "supply_lost"), default=float("inf"))
+class FaultEvents:
+    """The scenario's faults as the run loop's event schedule (control/schedule.py's EventSchedule):
+    `apply(plant, t)` applies each fault once its time has come, `due_s(t)` is the next one's time.
 
-    def events(plant: Plant, t: float) -> None:
-        if t >= supply_lost_at:
-            plant.set_supply(AIR.p_atm_pa)
-        while pending and pending[0].at_s <= t:
-            fault = pending.pop(0)
-            apply_fault(plant, fault)
+    A fault of the supply (a row with `supply_pa`) is the supply's own schedule (`supply`: that
+    pressure from the fault's time on), so the loop writes the supply once a tick; `apply` leaves it
+    to that schedule."""
 
-    def due_s(t: float) -> float:
-        # when `events` next does something a call before did not: the next fault (the lost supply
-        # stays lost: a call after it only sets it again)
-        return min(pending[0].at_s if pending else math.inf, supply_lost_at if t < supply_lost_at else math.inf)
+    def __init__(self, faults: tuple[Fault, ...]):
+        # the faults not applied yet, in time order (after a run: those it never reached)
+        self.pending = sorted(faults, key=lambda f: f.at_s)
+        on_supply = [f for f in self.pending if FAULTS[f.kind].supply_pa is not None]
+        self.supply_fault = on_supply[0] if on_supply else None  # the first fault of the supply, if any
 
-    events.due_s = due_s  # the run loop may skip calling `events` until then (twin/compiled_loop.py)
-    events.pending = pending  # the faults not applied yet, in time order (after a run: those it never reached)
-    return events, lambda t: t >= supply_lost_at
+    def supply(self, profile: Schedule) -> Schedule:
+        """The supply the plant gets: `profile`, then the first supply fault's pressure from its time on."""
+        f = self.supply_fault
+        return profile if f is None else Until(profile, f.at_s, FAULTS[f.kind].supply_pa)
+
+    def apply(self, plant: Plant, t: float) -> None:
+        while self.pending and self.pending[0].at_s <= t:
+            fault = self.pending.pop(0)
+            if FAULTS[fault.kind].supply_pa is None:  # the supply's schedule carries a supply fault (`supply`)
+                apply_fault(plant, fault)
+
+    def due_s(self, t: float) -> float:
+        return self.pending[0].at_s if self.pending else math.inf
 
 
 def apply_fault(plant: Plant, fault: Fault) -> None:
@@ -95,6 +105,7 @@ FAULTS: dict[str, FaultKind] = registry(
         what="the supply falls to atmosphere (the brakes' springs engage)",
         act=_lose_supply,
         whole_arm="the supply feeds every joint",
+        supply_pa=AIR.p_atm_pa,
     ),
     FaultKind(
         name="hose_leak",

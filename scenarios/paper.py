@@ -138,7 +138,7 @@ def random_supply_run(quick: bool) -> dict:
     return {
         "move_end_s": ends,
         "supply_time_s": times.tolist(),
-        "supply_gauge_mpa": [(supply(x) - P_ATM_PA) / 1e6 for x in times],
+        "supply_gauge_mpa": [(supply.value_at(x) - P_ATM_PA) / 1e6 for x in times],
         "max_error_deg": max(errors),
         "final_errors_deg": errors,
         "duration_s": t,

@@ -20,7 +20,7 @@ from control import ArmController
 from scenarios import controllers
 from scenarios.cleaning import DiscContact, disc_contacts
 from scenarios.criteria import CRITERIA, Verdict, When, as_dicts, judge
-from scenarios.faults import fault_events
+from scenarios.faults import FaultEvents
 from scenarios.ik import RANGE_MARGIN_RAD, carrier_m, rim_drive_angles
 from scenarios.plan import expand
 from scenarios.schema import (
@@ -384,8 +384,8 @@ def run_scenario(
             controller, scenario, plant, targets, np.random.default_rng([scenario.seed, 1]), discs
         )  # a stream of its own: the supply's draws stay as they were
     duration = scenario.duration_s if duration_s is None else min(duration_s, scenario.duration_s)
-    supply = supply_profile(scenario.supply, duration, rng)
-    faults, _ = fault_events(scenario.faults)
+    faults = FaultEvents(scenario.faults)
+    supply = faults.supply(supply_profile(scenario.supply, duration, rng))
     error = ""
     telemetry = Telemetry(
         plant.joints,
@@ -395,7 +395,7 @@ def run_scenario(
     if progress is not None:
         recorders = (*recorders, _ProgressReport(progress, duration, scenario, task))
     try:
-        run(plant, controller, duration, supply_pa_at=supply, events=faults, recorders=recorders, telemetry=telemetry)
+        run(plant, controller, duration, supply=supply, events=faults, recorders=recorders, telemetry=telemetry)
     except SimulationError as e:  # a divergence: keep what was logged, report it as a failed run
         error = str(e)
     cut_short = duration < scenario.duration_s

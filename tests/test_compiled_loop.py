@@ -1,8 +1,8 @@
 """The compiled ticks (twin/compiled_loop.py) give the per-tick Python loop's results bit for bit.
 
 Each scenario runs twice: once with the compiled ticks switched off (every tick through
-control/loop.py's Python), once as `twin run` does; every telemetry array and the summary must be
-identical, and the compiled ticks must have run most of the ticks (so the comparison is not one of
+control/loop.py's Python loop, the reference), once as `twin run` does; every telemetry array and
+the summary must be identical, and the compiled ticks must have run most of the ticks (so the comparison is not one of
 the Python loop with itself)."""
 
 from __future__ import annotations
@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 
 import twin.compiled_loop
+import twin.plant
 import twin.sim
 from scenarios.runner import run_scenario, scenario_files
 from scenarios.schema import load
@@ -33,13 +34,13 @@ def _run_both(name: str, seconds: float, monkeypatch) -> tuple:
         _with_dwell(load(SCENARIOS[name[: -len("+dwell")]])) if name.endswith("+dwell") else load(SCENARIOS[name])
     )
     with monkeypatch.context() as m:
-        m.setattr(twin.sim, "compiled_ticks", lambda *a, **k: None)
+        m.setattr(twin.plant, "compiled_ticks", lambda *a, **k: None)
         python = run_scenario(scenario, duration_s=seconds)
     ran = []
     call = twin.compiled_loop.CompiledTicks.__call__
 
-    def counted(self, k):
-        n = call(self, k)
+    def counted(self, k, applied_s):
+        n = call(self, k, applied_s)
         ran.append(n)
         return n
 
@@ -59,6 +60,8 @@ def _run_both(name: str, seconds: float, monkeypatch) -> tuple:
         ("wrist_open_loop_60deg", 3.0),
         ("wrist_closed_loop_60deg+dwell", 6.0),
         ("fault_supply_lost", 4.0),
+        # a supply drawn at random every 0.5 s (its next draw's time is a schedule's due time)
+        ("wrist_random_supply", 3.0),
     ],
 )
 def test_compiled_ticks_give_the_python_loops_results(name, seconds, monkeypatch):
@@ -101,3 +104,33 @@ def test_an_error_in_on_tick_from_compiled_code_is_raised(monkeypatch):
     with pytest.raises(ValueError, match="telemetry broke at 1.000 s"):
         run_scenario(load(SCENARIOS["insulator_cleaning"]), duration_s=2.0)
     assert samples[-1] == 50  # one sample every 20 ms before it
+
+
+def test_the_papers_experiments_run_compiled_as_the_python_loop(monkeypatch):
+    """control/experiments.py's runs (a stop rule of their own, a random supply) through the same
+    loop: the plant's compiled ticks give the Python loop's final angles and simulated time."""
+    import assets
+    from control.experiments import random_supply_moves
+    from twin.plant import Plant
+
+    def make():
+        return Plant(assets.WRIST_RIG_XML)
+
+    def moves():
+        return random_supply_moves(make, targets_deg=(30.0, 0.0), seed=3, max_s_each=3.0)
+
+    with monkeypatch.context() as m:
+        m.setattr(twin.plant, "compiled_ticks", lambda *a, **k: None)
+        python = moves()
+    ran = []
+    call = twin.compiled_loop.CompiledTicks.__call__
+
+    def counted(self, k, applied_s):
+        ran.append(call(self, k, applied_s))
+        return ran[-1]
+
+    with monkeypatch.context() as m:
+        m.setattr(twin.compiled_loop.CompiledTicks, "__call__", counted)
+        compiled = moves()
+    assert compiled == python
+    assert sum(ran) > 0.7 * python[1] / 1e-3  # most ticks compiled

@@ -418,10 +418,10 @@ def test_save_and_restore_continue_bit_identically() -> None:
 
 
 def test_compiled_step_loop_equals_the_python_loop(monkeypatch) -> None:
-    # twin/kernel.py's plant_steps calls the same libmujoco's mj_step from compiled code
+    # twin/kernel.py's step_plant calls the same libmujoco's mj_step from compiled code
     compiled = Plant(assets.SCENE_XML)
     scripted_run(compiled)
-    monkeypatch.setattr(twin.plant, "plant_steps", None)
+    monkeypatch.setattr(twin.plant, "MJ_STEP_ADDRESS", None)
     python = Plant(assets.SCENE_XML)
     scripted_run(python)
     no_warnings(python)

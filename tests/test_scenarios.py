@@ -80,10 +80,10 @@ def test_every_shipped_file_parses_and_nothing_in_it_is_executed():
 def test_random_supply_matches_the_papers_statistics():
     s = load("scenarios/wrist_random_supply.toml").supply
     p = supply_profile(s, 2000.0, np.random.default_rng(3))
-    values = np.array([p(t) for t in np.arange(0, 2000.0, 0.5)]) - 101_325.0
+    values = np.array([p.value_at(t) for t in np.arange(0, 2000.0, 0.5)]) - 101_325.0
     assert abs(values.mean() - 0.6e6) < 0.01e6
     assert abs(values.var() - 5e9) / 5e9 < 0.1  # clipping at 0.4..0.9 MPa removes < 0.5% of draws
-    assert p(0.1) == p(0.4) and p(0.4) != p(0.6)  # each value held 0.5 s
+    assert p.value_at(0.1) == p.value_at(0.4) and p.value_at(0.4) != p.value_at(0.6)  # each value held 0.5 s
 
 
 def test_overrides_are_checked_like_the_file():

@@ -9,8 +9,8 @@ returns to Python on the first tick that needs it:
 
 * the controller says so (control/compiled_tick.py: a step of the plan ends or begins, a
   time-out, a sensor not a number, `done` changed);
-* a callback is due: a fault, a supply step, the task's camera frame while the operator waits
-  for one, the run's end (each tells when, `CompiledTicks.__call__`).
+* a schedule is due (control/schedule.py): a fault, a change of the supply; or the task's camera
+  frame while the operator waits for one, the run's end (each tells when, `CompiledTicks.__call__`).
 
 Two things a tick may need of Python it calls without returning, through ctypes callbacks: the
 Pinocchio load at the predicted angles, and the run's `on_tick` (the telemetry sample, the
@@ -29,16 +29,19 @@ import ctypes
 import math
 import sys
 from collections.abc import Callable, Sequence
+from typing import TYPE_CHECKING
 
 import numpy as np
 
-from control.compiled_tick import MID_TICK, NEEDS_PYTHON, TICKED, controller_tick, end_tick
+from control.compiled_tick import MID_TICK, NEEDS_PYTHON, TICKED, borrow_controller, controller_tick, end_tick
 from pneumatics import joint as J
 from pneumatics._jit import NO_JIT, borrowed, njit
 from twin.camera_frames import no_camera, record_frame
-from twin.kernel import MJ_STEP, _call_mj_step, _plant_steps
-from twin.plant import SUBSTEPS, Plant
+from twin.kernel import MJ_STEP_ADDRESS, SUBSTEPS, borrow_plant, call_c_function, step_plant
 from twin.sample_row import fill_row
+
+if TYPE_CHECKING:  # the plant hands its compiled ticks out (Plant.ticks_batch): imported by it
+    from twin.plant import Plant
 
 # a callback due at time T is handed back to Python from the tick at T - DUE_MARGIN_S on: far above
 # the round-off of MuJoCo's summed time (~1e-13 s over an hour) and far below a tick (1 ms), so the
@@ -46,13 +49,16 @@ from twin.sample_row import fill_row
 DUE_MARGIN_S = 1e-6
 # on_tick_args: [the next tick (of this call's) whose `on_tick` has work, the tick calling it, its time]
 ON_TICK_NEXT, ON_TICK_K, ON_TICK_T = range(3)
+NEVER = 2**53  # a tick no run reaches (exact as a float in on_tick_args)
 
 
 @njit
 def _ticks(
     mj_step_address,
-    model_address,
-    data_address,
+    plant,  # twin/kernel.py's PlantArrays of the plant
+    commands_p,  # the plant's commands (written each tick)
+    sensor_bias_pa,
+    supply_pa,
     load_callback_address,  # void f(void*, void*): Python's Pinocchio load at the predicted angles
     on_tick_address,  # void f(void*, void*): the run's `on_tick` (telemetry), at the ticks on_tick_args names
     on_tick_args,
@@ -64,35 +70,8 @@ def _ticks(
     stop_s,  # no tick at or after this time
     was_done,
     control_result,
-    flow,
-    step_joints,
-    modes,
-    moves,
-    drives,
-    y,
-    x,
-    params_c,
-    g,
-    commands_c,
-    load_nm,
-    inertia,
-    load_base,
-    load_slope,
-    c_inv,
-    load_bound,
+    controller,  # control/compiled_tick.py's ControllerArrays of the controller
     valve_gauge_pa,  # (n,) scratch: the sensors
-    air,
-    commands_p,
-    params_p,
-    sensor_bias_pa,
-    supply_pa,
-    drive_map,
-    tendon_ids,
-    actuator_ids,
-    qpos,
-    qvel,
-    ctrl,
-    tendon_frictionloss,
     dt_s,
     substeps,
     camera_clock,  # a scene camera's frames (twin/camera_frames.py): taken at the start of each tick
@@ -103,24 +82,15 @@ def _ticks(
     xmat,
     site_xpos,
     xquat,
-    sensordata,  # Plant.force_peak_n's sensor and peak (`_plant_steps`)
-    force_adr,
-    force_peak,
 ):
     # returns (ticks run whole, what stopped them, MuJoCo's time at the tick it stopped on, the time
     # of the last tick the controller ran)
-    air, commands_p, params_p, valve_gauge_pa = (
-        borrowed(air),
+    a, c = borrow_plant(plant), borrow_controller(controller)
+    air, qpos, drive_map = a.air, a.qpos, a.drive_map
+    commands_p, valve_gauge_pa, sensor_bias_pa = (
         borrowed(commands_p),
-        borrowed(params_p),
         borrowed(valve_gauge_pa),
-    )
-    sensor_bias_pa, drive_map, commands_c = borrowed(sensor_bias_pa), borrowed(drive_map), borrowed(commands_c)
-    qpos, qvel, ctrl, tendon_frictionloss = (
-        borrowed(qpos),
-        borrowed(qvel),
-        borrowed(ctrl),
-        borrowed(tendon_frictionloss),
+        borrowed(sensor_bias_pa),
     )
     camera_clock, camera_rows, camera_body_ids, camera_site_ids = (
         borrowed(camera_clock),
@@ -138,38 +108,17 @@ def _ticks(
         record_frame(camera_clock, camera_rows, camera_body_ids, camera_site_ids, xpos, xmat, site_xpos, time_s)
         for j in range(air.shape[0]):  # Plant.sensors
             valve_gauge_pa[j] = air[j, J.S_PV] + sensor_bias_pa[j]
-        status = controller_tick(
-            flow,
-            step_joints,
-            modes,
-            moves,
-            drives,
-            y,
-            x,
-            params_c,
-            g,
-            commands_c,
-            load_nm,
-            inertia,
-            load_base,
-            load_slope,
-            c_inv,
-            load_bound,
-            valve_gauge_pa,
-            supply_pa,
-            was_done,
-            control_result,
-        )
+        status = controller_tick(c, valve_gauge_pa, supply_pa, was_done, control_result)
         if status == MID_TICK and control_result[1] < 0.0:  # the load alone is stale: Pinocchio's, then on
-            _call_mj_step(load_callback_address, 0, 0)
+            call_c_function(load_callback_address, 0, 0)
             if callback_failed[0] != 0.0:
                 return k, NEEDS_PYTHON, time_s, last_tick_s  # the caller raises what failed
-            end_tick(flow, y, x, params_c, commands_c, load_nm, inertia, valve_gauge_pa, supply_pa)
+            end_tick(c, valve_gauge_pa, supply_pa)
             status = TICKED
         if status != TICKED:
             return k, status, time_s, time_s if status == MID_TICK else last_tick_s
         last_tick_s = time_s
-        commands_p[:] = commands_c
+        commands_p[:] = c.commands
         if k == on_tick_args[ON_TICK_NEXT]:  # the run's telemetry sees the commands issued, then the steps
             on_tick_args[ON_TICK_K], on_tick_args[ON_TICK_T] = k, time_s
             if sample_row.shape[0] > 0:
@@ -178,8 +127,8 @@ def _ticks(
                     time_s,
                     qpos,
                     drive_map,
-                    y,
-                    moves,
+                    c.y,
+                    c.moves,
                     air,
                     sensor_bias_pa,
                     commands_p,
@@ -187,46 +136,23 @@ def _ticks(
                     xpos,
                     xquat,
                 )
-            _call_mj_step(on_tick_address, 0, 0)
+            call_c_function(on_tick_address, 0, 0)
             if callback_failed[0] != 0.0:
                 return k, NEEDS_PYTHON, time_s, last_tick_s  # the caller raises what failed
-        _plant_steps(  # Plant.step
-            mj_step_address,
-            steps_per_tick,
-            model_address,
-            data_address,
-            air,
-            commands_p,
-            params_p,
-            drive_map,
-            tendon_ids,
-            actuator_ids,
-            qpos,
-            qvel,
-            ctrl,
-            tendon_frictionloss,
-            supply_pa,
-            dt_s,
-            substeps,
-            sensordata,
-            force_adr,
-            force_peak,
-        )
+        step_plant(mj_step_address, steps_per_tick, a, commands_p, supply_pa, dt_s, substeps)  # Plant.step
         for _ in range(steps_per_tick):
             time_s += dt_s  # as mj_step advances d.time (checked against it on return)
     return n_ticks, TICKED, time_s, last_tick_s
 
 
-MJ_STEP_ADDRESS = ctypes.cast(MJ_STEP, ctypes.c_void_p).value if MJ_STEP is not None else None
-
-
 class CompiledTicks:
     """`run_ticks`'s `batch`: from tick k on, the ticks that need no Python, in compiled code.
 
-    due_s: callables of the simulated time giving when each callback (the supply profile, the
-    faults) next needs its call (math.inf: never again); next_tick: the next tick index at or after
-    k whose `on_tick` has work (None: every tick); on_tick: the run loop's, called on such a tick
-    when its controller part ran compiled (from the compiled ticks); n_ticks: the run's end.
+    due_s: the schedules' (control/schedule.py) `next_change_s` and `due_s`: when each next needs
+    the Python loop after the time it was last applied (math.inf: never again); next_tick: the next
+    tick index at or after k whose `on_tick` has work (None: every tick); on_tick: the run loop's,
+    called on such a tick when its controller part ran compiled (from the compiled ticks);
+    ticks_left(k): how many ticks from k on the run surely has (its end).
     A controller with `compiled_camera` hands its camera's frames to the compiled ticks.
     sample_row: a telemetry row (twin/sample_row.py) the compiled ticks fill before each call of
     `on_tick`, which is then handed it as a third argument (None: on_tick(k, t) takes its own).
@@ -237,13 +163,18 @@ class CompiledTicks:
         plant: Plant,
         controller,
         steps_per_tick: int,
-        n_ticks: int,
+        ticks_left: Callable[[int], int],
         due_s: Sequence[Callable[[float], float]] = (),
         next_tick: Callable[[int], int] | None = None,
         on_tick: Callable[..., None] | None = None,
         sample_row: np.ndarray | None = None,
     ):
-        self.plant, self.controller, self.steps_per_tick, self.n_ticks = plant, controller, steps_per_tick, n_ticks
+        self.plant, self.controller, self.steps_per_tick, self.ticks_left = (
+            plant,
+            controller,
+            steps_per_tick,
+            ticks_left,
+        )
         self.due_s, self.next_tick, self.on_tick = tuple(due_s), next_tick, on_tick
         self._control_result = np.zeros(3)
         self._callback_failed = np.zeros(1)
@@ -257,26 +188,27 @@ class CompiledTicks:
         self._sample_row = np.zeros(0) if sample_row is None else sample_row
         self._k0 = 0  # the tick the compiled ticks began at
         self._valve_gauge_pa = np.zeros(len(plant.joints))
-        self._plant_arrays = (plant.air, plant.commands, plant.params, plant.sensor_bias_pa)
         # the task's camera, whose frames the compiled ticks take from now on (its `compiled_camera`)
         camera = getattr(controller, "compiled_camera", None)
         d = plant.data
         self._camera = (*((camera() if camera else None) or no_camera()), d.xpos, d.xmat, d.site_xpos)
         self._xquat = d.xquat
 
-    def __call__(self, k: int) -> int:
+    def __call__(self, k: int, applied_s: float) -> int:
         """Run ticks k, k+1, ... in compiled code while none needs Python; how many were run (0:
-        tick k needs the Python loop)."""
+        tick k needs the Python loop). `applied_s`: the time the run loop last applied the
+        schedules (the supply it set then holds until their next change after that time)."""
         plant = self.plant
-        if plant._any_stuck or not plant.compiled_ticks:
+        if plant._any_stuck or not plant.allow_compiled_ticks:
             return 0
         t = plant.time
         arm, until_s = self.controller.compiled_ticks(t)
         if arm is None:
             return 0
         for due in self.due_s:
-            until_s = min(until_s, due(t))
-        if self.n_ticks <= k or until_s - DUE_MARGIN_S <= t:
+            until_s = min(until_s, due(applied_s))
+        n_ticks = self.ticks_left(k)
+        if n_ticks <= 0 or until_s - DUE_MARGIN_S <= t:
             return 0
         state = arm.compiled_state()
         self._callback_arm, self._k0 = arm, k
@@ -287,28 +219,27 @@ class CompiledTicks:
         try:
             ran, status, t_end, last_tick_s = _ticks(
                 MJ_STEP_ADDRESS,
-                *plant._addresses,
+                plant.arrays,
+                plant.commands,
+                plant.sensor_bias_pa,
+                plant.supply_pa,
                 self._load_callback_address,
                 self._on_tick_address,
                 self._on_tick_args,
                 self._sample_row,
                 self._callback_failed,
-                self.n_ticks - k,
+                n_ticks,
                 self.steps_per_tick,
                 t,
                 until_s - DUE_MARGIN_S,
                 arm.done,
                 self._control_result,
-                *state,
+                state,
                 self._valve_gauge_pa,
-                *self._plant_arrays,
-                plant.supply_pa,
-                *plant._fixed_arrays,
                 plant.dt,
                 SUBSTEPS,
                 *self._camera,
                 self._xquat,
-                *plant._force_sensor,
             )
         finally:
             sys.unraisablehook = hook
@@ -318,7 +249,7 @@ class CompiledTicks:
             raise RuntimeError(f"compiled ticks: MuJoCo's time {plant.time!r}, the loop's {t_end!r}")
         if ran == 0 and status == NEEDS_PYTHON:
             return 0
-        arm.take_compiled_state(state[0], last_tick_s, plant.supply_pa)
+        arm.take_compiled_state(state.flow, last_tick_s, plant.supply_pa)
         if status == MID_TICK:  # tick k + ran: control_step ran, the rest is Python's
             moving, timed_out, stale = self._control_result
             commands = arm.finish_tick(
@@ -332,9 +263,9 @@ class CompiledTicks:
         return ran
 
     def _on_tick_due(self, k: int) -> int:
-        """The first tick from k on where `on_tick` has work (past the run's end: none)."""
+        """The first tick from k on where `on_tick` has work (NEVER: none)."""
         if self.on_tick is None:
-            return self.n_ticks
+            return NEVER
         return k if self.next_tick is None else self.next_tick(k)
 
     def _unraisable(self, unraisable) -> None:
@@ -369,9 +300,9 @@ class CompiledTicks:
 _CALLBACK = ctypes.CFUNCTYPE(None, ctypes.c_void_p, ctypes.c_void_p)
 
 
-def compiled_ticks(plant: Plant, controller, steps_per_tick: int, n_ticks: int, **kwargs) -> CompiledTicks | None:
-    """The compiled ticks of this plant and controller, or None where they cannot run (no
-    compiled MuJoCo step, TWIN_NO_JIT, a controller without `compiled_ticks`)."""
+def compiled_ticks(plant: Plant, controller, steps_per_tick: int, ticks_left, **kwargs) -> CompiledTicks | None:
+    """The compiled ticks of this plant and controller (`Plant.ticks_batch`), or None where they
+    cannot run (no compiled MuJoCo step, TWIN_NO_JIT, a controller without `compiled_ticks`)."""
     if NO_JIT or MJ_STEP_ADDRESS is None or not hasattr(controller, "compiled_ticks"):
         return None
-    return CompiledTicks(plant, controller, steps_per_tick, n_ticks, **kwargs)
+    return CompiledTicks(plant, controller, steps_per_tick, ticks_left, **kwargs)

@@ -9,7 +9,7 @@ fraction of MuJoCo's own step (see benchmarks/).
 from __future__ import annotations
 
 import ctypes
-import functools
+from typing import NamedTuple
 
 import numpy as np
 from llvmlite import ir
@@ -27,6 +27,53 @@ from pneumatics.joint import (
     finish_air_pair,
 )
 from pneumatics.reducer import is_rigid
+
+# least RK4 sub-steps per physics step of a non-rigid reducer's motor side (pneumatics/joint.py,
+# `advance_motor_side`, which takes more where the gear's mode needs them)
+SUBSTEPS = 1
+
+
+class PlantArrays(NamedTuple):
+    """What a physics step of the plant works on, one record for compiled code: MuJoCo's model and
+    data (their addresses, for `mj_step`), the joints' air and parameters, how each joint meets
+    MuJoCo, MuJoCo's arrays the air reads and writes, and the brush's touch sensor. `Plant.arrays`
+    holds the plant's; the commands and the supply, held over a step, are passed beside it."""
+
+    model_address: int
+    data_address: int
+    air: np.ndarray  # (n_joints, width) joint states (and hose lines), advanced in place
+    params: np.ndarray  # (n_joints, N_COLUMNS)
+    drive_map: np.ndarray  # (n_joints, k, 3): (qpos address, dof address, coefficient) of each tendon term
+    tendon_ids: np.ndarray  # (n_joints,) int: the drive tendon of each joint
+    actuator_ids: np.ndarray  # (n_joints,) int: the motor on that tendon
+    qpos: np.ndarray  # MuJoCo d.qpos
+    qvel: np.ndarray  # MuJoCo d.qvel
+    ctrl: np.ndarray  # MuJoCo d.ctrl (written)
+    tendon_frictionloss: np.ndarray  # MuJoCo m.tendon_frictionloss (written)
+    sensordata: np.ndarray  # MuJoCo d.sensordata: the brush's touch sensor at `force_adr` (-1: none)
+    force_adr: int
+    force_peak: np.ndarray  # (1,) the largest touch force since it was last taken (`keep_force_peak`)
+
+
+@njit(inline="always")
+def borrow_plant(a: PlantArrays) -> PlantArrays:
+    """The record with every array borrowed (`borrowed`): for a caller that holds it for the whole call."""
+    return PlantArrays(
+        a.model_address,
+        a.data_address,
+        borrowed(a.air),
+        borrowed(a.params),
+        borrowed(a.drive_map),
+        borrowed(a.tendon_ids),
+        borrowed(a.actuator_ids),
+        borrowed(a.qpos),
+        borrowed(a.qvel),
+        borrowed(a.ctrl),
+        borrowed(a.tendon_frictionloss),
+        borrowed(a.sensordata),
+        a.force_adr,
+        borrowed(a.force_peak),
+    )
 
 
 @njit(inline="always")
@@ -56,16 +103,8 @@ def finish_air_pairs(
 
 @njit
 def pneumatic_step(
-    x: np.ndarray,  # (n_joints, N_STATE) joint states, advanced in place
+    a: PlantArrays,  # the air advanced in place, MuJoCo's ctrl and tendon friction written
     commands: np.ndarray,  # (n_joints, N_COMMAND) held over the step
-    params: np.ndarray,  # (n_joints, N_COLUMNS)
-    drive_map: np.ndarray,  # (n_joints, k, 3): (qpos address, dof address, coefficient) of each tendon term
-    tendon_ids: np.ndarray,  # (n_joints,) int: the drive tendon of each joint
-    actuator_ids: np.ndarray,  # (n_joints,) int: the motor on that tendon
-    qpos: np.ndarray,  # MuJoCo d.qpos
-    qvel: np.ndarray,  # MuJoCo d.qvel
-    ctrl: np.ndarray,  # MuJoCo d.ctrl (written)
-    tendon_frictionloss: np.ndarray,  # MuJoCo m.tendon_frictionloss (written)
     supply_pa: float,
     dt_s: float,
     substeps: int,
@@ -81,10 +120,11 @@ def pneumatic_step(
     ctrl gets the torque the gear transmitted, averaged over the step: the joint receives the
     impulse the spring delivered, integrated with the same weights as the motor's loss of it.
     """
+    x, params, qpos, qvel, tendon_frictionloss = a.air, a.params, a.qpos, a.qvel, a.tendon_frictionloss
     for j in range(x.shape[0]):
         p = params[j]
-        t = tendon_ids[j]
-        theta, omega = _drive_coordinate(drive_map, j, qpos, qvel)
+        t = a.tendon_ids[j]
+        theta, omega = _drive_coordinate(a.drive_map, j, qpos, qvel)
         rigid = is_rigid(p)
         if rigid:
             finish_air_pair(x[j], theta, omega, dt_s, p)  # the air's step that ended with the last physics step
@@ -103,7 +143,7 @@ def pneumatic_step(
             torque = advance_air_pair(x[j], theta, omega, valve, supply_pa, dt_s, p)
         else:
             torque = advance_motor_side(x[j], theta, omega, valve, supply_pa, dt_s, substeps, p)
-        ctrl[actuator_ids[j]] = torque
+        a.ctrl[a.actuator_ids[j]] = torque
         advance_brake(x[j], commands[j], supply_pa, pa_start, pb_start, x[j, S_PA_MOTOR], x[j, S_PB_MOTOR], dt_s, p)
 
 
@@ -111,7 +151,7 @@ def _mujoco_step_function():
     """MuJoCo's C `mj_step(const mjModel*, mjData*)` as a ctypes function numba can call, or None.
 
     Calling it from compiled code lets a whole run of physics steps, air and rigid bodies, go by
-    without returning to Python (`plant_steps`). It is the same library the mujoco package loads,
+    without returning to Python (`step_plant`). It is the same library the mujoco package loads,
     so results are bit-identical to `mujoco.mj_step` (tests/test_plant.py).
     """
     from pathlib import Path
@@ -132,11 +172,14 @@ def _mujoco_step_function():
 
 
 MJ_STEP = _mujoco_step_function()
+# its address, handed to compiled code (`step_plant`); None: no compiled MuJoCo step (Plant.step loops in Python)
+MJ_STEP_ADDRESS = ctypes.cast(MJ_STEP, ctypes.c_void_p).value if MJ_STEP is not None and not NO_JIT else None
 
 
 @intrinsic
-def _call_mj_step(typingctx, function_address, model_address, data_address):
-    """Call `void f(void*, void*)` at an address known only at run time (MuJoCo's mj_step).
+def call_c_function(typingctx, function_address, model_address, data_address):
+    """Call `void f(void*, void*)` at an address known only at run time (MuJoCo's mj_step, a ctypes
+    callback).
 
     The address is an ordinary integer argument, so the code that calls it compiles once and is
     cached on disk like the rest of the physics (a ctypes function held as a global is baked into
@@ -165,64 +208,17 @@ def keep_force_peak(sensordata: np.ndarray, force_adr: int, force_peak: np.ndarr
 
 
 @njit
-def _plant_steps(
-    mj_step_address,
-    n,
-    model_address,
-    data_address,
-    x,
-    commands,
-    params,
-    drive_map,
-    tendon_ids,
-    actuator_ids,
-    qpos,
-    qvel,
-    ctrl,
-    tendon_frictionloss,
-    supply_pa,
-    dt_s,
-    substeps,
-    sensordata,
-    force_adr,
-    force_peak,
-):
-    # the caller holds every array for the whole call: no reference counting in the loop (see `borrowed`)
-    x, commands, params, drive_map = borrowed(x), borrowed(commands), borrowed(params), borrowed(drive_map)
-    tendon_ids, actuator_ids = borrowed(tendon_ids), borrowed(actuator_ids)
-    sensordata, force_peak = borrowed(sensordata), borrowed(force_peak)
-    qpos, qvel, ctrl, tendon_frictionloss = (
-        borrowed(qpos),
-        borrowed(qvel),
-        borrowed(ctrl),
-        borrowed(tendon_frictionloss),
-    )
+def step_plant(mj_step_address, n, a: PlantArrays, commands, supply_pa, dt_s, substeps):
+    """n physics steps of the plant with its commands and supply held: each the air
+    (`pneumatic_step`), then MuJoCo's `mj_step` (at `mj_step_address`, MJ_STEP_ADDRESS), then the
+    brush's peak force kept; then each rigid joint's air step completed (`finish_air_pairs`)."""
+    a = borrow_plant(a)  # the caller holds every array for the whole call: no reference counting in the loop
+    commands = borrowed(commands)
     for _ in range(n):
-        pneumatic_step(
-            x,
-            commands,
-            params,
-            drive_map,
-            tendon_ids,
-            actuator_ids,
-            qpos,
-            qvel,
-            ctrl,
-            tendon_frictionloss,
-            supply_pa,
-            dt_s,
-            substeps,
-        )
-        _call_mj_step(mj_step_address, model_address, data_address)
-        keep_force_peak(sensordata, force_adr, force_peak)
-    finish_air_pairs(x, params, drive_map, qpos, qvel, dt_s)
-
-
-if MJ_STEP is not None and not NO_JIT:
-    # n physics steps of the plant: the air (`pneumatic_step`), then MuJoCo's `mj_step`
-    plant_steps = functools.partial(_plant_steps, ctypes.cast(MJ_STEP, ctypes.c_void_p).value)
-else:  # a MuJoCo build without a loadable shared library, or TWIN_NO_JIT=1: Plant.step loops in Python
-    plant_steps = None
+        pneumatic_step(a, commands, supply_pa, dt_s, substeps)
+        call_c_function(mj_step_address, a.model_address, a.data_address)
+        keep_force_peak(a.sensordata, a.force_adr, a.force_peak)
+    finish_air_pairs(a.air, a.params, a.drive_map, a.qpos, a.qvel, dt_s)
 
 
 @njit
@@ -234,11 +230,11 @@ def _replay_steps(mj_step_address, model_address, data_address, ctrl, frictionlo
         for j in range(actuator_ids.shape[0]):
             ctrl[actuator_ids[j]] = c[i, j]
             frictionloss[tendon_ids[j]] = f[i, j]
-        _call_mj_step(mj_step_address, model_address, data_address)
+        call_c_function(mj_step_address, model_address, data_address)
 
 
-if MJ_STEP is not None and not NO_JIT:
-    # bare MuJoCo replaying a plant's recorded torques and friction (benchmarks' baseline)
-    replay_steps = functools.partial(_replay_steps, ctypes.cast(MJ_STEP, ctypes.c_void_p).value)
-else:
-    replay_steps = None
+def replay_steps(model_address, data_address, ctrl, frictionloss, actuator_ids, tendon_ids, c, f) -> None:
+    """Bare MuJoCo replaying a plant's recorded torques and friction (benchmarks' baseline)."""
+    if MJ_STEP_ADDRESS is None:
+        raise RuntimeError("replay_steps needs MuJoCo's shared library and compiled code (twin.kernel.MJ_STEP)")
+    _replay_steps(MJ_STEP_ADDRESS, model_address, data_address, ctrl, frictionloss, actuator_ids, tendon_ids, c, f)

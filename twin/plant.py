@@ -28,7 +28,16 @@ from pneumatics import AIR, Gas, JointParams, load_joint_params, params_row
 from pneumatics import joint as J
 from pneumatics import params as P
 from pneumatics.reducer import is_rigid, stiffness
-from twin.kernel import finish_air_pairs, keep_force_peak, plant_steps, pneumatic_step
+from twin.compiled_loop import compiled_ticks
+from twin.kernel import (
+    MJ_STEP_ADDRESS,
+    SUBSTEPS,
+    PlantArrays,
+    finish_air_pairs,
+    keep_force_peak,
+    pneumatic_step,
+    step_plant,
+)
 from twin.model import drive_map, ids, load_model, raise_on_new_warnings, warning_counts
 from twin_plumbing.errors import ParameterError
 
@@ -36,9 +45,6 @@ from twin_plumbing.errors import ParameterError
 # joint side, sqrt(k / J_joint), must stay under this many rad per physics step. Measured on the
 # wrist rig (J_joint = 0.02 kg·m^2, 0.5 ms): stable at 1.12 rad/step, unstable from 1.44.
 MAX_TRANSMISSION_PHASE_PER_STEP = 1.0
-# least RK4 sub-steps per physics step of a non-rigid reducer's motor side (pneumatics/joint.py,
-# `advance_motor_side`, which takes more where the gear's mode needs them)
-SUBSTEPS = 1
 # the brush head's touch sensor (assets/arm.xml): the normal force of its contacts at each physics step
 BRUSH_TOUCH = "brush_touch"
 
@@ -121,22 +127,33 @@ class Plant:
         self._state_size = mujoco.mj_stateSize(m, mujoco.mjtState.mjSTATE_INTEGRATION)
         self._warning_numbers = self.data.warning.number  # a view: MuJoCo's counters as they change
         self._note_warnings()
-        # views into MuJoCo's buffers, fetched once (each attribute access builds a new view)
-        self._mujoco_arrays = (self.data.qpos, self.data.qvel, self.data.ctrl, m.tendon_frictionloss)
-        # what every step passes along unchanged (fetched once: Plant.step runs every control tick)
-        self._fixed_arrays = (self.drive_map, self.tendon_ids, self.actuator_ids, *self._mujoco_arrays)
-        self._addresses = (m._address, self.data._address)
         # the brush's largest contact normal force over the physics steps since it was last taken
         # (`take_force_peak`), from its touch sensor (assets/arm.xml), kept by every step: the
         # criteria judge forces at the physics rate, not at the telemetry's
         self.force_peak_n = np.zeros(1)
         sensor = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_SENSOR, BRUSH_TOUCH)
-        self._force_adr = int(m.sensor_adr[sensor]) if sensor >= 0 else -1
-        self._force_sensor = (self.data.sensordata, self._force_adr, self.force_peak_n)
+        # what every physics step works on (twin/kernel.py), MuJoCo's buffers as views fetched once
+        # (each attribute access builds a new view; Plant.step runs every control tick)
+        self.arrays = PlantArrays(
+            model_address=m._address,
+            data_address=self.data._address,
+            air=self.air,
+            params=self.params,
+            drive_map=self.drive_map,
+            tendon_ids=self.tendon_ids,
+            actuator_ids=self.actuator_ids,
+            qpos=self.data.qpos,
+            qvel=self.data.qvel,
+            ctrl=self.data.ctrl,
+            tendon_frictionloss=m.tendon_frictionloss,
+            sensordata=self.data.sensordata,
+            force_adr=int(m.sensor_adr[sensor]) if sensor >= 0 else -1,
+            force_peak=self.force_peak_n,
+        )
         self._valve_gauge_pa = self.air[:, J.S_PV]  # a view (`air` is only ever written in place)
         # False: every physics step goes through `step` (a caller that wraps it, e.g. to record each
-        # step); True lets the run loop step this plant's arrays from compiled code (twin/compiled_loop.py)
-        self.compiled_ticks = True
+        # step); True lets the run loop step this plant's arrays from compiled code (`ticks_batch`)
+        self.allow_compiled_ticks = True
 
     def _initial_air(self) -> np.ndarray:
         # each joint's state row at rest (`pneumatics.joint.initial_state`), followed by its hoses'
@@ -244,28 +261,31 @@ class Plant:
             commands = commands.copy()
             commands[stuck, J.C_DIRECTION] = self.stuck_direction[stuck]
             commands[stuck, J.C_PV_SET_GAUGE_PA] = np.inf  # stuck fully open: the supply passes
-        if plant_steps is not None:
-            plant_steps(
-                n,
-                *self._addresses,
-                self.air,
-                commands,
-                self.params,
-                *self._fixed_arrays,
-                self.supply_pa,
-                self.dt,
-                SUBSTEPS,
-                *self._force_sensor,
-            )
-        else:
-            args = (self.air, commands, self.params, *self._fixed_arrays, self.supply_pa, self.dt, SUBSTEPS)
+        if MJ_STEP_ADDRESS is not None:
+            step_plant(MJ_STEP_ADDRESS, n, self.arrays, commands, self.supply_pa, self.dt, SUBSTEPS)
+        else:  # a MuJoCo build without a loadable shared library, or TWIN_NO_JIT=1: the same steps in Python
+            a = self.arrays
             for _ in range(n):
-                pneumatic_step(*args)
+                pneumatic_step(a, commands, self.supply_pa, self.dt, SUBSTEPS)
                 mujoco.mj_step(m, d)
-                keep_force_peak(*self._force_sensor)
-            finish_air_pairs(self.air, self.params, self.drive_map, d.qpos, d.qvel, self.dt)
+                keep_force_peak(a.sensordata, a.force_adr, a.force_peak)
+            finish_air_pairs(a.air, a.params, a.drive_map, a.qpos, a.qvel, self.dt)
         if check_warnings:
             self.check_warnings()
+
+    def ticks_batch(self, controller, steps_per_tick, ticks_left, due_s, on_tick, next_tick, sample_row):
+        """The run loop's compiled ticks of this plant and `controller` (control/loop.py's
+        SteppedPlant, twin/compiled_loop.py), None where they cannot run."""
+        return compiled_ticks(
+            self,
+            controller,
+            steps_per_tick,
+            ticks_left,
+            due_s=due_s,
+            next_tick=next_tick,
+            on_tick=on_tick,
+            sample_row=sample_row,
+        )
 
     def take_force_peak(self) -> float:
         """The brush's largest contact normal force (N) over the physics steps since the last call

@@ -3,8 +3,9 @@
     controller.tick(sensors) --commands--> plant.step x n --> sensors (next tick)
     telemetry: true state from the plant beside the controller's prediction
 
-The loop itself is control/loop.py's `run_ticks` (the paper's experiments run it too); here it
-gets MuJoCo's plant, the telemetry and the recorders.
+The loop itself is control/loop.py's `run_ticks` (the paper's experiments run it too), with the
+plant's compiled ticks (twin/compiled_loop.py); here it gets MuJoCo's plant, the telemetry and the
+recorders.
 
 The controller is anything with `tick(sensors) -> (n_joints, 3) commands`, `predicted_angles()`
 and `target_angles()`; it is handed only `plant.sensors()`, never the plant.
@@ -20,8 +21,8 @@ import mujoco
 import numpy as np
 
 from control.loop import run_ticks
+from control.schedule import Constant, EventSchedule, Schedule
 from pneumatics import joint as J
-from twin.compiled_loop import compiled_ticks
 from twin.events import EventTail
 from twin.model import SimulationError
 from twin.plant import Plant, Sensors
@@ -121,8 +122,8 @@ def run(
     plant: Plant,
     controller: Controller,
     duration_s: float,
-    supply_pa_at: Callable[[float], float] | None = None,
-    events: Callable[[Plant, float], None] | None = None,
+    supply: Schedule | float | None = None,
+    events: EventSchedule | None = None,
     recorders: tuple[Recorder, ...] = (),
     telemetry: Telemetry | None = None,
     control_period_s: float = CONTROL_PERIOD_S,
@@ -131,7 +132,8 @@ def run(
 ) -> Telemetry:
     """Run the closed loop for `duration_s` simulated seconds; returns the telemetry.
 
-    `supply_pa_at(t)` sets the supply each tick; `events(plant, t)` applies faults. Recorders get
+    `supply` (a schedule, control/schedule.py, or a constant, absolute Pa) sets the supply each tick;
+    `events` applies faults. Recorders get
     the new samples every `flush_period_s` of simulated time and once more at the end, also when
     the run stops on an error, so what was logged stays readable.
     """
@@ -142,31 +144,20 @@ def run(
     if telemetry is None:
         telemetry = Telemetry(plant.joints, body_names(plant))
     recording = _Recording(plant, controller, telemetry, recorders, ticks_per_log, ticks_per_flush)
-    # ticks needing no Python run compiled when every callback says when it is next due
-    due = [getattr(f, "due_s", None) for f in (supply_pa_at, events) if f is not None]
-    batch = None
-    if all(d is not None for d in due):
-        batch = compiled_ticks(
-            plant,
-            controller,
-            steps_per_tick,
-            n_ticks,
-            due_s=due,
-            next_tick=recording.next_tick,
-            on_tick=recording.on_tick,
-            sample_row=recording.row,
-        )
+    if isinstance(supply, int | float):
+        supply = Constant(supply)
     try:
         run_ticks(
             controller,
             plant,
             steps_per_tick,
-            lambda k: k < n_ticks,
-            supply_pa_at,
+            n_ticks,
+            supply,
             events,
             recording.on_tick,
             check_warnings=False,
-            batch=batch,
+            next_tick=recording.next_tick,
+            sample_row=recording.row,
         )
         plant.check_warnings()
         telemetry.append(plant.time, sample(plant, controller))

@@ -117,7 +117,7 @@ def simulate_run(
     `log_period_s` (NaN between samples)."""
     plant, schedule, i = _plant_and_schedule(reality, supply_mpa, motion, start_rad, rig_spring_nm_per_rad, rig_load_nm)
     supply_pa = plant.supply_pa
-    tel = run(plant, schedule, motion.total_s(), supply_pa_at=lambda t: supply_pa, log_period_s=log_period_s)
+    tel = run(plant, schedule, motion.total_s(), supply=supply_pa, log_period_s=log_period_s)
     arr = tel.arrays()
     t_cmd = np.round(np.arange(0.0, motion.total_s() + 1e-9, 1e-3), 6)
     d, u, b = motion.commands(t_cmd, supply_mpa * 1e6, reality.k_u_per_pa)
