@@ -112,7 +112,7 @@ class Pressures:
 
 
 @pydantic.dataclasses.dataclass(frozen=True, config=TABLE)
-class Reality:
+class HiddenArmEffect:
     """[reality]: a rehearsal's hidden effect (the bench scores against it; the diagnosis never reads it)."""
 
     effect: TEXT
@@ -136,7 +136,7 @@ class ArmCampaignFile(BaseModel):
     payload_kg: number(0.0, 100.0, "kg")
     instrument: ArmInstrument
     pressures: Pressures = Pressures()
-    reality: Reality | None = None
+    reality: HiddenArmEffect | None = None
     runs: list[ArmRunEntry] = []
 
 
@@ -165,7 +165,7 @@ class ArmCampaign:
     instrument: ArmInstrument
     pressures: Pressures
     runs: list[ArmRun]
-    reality: Reality | None = None
+    reality: HiddenArmEffect | None = None
     joints: tuple[str, ...] = field(default=JOINTS)
 
 
@@ -474,7 +474,7 @@ def campaign_toml(
     payload_kg: float,
     arm: str = "as_built",
     hose_loss: bool | None = None,
-    reality: Reality | None = None,
+    reality: HiddenArmEffect | None = None,
     comment: str = "",
 ) -> str:
     """campaign.toml's text for `runs` (file name, start drive angles rad)."""

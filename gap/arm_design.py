@@ -36,7 +36,7 @@ import assets
 from gap import protocols
 from gap.arm_campaign import JOINTS, ArmCampaign, ArmInstrument, ArmRun
 from gap.arm_diagnose import LATENCY_GRID_S, ArmDiagnosis, ReplayedArm, axis_of, gravity_torques, probe_value, twin_of
-from gap.arm_effects import ARM_CATALOGUE, JOINT_CATALOGUE, ArmSetup, Candidate, candidate_named
+from gap.arm_effects import ARM_CATALOGUE, JOINT_CATALOGUE, ArmCandidate, ArmSetup, candidate_named
 from gap.arm_replay import arm_plant, replay
 from gap.design import GRID_POINTS, MAX_PROPOSALS, SEPARATED_FLOORS, Criterion, Design, Pair, choose, family_pairs
 from gap.discrimination import Change, Hypothesis, Reading, Response
@@ -148,7 +148,7 @@ def arm_samples(run: ArmPlannedRun, ar: ArmReading) -> int:
     return run.angle_times_s.size * len(ar.seen) + ports
 
 
-def value_grid(c: Candidate, twin: ReplayedArm, n: int, extra: tuple[float, ...] = ()) -> list[float]:
+def value_grid(c: ArmCandidate, twin: ReplayedArm, n: int, extra: tuple[float, ...] = ()) -> list[float]:
     """`n` values of candidate `c` across its bounds (log-spaced where the catalogue says), the twin's
     own value and `extra`, sorted and distinct."""
     axis = axis_of(c)
@@ -173,7 +173,7 @@ def hypotheses_of(diag: ArmDiagnosis, twin: ReplayedArm) -> tuple[list[Hypothesi
 def catalogue_hypotheses(joint: str, twin: ReplayedArm, latency_s: float) -> tuple[list[Hypothesis], list[Pair]]:
     """Every effect `joint` and the arm can take at the screen's probe size, free over its family's
     members and values; every two families a pair (gap.design.family_pairs)."""
-    cands = [Candidate(e.name, joint) for e in JOINT_CATALOGUE] + [Candidate(e.name) for e in ARM_CATALOGUE]
+    cands = [ArmCandidate(e.name, joint) for e in JOINT_CATALOGUE] + [ArmCandidate(e.name) for e in ARM_CATALOGUE]
     sized = [(c, v) for c in cands if (v := probe_value(c, twin)) is not None]
     families = list(dict.fromkeys(c.family for c, _ in sized))
     alts = {

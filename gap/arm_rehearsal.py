@@ -25,7 +25,7 @@ from gap.arm_campaign import (
     JOINTS,
     ArmInstrument,
     ArmRun,
-    Reality,
+    HiddenArmEffect,
     campaign_toml,
     load_arm_campaign,
     write_arm_run,
@@ -54,7 +54,7 @@ def twin_of(scenario: Scenario) -> tuple[dict[str, JointParams], ArmSetup]:
 
 
 def hidden(
-    params: dict[str, JointParams], setup: ArmSetup, reality: Reality | None
+    params: dict[str, JointParams], setup: ArmSetup, reality: HiddenArmEffect | None
 ) -> tuple[dict[str, JointParams], ArmSetup]:
     """The twin with the rehearsal's hidden effect."""
     if reality is None:
@@ -162,7 +162,7 @@ def make_arm_campaign(
     folder: str | Path,
     scenarios: list[Scenario],
     supplies_mpa: tuple[float | None, ...] = (None,),
-    reality: Reality | None = None,
+    reality: HiddenArmEffect | None = None,
     instrument: ArmInstrument = CAMERA,
     seed: int = 0,
     duration_s: float = 60.0,
@@ -197,7 +197,9 @@ def make_arm_campaign(
     return folder
 
 
-def play_arm_plan(plan: Path, played: Path, reality: Reality | None, instrument: ArmInstrument, seed: int) -> Path:
+def play_arm_plan(
+    plan: Path, played: Path, reality: HiddenArmEffect | None, instrument: ArmInstrument, seed: int
+) -> Path:
     """A plan of `twin gap design --arm` played from its files on the plant with `reality`'s hidden
     effect, read by `instrument` and the port transducers: its run files with the instruments'
     columns filled, and its campaign.toml, in `played`. The commands are open loop (the plan's), so
