@@ -1,7 +1,7 @@
 """The next runs of the whole arm: which joint to exercise, in which posture, at which speed, to tell
 the arm diagnosis's leading candidates apart (or, before any campaign, every two families of the
 effects a joint and the arm can take), by the T-optimality criterion of Atkinson & Fedorov that the
-one-joint design uses (gap.discrimination, gap.design's Criterion and greedy choice), the responses
+one-joint design uses (gap.discrimination, gap.design's DesignCriterion and greedy choice), the responses
 being the whole arm's replays (gap.arm_replay) read by the campaign's instrument.
 
 Steps:
@@ -38,7 +38,7 @@ from gap.arm_campaign import JOINTS, ArmCampaign, ArmInstrument, ArmRun
 from gap.arm_diagnose import LATENCY_GRID_S, ArmDiagnosis, ReplayedArm, axis_of, gravity_torques, probe_value, twin_of
 from gap.arm_effects import ARM_CATALOGUE, JOINT_CATALOGUE, ArmCandidate, ArmSetup, candidate_named
 from gap.arm_replay import arm_plant, replay
-from gap.design import GRID_POINTS, MAX_PROPOSALS, SEPARATED_FLOORS, Criterion, Design, Pair, choose, family_pairs
+from gap.design import GRID_POINTS, MAX_PROPOSALS, SEPARATED_FLOORS, Design, DesignCriterion, Pair, choose, family_pairs
 from gap.discrimination import Change, Hypothesis, Reading, Response
 from pneumatics import JointParams, load_joint_params
 from pneumatics.as_built import load_as_built
@@ -281,8 +281,8 @@ def base_runs(campaign: ArmCampaign, seen: tuple[int, ...], pressures: bool) -> 
     return out
 
 
-def _criterion(twin: ReplayedArm, hyps, pairs, ar: ArmReading, n_jobs: int) -> Criterion:
-    return Criterion(
+def _criterion(twin: ReplayedArm, hyps, pairs, ar: ArmReading, n_jobs: int) -> DesignCriterion:
+    return DesignCriterion(
         twin,
         hyps,
         pairs,

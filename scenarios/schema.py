@@ -170,7 +170,7 @@ class Control:
 
 
 @dataclass(frozen=True, config=TABLE)
-class Operator:
+class OperatorParams:
     """The operator watching the global camera (scenarios/operator.py has the sources)."""
 
     camera_fps: number(0.5, 200.0, "frames/s") = 25.0
@@ -237,7 +237,7 @@ class Scenario:
     reality: Reality = Reality()
     predictor: Model = Model()
     control: Control = Control()
-    operator: Operator = Operator()
+    operator: OperatorParams = OperatorParams()
     string: String = String()
     targets: tuple[Target, ...] = ()
     faults: tuple[Fault, ...] = ()
