@@ -60,6 +60,7 @@ from gap.campaign import (
 from twin.mcap_log import LogError, read_mcap
 from twin_plumbing.fields import FLAG, MISSING, REAL, TABLE, TEXT, choice, first_problem, number, read_toml
 from twin_plumbing.paths import input_problem
+from wrist_rig import commanded_run
 
 JOINTS = assets.JOINTS
 COMMAND_FIELDS = ("direction", "brake_released", "valve_set_gauge_pa")  # per joint, required
@@ -102,6 +103,10 @@ class ArmInstrument:
 # 0.05 deg rms, no latency
 CAMERA = ArmInstrument(kind="camera", rate_hz=30.0, latency_s=0.025, noise_deg=0.2, dropout_fraction=0.03)
 ENCODER = ArmInstrument(kind="encoder", rate_hz=200.0, latency_s=0.0, noise_deg=0.05)
+
+
+# the platform's port transducers read at 50 Hz (assumed: as the wrist rig's instrument)
+PRESSURE_PERIOD_S = commanded_run.SAMPLE_PERIOD_S
 
 
 @pydantic.dataclasses.dataclass(frozen=True, config=TABLE)

@@ -34,7 +34,7 @@ import numpy as np
 
 import assets
 from gap import protocols
-from gap.arm_campaign import JOINTS, ArmCampaign, ArmInstrument, ArmRun
+from gap.arm_campaign import JOINTS, PRESSURE_PERIOD_S, ArmCampaign, ArmInstrument, ArmRun
 from gap.arm_diagnose import LATENCY_GRID_S, ArmDiagnosis, ReplayedArm, axis_of, gravity_torques, probe_value, twin_of
 from gap.arm_effects import ARM_CATALOGUE, JOINT_CATALOGUE, ArmCandidate, ArmSetup, candidate_named
 from gap.arm_replay import arm_plant, replay
@@ -45,7 +45,6 @@ from pneumatics.as_built import load_as_built
 from pneumatics.gas import AIR
 from pneumatics.motor import displacement_per_rad
 
-PRESSURE_PERIOD_S = 0.02  # the platform's port transducers at 50 Hz (gap.arm_rehearsal.PRESSURE_PERIOD_S)
 PITCH_JOINTS = ("shoulder_pitch", "elbow_pitch", "wrist_pitch")  # the joints gravity loads
 BASE_YAW_DEG = 40.0  # the base turned away from the insulator string (scenarios/arm_protocols/one_joint.toml)
 # the exercised joint's own angle scanned at these fractions of its range (assets/arm.xml), 15 % in

@@ -6,7 +6,7 @@ scenarios.runner), on a plant that is the campaign's twin plus the hidden effect
 the campaign's list. Every 1 ms control tick records what the platform sent (each joint's
 direction, valve set point, brake release), the supply at the regulator, the true drive angles and
 the port pressures at the platform; the instrument then samples the angles (its rate, latency,
-noise, dropouts, the joints it sees) and the pressure transducers the ports (SAMPLE_PERIOD_S,
+noise, dropouts, the joints it sees) and the pressure transducers the ports (PRESSURE_PERIOD_S,
 their noise).
 """
 
@@ -20,9 +20,11 @@ import numpy as np
 
 from control.loop import run_ticks
 from control.schedule import EveryTick
+from gap import synth
 from gap.arm_campaign import (
     CAMERA,
     JOINTS,
+    PRESSURE_PERIOD_S,
     ArmInstrument,
     ArmRun,
     HiddenArmEffect,
@@ -43,8 +45,7 @@ from scenarios.schema import Scenario, Supply, joint_params_for, nominal_params,
 from scenarios.supply import supply_profile
 from scenarios.task import TaskController
 
-PRESSURE_PERIOD_S = 0.02  # the platform's port transducers read at 50 Hz (assumed, as wrist_rig.commanded_run's)
-PRESSURE_NOISE_PA = 1.0e3  # 0.25 % of a 0-1 MPa transducer's span, as gap/synth.py's NOISE_PA
+PRESSURE_NOISE_PA = synth.NOISE_PA  # 0.25 % of a 0-1 MPa transducer's span, as the rig's (gap.synth)
 
 
 def twin_of(scenario: Scenario) -> tuple[dict[str, JointParams], ArmSetup]:
