@@ -66,7 +66,7 @@ def run_case(case: ArmBenchCase, folder: Path, duration_s: float, jobs: int, see
     d = diagnose_arm(campaign, jobs)
     took = time.perf_counter() - t0
     out = {"case": case.name, "protocol": case.protocol, "verdict": d.verdict, "joint": d.joint, "effect": d.effect}
-    out |= {"family": d.family, "make_s": round(made, 1), "diagnose_s": round(took, 1), "line": d.line()}
+    out |= {"family": d.family or "", "make_s": round(made, 1), "diagnose_s": round(took, 1), "line": d.line()}
     if case.reality is None:
         out["false_alarm"] = d.verdict.alarm
         return out

@@ -39,7 +39,7 @@ from gap.arm_effects import ArmCandidate, ArmSetup, candidates
 from gap.arm_replay import TICK_S, Replay, arm_plant, joint_angles, replay
 from gap.campaign import MeasuredRun
 from gap.jobs import parallel_jobs
-from gap.kinds import Verdict
+from gap.kinds import Family, Verdict
 from gap.where import breakdown, labels_of
 from pneumatics import JointParams, load_joint_params
 from pneumatics.as_built import load_as_built
@@ -91,7 +91,7 @@ class JointGap:
 @dataclass(frozen=True)
 class Fit:
     candidate: str
-    family: str
+    family: Family
     value: float
     train_misfit: float
     withheld_misfit: float
@@ -107,7 +107,7 @@ class ArmDiagnosis:
     verdict: Verdict  # no significant gap, explained or outside the catalogue (no tie is called)
     joint: str  # the departing joint ("" when no significant gap)
     effect: str  # the candidate named ("" unless explained)
-    family: str  # its family (outside: the nearest)
+    family: Family | None  # its family (outside: the nearest; None when no significant gap)
     latency_s: float
     joints: list[JointGap]  # all runs, nominal twin
     withheld_before: list[JointGap]
@@ -135,7 +135,8 @@ class ArmDiagnosis:
         return f"{self.joint} departs; outside the catalogue, nearest family {self.family}"
 
     def as_dict(self) -> dict:
-        return asdict(self)
+        """The diagnosis as diagnosis.json holds it: no family written "" (as its other texts)."""
+        return asdict(self) | {"family": self.family or ""}
 
 
 def _replays(
@@ -665,7 +666,7 @@ def diagnose_arm(campaign: ArmCampaign, n_jobs: int = 1, scheduler: str | None =
         common["withheld_runs"] = [r.name for r in withheld]
         if worst.floors <= SIGNIFICANT:
             return ArmDiagnosis(
-                Verdict.NO_GAP, "", "", "", where={}, screen=[], fits=[], withheld_after=before, **common
+                Verdict.NO_GAP, "", "", None, where={}, screen=[], fits=[], withheld_after=before, **common
             )
         joint = worst.joint
         place = where(joint, twin, runs, reps, residuals, latency)

@@ -31,6 +31,7 @@ import numpy as np
 
 from gap.campaign_replay import apply_effects
 from gap.effects import Effect
+from gap.kinds import Family
 from pneumatics import JointParams, params_row
 from wrist_rig.one_joint import DT_S, replay_run
 
@@ -52,7 +53,7 @@ class Hypothesis:
     over a grid of values), the rival's freedom in the criterion."""
 
     name: str
-    family: str
+    family: Family
     effects: Change
     latency_s: float
     alternatives: tuple[Change, ...]

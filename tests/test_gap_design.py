@@ -15,7 +15,7 @@ from gap.campaign_replay import joint_stops, nominal_inertia
 from gap.design import DesignCriterion, Pair, alternatives, choose, hypotheses_of, planned_run
 from gap.discrimination import Hypothesis, Reading, ReplayedJoint, misfits, response, trajectory
 from gap.effects import BY_NAME, CATALOGUE
-from gap.kinds import Verdict
+from gap.kinds import Family, Verdict
 from gap.plan import Header, add_runs, play_plan, read_plan, write_plan
 from pneumatics import params_row
 from wrist_rig import commanded_run
@@ -58,8 +58,8 @@ def test_a_run_that_tells_two_hypotheses_apart_ranks_above_one_that_cannot():
     coulomb = ((BY_NAME["coulomb_friction"], 30.0),)
     viscous_effect = BY_NAME["viscous_friction"]
     hyps = [
-        Hypothesis("coulomb", "friction", coulomb, 0.0, (coulomb,)),
-        Hypothesis("viscous", "friction", ((viscous_effect, 8.0),), 0.0, alternatives([viscous_effect])),
+        Hypothesis("coulomb", Family.FRICTION, coulomb, 0.0, (coulomb,)),
+        Hypothesis("viscous", Family.FRICTION, ((viscous_effect, 8.0),), 0.0, alternatives([viscous_effect])),
     ]
     crit = DesignCriterion(TWIN, hyps, [Pair("coulomb / viscous", ((0, 1), (1, 0)))], READING)
     cands = [("held", (_run("held"),)), ("reversal", (_run("reversal"),))]
