@@ -160,7 +160,7 @@ class Reality(Model):
 
 
 @dataclass(frozen=True, config=TABLE)
-class Control:
+class ControlParams:
     mode: choice("closed_loop", "open_loop", "none") = "closed_loop"
     sequence: choice("one_after_another", "together") = "one_after_another"
     min_rotation_deg: number(0.0, 90.0, "deg") = 20.0  # moves shorter than this are refused
@@ -236,7 +236,7 @@ class Scenario:
     supply: Supply = Supply()
     reality: Reality = Reality()
     predictor: Model = Model()
-    control: Control = Control()
+    control: ControlParams = ControlParams()
     operator: OperatorParams = OperatorParams()
     string: String = String()
     targets: tuple[Target, ...] = ()
