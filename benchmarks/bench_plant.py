@@ -106,7 +106,7 @@ def _time_bare(
     return time.perf_counter() - t0, n_chunks * chunk
 
 
-class _Recording(NamedTuple):
+class _PlantSteps(NamedTuple):
     """What one measured run of the plant met, physics step by physics step."""
 
     qpos: np.ndarray  # (steps, nq) at the step's start
@@ -116,11 +116,11 @@ class _Recording(NamedTuple):
     frictionloss: np.ndarray  # (steps, n_joints) their dry friction
 
 
-def _record(plant: Plant, start, moving, seconds: float) -> _Recording:
+def _record(plant: Plant, start, moving, seconds: float) -> _PlantSteps:
     # the motion `_time_plant` times, one step at a time
     plant.restore_state(start)
     d, m = plant.data, plant.model
-    rows: dict[str, list] = {name: [] for name in _Recording._fields}
+    rows: dict[str, list] = {name: [] for name in _PlantSteps._fields}
     for chunk in _stretches(plant, moving, seconds):
         for _ in range(chunk):
             rows["qpos"].append(d.qpos.copy())
@@ -129,7 +129,7 @@ def _record(plant: Plant, start, moving, seconds: float) -> _Recording:
             plant.step(1, check_warnings=False)
             rows["ctrl"].append(d.ctrl[plant.actuator_ids].copy())
             rows["frictionloss"].append(m.tendon_frictionloss[plant.tendon_ids].copy())
-    return _Recording(*(np.array(rows[name]) for name in _Recording._fields))
+    return _PlantSteps(*(np.array(rows[name]) for name in _PlantSteps._fields))
 
 
 @njit(cache=False)
@@ -144,7 +144,7 @@ def _kernel_only(a, commands, supply_pa, dt, substeps, q, v):
         pneumatic_step(a, commands[i], supply_pa, dt, substeps)
 
 
-def _time_kernel(plant: Plant, start, rec: _Recording) -> float:
+def _time_kernel(plant: Plant, start, rec: _PlantSteps) -> float:
     # the plant's arrays, MuJoCo's own copied (the kernel writes ctrl and friction, reads qpos, qvel)
     mujoco_copies = {f: getattr(plant.arrays, f).copy() for f in ("qpos", "qvel", "ctrl", "tendon_frictionloss")}
 
@@ -158,7 +158,7 @@ def _time_kernel(plant: Plant, start, rec: _Recording) -> float:
     return run(len(rec.qpos)) / len(rec.qpos)
 
 
-def _time_replay(plant: Plant, start, rec: _Recording) -> float:
+def _time_replay(plant: Plant, start, rec: _PlantSteps) -> float:
     # MuJoCo alone on the plant's trajectory: its recorded torques and friction, from the same state
     m = plant.model
     d = mujoco.MjData(m)

@@ -36,7 +36,7 @@ STATE = mujoco.mjtState.mjSTATE_INTEGRATION
 
 
 @dataclass
-class Motion:
+class RecordedMotion:
     """What the plant gave MuJoCo over a run: the model and MuJoCo state at the first step, and
     per physics step the actuators' ctrl and the drive tendons' friction; the final qpos; the run's
     summary (`twin run --json`'s)."""
@@ -51,7 +51,7 @@ class Motion:
     summary: dict
 
 
-def record_motion(scenario: Scenario, duration_s: float) -> Motion:
+def record_motion(scenario: Scenario, duration_s: float) -> RecordedMotion:
     """Run the scenario once with its plant stepping one physics step at a time (the same
     results: the kernel's state lives in the arrays) and record what each step was given."""
     plants, start, ctrl, friction = [], [], [], []
@@ -83,7 +83,7 @@ def record_motion(scenario: Scenario, duration_s: float) -> Motion:
     finally:
         scenarios.runner.build_plant = build
     plant, (model, state) = plants[0], start[0]
-    return Motion(
+    return RecordedMotion(
         model,
         state,
         plant.actuator_ids,
@@ -95,7 +95,7 @@ def record_motion(scenario: Scenario, duration_s: float) -> Motion:
     )
 
 
-def replay(motion: Motion) -> tuple[float, bool]:
+def replay(motion: RecordedMotion) -> tuple[float, bool]:
     """(wall s, ended in the twin's final qpos) of bare MuJoCo stepping the recorded motion."""
     m = motion.model
     d = mujoco.MjData(m)

@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
-from gap.arm_campaign import Reality, load_arm_campaign
+from gap.arm_campaign import HiddenArmEffect, load_arm_campaign
 from gap.arm_diagnose import diagnose_arm, signature
 from gap.arm_effects import candidate_named
 from gap.arm_rehearsal import CAMERA, make_arm_campaign
@@ -32,28 +32,30 @@ SUPPLIES_MPA = (0.5, 0.6, 0.7, 0.8)  # the paper's working range (Fig. 10-16)
 
 
 @dataclass(frozen=True)
-class Case:
+class ArmBenchCase:
+    """One case of the arm's blind bench: a rehearsal on a shipped protocol with a hidden effect (or none)."""
+
     name: str
     protocol: str
-    reality: Reality | None  # None: nothing hidden
+    reality: HiddenArmEffect | None  # None: nothing hidden
 
 
 # each hidden effect at a value a user would meet (twice or half the twin's, a few degrees, a few kg)
-CASES: tuple[Case, ...] = (
-    Case("none_one_joint", "one_joint", None),
-    Case("none_point_to_point", "point_to_point", None),
-    Case("none_cleaning", "cleaning", None),
-    Case("wrist_coulomb", "one_joint", Reality(effect="wrist_pitch:coulomb_friction", value=30.0)),
-    Case("elbow_coulomb", "point_to_point", Reality(effect="elbow_pitch:coulomb_friction", value=60.0)),
-    Case("shoulder_valve_lag", "one_joint", Reality(effect="shoulder_pitch:valve_lag", value=0.3)),
-    Case("elbow_leak", "point_to_point", Reality(effect="elbow_pitch:vane_leakage", value=5e-7)),
-    Case("payload_mass", "point_to_point", Reality(effect="arm:payload_mass", value=28.0)),
-    Case("tilt_y", "one_joint", Reality(effect="arm:mounting_tilt_y", value=5.0)),
-    Case("wrist_brake", "cleaning", Reality(effect="wrist_pitch:brake_slow_engage", value=0.3)),
+CASES: tuple[ArmBenchCase, ...] = (
+    ArmBenchCase("none_one_joint", "one_joint", None),
+    ArmBenchCase("none_point_to_point", "point_to_point", None),
+    ArmBenchCase("none_cleaning", "cleaning", None),
+    ArmBenchCase("wrist_coulomb", "one_joint", HiddenArmEffect(effect="wrist_pitch:coulomb_friction", value=30.0)),
+    ArmBenchCase("elbow_coulomb", "point_to_point", HiddenArmEffect(effect="elbow_pitch:coulomb_friction", value=60.0)),
+    ArmBenchCase("shoulder_valve_lag", "one_joint", HiddenArmEffect(effect="shoulder_pitch:valve_lag", value=0.3)),
+    ArmBenchCase("elbow_leak", "point_to_point", HiddenArmEffect(effect="elbow_pitch:vane_leakage", value=5e-7)),
+    ArmBenchCase("payload_mass", "point_to_point", HiddenArmEffect(effect="arm:payload_mass", value=28.0)),
+    ArmBenchCase("tilt_y", "one_joint", HiddenArmEffect(effect="arm:mounting_tilt_y", value=5.0)),
+    ArmBenchCase("wrist_brake", "cleaning", HiddenArmEffect(effect="wrist_pitch:brake_slow_engage", value=0.3)),
 )
 
 
-def run_case(case: Case, folder: Path, duration_s: float, jobs: int, seed: int) -> dict:
+def run_case(case: ArmBenchCase, folder: Path, duration_s: float, jobs: int, seed: int) -> dict:
     """Make the case's campaign, diagnose it blind, and score it."""
     scenario = load(PROTOCOLS[case.protocol])
     t0 = time.perf_counter()
@@ -64,7 +66,7 @@ def run_case(case: Case, folder: Path, duration_s: float, jobs: int, seed: int) 
     d = diagnose_arm(campaign, jobs)
     took = time.perf_counter() - t0
     out = {"case": case.name, "protocol": case.protocol, "verdict": d.verdict, "joint": d.joint, "effect": d.effect}
-    out |= {"family": d.family, "make_s": round(made, 1), "diagnose_s": round(took, 1), "line": d.line()}
+    out |= {"family": d.family or "", "make_s": round(made, 1), "diagnose_s": round(took, 1), "line": d.line()}
     if case.reality is None:
         out["false_alarm"] = d.verdict.alarm
         return out

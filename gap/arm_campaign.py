@@ -60,6 +60,7 @@ from gap.campaign import (
 from twin.mcap_log import LogError, read_mcap
 from twin_plumbing.fields import FLAG, MISSING, REAL, TABLE, TEXT, choice, first_problem, number, read_toml
 from twin_plumbing.paths import input_problem
+from wrist_rig import commanded_run
 
 JOINTS = assets.JOINTS
 COMMAND_FIELDS = ("direction", "brake_released", "valve_set_gauge_pa")  # per joint, required
@@ -104,6 +105,10 @@ CAMERA = ArmInstrument(kind="camera", rate_hz=30.0, latency_s=0.025, noise_deg=0
 ENCODER = ArmInstrument(kind="encoder", rate_hz=200.0, latency_s=0.0, noise_deg=0.05)
 
 
+# the platform's port transducers read at 50 Hz (assumed: as the wrist rig's instrument)
+PRESSURE_PERIOD_S = commanded_run.SAMPLE_PERIOD_S
+
+
 @pydantic.dataclasses.dataclass(frozen=True, config=TABLE)
 class Pressures:
     """[pressures]: the platform's port pressure transducers."""
@@ -112,7 +117,7 @@ class Pressures:
 
 
 @pydantic.dataclasses.dataclass(frozen=True, config=TABLE)
-class Reality:
+class HiddenArmEffect:
     """[reality]: a rehearsal's hidden effect (the bench scores against it; the diagnosis never reads it)."""
 
     effect: TEXT
@@ -136,7 +141,7 @@ class ArmCampaignFile(BaseModel):
     payload_kg: number(0.0, 100.0, "kg")
     instrument: ArmInstrument
     pressures: Pressures = Pressures()
-    reality: Reality | None = None
+    reality: HiddenArmEffect | None = None
     runs: list[ArmRunEntry] = []
 
 
@@ -165,7 +170,7 @@ class ArmCampaign:
     instrument: ArmInstrument
     pressures: Pressures
     runs: list[ArmRun]
-    reality: Reality | None = None
+    reality: HiddenArmEffect | None = None
     joints: tuple[str, ...] = field(default=JOINTS)
 
 
@@ -474,7 +479,7 @@ def campaign_toml(
     payload_kg: float,
     arm: str = "as_built",
     hose_loss: bool | None = None,
-    reality: Reality | None = None,
+    reality: HiddenArmEffect | None = None,
     comment: str = "",
 ) -> str:
     """campaign.toml's text for `runs` (file name, start drive angles rad)."""

@@ -1,7 +1,7 @@
 """The next runs of the whole arm: which joint to exercise, in which posture, at which speed, to tell
 the arm diagnosis's leading candidates apart (or, before any campaign, every two families of the
 effects a joint and the arm can take), by the T-optimality criterion of Atkinson & Fedorov that the
-one-joint design uses (gap.discrimination, gap.design's Criterion and greedy choice), the responses
+one-joint design uses (gap.discrimination, gap.design's DesignCriterion and greedy choice), the responses
 being the whole arm's replays (gap.arm_replay) read by the campaign's instrument.
 
 Steps:
@@ -34,18 +34,17 @@ import numpy as np
 
 import assets
 from gap import protocols
-from gap.arm_campaign import JOINTS, ArmCampaign, ArmInstrument, ArmRun
+from gap.arm_campaign import JOINTS, PRESSURE_PERIOD_S, ArmCampaign, ArmInstrument, ArmRun
 from gap.arm_diagnose import LATENCY_GRID_S, ArmDiagnosis, ReplayedArm, axis_of, gravity_torques, probe_value, twin_of
-from gap.arm_effects import ARM_CATALOGUE, JOINT_CATALOGUE, ArmSetup, Candidate, candidate_named
+from gap.arm_effects import ARM_CATALOGUE, JOINT_CATALOGUE, ArmCandidate, ArmSetup, candidate_named
 from gap.arm_replay import arm_plant, replay
-from gap.design import GRID_POINTS, MAX_PROPOSALS, SEPARATED_FLOORS, Criterion, Design, Pair, choose, family_pairs
+from gap.design import GRID_POINTS, MAX_PROPOSALS, SEPARATED_FLOORS, Design, DesignCriterion, Pair, choose, family_pairs
 from gap.discrimination import Change, Hypothesis, Reading, Response
 from pneumatics import JointParams, load_joint_params
 from pneumatics.as_built import load_as_built
 from pneumatics.gas import AIR
 from pneumatics.motor import displacement_per_rad
 
-PRESSURE_PERIOD_S = 0.02  # the platform's port transducers at 50 Hz (gap.arm_rehearsal.PRESSURE_PERIOD_S)
 PITCH_JOINTS = ("shoulder_pitch", "elbow_pitch", "wrist_pitch")  # the joints gravity loads
 BASE_YAW_DEG = 40.0  # the base turned away from the insulator string (scenarios/arm_protocols/one_joint.toml)
 # the exercised joint's own angle scanned at these fractions of its range (assets/arm.xml), 15 % in
@@ -148,7 +147,7 @@ def arm_samples(run: ArmPlannedRun, ar: ArmReading) -> int:
     return run.angle_times_s.size * len(ar.seen) + ports
 
 
-def value_grid(c: Candidate, twin: ReplayedArm, n: int, extra: tuple[float, ...] = ()) -> list[float]:
+def value_grid(c: ArmCandidate, twin: ReplayedArm, n: int, extra: tuple[float, ...] = ()) -> list[float]:
     """`n` values of candidate `c` across its bounds (log-spaced where the catalogue says), the twin's
     own value and `extra`, sorted and distinct."""
     axis = axis_of(c)
@@ -173,7 +172,7 @@ def hypotheses_of(diag: ArmDiagnosis, twin: ReplayedArm) -> tuple[list[Hypothesi
 def catalogue_hypotheses(joint: str, twin: ReplayedArm, latency_s: float) -> tuple[list[Hypothesis], list[Pair]]:
     """Every effect `joint` and the arm can take at the screen's probe size, free over its family's
     members and values; every two families a pair (gap.design.family_pairs)."""
-    cands = [Candidate(e.name, joint) for e in JOINT_CATALOGUE] + [Candidate(e.name) for e in ARM_CATALOGUE]
+    cands = [ArmCandidate(e.name, joint) for e in JOINT_CATALOGUE] + [ArmCandidate(e.name) for e in ARM_CATALOGUE]
     sized = [(c, v) for c in cands if (v := probe_value(c, twin)) is not None]
     families = list(dict.fromkeys(c.family for c, _ in sized))
     alts = {
@@ -281,8 +280,8 @@ def base_runs(campaign: ArmCampaign, seen: tuple[int, ...], pressures: bool) -> 
     return out
 
 
-def _criterion(twin: ReplayedArm, hyps, pairs, ar: ArmReading, n_jobs: int) -> Criterion:
-    return Criterion(
+def _criterion(twin: ReplayedArm, hyps, pairs, ar: ArmReading, n_jobs: int) -> DesignCriterion:
+    return DesignCriterion(
         twin,
         hyps,
         pairs,

@@ -35,11 +35,11 @@ from joblib import delayed
 
 import assets
 from gap.arm_campaign import JOINTS, ArmCampaign, ArmRun
-from gap.arm_effects import ArmSetup, Candidate, candidates
+from gap.arm_effects import ArmCandidate, ArmSetup, candidates
 from gap.arm_replay import TICK_S, Replay, arm_plant, joint_angles, replay
 from gap.campaign import MeasuredRun
 from gap.jobs import parallel_jobs
-from gap.kinds import Verdict
+from gap.kinds import Family, Verdict
 from gap.where import breakdown, labels_of
 from pneumatics import JointParams, load_joint_params
 from pneumatics.as_built import load_as_built
@@ -91,7 +91,7 @@ class JointGap:
 @dataclass(frozen=True)
 class Fit:
     candidate: str
-    family: str
+    family: Family
     value: float
     train_misfit: float
     withheld_misfit: float
@@ -107,7 +107,7 @@ class ArmDiagnosis:
     verdict: Verdict  # no significant gap, explained or outside the catalogue (no tie is called)
     joint: str  # the departing joint ("" when no significant gap)
     effect: str  # the candidate named ("" unless explained)
-    family: str  # its family (outside: the nearest)
+    family: Family | None  # its family (outside: the nearest; None when no significant gap)
     latency_s: float
     joints: list[JointGap]  # all runs, nominal twin
     withheld_before: list[JointGap]
@@ -135,7 +135,8 @@ class ArmDiagnosis:
         return f"{self.joint} departs; outside the catalogue, nearest family {self.family}"
 
     def as_dict(self) -> dict:
-        return asdict(self)
+        """The diagnosis as diagnosis.json holds it: no family written "" (as its other texts)."""
+        return asdict(self) | {"family": self.family or ""}
 
 
 def _replays(
@@ -323,12 +324,12 @@ class Axis:
         return self.x(self.hi)
 
 
-def axis_of(c: Candidate) -> Axis:
+def axis_of(c: ArmCandidate) -> Axis:
     lo, hi = c.bounds
     return Axis(lo, hi, c.log and lo > 0)
 
 
-def probe_value(c: Candidate, twin: ReplayedArm) -> float | None:
+def probe_value(c: ArmCandidate, twin: ReplayedArm) -> float | None:
     """The screen's probe: a quarter of the way from the twin's value towards the upper bound (a
     catalogue effect is mostly more of something: friction, leakage, lag), towards the lower one
     where the twin is at the upper; log-spaced where the effect is. None: nowhere to move."""
@@ -342,7 +343,7 @@ def probe_value(c: Candidate, twin: ReplayedArm) -> float | None:
     return None
 
 
-def _with(twin: ReplayedArm, c: Candidate, value: float) -> ReplayedArm:
+def _with(twin: ReplayedArm, c: ArmCandidate, value: float) -> ReplayedArm:
     params, setup = c.apply(twin.params, twin.setup, JOINTS, value)
     return ReplayedArm(params, setup)
 
@@ -352,7 +353,7 @@ class Screened:
     """A candidate's screen: the misfit ratio its probe's correction leaves, scaled to fit the
     residual, and the value that scale points at (the fit starts there)."""
 
-    candidate: Candidate
+    candidate: ArmCandidate
     ratio: float
     estimate: float
 
@@ -369,7 +370,7 @@ def screen(
     twin: ReplayedArm,
     runs: list[ArmRun],
     latency_s: float,
-    cands: list[Candidate],
+    cands: list[ArmCandidate],
     nominal: list[Replay] | None = None,
     joint: str | None = None,
 ) -> list[Screened]:
@@ -399,7 +400,7 @@ def screen(
     own = None if joint is None else JOINTS.index(joint)
     base_own = None if own is None else _stack(base_res, weights, own)
 
-    def looks(c: Candidate, v: float, rp: list[Replay]) -> tuple[Screened, Screened | None]:
+    def looks(c: ArmCandidate, v: float, rp: list[Replay]) -> tuple[Screened, Screened | None]:
         """(the whole residual's look, the departing joint's) at the probe `v`."""
         res = [residual(r, p, latency_s) for r, p in zip(runs, rp, strict=True)]
         whole = _scaled(base, base - _stack(res, weights), c, twin, v)
@@ -410,7 +411,7 @@ def screen(
     first = [looks(c, v, rp) for (c, v), rp in zip(probes, reps, strict=True)]
     wholes = sorted((w for w, _ in first), key=lambda s: s.ratio)
     owns = sorted((o for _, o in first if o is not None), key=lambda s: s.ratio)
-    again: dict[tuple[str, float], Candidate] = {}
+    again: dict[tuple[str, float], ArmCandidate] = {}
     for s in wholes[:SECOND_LOOK] + owns[:SECOND_LOOK]:
         if s.estimate != s.candidate.value_in(twin.params, twin.setup, JOINTS):
             again.setdefault((s.candidate.name, s.estimate), s.candidate)
@@ -422,7 +423,7 @@ def screen(
     return sorted(best.values(), key=lambda s: s.ratio)
 
 
-def _scaled(base: np.ndarray, corr: np.ndarray, c: Candidate, twin: ReplayedArm, probe: float) -> Screened:
+def _scaled(base: np.ndarray, corr: np.ndarray, c: ArmCandidate, twin: ReplayedArm, probe: float) -> Screened:
     """The probe's correction `corr` (what the effect at `probe` adds to the twin, in the residual's
     units) scaled to fit the residual `base` best, the value it points at kept inside the bounds."""
     axis = axis_of(c)
@@ -519,7 +520,7 @@ def fit_all(
 KNIFE_EDGE_STEP = 0.01
 
 
-def _nudged(c: Candidate, value: float) -> list[float]:
+def _nudged(c: ArmCandidate, value: float) -> list[float]:
     """`value` moved KNIFE_EDGE_STEP either way (see there), inside the bounds."""
     axis = axis_of(c)
     if axis.log:
@@ -555,7 +556,7 @@ def shrink_before_knife_edges(
     twin: ReplayedArm,
     runs: list[ArmRun],
     latency_s: float,
-    c: Candidate,
+    c: ArmCandidate,
     value: float,
     nominal: list[Residual],
     at: list[Replay],
@@ -600,7 +601,7 @@ class Signature:
         return self.floors < math.sqrt(SIGNIFICANT**2 - 1.0)
 
 
-def signature(campaign: ArmCampaign, c: Candidate, value: float, latency_s: float, n_jobs: int = 1) -> Signature:
+def signature(campaign: ArmCampaign, c: ArmCandidate, value: float, latency_s: float, n_jobs: int = 1) -> Signature:
     """The signature of `c` at `value` in `campaign`'s runs (see Signature), the instrument read
     `latency_s` late."""
     twin = twin_of(campaign)
@@ -619,7 +620,7 @@ def judge(
     twin: ReplayedArm,
     withheld: list[ArmRun],
     latency_s: float,
-    cands: list[Candidate],
+    cands: list[ArmCandidate],
     fitted: list[tuple[float, float]],
     held: list[Residual],
 ) -> tuple[list[Fit], bool]:
@@ -665,7 +666,7 @@ def diagnose_arm(campaign: ArmCampaign, n_jobs: int = 1, scheduler: str | None =
         common["withheld_runs"] = [r.name for r in withheld]
         if worst.floors <= SIGNIFICANT:
             return ArmDiagnosis(
-                Verdict.NO_GAP, "", "", "", where={}, screen=[], fits=[], withheld_after=before, **common
+                Verdict.NO_GAP, "", "", None, where={}, screen=[], fits=[], withheld_after=before, **common
             )
         joint = worst.joint
         place = where(joint, twin, runs, reps, residuals, latency)

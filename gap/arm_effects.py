@@ -107,7 +107,7 @@ JOINT_BY_NAME = {e.name: e for e in JOINT_CATALOGUE}
 
 
 @dataclass(frozen=True)
-class Candidate:
+class ArmCandidate:
     """One effect placed in the arm: a joint's catalogue effect (`joint` set) or an arm's."""
 
     effect: str
@@ -159,18 +159,19 @@ class Candidate:
         return {**params, self.joint: params[self.joint]._replace(**{field: float(value)})}, setup
 
 
-def candidates(joints: tuple[str, ...]) -> list[Candidate]:
+def candidates(joints: tuple[str, ...]) -> list[ArmCandidate]:
     """Every joint effect on every joint, then the arm's."""
-    return [Candidate(e.name, j) for j in joints for e in JOINT_CATALOGUE] + [Candidate(e.name) for e in ARM_CATALOGUE]
+    on_joints = [ArmCandidate(e.name, j) for j in joints for e in JOINT_CATALOGUE]
+    return on_joints + [ArmCandidate(e.name) for e in ARM_CATALOGUE]
 
 
-def candidate_named(name: str) -> Candidate:
-    """'joint:effect' or 'arm:effect' as a Candidate (ValueError: not one)."""
+def candidate_named(name: str) -> ArmCandidate:
+    """'joint:effect' or 'arm:effect' as an ArmCandidate (ValueError: not one)."""
     where, _, effect = name.partition(":")
     if where == "arm" and effect in ARM_BY_NAME:
-        return Candidate(effect)
+        return ArmCandidate(effect)
     if effect in JOINT_BY_NAME:
-        return Candidate(effect, where)
+        return ArmCandidate(effect, where)
     raise ValueError(name)
 
 

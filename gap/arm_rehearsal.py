@@ -6,7 +6,7 @@ scenarios.runner), on a plant that is the campaign's twin plus the hidden effect
 the campaign's list. Every 1 ms control tick records what the platform sent (each joint's
 direction, valve set point, brake release), the supply at the regulator, the true drive angles and
 the port pressures at the platform; the instrument then samples the angles (its rate, latency,
-noise, dropouts, the joints it sees) and the pressure transducers the ports (SAMPLE_PERIOD_S,
+noise, dropouts, the joints it sees) and the pressure transducers the ports (PRESSURE_PERIOD_S,
 their noise).
 """
 
@@ -20,12 +20,14 @@ import numpy as np
 
 from control.loop import run_ticks
 from control.schedule import EveryTick
+from gap import synth
 from gap.arm_campaign import (
     CAMERA,
     JOINTS,
+    PRESSURE_PERIOD_S,
     ArmInstrument,
     ArmRun,
-    Reality,
+    HiddenArmEffect,
     campaign_toml,
     load_arm_campaign,
     write_arm_run,
@@ -43,8 +45,7 @@ from scenarios.schema import Scenario, Supply, joint_params_for, nominal_params,
 from scenarios.supply import supply_profile
 from scenarios.task import TaskController
 
-PRESSURE_PERIOD_S = 0.02  # the platform's port transducers read at 50 Hz (assumed, as wrist_rig.commanded_run's)
-PRESSURE_NOISE_PA = 1.0e3  # 0.25 % of a 0-1 MPa transducer's span, as gap/synth.py's NOISE_PA
+PRESSURE_NOISE_PA = synth.NOISE_PA  # 0.25 % of a 0-1 MPa transducer's span, as the rig's (gap.synth)
 
 
 def twin_of(scenario: Scenario) -> tuple[dict[str, JointParams], ArmSetup]:
@@ -54,7 +55,7 @@ def twin_of(scenario: Scenario) -> tuple[dict[str, JointParams], ArmSetup]:
 
 
 def hidden(
-    params: dict[str, JointParams], setup: ArmSetup, reality: Reality | None
+    params: dict[str, JointParams], setup: ArmSetup, reality: HiddenArmEffect | None
 ) -> tuple[dict[str, JointParams], ArmSetup]:
     """The twin with the rehearsal's hidden effect."""
     if reality is None:
@@ -162,7 +163,7 @@ def make_arm_campaign(
     folder: str | Path,
     scenarios: list[Scenario],
     supplies_mpa: tuple[float | None, ...] = (None,),
-    reality: Reality | None = None,
+    reality: HiddenArmEffect | None = None,
     instrument: ArmInstrument = CAMERA,
     seed: int = 0,
     duration_s: float = 60.0,
@@ -197,7 +198,9 @@ def make_arm_campaign(
     return folder
 
 
-def play_arm_plan(plan: Path, played: Path, reality: Reality | None, instrument: ArmInstrument, seed: int) -> Path:
+def play_arm_plan(
+    plan: Path, played: Path, reality: HiddenArmEffect | None, instrument: ArmInstrument, seed: int
+) -> Path:
     """A plan of `twin gap design --arm` played from its files on the plant with `reality`'s hidden
     effect, read by `instrument` and the port transducers: its run files with the instruments'
     columns filled, and its campaign.toml, in `played`. The commands are open loop (the plan's), so

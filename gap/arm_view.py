@@ -48,11 +48,12 @@ from twin.rerun_log import (
     open_recording,
     wxyz_to_xyzw,
 )
+from twin.sim import LOG_PERIOD_S
 
 MEASURED_PATH = "world/measured_arm"
 REPLAYED_PATH = "world/replayed_arm"
 VERDICT_PATH = "diagnosis"
-DRAW_PERIOD_S = 0.02  # the replayed arm's poses and series every 20 ms: 50 a second, as a run's recording
+DRAW_PERIOD_S = LOG_PERIOD_S  # the replayed arm's poses and series as often as a run's recording samples
 REPLAYED_RGBA = (60, 170, 255, 110)  # the twin's blue, translucent
 DEPARTS_RGBA = (230, 40, 40, 255)  # the departing joint's link on the measured arm
 DEPARTS_REPLAYED_RGBA = (230, 40, 40, 110)  # and on the replayed arm

@@ -55,11 +55,11 @@ from twin.mcap_log import read_mcap
 from twin_plumbing.errors import UserError
 from twin_plumbing.fields import FLAG, MISSING, REAL, TABLE, TEXT, Problem, choice, first_problem, number, read_toml
 from twin_plumbing.paths import input_problem, path_problem
+from wrist_rig import commanded_run
 
 REQUIRED_COLUMNS = ("time_s", "direction", "brake_released", "supply_pa", "angle_rad")
 OPTIONAL_COLUMNS = ("valve_set_gauge_pa", "valve_opening", "p_a_pa", "p_b_pa")
 NAN_COLUMNS = ("angle_rad", "p_a_pa", "p_b_pa")  # empty or nan: not sampled
-WRIST_RIG_INERTIA_KG_M2 = 0.02  # assets/wrist_rig.xml, body rig_load
 MIN_RUNS = 2  # the diagnosis fits on some runs and judges on others
 # MeasuredRun files: a calibration log samples at 1 kHz..50 Hz (the twin's own MCAP at 50 Hz); a step
 # longer than this is a hole in the record, not a sample period (assumed).
@@ -83,7 +83,7 @@ SUPPLY_TOLERANCE_MPA = 0.05
 ANGLE_MARGIN_DEG = 5.0  # assumed
 MAX_ABS_PRESSURE_PA = 3e6  # above any supply of this class (0.5-0.8 MPa gauge, paper)
 PAYLOAD_KG = number(0.0, 100.0, "kg")
-RIG_INERTIA_KG_M2 = number(0.0, 100.0, "kg·m^2")
+RIG_INERTIA_RANGE = number(0.0, 100.0, "kg·m^2")  # campaign.toml's rig_inertia_kg_m2
 
 
 class GapError(UserError):
@@ -111,7 +111,7 @@ class MeasuredRun:
     valve_is_output: bool = False
     recorded_s: float | None = None  # the run file's length, where the fit uses only its first FIT_WINDOW_S
     payload_kg: float = 0.0  # the load of this run (campaign.toml, per run or for all)
-    rig_inertia_kg_m2: float = WRIST_RIG_INERTIA_KG_M2  # joint-side inertia of the rig with that load
+    rig_inertia_kg_m2: float = commanded_run.RIG_INERTIA_KG_M2  # joint-side inertia of the rig with that load
 
     @property
     def sampled(self) -> np.ndarray:
@@ -171,7 +171,7 @@ class RunEntry(BaseModel):
     supply_mpa: number(0.0, 2.0, "MPa gauge")
     start_deg: dict[str, REAL]  # joint -> deg, at least the joint under test (checked by _check_start)
     payload_kg: PAYLOAD_KG | None = None  # None: the campaign's
-    rig_inertia_kg_m2: RIG_INERTIA_KG_M2 | None = None  # None: the campaign's
+    rig_inertia_kg_m2: RIG_INERTIA_RANGE | None = None  # None: the campaign's
 
 
 class CampaignFile(BaseModel):
@@ -182,7 +182,7 @@ class CampaignFile(BaseModel):
     joint: choice(*assets.JOINTS, why="is not a joint of the arm")
     payload_kg: PAYLOAD_KG = 0.0
     hose_length_m: number(SPEC["hose_length_m"].low, SPEC["hose_length_m"].high, "m")  # the parameter file's range
-    rig_inertia_kg_m2: RIG_INERTIA_KG_M2 = WRIST_RIG_INERTIA_KG_M2
+    rig_inertia_kg_m2: RIG_INERTIA_RANGE = commanded_run.RIG_INERTIA_KG_M2
     twin: TwinSwitches = TwinSwitches()
     instrument: Instrument = Instrument()
     runs: list[RunEntry] = []  # at least MIN_RUNS (checked so that the message says why)

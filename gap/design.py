@@ -326,8 +326,8 @@ def run_misfits(respond, hyps: list[Hypothesis], directed: list[tuple[int, int]]
     return out
 
 
-class Criterion:
-    """The criterion's sums over runs: per directed pair, the misfit of each rival alternative and
+class DesignCriterion:
+    """The design's criterion as sums over runs: per directed pair, the misfit of each rival alternative and
     latency summed over the campaign's own runs (`base`) and over each proposal's.
 
     `respond(change, run)`: a change's predicted readings of a run (discrimination.Response), and
@@ -361,7 +361,7 @@ class Criterion:
 
 
 def choose(
-    crit: Criterion,
+    crit: DesignCriterion,
     candidates: list[tuple[str, tuple[PlannedRun, ...]]],
     base: list[np.ndarray] | None,
     max_proposals: int | None,
@@ -413,7 +413,7 @@ def design(campaign: Campaign, diag: Diagnosis, catalogue=CATALOGUE, n_jobs: int
     )
     if not diag.which.verdict.alarm or len(hyps) < 2:
         return Design(hyps, pairs, reading, [], [], {}, [p.name for p in pairs], twin, str(campaign.folder))
-    crit = Criterion(twin, hyps, pairs, reading, n_jobs)
+    crit = DesignCriterion(twin, hyps, pairs, reading, n_jobs)
     base = crit.sums(base_runs(campaign, twin))
     rate = campaign.instrument.rate_hz or diag.instrument.observed_rate_hz
     inertia = nominal_inertia(campaign.runs[0].rig_inertia_kg_m2, twin.params)
@@ -445,7 +445,7 @@ def design_before_campaign(
         latencies,
         math.hypot(PRESSURE_NOISE_KPA, worst_tolerance_kpa()) if pressures else None,
     )
-    crit = Criterion(twin, hyps, pairs, reading, n_jobs)
+    crit = DesignCriterion(twin, hyps, pairs, reading, n_jobs)
     inertia = nominal_inertia(commanded_run.RIG_INERTIA_KG_M2, params)
     candidates = proposals(twin, list(synth.PRESSURES_MPA), inertia, instrument.rate_hz, pressures)
     ranking, chosen, together = choose(crit, candidates, None, None)

@@ -31,10 +31,10 @@ import numpy as np
 
 from gap.campaign_replay import apply_effects
 from gap.effects import Effect
+from gap.kinds import Family
 from pneumatics import JointParams, params_row
 from wrist_rig.one_joint import DT_S, replay_run
 
-PRESSURE_PERIOD_S = 0.02  # chamber-pressure transducers sampled every 20 ms (wrist_rig.commanded_run.SAMPLE_PERIOD_S)
 # The diagnosis tells a candidate from a rival when the rival's held-out score (rms in floors, noise
 # counting 1) is more than 10 % above its own (gap.verdict.Judge.rivals_of): sqrt(1 + d^2) > 1.1, a
 # mean squared difference d^2 > 0.21 floors^2 over all the campaign's runs. A proposal of n runs
@@ -53,7 +53,7 @@ class Hypothesis:
     over a grid of values), the rival's freedom in the criterion."""
 
     name: str
-    family: str
+    family: Family
     effects: Change
     latency_s: float
     alternatives: tuple[Change, ...]

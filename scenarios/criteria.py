@@ -33,7 +33,9 @@ if TYPE_CHECKING:  # types only: the schema imports its criterion kinds from thi
 
 
 @dataclass(frozen=True, kw_only=True)
-class Verdict:
+class CriterionVerdict:
+    """A criterion judged on one subject (a joint, a disc, the brush...): its value, its limit, passed or not."""
+
     kind: str
     subject: str
     value: float
@@ -140,7 +142,7 @@ def judge(
     reached: list[bool] | None = None,
     pending: tuple[Fault, ...] = (),
     finished_s: float = math.nan,
-) -> list[Verdict]:
+) -> list[CriterionVerdict]:
     """One verdict per criterion of the scenario (per joint or disc where it names none; at least one
     each: a criterion with nothing to judge fails). `requested`: the scenario's targets in rad;
     final_error_deg is measured against the last one asked of each joint, so a plan the controller
@@ -163,15 +165,17 @@ def judge(
     return [v for c in scenario.criteria for v in _verdicts(c, e)]
 
 
-def _verdicts(c: Criterion, e: Evidence) -> list[Verdict]:
+def _verdicts(c: Criterion, e: Evidence) -> list[CriterionVerdict]:
     """The criterion's verdict on each value its kind measures (a failed one if it measures none)."""
     kind, limit = CRITERIA[c.kind], _limit(c)
     out = []
     for m in kind.measure(c, e):
         judged = kind.when.judged(e, m)
         passed = judged and bool(math.isfinite(m.value) and _within(m.value, c))
-        out.append(Verdict(kind=c.kind, subject=m.subject, value=m.value, limit=limit, passed=passed, judged=judged))
-    return out or [Verdict(kind=c.kind, subject=c.joint or "-", value=math.nan, limit=limit, passed=False)]
+        out.append(
+            CriterionVerdict(kind=c.kind, subject=m.subject, value=m.value, limit=limit, passed=passed, judged=judged)
+        )
+    return out or [CriterionVerdict(kind=c.kind, subject=c.joint or "-", value=math.nan, limit=limit, passed=False)]
 
 
 def disc_reached(scenario: Scenario, disc: int, reached: list[bool] | None) -> bool:
@@ -426,5 +430,5 @@ CRITERIA: dict[str, CriterionKind] = registry(
 )
 
 
-def as_dicts(verdicts: list[Verdict]) -> list[dict]:
+def as_dicts(verdicts: list[CriterionVerdict]) -> list[dict]:
     return [asdict(v) for v in verdicts]

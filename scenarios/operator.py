@@ -54,7 +54,7 @@ the insulator string (paper Sec. II). This model sees only what that camera's pi
   clear of the rim (nothing can push it: a misreading, or a jammed head): he backs out and does
   not press again by it.
 - **what a coarse picture allows**: he places the brush no finer than a pixel at the string
-  (`Operator.tolerance_m`); a joint his picture gives coarser than UNREADABLE_RAD he does not read;
+  (`OperatorParams.tolerance_m`); a joint his picture gives coarser than UNREADABLE_RAD he does not read;
   with a pixel coarser than his tolerance (`Operator.coarse`), a correction that would move the
   brush across the rim's normal further than it stands off the rim, nearer than the plan's
   clearance, is taken as a possible misreading and made from clear of the string.
@@ -78,7 +78,7 @@ import numpy as np
 from scenarios.ik import BRUSH_HALF_LENGTH_M, carrier_m, drive_to_qpos, tip_drive_angles, tool_drive_angles
 from scenarios.pinhole import Pinhole, camera_of
 from scenarios.plan import CLEAR_M, PRESS_M, TOUCH_STANDOFF_M
-from scenarios.schema import Operator as OperatorParams
+from scenarios.schema import OperatorParams
 from scenarios.sighting import Sighting, sight_string, silhouette_ends_px, triangulate
 from scenarios.string import believed_disc_type, discs_of
 from twin.camera_frames import CLOCK_NEXT_S, CLOCK_TAKEN, record_frame, row_size

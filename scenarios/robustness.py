@@ -65,7 +65,7 @@ LABELS = tuple(label for label, _ in CASES)
 
 
 @dataclass(frozen=True, kw_only=True)
-class Row:
+class RobustnessRow:
     """One case over its seeds."""
 
     case: str
@@ -157,7 +157,7 @@ def all_cleaned(summary: dict) -> bool:
     return bool(summary.get("discs")) and cleaned(summary) == len(summary["discs"])
 
 
-def rows(results: list[dict]) -> list[Row]:
+def rows(results: list[dict]) -> list[RobustnessRow]:
     groups: dict[str, list[dict]] = {}
     for r in results:
         groups.setdefault(r["case"], []).append(r)
@@ -166,7 +166,7 @@ def rows(results: list[dict]) -> list[Row]:
         runs = groups[case]
         discs = [d for r in runs for d in r.get("discs", [])]
         out.append(
-            Row(
+            RobustnessRow(
                 case=case,
                 runs=len(runs),
                 all_cleaned=float(np.mean([all_cleaned(r) for r in runs])),
@@ -200,7 +200,7 @@ def _time(s: float) -> str:
     return "not finished" if math.isinf(s) else "-" if math.isnan(s) else f"{s:.1f}"
 
 
-def table(study_rows: list[Row], figures: dict[str, float]) -> str:
+def table(study_rows: list[RobustnessRow], figures: dict[str, float]) -> str:
     """A markdown table, one line per case, and the goals under it."""
     lines = [
         "| case | runs | all discs cleaned | passed | largest force N | median task time s "
@@ -225,7 +225,7 @@ def table(study_rows: list[Row], figures: dict[str, float]) -> str:
     return "\n".join(lines)
 
 
-def plot(study_rows: list[Row], figures: dict[str, float], path: Path) -> None:
+def plot(study_rows: list[RobustnessRow], figures: dict[str, float], path: Path) -> None:
     """Per case: the largest force (the MAX_FORCE_N goal marked) and the median task time (the
     shipped scenario's marked); a case with a run that left a disc uncleaned in red."""
     fig = Figure(figsize=(8, 0.22 * len(study_rows) + 1.2))
@@ -250,7 +250,7 @@ def plot(study_rows: list[Row], figures: dict[str, float], path: Path) -> None:
     fig.savefig(path, dpi=72)
 
 
-def write(results: list[dict], out: Path) -> list[Row]:
+def write(results: list[dict], out: Path) -> list[RobustnessRow]:
     """robustness.json, .md, .csv and .png in `out`."""
     out.mkdir(parents=True, exist_ok=True)
     (out / "robustness.json").write_text(json.dumps(results, indent=2))
@@ -258,8 +258,8 @@ def write(results: list[dict], out: Path) -> list[Row]:
     (out / "robustness.md").write_text("# Cleaning robustness study\n\n" + table(study_rows, figures) + "\n")
     with open(out / "robustness.csv", "w", newline="") as f:
         w = csv.writer(f)
-        w.writerow([x.name for x in fields(Row)])
+        w.writerow([x.name for x in fields(RobustnessRow)])
         for r in study_rows:
-            w.writerow([getattr(r, x.name) for x in fields(Row)])
+            w.writerow([getattr(r, x.name) for x in fields(RobustnessRow)])
     plot(study_rows, figures, out / "robustness.png")
     return study_rows

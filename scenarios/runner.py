@@ -19,7 +19,7 @@ import assets
 from control import ArmController
 from scenarios import controllers
 from scenarios.cleaning import DiscContact, disc_contacts
-from scenarios.criteria import CRITERIA, Verdict, When, as_dicts, judge
+from scenarios.criteria import CRITERIA, CriterionVerdict, When, as_dicts, judge
 from scenarios.faults import FaultEvents
 from scenarios.ik import RANGE_MARGIN_RAD, carrier_m, rim_drive_angles
 from scenarios.plan import expand
@@ -81,7 +81,7 @@ class _ProgressReport:
 class Result:
     scenario: Scenario
     telemetry: Telemetry
-    verdicts: list[Verdict]
+    verdicts: list[CriterionVerdict]
     targets_rad: list[dict[str, float]]
     error: str = ""
     refusal: str = ""  # the controller refused the plan (e.g. below the minimum rotation): arm left braked
@@ -167,7 +167,7 @@ class Result:
         ]
 
 
-def _disc_row(d: DiscContact, verdicts: list[Verdict]) -> dict:
+def _disc_row(d: DiscContact, verdicts: list[CriterionVerdict]) -> dict:
     """One disc's contact figures and whether its cleaning criteria held (None: not judged)."""
     mine = [v for v in verdicts if CRITERIA[v.kind].when is When.PER_DISC and v.subject == f"disc_{d.disc}"]
     judged = [v for v in mine if v.judged]

@@ -160,7 +160,7 @@ class Reality(Model):
 
 
 @dataclass(frozen=True, config=TABLE)
-class Control:
+class ControlParams:
     mode: choice("closed_loop", "open_loop", "none") = "closed_loop"
     sequence: choice("one_after_another", "together") = "one_after_another"
     min_rotation_deg: number(0.0, 90.0, "deg") = 20.0  # moves shorter than this are refused
@@ -170,7 +170,7 @@ class Control:
 
 
 @dataclass(frozen=True, config=TABLE)
-class Operator:
+class OperatorParams:
     """The operator watching the global camera (scenarios/operator.py has the sources)."""
 
     camera_fps: number(0.5, 200.0, "frames/s") = 25.0
@@ -236,8 +236,8 @@ class Scenario:
     supply: Supply = Supply()
     reality: Reality = Reality()
     predictor: Model = Model()
-    control: Control = Control()
-    operator: Operator = Operator()
+    control: ControlParams = ControlParams()
+    operator: OperatorParams = OperatorParams()
     string: String = String()
     targets: tuple[Target, ...] = ()
     faults: tuple[Fault, ...] = ()

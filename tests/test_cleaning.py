@@ -19,7 +19,7 @@ from scenarios.cleaning import CONTACT_N, _covered_arc_m, disc_contacts
 from scenarios.ik import disc_drive_angles, disc_rim_target, drive_to_qpos, tool_drive_angles
 from scenarios.operator import CAMERA, GlobalCamera, Operator, brush_face_m
 from scenarios.pinhole import camera_of
-from scenarios.schema import Operator as OperatorParams
+from scenarios.schema import OperatorParams
 from twin_cli.cli import main as twin_main
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -8,7 +8,7 @@ import math
 import numpy as np
 import pytest
 
-from gap.arm_campaign import JOINTS, ArmRun, Reality, campaign_toml, load_arm_campaign, write_arm_run
+from gap.arm_campaign import JOINTS, ArmRun, HiddenArmEffect, campaign_toml, load_arm_campaign, write_arm_run
 from gap.arm_diagnose import (
     SIGNIFICANT,
     TOP,
@@ -21,7 +21,7 @@ from gap.arm_diagnose import (
     signature,
     twin_of,
 )
-from gap.arm_effects import Candidate
+from gap.arm_effects import ArmCandidate
 from gap.arm_rehearsal import CAMERA, make_arm_campaign, simulate
 from gap.arm_rehearsal import twin_of as scenario_twin
 from gap.arm_replay import replay
@@ -130,7 +130,10 @@ def campaigns(tmp_path_factory):
     Coulomb friction at 30 N·m instead of its 15."""
     s = load(ONE_JOINT)
     out = {}
-    for name, reality in (("none", None), ("wrist", Reality(effect="wrist_pitch:coulomb_friction", value=30.0))):
+    for name, reality in (
+        ("none", None),
+        ("wrist", HiddenArmEffect(effect="wrist_pitch:coulomb_friction", value=30.0)),
+    ):
         folder = tmp_path_factory.mktemp(name)
         make_arm_campaign(folder, [s], (0.5, 0.7), reality, CAMERA, seed=1, duration_s=SECONDS)
         out[name] = load_arm_campaign(folder)
@@ -156,8 +159,8 @@ def test_a_hidden_effect_is_located_to_its_joint(campaigns):
     assert worst.joint == "wrist_pitch" and worst.floors > SIGNIFICANT
     twin = twin_of(c)
 
-    cands = [Candidate(e, "wrist_pitch") for e in ("coulomb_friction", "viscous_friction", "valve_lag")]
-    cands.append(Candidate("payload_mass"))
+    cands = [ArmCandidate(e, "wrist_pitch") for e in ("coulomb_friction", "viscous_friction", "valve_lag")]
+    cands.append(ArmCandidate("payload_mass"))
     with parallel_jobs(1, None) as run_jobs:
         ranked = screen(run_jobs, c, twin, c.runs[:1], c.instrument.latency_s, cands)
     # the screen picks what the fits try: the hidden effect among the TOP fitted, ahead of those unlike it (on one
@@ -223,11 +226,11 @@ def test_the_screen_finds_a_mounting_tilt_where_the_departing_joint_points(tmp_p
     near 5; looked at again there, the tilt leaves almost nothing and screens ahead of a spring on the
     base (which fits the base alone, not the other joints)."""
     s = load(ONE_JOINT)
-    reality = Reality(effect="arm:mounting_tilt_y", value=5.0)
+    reality = HiddenArmEffect(effect="arm:mounting_tilt_y", value=5.0)
     make_arm_campaign(tmp_path, [s], (0.5, 0.7), reality, CAMERA, seed=0, duration_s=20.0)
     c = load_arm_campaign(tmp_path)
     twin = twin_of(c)
-    tilt, spring = Candidate("mounting_tilt_y"), Candidate("angle_load", "base_yaw")
+    tilt, spring = ArmCandidate("mounting_tilt_y"), ArmCandidate("angle_load", "base_yaw")
     with parallel_jobs(1, None) as run_jobs:
         whole = screen(run_jobs, c, twin, c.runs, c.instrument.latency_s, [tilt, spring])
         own = screen(run_jobs, c, twin, c.runs, c.instrument.latency_s, [tilt, spring], joint="base_yaw")
@@ -243,7 +246,7 @@ def test_an_effects_signature_is_what_the_noise_adds_to(campaigns):
     quadrature to the measured residual: each joint's measured rms is sqrt(1 + signature^2) floors.
     The twin's own value leaves no signature at all, below the floor."""
     c = campaigns["wrist"]
-    coulomb = Candidate("coulomb_friction", "wrist_pitch")
+    coulomb = ArmCandidate("coulomb_friction", "wrist_pitch")
     sig = signature(c, coulomb, 30.0, c.instrument.latency_s)
     assert sig.joints[JOINTS.index("wrist_pitch")].angle_floors > 5.0 and not sig.below_floor
     for measured, s in zip(_gaps(c), sig.joints, strict=True):

@@ -12,7 +12,7 @@ import math
 import numpy as np
 import pytest
 
-from gap.arm_campaign import CAMERA, JOINTS, Reality, add_arm_runs, load_arm_campaign
+from gap.arm_campaign import CAMERA, JOINTS, HiddenArmEffect, add_arm_runs, load_arm_campaign
 from gap.arm_design import changed
 from gap.arm_diagnose import twin_of
 from gap.arm_effects import candidate_named
@@ -31,7 +31,7 @@ def designed(tmp_path_factory):
     """The campaign (elbow Coulomb friction 60 N·m, the twin's 30; 0.5 and 0.7 MPa), its design
     written by `twin gap design --arm`'s function, and the folder."""
     folder = tmp_path_factory.mktemp("campaign")
-    reality = Reality(effect="elbow_pitch:coulomb_friction", value=60.0)
+    reality = HiddenArmEffect(effect="elbow_pitch:coulomb_friction", value=60.0)
     make_arm_campaign(folder, [load(ONE_JOINT)], (0.5, 0.7), reality, CAMERA, seed=1, duration_s=SECONDS)
     out = tmp_path_factory.mktemp("design") / "next"
     a, written = run_arm_design(folder, out, jobs=1)

@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from gap.arm_campaign import JOINTS, ArmRun, Reality, load_arm_campaign
+from gap.arm_campaign import JOINTS, ArmRun, HiddenArmEffect, load_arm_campaign
 from gap.arm_diagnose import EXPLAINED_SHRINK, judge, knife_edges, residual, twin_of
 from gap.arm_effects import candidate_named
 from gap.arm_rehearsal import CAMERA, make_arm_campaign
@@ -46,7 +46,7 @@ def elbow_friction(tmp_path_factory):
     """Point-to-point moves at 0.7 and 0.8 MPa with the elbow's Coulomb friction at 60 N·m (the
     twin's 30) hidden, through the camera; the 0.8 MPa run is the withheld one."""
     folder = tmp_path_factory.mktemp("elbow")
-    reality = Reality(effect="elbow_pitch:coulomb_friction", value=60.0)
+    reality = HiddenArmEffect(effect="elbow_pitch:coulomb_friction", value=60.0)
     make_arm_campaign(folder, [load(POINT_TO_POINT)], (0.7, 0.8), reality, CAMERA, seed=5, duration_s=SECONDS)
     return load_arm_campaign(folder)
 

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 import assets
-from gap.arm_campaign import JOINTS, Reality, load_arm_campaign
+from gap.arm_campaign import JOINTS, HiddenArmEffect, load_arm_campaign
 from gap.arm_diagnose import twin_of
 from gap.arm_effects import candidate_named
 from gap.arm_rehearsal import CAMERA, make_arm_campaign
@@ -21,7 +21,9 @@ from scenarios.schema import load
 from twin_cli.cli import main as twin_main
 
 SECONDS = 4.0  # the exercise's first move: the base out to 70 deg
-HIDDEN = Reality(effect="base_yaw:coulomb_friction", value=60.0)  # the twin's 25 N·m (assets/joints/base_yaw.toml)
+HIDDEN = HiddenArmEffect(
+    effect="base_yaw:coulomb_friction", value=60.0
+)  # the twin's 25 N·m (assets/joints/base_yaw.toml)
 
 
 @pytest.fixture(scope="module")

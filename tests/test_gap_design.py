@@ -12,10 +12,10 @@ import pytest
 from gap import protocols, synth
 from gap.campaign import load_campaign
 from gap.campaign_replay import joint_stops, nominal_inertia
-from gap.design import Criterion, Pair, alternatives, choose, hypotheses_of, planned_run
+from gap.design import DesignCriterion, Pair, alternatives, choose, hypotheses_of, planned_run
 from gap.discrimination import Hypothesis, Reading, ReplayedJoint, misfits, response, trajectory
 from gap.effects import BY_NAME, CATALOGUE
-from gap.kinds import Verdict
+from gap.kinds import Family, Verdict
 from gap.plan import Header, add_runs, play_plan, read_plan, write_plan
 from pneumatics import params_row
 from wrist_rig import commanded_run
@@ -58,10 +58,10 @@ def test_a_run_that_tells_two_hypotheses_apart_ranks_above_one_that_cannot():
     coulomb = ((BY_NAME["coulomb_friction"], 30.0),)
     viscous_effect = BY_NAME["viscous_friction"]
     hyps = [
-        Hypothesis("coulomb", "friction", coulomb, 0.0, (coulomb,)),
-        Hypothesis("viscous", "friction", ((viscous_effect, 8.0),), 0.0, alternatives([viscous_effect])),
+        Hypothesis("coulomb", Family.FRICTION, coulomb, 0.0, (coulomb,)),
+        Hypothesis("viscous", Family.FRICTION, ((viscous_effect, 8.0),), 0.0, alternatives([viscous_effect])),
     ]
-    crit = Criterion(TWIN, hyps, [Pair("coulomb / viscous", ((0, 1), (1, 0)))], READING)
+    crit = DesignCriterion(TWIN, hyps, [Pair("coulomb / viscous", ((0, 1), (1, 0)))], READING)
     cands = [("held", (_run("held"),)), ("reversal", (_run("reversal"),))]
     ranking, chosen, together = choose(crit, cands, None, None)
     by = {p.protocol: p.separation["coulomb / viscous"] for p in ranking}
@@ -190,7 +190,7 @@ def test_the_run_chosen_tells_the_called_family_from_the_others_not_a_member_tha
     0.12 floors."""
     diag, catalogue = _outside_the_catalogue()
     hyps, pairs = hypotheses_of(diag, catalogue)
-    crit = Criterion(TWIN, hyps, pairs, Reading(0.372, np.array([0.0, 0.02, 0.04, 0.06])))
+    crit = DesignCriterion(TWIN, hyps, pairs, Reading(0.372, np.array([0.0, 0.02, 0.04, 0.06])))
     cands = [(n, (_run(n, 0.8, rate_hz=30.0),)) for n in ("dwell_then_move", "back_and_forth")]
     ranking, chosen, together = choose(crit, cands, None, 2)
     by = {p.protocol: p.separation for p in ranking}

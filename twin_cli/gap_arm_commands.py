@@ -63,7 +63,7 @@ def add_bench_options(b) -> None:
 
 
 def _reality(text: str | None):
-    from gap.arm_campaign import Reality
+    from gap.arm_campaign import HiddenArmEffect
     from gap.arm_effects import candidate_named
 
     if text is None:
@@ -71,7 +71,7 @@ def _reality(text: str | None):
     name, eq, value = text.partition("=")
     try:
         candidate_named(name.strip())
-        return Reality(effect=name.strip(), value=float(value))
+        return HiddenArmEffect(effect=name.strip(), value=float(value))
     except ValueError:
         raise UserError(
             f"--reality {text!r}; allowed: '<joint>:<effect>=<number>' or 'arm:<effect>=<number>' "
