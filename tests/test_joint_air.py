@@ -54,7 +54,7 @@ def test_the_kernels_rates_are_each_nodes_mass_and_energy_budget(hose_loss: floa
             pr[1], pr[3], tk[1], tk[3] = pr[0], pr[2], tk[0], tk[2]
         phi, w, d = rng.uniform(-3.0, 3.0), rng.uniform(-600.0, 600.0), float(rng.integers(-1, 2))
         valve, supply = rng.uniform(0.0, 6e5), P_ATM + rng.uniform(4e5, 8e5)
-        a = J.air_rates(*pr, *tk, phi, w, d, valve, supply, p)
+        a = J.air_rates(J.AirState(*pr, *tk), phi, w, d, valve, supply, p)
         dp, dt = energy_air_rates(p, pr, tk, phi, w, d, valve, supply)
         kernel_p = np.array([a.dpa_valve, a.dpa_motor, a.dpb_valve, a.dpb_motor])
         kernel_t = np.array([a.dta_valve, a.dta_motor, a.dtb_valve, a.dtb_motor])
