@@ -499,10 +499,7 @@ def hoses_settled(lines: np.ndarray, p: np.ndarray) -> bool:
 
 @njit(inline="always")
 def _polytropic_rates(
-    pa_valve: float,
-    pa_motor: float,
-    pb_valve: float,
-    pb_motor: float,
+    a: AirState,
     phi_motor: float,
     omega_motor: float,
     direction: float,
@@ -514,6 +511,7 @@ def _polytropic_rates(
     # temperature, the temperatures' rates 0. The W blocks: a node's rate n/V (R T m_in - p dV/dt)
     # with m_in = sum of g (p_other - p) has the slope -n/V (R T sum g + dV/dt) against its own
     # pressure and n/V R T g against another's.
+    pa_valve, pa_motor, pb_valve, pb_motor = a.pa_valve, a.pa_motor, a.pb_valve, a.pb_motor
     r = p[P.GAS_R]
     t_s = p[P.GAS_T]
     n = p[P.POLY_N]
@@ -660,14 +658,7 @@ def _node_energy(
 
 @njit(inline="always")
 def _energy_rates(
-    pa_valve: float,
-    pa_motor: float,
-    pb_valve: float,
-    pb_motor: float,
-    ta_valve: float,
-    ta_motor: float,
-    tb_valve: float,
-    tb_motor: float,
+    a: AirState,
     phi_motor: float,
     omega_motor: float,
     direction: float,
@@ -681,6 +672,8 @@ def _energy_rates(
     # (`orifice_mass_flow_between`), the hose's friction at its two ends' mean. Heat from walls at
     # the supply temperature (`_wall_conductance`). W's pressure blocks as the polytropic law's with
     # n = k and each flow's own carried temperature, k/V R T_i g_i.
+    pa_valve, pa_motor, pb_valve, pb_motor = a.pa_valve, a.pa_motor, a.pb_valve, a.pb_motor
+    ta_valve, ta_motor, tb_valve, tb_motor = a.ta_valve, a.ta_motor, a.tb_valve, a.tb_motor
     r = p[P.GAS_R]
     k = p[P.GAS_K]
     t_s = p[P.GAS_T]
@@ -819,14 +812,8 @@ def air_rates(
     Sec. IV). What a caller does not use the compiler drops.
     """
     if p[P.CHAMBER_HEAT] == 0.0:
-        return _polytropic_rates(
-            a.pa_valve, a.pa_motor, a.pb_valve, a.pb_motor, phi_motor, omega_motor, direction, valve_gauge_pa,
-            supply_pa, p,
-        )  # fmt: skip
-    return _energy_rates(
-        a.pa_valve, a.pa_motor, a.pb_valve, a.pb_motor, a.ta_valve, a.ta_motor, a.tb_valve, a.tb_motor, phi_motor,
-        omega_motor, direction, valve_gauge_pa, supply_pa, p,
-    )  # fmt: skip
+        return _polytropic_rates(a, phi_motor, omega_motor, direction, valve_gauge_pa, supply_pa, p)
+    return _energy_rates(a, phi_motor, omega_motor, direction, valve_gauge_pa, supply_pa, p)
 
 
 @njit(inline="always")
@@ -1016,31 +1003,43 @@ def at_rest(x: np.ndarray, omega: float, p: np.ndarray) -> bool:
     )
 
 
+class _Nodes(NamedTuple):
+    # one number per air node, in the S_PA_VALVE.. order (the pressures' part of ROS2's stages, the
+    # temperatures' factors)
+    a_valve: float
+    a_motor: float
+    b_valve: float
+    b_motor: float
+
+
 @njit(inline="always")
 def _ros2_solve(
     ma: tuple[float, float, float, float],
     mb: tuple[float, float, float, float],
-    leak: tuple[float, float],
-    r: tuple[float, float, float, float],
+    leak_a: float,
+    leak_b: float,
+    r: _Nodes,
     one_node: bool,
-) -> tuple[float, float, float, float]:
+) -> _Nodes:
     # (I - g h W) k = r for the four node pressures: ma, mb the inverses of port A's and port B's
-    # 2 x 2 blocks (`ros2_inverse`), `leak` g h times the vane leak's coupling of the motor nodes
-    # (A's rate against B's pressure, B's against A's). Each port solved alone, then the coupling
-    # eliminated: k_A = ma r_A + leak_A ma e_m k_Bm, and B the same way. Without the hose loss a
-    # port's valve and motor node are one node: both take the motor node's result.
-    ua = (ma[0] * r[0] + ma[1] * r[1], ma[2] * r[0] + ma[3] * r[1])
-    ub = (mb[0] * r[2] + mb[1] * r[3], mb[2] * r[2] + mb[3] * r[3])
-    if leak[0] == 0.0 and leak[1] == 0.0:  # no vane leak (the nominal joint): the ports apart
-        return ua[0], ua[1], ub[0], ub[1]
-    alpha = leak[0] * ma[3]
-    beta = leak[1] * mb[3]
+    # 2 x 2 blocks (`ros2_inverse`, row-major), leak_a, leak_b g h times the vane leak's coupling of
+    # the motor nodes (A's rate against B's pressure, B's against A's). Each port solved alone, then
+    # the coupling eliminated: k_A = ma r_A + leak_A ma e_m k_Bm, and B the same way. Without the hose
+    # loss a port's valve and motor node are one node: both take the motor node's result.
+    ua_valve = ma[0] * r.a_valve + ma[1] * r.a_motor
+    ua_motor = ma[2] * r.a_valve + ma[3] * r.a_motor
+    ub_valve = mb[0] * r.b_valve + mb[1] * r.b_motor
+    ub_motor = mb[2] * r.b_valve + mb[3] * r.b_motor
+    if leak_a == 0.0 and leak_b == 0.0:  # no vane leak (the nominal joint): the ports apart
+        return _Nodes(ua_valve, ua_motor, ub_valve, ub_motor)
+    alpha = leak_a * ma[3]
+    beta = leak_b * mb[3]
     inv = 1.0 / (1.0 - alpha * beta)
-    k_am = (ua[1] + alpha * ub[1]) * inv
-    k_bm = (ub[1] + beta * ua[1]) * inv
+    k_am = (ua_motor + alpha * ub_motor) * inv
+    k_bm = (ub_motor + beta * ua_motor) * inv
     if one_node:
-        return k_am, k_am, k_bm, k_bm
-    return ua[0] + leak[0] * ma[1] * k_bm, k_am, ub[0] + leak[1] * mb[1] * k_am, k_bm
+        return _Nodes(k_am, k_am, k_bm, k_bm)
+    return _Nodes(ua_valve + leak_a * ma[1] * k_bm, k_am, ub_valve + leak_b * mb[1] * k_am, k_bm)
 
 
 @njit(inline="always")
@@ -1070,11 +1069,9 @@ class Ros2Stage(NamedTuple):
     k: AirState
     ma: tuple[float, float, float, float]
     mb: tuple[float, float, float, float]
-    leak: tuple[float, float]
-    mt_a_valve: float
-    mt_a_motor: float
-    mt_b_valve: float
-    mt_b_motor: float
+    leak_a: float
+    leak_b: float
+    mt: _Nodes
 
 
 @njit(inline="always")
@@ -1084,17 +1081,18 @@ def _ros2_first(f: AirRates, h: float, one_node: bool) -> Ros2Stage:
     ma = ros2_inverse(f.wa00, f.wa01, f.wa10, f.wa11, h)
     mb = ros2_inverse(f.wb00, f.wb01, f.wb10, f.wb11, h)
     gh = ROS2_GAMMA * h
-    leak = (gh * f.leak_a, gh * f.leak_b)
-    k = _ros2_solve(ma, mb, leak, (f.dpa_valve, f.dpa_motor, f.dpb_valve, f.dpb_motor), one_node)
+    leak_a = gh * f.leak_a
+    leak_b = gh * f.leak_b
+    k = _ros2_solve(ma, mb, leak_a, leak_b, _Nodes(f.dpa_valve, f.dpa_motor, f.dpb_valve, f.dpb_motor), one_node)
     mt_a_valve = 1.0 / (1.0 - gh * f.wt_a_valve)
     mt_a_motor = 1.0 / (1.0 - gh * f.wt_a_motor)
     mt_b_valve = 1.0 / (1.0 - gh * f.wt_b_valve)
     mt_b_motor = 1.0 / (1.0 - gh * f.wt_b_motor)
     slope = AirState(
-        k[0], k[1], k[2], k[3], mt_a_valve * f.dta_valve, mt_a_motor * f.dta_motor, mt_b_valve * f.dtb_valve,
-        mt_b_motor * f.dtb_motor,
+        k.a_valve, k.a_motor, k.b_valve, k.b_motor, mt_a_valve * f.dta_valve, mt_a_motor * f.dta_motor,
+        mt_b_valve * f.dtb_valve, mt_b_motor * f.dtb_motor,
     )  # fmt: skip
-    return Ros2Stage(slope, ma, mb, leak, mt_a_valve, mt_a_motor, mt_b_valve, mt_b_motor)
+    return Ros2Stage(slope, ma, mb, leak_a, leak_b, _Nodes(mt_a_valve, mt_a_motor, mt_b_valve, mt_b_motor))
 
 
 @njit(inline="always")
@@ -1102,23 +1100,20 @@ def _ros2_second(a: AirState, first: Ros2Stage, g: AirRates, h: float, one_node:
     # ROS2's second stage, (I - g h W) k2 = g - 2 k1 with the first stage's matrices and g the rates at
     # the first stage's estimate a + h k1 one step on, and the step's result from the air `a` at its start
     k = first.k
-    k2 = _ros2_solve(
-        first.ma,
-        first.mb,
-        first.leak,
-        (g.dpa_valve - 2.0 * k.pa_valve, g.dpa_motor - 2.0 * k.pa_motor, g.dpb_valve - 2.0 * k.pb_valve,
-         g.dpb_motor - 2.0 * k.pb_motor),
-        one_node,
+    r = _Nodes(
+        g.dpa_valve - 2.0 * k.pa_valve, g.dpa_motor - 2.0 * k.pa_motor, g.dpb_valve - 2.0 * k.pb_valve,
+        g.dpb_motor - 2.0 * k.pb_motor,
     )  # fmt: skip
+    k2 = _ros2_solve(first.ma, first.mb, first.leak_a, first.leak_b, r, one_node)
     return AirState(
-        a.pa_valve + ros2_increment(h, k.pa_valve, k2[0]),
-        a.pa_motor + ros2_increment(h, k.pa_motor, k2[1]),
-        a.pb_valve + ros2_increment(h, k.pb_valve, k2[2]),
-        a.pb_motor + ros2_increment(h, k.pb_motor, k2[3]),
-        a.ta_valve + ros2_increment(h, k.ta_valve, first.mt_a_valve * (g.dta_valve - 2.0 * k.ta_valve)),
-        a.ta_motor + ros2_increment(h, k.ta_motor, first.mt_a_motor * (g.dta_motor - 2.0 * k.ta_motor)),
-        a.tb_valve + ros2_increment(h, k.tb_valve, first.mt_b_valve * (g.dtb_valve - 2.0 * k.tb_valve)),
-        a.tb_motor + ros2_increment(h, k.tb_motor, first.mt_b_motor * (g.dtb_motor - 2.0 * k.tb_motor)),
+        a.pa_valve + ros2_increment(h, k.pa_valve, k2.a_valve),
+        a.pa_motor + ros2_increment(h, k.pa_motor, k2.a_motor),
+        a.pb_valve + ros2_increment(h, k.pb_valve, k2.b_valve),
+        a.pb_motor + ros2_increment(h, k.pb_motor, k2.b_motor),
+        a.ta_valve + ros2_increment(h, k.ta_valve, first.mt.a_valve * (g.dta_valve - 2.0 * k.ta_valve)),
+        a.ta_motor + ros2_increment(h, k.ta_motor, first.mt.a_motor * (g.dta_motor - 2.0 * k.ta_motor)),
+        a.tb_valve + ros2_increment(h, k.tb_valve, first.mt.b_valve * (g.dtb_valve - 2.0 * k.tb_valve)),
+        a.tb_motor + ros2_increment(h, k.tb_motor, first.mt.b_motor * (g.dtb_motor - 2.0 * k.tb_motor)),
     )
 
 
@@ -1157,12 +1152,9 @@ def _keep_first_stage(x: np.ndarray, a: AirState, first: Ros2Stage) -> None:
     for c in range(4):
         x[S_PAIR_MA + c] = first.ma[c]
         x[S_PAIR_MB + c] = first.mb[c]
-    x[S_PAIR_LEAK] = first.leak[0]
-    x[S_PAIR_LEAK + 1] = first.leak[1]
-    x[S_PAIR_T_M] = first.mt_a_valve
-    x[S_PAIR_T_M + 1] = first.mt_a_motor
-    x[S_PAIR_T_M + 2] = first.mt_b_valve
-    x[S_PAIR_T_M + 3] = first.mt_b_motor
+        x[S_PAIR_T_M + c] = first.mt[c]
+    x[S_PAIR_LEAK] = first.leak_a
+    x[S_PAIR_LEAK + 1] = first.leak_b
 
 
 @njit(inline="always")
@@ -1172,11 +1164,9 @@ def _kept_first_stage(x: np.ndarray) -> Ros2Stage:
         row_air(x, S_PAIR_K, S_PAIR_T_K),
         (x[S_PAIR_MA], x[S_PAIR_MA + 1], x[S_PAIR_MA + 2], x[S_PAIR_MA + 3]),
         (x[S_PAIR_MB], x[S_PAIR_MB + 1], x[S_PAIR_MB + 2], x[S_PAIR_MB + 3]),
-        (x[S_PAIR_LEAK], x[S_PAIR_LEAK + 1]),
-        x[S_PAIR_T_M],
-        x[S_PAIR_T_M + 1],
-        x[S_PAIR_T_M + 2],
-        x[S_PAIR_T_M + 3],
+        x[S_PAIR_LEAK],
+        x[S_PAIR_LEAK + 1],
+        _Nodes(x[S_PAIR_T_M], x[S_PAIR_T_M + 1], x[S_PAIR_T_M + 2], x[S_PAIR_T_M + 3]),
     )
 
 
@@ -1371,7 +1361,7 @@ class _MotorSideRates(NamedTuple):
     torque: float
 
 
-class _MotorSideHeld(NamedTuple):
+class _MotorSideInputs(NamedTuple):
     # what `advance_motor_side` holds over its step: the joint's speed (rad/s), the direction valve, the
     # proportional valve's output (gauge Pa), the supply (Pa), the gear's stiffness (N·m/rad), damping
     # (N·m·s/rad) and half backlash (rad), the motor side's inertia (kg·m^2)
@@ -1387,27 +1377,33 @@ class _MotorSideHeld(NamedTuple):
 
 @njit
 def _motor_side_rates(
-    y: _MotorSide, theta: float, slide_m: float, held: _MotorSideHeld, p: np.ndarray
+    y: _MotorSide, theta: float, slide_m: float, inputs: _MotorSideInputs, p: np.ndarray
 ) -> _MotorSideRates:
     # rates of y, the joint at theta, the gear's friction held sliding in `slide_m` (0: Karnopp's rule)
     ratio = p[P.RATIO]
     phi = ratio * y.q_m
-    tau_t = transmitted_torque(y.q_m - theta, y.w_m - held.omega, held.half_gap, held.k, held.c)
-    r = air_rates(y.air, phi, ratio * y.w_m, held.direction, held.valve, held.supply_pa, p)
+    tau_t = transmitted_torque(y.q_m - theta, y.w_m - inputs.omega, inputs.half_gap, inputs.k, inputs.c)
+    r = air_rates(y.air, phi, ratio * y.w_m, inputs.direction, inputs.valve, inputs.supply_pa, p)
     # `motor_side_drive`, from the geometry the rates took at the same angle
     t_rippled = _rippled(_vane_torque_at(y.air.pa_motor, y.air.pb_motor, r.slope), phi, p)
     drive, stuck = _motor_side_drive_of(t_rippled, y.w_m, slide_m, tau_t, p)
-    dq, dw = (0.0, 0.0) if stuck else (y.w_m, (drive - tau_t) / held.j_motor)
+    dq, dw = (0.0, 0.0) if stuck else (y.w_m, (drive - tau_t) / inputs.j_motor)
     return _MotorSideRates(_air_slopes(r), dq, dw, tau_t)
 
 
 @njit
 def _motor_side_stage(
-    y0: _MotorSide, rates: _MotorSideRates, c: float, theta: float, slide_m: float, held: _MotorSideHeld, p: np.ndarray
+    y0: _MotorSide,
+    rates: _MotorSideRates,
+    c: float,
+    theta: float,
+    slide_m: float,
+    inputs: _MotorSideInputs,
+    p: np.ndarray,
 ) -> _MotorSideRates:
     # `_motor_side_rates` at the state y0 + c * rates: an RK4 stage
     y = _MotorSide(_air_plus(y0.air, rates.air, c), y0.q_m + c * rates.dq_m, y0.w_m + c * rates.dw_m)
-    return _motor_side_rates(y, theta, slide_m, held, p)
+    return _motor_side_rates(y, theta, slide_m, inputs, p)
 
 
 @njit(inline="always")
@@ -1471,7 +1467,7 @@ def advance_motor_side(
     n = substeps_for(dt_s, mode_frequency(k, j_m, 0.0), substeps)
     h = dt_s / n
     direction = x[S_DIR]
-    kept = _MotorSideHeld(omega, direction, valve_gauge_pa, supply_pa, k, damping(k, j_m), half, j_m)
+    inputs = _MotorSideInputs(omega, direction, valve_gauge_pa, supply_pa, k, damping(k, j_m), half, j_m)
     y = _MotorSide(row_air(x, S_PA_VALVE, S_TA_VALVE), x[S_QM], x[S_OMEGA_M])
     impulse = 0.0
     # hoses that are lines: advanced once over the step, the motor turning at its starting speed, and
@@ -1498,10 +1494,10 @@ def advance_motor_side(
         if m > 0:
             ends = _air_ros2(y.air, ratio * y.q_m, ratio * y.w_m, direction, valve_gauge_pa, supply_pa, h / m, m, p)
             secant = _air_secant(y.air, ends, h)
-        k1 = _held_air_rates(_motor_side_rates(y, th0, s, kept, p), secant, held)
-        k2 = _held_air_rates(_motor_side_stage(y, k1, 0.5 * h, th1, s, kept, p), secant, held)
-        k3 = _held_air_rates(_motor_side_stage(y, k2, 0.5 * h, th1, s, kept, p), secant, held)
-        k4 = _held_air_rates(_motor_side_stage(y, k3, h, th2, s, kept, p), secant, held)
+        k1 = _held_air_rates(_motor_side_rates(y, th0, s, inputs, p), secant, held)
+        k2 = _held_air_rates(_motor_side_stage(y, k1, 0.5 * h, th1, s, inputs, p), secant, held)
+        k3 = _held_air_rates(_motor_side_stage(y, k2, 0.5 * h, th1, s, inputs, p), secant, held)
+        k4 = _held_air_rates(_motor_side_stage(y, k3, h, th2, s, inputs, p), secant, held)
         # ROS2's result where it took the air, not its secant's rounding
         air = ends if m > 0 else _air_rk4(y.air, k1.air, k2.air, k3.air, k4.air, h)
         q = y.q_m + rk4_increment(h, k1.dq_m, k2.dq_m, k3.dq_m, k4.dq_m)
@@ -1514,7 +1510,7 @@ def advance_motor_side(
                 q, w0, w, s, joint_torque(a_m, b_m, phi, -s, p) - joint_torque(a_m, b_m, phi, s, p), j_m, h
             )
         if abs(w) < stick:
-            tau_t = transmitted_torque(q - th2, w - omega, half, k, kept.c)
+            tau_t = transmitted_torque(q - th2, w - omega, half, k, inputs.c)
             if motor_side_drive(a_m, b_m, ratio * q, w, 0.0, tau_t, p).held:
                 w = 0.0
         y = _MotorSide(air, q, w)
@@ -1566,19 +1562,21 @@ def _slide_direction(speed: float, p: np.ndarray) -> float:
     return 0.0 if abs(speed) < p[P.STICK_SPEED] else math.copysign(1.0, speed)
 
 
+class _BodyInputs(NamedTuple):
+    # what the one-joint model holds over a step (`single_joint_rates`' arguments): the direction
+    # valve's position, the proportional valve's output (gauge Pa), the supply (Pa, absolute), the load
+    # torque (N·m), the joint-side inertia with the reflected rotor (kg·m^2), the brake's engagement
+    direction: float
+    valve_gauge_pa: float
+    supply_pa: float
+    load_torque_nm: float
+    inertia_kg_m2: float
+    brake_engagement: float
+
+
 @njit
 def _rates(
-    y: np.ndarray,
-    direction: float,
-    valve_gauge_pa: float,
-    supply_pa: float,
-    load_torque_nm: float,
-    inertia_kg_m2: float,
-    brake_engagement: float,
-    slide: float,
-    slide_m: float,
-    p: np.ndarray,
-    out: np.ndarray,
+    y: np.ndarray, inputs: _BodyInputs, slide: float, slide_m: float, p: np.ndarray, out: np.ndarray
 ) -> tuple[bool, bool]:
     # `single_joint_rates` with the joint side's dry friction held sliding in the direction `slide`
     # (+1/-1) and a non-rigid gear's in `slide_m`, or, where 0, by Karnopp's rule at the speed in y.
@@ -1589,24 +1587,26 @@ def _rates(
     rigid = is_rigid(p)
     tau_t = 0.0
     if rigid:
-        j_j = inertia_kg_m2
+        j_j = inputs.inertia_kg_m2
         phi = ratio * theta
         w_motor = ratio * omega
     else:
-        j_m, j_j = inertia_split(inertia_kg_m2, ratio * ratio * p[P.ROTOR_J])
+        j_m, j_j = inertia_split(inputs.inertia_kg_m2, ratio * ratio * p[P.ROTOR_J])
         k = stiffness(p[P.BACKLASH], p[P.COMPLIANCE])
         phi = ratio * y[R_QM]
         tau_t = transmitted_torque(y[R_QM] - theta, y[R_OMEGA_M] - omega, 0.5 * p[P.BACKLASH], k, damping(k, j_m))
         w_motor = ratio * y[R_OMEGA_M]
-    rates = air_rates(row_air(y, R_PA_VALVE, R_TA_VALVE), phi, w_motor, direction, valve_gauge_pa, supply_pa, p)
+    rates = air_rates(
+        row_air(y, R_PA_VALVE, R_TA_VALVE), phi, w_motor, inputs.direction, inputs.valve_gauge_pa, inputs.supply_pa, p
+    )
     # the motor's vane torque from the geometry the rates took at the same angle (`joint_torque`)
     t_rippled = _rippled(_vane_torque_at(y[R_PA_MOTOR], y[R_PB_MOTOR], rates.slope), phi, p)
     drive = tau_t  # a non-rigid gear's transmitted torque
     if rigid:
         # a joint held sliding keeps its gear's efficiency (forward or back-driven) with its friction
         drive = _through_gear(t_rippled, slide if slide != 0.0 else omega, p)
-    drive -= load_torque_nm
-    coulomb = dry_friction_limit(brake_engagement, omega, p)
+    drive -= inputs.load_torque_nm
+    coulomb = dry_friction_limit(inputs.brake_engagement, omega, p)
     joint_held = False
     if slide != 0.0:
         out[R_THETA] = omega
@@ -1659,20 +1659,8 @@ def single_joint_rates(
     joint side's J_j split `inertia_kg_m2` (`reducer.inertia_split`). With the rigid reducer the
     motor side's rates are the joint's.
     """
-    slide = _slide_direction(y[R_OMEGA], p)
-    _rates(
-        y,
-        direction,
-        valve_gauge_pa,
-        supply_pa,
-        load_torque_nm,
-        inertia_kg_m2,
-        brake_engagement,
-        slide,
-        _slide_direction(y[R_OMEGA_M], p),
-        p,
-        out,
-    )
+    inputs = _BodyInputs(direction, valve_gauge_pa, supply_pa, load_torque_nm, inertia_kg_m2, brake_engagement)
+    _rates(y, inputs, _slide_direction(y[R_OMEGA], p), _slide_direction(y[R_OMEGA_M], p), p, out)
 
 
 @njit(inline="always")
@@ -1742,6 +1730,7 @@ def single_joint_rk4(
     m = explicit_air_substeps(h, p)
     line = uses_line(p)
     air_ros2 = line or m > 0
+    inputs = _BodyInputs(direction, valve_gauge_pa, supply_pa, load_torque_nm, inertia_kg_m2, brake_engagement)
     secant = AirState(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)  # the air's secant over a sub-step, when air_ros2
     for _ in range(n):
         w0 = y[R_OMEGA]
@@ -1763,25 +1752,19 @@ def single_joint_rk4(
                     start, ratio * y[R_QM], ratio * y[R_OMEGA_M], direction, valve_gauge_pa, supply_pa, h / m, m, p
                 )
             secant = _air_secant(start, end, h)
-        _rates(y, direction, valve_gauge_pa, supply_pa, load_torque_nm, inertia_kg_m2, brake_engagement, s, s_m, p, k1)
+        _rates(y, inputs, s, s_m, p, k1)
         _held_air(k1, secant, air_ros2)
         for i in range(N_RIGID):
             tmp[i] = y[i] + 0.5 * h * k1[i]
-        _rates(
-            tmp, direction, valve_gauge_pa, supply_pa, load_torque_nm, inertia_kg_m2, brake_engagement, s, s_m, p, k2
-        )
+        _rates(tmp, inputs, s, s_m, p, k2)
         _held_air(k2, secant, air_ros2)
         for i in range(N_RIGID):
             tmp[i] = y[i] + 0.5 * h * k2[i]
-        _rates(
-            tmp, direction, valve_gauge_pa, supply_pa, load_torque_nm, inertia_kg_m2, brake_engagement, s, s_m, p, k3
-        )
+        _rates(tmp, inputs, s, s_m, p, k3)
         _held_air(k3, secant, air_ros2)
         for i in range(N_RIGID):
             tmp[i] = y[i] + h * k3[i]
-        _rates(
-            tmp, direction, valve_gauge_pa, supply_pa, load_torque_nm, inertia_kg_m2, brake_engagement, s, s_m, p, k4
-        )
+        _rates(tmp, inputs, s, s_m, p, k4)
         _held_air(k4, secant, air_ros2)
         for i in range(N_RIGID):
             y[i] += rk4_increment(h, k1[i], k2[i], k3[i], k4[i])
@@ -1806,19 +1789,7 @@ def single_joint_rk4(
             y[R_OMEGA_M] = y[R_OMEGA]
         if abs(y[R_OMEGA]) < p[P.STICK_SPEED] or abs(y[R_OMEGA_M]) < p[P.STICK_SPEED]:
             # Karnopp: a body that has come to rest and is not pushed past its friction stays put
-            joint_held, motor_held = _rates(
-                y,
-                direction,
-                valve_gauge_pa,
-                supply_pa,
-                load_torque_nm,
-                inertia_kg_m2,
-                brake_engagement,
-                0.0,
-                0.0,
-                p,
-                tmp,
-            )
+            joint_held, motor_held = _rates(y, inputs, 0.0, 0.0, p, tmp)
             if joint_held:
                 y[R_OMEGA] = 0.0
             if motor_held:
