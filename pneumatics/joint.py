@@ -1206,16 +1206,17 @@ def advance_air_pair(
     direction = x[S_DIR]
     if uses_line(p):
         return _advance_air_lines(x, theta, omega, valve_gauge_pa, supply_pa, dt_s, p)
-    a = row_air(x, S_PA_VALVE, S_TA_VALVE)
     if x[S_PAIR] == 1.0 and x[S_PAIR_DIR] == direction and x[S_PAIR_SUPPLY] == supply_pa:
         # the second physics step: the first stage's estimate carried on to the step's end
+        a = row_air(x, S_PA_VALVE, S_TA_VALVE)
         torque = joint_torque(a.pa_motor, a.pb_motor, ratio * theta, omega, p)
         put_row_air(x, S_PA_VALVE, S_TA_VALVE, _air_plus(a, row_air(x, S_PAIR_K, S_PAIR_T_K), dt_s))
         x[S_PAIR] = 2.0
         return torque
     x[S_PAIR] = 0.0
     if at_rest(x, omega, p):
-        return joint_torque(a.pa_motor, a.pb_motor, ratio * theta, omega, p)
+        return joint_torque(x[S_PA_MOTOR], x[S_PB_MOTOR], ratio * theta, omega, p)
+    a = row_air(x, S_PA_VALVE, S_TA_VALVE)
     if air_substeps(2.0 * dt_s, p) > 1:
         # a short hose: its fill is faster than one ROS2 step over two physics steps follows, so the
         # air takes whole ROS2 steps inside this one (`air_substeps`), the joint turning at omega
