@@ -74,7 +74,7 @@ Interface for a caller that steps the line every physics step (pneumatics/joint.
   heat)`, a float64 row (columns LR_*; n is the gas's ratio of specific heats k);
   `segments_for(length_m, c_m_s)` picks the segments.
 - state: `x = initial_line_state(row, p_pa)`, float64 of `state_size(row)`: the cells' (rho, rho u,
-  E), the unsteady friction's terms, and working space (module `_offsets`). Read it through
+  E), the unsteady friction's terms, and working space (module `_layout`). Read it through
   `far_end_pressure(x, row)`, `far_end_temperature(x, row)`, `cell_pressures(x, row)`,
   `stored_mass(x, row, end_volume_m3)`, `stored_energy`.
 - each physics step of dt, one of (advancing x in place):
@@ -98,6 +98,7 @@ Interface for a caller that steps the line every physics step (pneumatics/joint.
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 
@@ -181,27 +182,37 @@ def line_row(
     return row
 
 
+class _Layout(NamedTuple):
+    # where the parts of a line's state are: the cells' (rho, rho u, E) are x[0:3N], then
+    nseg: int  # N, the cells
+    terms: int  # the unsteady friction's terms
+    speed: int  # the fastest wave speed's slot
+    start: int  # the sub-step's start copy of the cells (3 N)
+    prim: int  # the primitive variables' working space (3 N)
+
+
 @njit(inline="always")
-def _offsets(row: np.ndarray) -> tuple[int, int, int, int, int]:
-    # (N, start of the unsteady terms, the fastest wave speed's slot, the sub-step's start copy of
-    # the cells, the primitive variables' working space); the cells' (rho, rho u, E) are x[0:3N]
+def _layout(row: np.ndarray) -> _Layout:
+    # the line's state's layout (`_Layout`) for its parameter row
     nseg = int(row[LR_SEGMENTS])
     terms = 3 * nseg
     speed = terms + (N_UNSTEADY * nseg if row[LR_UNSTEADY] != 0.0 else 0)
-    return nseg, terms, speed, speed + 1, speed + 1 + 3 * nseg
+    return _Layout(nseg, terms, speed, speed + 1, speed + 1 + 3 * nseg)
 
 
 @njit
 def state_size(row: np.ndarray) -> int:
     """Length of a line's state: 3 N cell averages, with unsteady friction N_UNSTEADY wall-shear
     terms per cell, the fastest wave speed, and 6 N of working space."""
-    return _offsets(row)[4] + 3 * int(row[LR_SEGMENTS])
+    layout = _layout(row)
+    return layout.prim + 3 * layout.nseg
 
 
 @njit
 def initial_line_state(row: np.ndarray, p_pa: float) -> np.ndarray:
     """A line at rest: every cell at `p_pa` and the line's temperature, no flow."""
-    nseg, _, speed, _, _ = _offsets(row)
+    layout = _layout(row)
+    nseg, speed = layout.nseg, layout.speed
     x = np.zeros(state_size(row))
     x[:nseg] = p_pa / row[LR_RT]
     x[2 * nseg : 3 * nseg] = p_pa / (row[LR_N] - 1.0)
@@ -465,7 +476,8 @@ def _hyperbolic_stage(
     # flows (kg/s) through the inlet face and into the far end (the far cell's inner face, or its outer
     # face into a pinned chamber), and the fastest wave. With an end volume the far cell is a plenum
     # (its segment and the end volume, gas at rest) that the line enters as an open end
-    nseg, _, _, start, prim = _offsets(row)
+    layout = _layout(row)
+    nseg, start, prim = layout.nseg, layout.start, layout.prim
     k = row[LR_N]
     gm1 = k - 1.0
     area = row[LR_AREA]
@@ -545,7 +557,8 @@ def _wall_sources(x: np.ndarray, row: np.ndarray, h: float, end_volume: float) -
     # the wall's shear (steady Darcy-Weisbach through its secant, Zielke's unsteady part through
     # Schohl's terms, both implicit in the new momentum, against the acceleration over the whole
     # sub-step since the start copy) and heat (explicit: its time, ~ms, is far above a sub-step)
-    nseg, terms, _, start, _ = _offsets(row)
+    layout = _layout(row)
+    nseg, terms, start = layout.nseg, layout.terms, layout.start
     area = row[LR_AREA]
     dx = row[LR_DX]
     k = row[LR_N]
@@ -605,7 +618,8 @@ def _advance(
 ) -> LineStep:
     # the three inlets' common loop: `kind` picks the inlet; (a, b) are the inlet's pressure at the
     # step's start and end, the orifice's upstream pressure (a), or the inflow (a)
-    nseg, _, speed, start, _ = _offsets(row)
+    layout = _layout(row)
+    nseg, speed, start = layout.nseg, layout.speed, layout.start
     k = row[LR_N]
     gm1 = k - 1.0
     rt0 = row[LR_RT]

@@ -166,6 +166,67 @@ def inlet_draw(supply_pa: float, valve_gauge_pa: float, opening: float, p_node_p
     return max(0.0, orifice_mass_flow_with(upstream, p_node_pa, area, p[P.CHOKED_FLUX], p[P.GAS_K]))
 
 
+class AirState(NamedTuple):
+    """A joint's air: its four nodes' pressures (Pa, absolute; the valve and the motor end of port A's
+    hose, then port B's) and their gas temperatures (K), in that order. The same eight as rates
+    (Pa/s, K/s) where a stepper carries their slopes (ROS2's stages, a secant over a sub-step)."""
+
+    pa_valve: float
+    pa_motor: float
+    pb_valve: float
+    pb_motor: float
+    ta_valve: float
+    ta_motor: float
+    tb_valve: float
+    tb_motor: float
+
+
+@njit(inline="always")
+def row_air(x: np.ndarray, pressures: int, temperatures: int) -> AirState:
+    """The air in a float64 row whose four pressures start at column `pressures` and four
+    temperatures at `temperatures` (each in the S_PA_VALVE.. order): a joint's state row
+    (S_PA_VALVE, S_TA_VALVE), the air step's start and first stage kept in it, the one-joint
+    state (R_PA_VALVE, R_TA_VALVE) and its rates. The one place those columns are read."""
+    return AirState(
+        x[pressures], x[pressures + 1], x[pressures + 2], x[pressures + 3], x[temperatures],
+        x[temperatures + 1], x[temperatures + 2], x[temperatures + 3],
+    )  # fmt: skip
+
+
+@njit(inline="always")
+def put_row_air(x: np.ndarray, pressures: int, temperatures: int, a: AirState) -> None:
+    """Write the air `a` into a row's columns as `row_air` reads them."""
+    x[pressures] = a.pa_valve
+    x[pressures + 1] = a.pa_motor
+    x[pressures + 2] = a.pb_valve
+    x[pressures + 3] = a.pb_motor
+    x[temperatures] = a.ta_valve
+    x[temperatures + 1] = a.ta_motor
+    x[temperatures + 2] = a.tb_valve
+    x[temperatures + 3] = a.tb_motor
+
+
+@njit(inline="always")
+def _air_plus(a: AirState, rate: AirState, h: float) -> AirState:
+    # the air a moved by h times `rate` (an explicit step, a stage's estimate)
+    return AirState(
+        a.pa_valve + h * rate.pa_valve, a.pa_motor + h * rate.pa_motor, a.pb_valve + h * rate.pb_valve,
+        a.pb_motor + h * rate.pb_motor, a.ta_valve + h * rate.ta_valve, a.ta_motor + h * rate.ta_motor,
+        a.tb_valve + h * rate.tb_valve, a.tb_motor + h * rate.tb_motor,
+    )  # fmt: skip
+
+
+@njit(inline="always")
+def _air_secant(start: AirState, end: AirState, h: float) -> AirState:
+    # the air's mean rate from `start` to `end` over h
+    return AirState(
+        (end.pa_valve - start.pa_valve) / h, (end.pa_motor - start.pa_motor) / h,
+        (end.pb_valve - start.pb_valve) / h, (end.pb_motor - start.pb_motor) / h,
+        (end.ta_valve - start.ta_valve) / h, (end.ta_motor - start.ta_motor) / h,
+        (end.tb_valve - start.tb_valve) / h, (end.tb_motor - start.tb_motor) / h,
+    )  # fmt: skip
+
+
 class AirRates(NamedTuple):
     """Rates of a joint's four air nodes (valve and motor end of port A's hose, then port B's), the
     motor's volume slope, and ROS2's W (pneumatics/integrators.py): the rates' slopes against the
@@ -194,6 +255,14 @@ class AirRates(NamedTuple):
     wt_a_motor: float
     wt_b_valve: float
     wt_b_motor: float
+
+
+@njit(inline="always")
+def _air_slopes(f: AirRates) -> AirState:
+    # the eight rates of f (Pa/s, K/s) as the air's slope
+    return AirState(
+        f.dpa_valve, f.dpa_motor, f.dpb_valve, f.dpb_motor, f.dta_valve, f.dta_motor, f.dtb_valve, f.dtb_motor
+    )
 
 
 @njit(inline="always")
@@ -305,6 +374,13 @@ class HoseStep(NamedTuple):
     tb_motor: float
     heat_w: float
     work_w: float
+
+
+@njit(inline="always")
+def _hose_ends(s: HoseStep, a: AirState) -> AirState:
+    # the air after both lines' step from `a`: their ends' pressures and the chambers' temperatures;
+    # the valve nodes' gas is the lines', at their walls' temperature, kept as it was
+    return AirState(s.pa_valve, s.pa_motor, s.pb_valve, s.pb_motor, a.ta_valve, s.ta_motor, a.tb_valve, s.tb_motor)
 
 
 @njit
@@ -423,10 +499,7 @@ def hoses_settled(lines: np.ndarray, p: np.ndarray) -> bool:
 
 @njit(inline="always")
 def _polytropic_rates(
-    pa_valve: float,
-    pa_motor: float,
-    pb_valve: float,
-    pb_motor: float,
+    a: AirState,
     phi_motor: float,
     omega_motor: float,
     direction: float,
@@ -438,6 +511,7 @@ def _polytropic_rates(
     # temperature, the temperatures' rates 0. The W blocks: a node's rate n/V (R T m_in - p dV/dt)
     # with m_in = sum of g (p_other - p) has the slope -n/V (R T sum g + dV/dt) against its own
     # pressure and n/V R T g against another's.
+    pa_valve, pa_motor, pb_valve, pb_motor = a.pa_valve, a.pa_motor, a.pb_valve, a.pb_motor
     r = p[P.GAS_R]
     t_s = p[P.GAS_T]
     n = p[P.POLY_N]
@@ -584,14 +658,7 @@ def _node_energy(
 
 @njit(inline="always")
 def _energy_rates(
-    pa_valve: float,
-    pa_motor: float,
-    pb_valve: float,
-    pb_motor: float,
-    ta_valve: float,
-    ta_motor: float,
-    tb_valve: float,
-    tb_motor: float,
+    a: AirState,
     phi_motor: float,
     omega_motor: float,
     direction: float,
@@ -605,6 +672,8 @@ def _energy_rates(
     # (`orifice_mass_flow_between`), the hose's friction at its two ends' mean. Heat from walls at
     # the supply temperature (`_wall_conductance`). W's pressure blocks as the polytropic law's with
     # n = k and each flow's own carried temperature, k/V R T_i g_i.
+    pa_valve, pa_motor, pb_valve, pb_motor = a.pa_valve, a.pa_motor, a.pb_valve, a.pb_motor
+    ta_valve, ta_motor, tb_valve, tb_motor = a.ta_valve, a.ta_motor, a.tb_valve, a.tb_motor
     r = p[P.GAS_R]
     k = p[P.GAS_K]
     t_s = p[P.GAS_T]
@@ -723,14 +792,7 @@ def _energy_rates(
 
 @njit(inline="always")
 def air_rates(
-    pa_valve: float,
-    pa_motor: float,
-    pb_valve: float,
-    pb_motor: float,
-    ta_valve: float,
-    ta_motor: float,
-    tb_valve: float,
-    tb_motor: float,
+    a: AirState,
     phi_motor: float,
     omega_motor: float,
     direction: float,
@@ -743,20 +805,15 @@ def air_rates(
     law: the paper's polytropic one (chamber_heat = 0; the temperatures stay at the supply's) or
     the energy balance (1).
 
-    Pressures absolute, temperatures in K, in the order valve node A, motor node A, valve node B,
-    motor node B. `direction` +1 pressurises port A (motor turns positive), -1 port B, 0 exhausts
+    The air `a`: pressures absolute, temperatures in K, in the order valve node A, motor node A,
+    valve node B, motor node B. `direction` +1 pressurises port A (motor turns positive), -1 port B, 0 exhausts
     both. `valve_gauge_pa` is the proportional valve's output pressure P_v: the pressure it
     delivers (capped by the absolute `supply_pa`) and, through u = k_u P_v, its opening (paper
     Sec. IV). What a caller does not use the compiler drops.
     """
     if p[P.CHAMBER_HEAT] == 0.0:
-        return _polytropic_rates(
-            pa_valve, pa_motor, pb_valve, pb_motor, phi_motor, omega_motor, direction, valve_gauge_pa, supply_pa, p
-        )
-    return _energy_rates(
-        pa_valve, pa_motor, pb_valve, pb_motor, ta_valve, ta_motor, tb_valve, tb_motor, phi_motor, omega_motor,
-        direction, valve_gauge_pa, supply_pa, p,
-    )  # fmt: skip
+        return _polytropic_rates(a, phi_motor, omega_motor, direction, valve_gauge_pa, supply_pa, p)
+    return _energy_rates(a, phi_motor, omega_motor, direction, valve_gauge_pa, supply_pa, p)
 
 
 @njit(inline="always")
@@ -776,7 +833,7 @@ def pressure_rates(
     temperature (where the energy balance's gas settles: its walls' temperature)."""
     t_s = p[P.GAS_T]
     r = air_rates(
-        pa_valve, pa_motor, pb_valve, pb_motor, t_s, t_s, t_s, t_s, phi_motor, omega_motor, direction,
+        AirState(pa_valve, pa_motor, pb_valve, pb_motor, t_s, t_s, t_s, t_s), phi_motor, omega_motor, direction,
         valve_gauge_pa, supply_pa, p,
     )  # fmt: skip
     return r.dpa_valve, r.dpa_motor, r.dpb_valve, r.dpb_motor
@@ -946,48 +1003,43 @@ def at_rest(x: np.ndarray, omega: float, p: np.ndarray) -> bool:
     )
 
 
-@njit(inline="always")
-def _air_rates_of(
-    x: np.ndarray,
-    phi_motor: float,
-    omega_motor: float,
-    direction: float,
-    valve_gauge_pa: float,
-    supply_pa: float,
-    p: np.ndarray,
-) -> AirRates:
-    # `air_rates` at the air of a joint's state row x (S_* columns)
-    return air_rates(
-        x[S_PA_VALVE], x[S_PA_MOTOR], x[S_PB_VALVE], x[S_PB_MOTOR], x[S_TA_VALVE], x[S_TA_MOTOR], x[S_TB_VALVE],
-        x[S_TB_MOTOR], phi_motor, omega_motor, direction, valve_gauge_pa, supply_pa, p,
-    )  # fmt: skip
+class _Nodes(NamedTuple):
+    # one number per air node, in the S_PA_VALVE.. order (the pressures' part of ROS2's stages, the
+    # temperatures' factors)
+    a_valve: float
+    a_motor: float
+    b_valve: float
+    b_motor: float
 
 
 @njit(inline="always")
 def _ros2_solve(
     ma: tuple[float, float, float, float],
     mb: tuple[float, float, float, float],
-    leak: tuple[float, float],
-    r: tuple[float, float, float, float],
+    leak_a: float,
+    leak_b: float,
+    r: _Nodes,
     one_node: bool,
-) -> tuple[float, float, float, float]:
+) -> _Nodes:
     # (I - g h W) k = r for the four node pressures: ma, mb the inverses of port A's and port B's
-    # 2 x 2 blocks (`ros2_inverse`), `leak` g h times the vane leak's coupling of the motor nodes
-    # (A's rate against B's pressure, B's against A's). Each port solved alone, then the coupling
-    # eliminated: k_A = ma r_A + leak_A ma e_m k_Bm, and B the same way. Without the hose loss a
-    # port's valve and motor node are one node: both take the motor node's result.
-    ua = (ma[0] * r[0] + ma[1] * r[1], ma[2] * r[0] + ma[3] * r[1])
-    ub = (mb[0] * r[2] + mb[1] * r[3], mb[2] * r[2] + mb[3] * r[3])
-    if leak[0] == 0.0 and leak[1] == 0.0:  # no vane leak (the nominal joint): the ports apart
-        return ua[0], ua[1], ub[0], ub[1]
-    alpha = leak[0] * ma[3]
-    beta = leak[1] * mb[3]
+    # 2 x 2 blocks (`ros2_inverse`, row-major), leak_a, leak_b g h times the vane leak's coupling of
+    # the motor nodes (A's rate against B's pressure, B's against A's). Each port solved alone, then
+    # the coupling eliminated: k_A = ma r_A + leak_A ma e_m k_Bm, and B the same way. Without the hose
+    # loss a port's valve and motor node are one node: both take the motor node's result.
+    ua_valve = ma[0] * r.a_valve + ma[1] * r.a_motor
+    ua_motor = ma[2] * r.a_valve + ma[3] * r.a_motor
+    ub_valve = mb[0] * r.b_valve + mb[1] * r.b_motor
+    ub_motor = mb[2] * r.b_valve + mb[3] * r.b_motor
+    if leak_a == 0.0 and leak_b == 0.0:  # no vane leak (the nominal joint): the ports apart
+        return _Nodes(ua_valve, ua_motor, ub_valve, ub_motor)
+    alpha = leak_a * ma[3]
+    beta = leak_b * mb[3]
     inv = 1.0 / (1.0 - alpha * beta)
-    k_am = (ua[1] + alpha * ub[1]) * inv
-    k_bm = (ub[1] + beta * ua[1]) * inv
+    k_am = (ua_motor + alpha * ub_motor) * inv
+    k_bm = (ub_motor + beta * ua_motor) * inv
     if one_node:
-        return k_am, k_am, k_bm, k_bm
-    return ua[0] + leak[0] * ma[1] * k_bm, k_am, ub[0] + leak[1] * mb[1] * k_am, k_bm
+        return _Nodes(k_am, k_am, k_bm, k_bm)
+    return _Nodes(ua_valve + leak_a * ma[1] * k_bm, k_am, ub_valve + leak_b * mb[1] * k_am, k_bm)
 
 
 @njit(inline="always")
@@ -1008,28 +1060,61 @@ def explicit_air_substeps(h: float, p: np.ndarray) -> int:
     return m if m > 1 or h > p[P.HOSE_TIME] else 0
 
 
+class Ros2Stage(NamedTuple):
+    """ROS2's first stage of a joint's air over a step of h (pneumatics/integrators.py): its slope k1
+    and what its second stage solves with again, (I - g h W)^-1 of each port's pressure block
+    (row-major), g h times the vane leak's coupling of the motor nodes (A's rate against B's pressure,
+    B's against A's) and 1 / (1 - g h W) of each temperature's own slope (the S_TA_VALVE.. order)."""
+
+    k: AirState
+    ma: tuple[float, float, float, float]
+    mb: tuple[float, float, float, float]
+    leak_a: float
+    leak_b: float
+    mt: _Nodes
+
+
 @njit(inline="always")
-def _ros2_matrices(
-    f: AirRates, h: float
-) -> tuple[tuple[float, float, float, float], tuple[float, float, float, float], tuple[float, float]]:
-    # ROS2's (I - g h W)^-1 of each port's pressure block and g h times the vane leak's coupling
-    return (
-        ros2_inverse(f.wa00, f.wa01, f.wa10, f.wa11, h),
-        ros2_inverse(f.wb00, f.wb01, f.wb10, f.wb11, h),
-        (ROS2_GAMMA * h * f.leak_a, ROS2_GAMMA * h * f.leak_b),
-    )
-
-
-AirState = tuple[float, float, float, float, float, float, float, float]
-
-
-@njit(inline="always")
-def _air_in(x: np.ndarray) -> AirState:
-    # the four node pressures, then their temperatures, of a joint's state row
-    return (
-        x[S_PA_VALVE], x[S_PA_MOTOR], x[S_PB_VALVE], x[S_PB_MOTOR], x[S_TA_VALVE], x[S_TA_MOTOR], x[S_TB_VALVE],
-        x[S_TB_MOTOR],
+def _ros2_first(f: AirRates, h: float, one_node: bool) -> Ros2Stage:
+    # ROS2's first stage, (I - g h W) k1 = f, from the rates f at the step's start: the pressures'
+    # blocks solved together (`_ros2_solve`), each temperature by its own slope
+    ma = ros2_inverse(f.wa00, f.wa01, f.wa10, f.wa11, h)
+    mb = ros2_inverse(f.wb00, f.wb01, f.wb10, f.wb11, h)
+    gh = ROS2_GAMMA * h
+    leak_a = gh * f.leak_a
+    leak_b = gh * f.leak_b
+    k = _ros2_solve(ma, mb, leak_a, leak_b, _Nodes(f.dpa_valve, f.dpa_motor, f.dpb_valve, f.dpb_motor), one_node)
+    mt_a_valve = 1.0 / (1.0 - gh * f.wt_a_valve)
+    mt_a_motor = 1.0 / (1.0 - gh * f.wt_a_motor)
+    mt_b_valve = 1.0 / (1.0 - gh * f.wt_b_valve)
+    mt_b_motor = 1.0 / (1.0 - gh * f.wt_b_motor)
+    slope = AirState(
+        k.a_valve, k.a_motor, k.b_valve, k.b_motor, mt_a_valve * f.dta_valve, mt_a_motor * f.dta_motor,
+        mt_b_valve * f.dtb_valve, mt_b_motor * f.dtb_motor,
     )  # fmt: skip
+    return Ros2Stage(slope, ma, mb, leak_a, leak_b, _Nodes(mt_a_valve, mt_a_motor, mt_b_valve, mt_b_motor))
+
+
+@njit(inline="always")
+def _ros2_second(a: AirState, first: Ros2Stage, g: AirRates, h: float, one_node: bool) -> AirState:
+    # ROS2's second stage, (I - g h W) k2 = g - 2 k1 with the first stage's matrices and g the rates at
+    # the first stage's estimate a + h k1 one step on, and the step's result from the air `a` at its start
+    k = first.k
+    r = _Nodes(
+        g.dpa_valve - 2.0 * k.pa_valve, g.dpa_motor - 2.0 * k.pa_motor, g.dpb_valve - 2.0 * k.pb_valve,
+        g.dpb_motor - 2.0 * k.pb_motor,
+    )  # fmt: skip
+    k2 = _ros2_solve(first.ma, first.mb, first.leak_a, first.leak_b, r, one_node)
+    return AirState(
+        a.pa_valve + ros2_increment(h, k.pa_valve, k2.a_valve),
+        a.pa_motor + ros2_increment(h, k.pa_motor, k2.a_motor),
+        a.pb_valve + ros2_increment(h, k.pb_valve, k2.b_valve),
+        a.pb_motor + ros2_increment(h, k.pb_motor, k2.b_motor),
+        a.ta_valve + ros2_increment(h, k.ta_valve, first.mt.a_valve * (g.dta_valve - 2.0 * k.ta_valve)),
+        a.ta_motor + ros2_increment(h, k.ta_motor, first.mt.a_motor * (g.dta_motor - 2.0 * k.ta_motor)),
+        a.tb_valve + ros2_increment(h, k.tb_valve, first.mt.b_valve * (g.dtb_valve - 2.0 * k.tb_valve)),
+        a.tb_motor + ros2_increment(h, k.tb_motor, first.mt.b_motor * (g.dtb_motor - 2.0 * k.tb_motor)),
+    )
 
 
 @njit
@@ -1044,47 +1129,45 @@ def _air_ros2(
     n: int,
     p: np.ndarray,
 ) -> AirState:
-    """The air `a` (four node pressures, their temperatures) after n whole ROS2 steps of h, the motor
-    turning from phi_motor at omega_motor: a short hose's air, in the plant (`advance_air_pair`) and
-    the one-joint model (`single_joint_rk4`). The same stages as the plant's step over two physics
-    steps, with the rates of the second at the step's end."""
+    """The air `a` after n whole ROS2 steps of h, the motor turning from phi_motor at omega_motor: a
+    short hose's air, in the plant (`advance_air_pair`) and the one-joint model (`single_joint_rk4`).
+    The same stages as the plant's step over two physics steps (`_ros2_first`, `_ros2_second`), with
+    the rates of the second at the step's end."""
     one_node = one_node_per_port(p)
-    gh = ROS2_GAMMA * h
     for i in range(n):
         phi = phi_motor + omega_motor * (i * h)
-        f = air_rates(
-            a[0], a[1], a[2], a[3], a[4], a[5], a[6], a[7], phi, omega_motor, direction, valve_gauge_pa, supply_pa, p
-        )
-        ma, mb, leak = _ros2_matrices(f, h)
-        k = _ros2_solve(ma, mb, leak, (f.dpa_valve, f.dpa_motor, f.dpb_valve, f.dpb_motor), one_node)
-        m = (
-            1.0 / (1.0 - gh * f.wt_a_valve), 1.0 / (1.0 - gh * f.wt_a_motor), 1.0 / (1.0 - gh * f.wt_b_valve),
-            1.0 / (1.0 - gh * f.wt_b_motor),
-        )  # fmt: skip
-        kt = (m[0] * f.dta_valve, m[1] * f.dta_motor, m[2] * f.dtb_valve, m[3] * f.dtb_motor)
+        first = _ros2_first(air_rates(a, phi, omega_motor, direction, valve_gauge_pa, supply_pa, p), h, one_node)
         g = air_rates(
-            a[0] + h * k[0], a[1] + h * k[1], a[2] + h * k[2], a[3] + h * k[3], a[4] + h * kt[0], a[5] + h * kt[1],
-            a[6] + h * kt[2], a[7] + h * kt[3], phi + omega_motor * h, omega_motor, direction, valve_gauge_pa,
-            supply_pa, p,
-        )  # fmt: skip
-        k2 = _ros2_solve(
-            ma,
-            mb,
-            leak,
-            (g.dpa_valve - 2.0 * k[0], g.dpa_motor - 2.0 * k[1], g.dpb_valve - 2.0 * k[2], g.dpb_motor - 2.0 * k[3]),
-            one_node,
+            _air_plus(a, first.k, h), phi + omega_motor * h, omega_motor, direction, valve_gauge_pa, supply_pa, p
         )
-        a = (
-            a[0] + ros2_increment(h, k[0], k2[0]),
-            a[1] + ros2_increment(h, k[1], k2[1]),
-            a[2] + ros2_increment(h, k[2], k2[2]),
-            a[3] + ros2_increment(h, k[3], k2[3]),
-            a[4] + ros2_increment(h, kt[0], m[0] * (g.dta_valve - 2.0 * kt[0])),
-            a[5] + ros2_increment(h, kt[1], m[1] * (g.dta_motor - 2.0 * kt[1])),
-            a[6] + ros2_increment(h, kt[2], m[2] * (g.dtb_valve - 2.0 * kt[2])),
-            a[7] + ros2_increment(h, kt[3], m[3] * (g.dtb_motor - 2.0 * kt[3])),
-        )
+        a = _ros2_second(a, first, g, h, one_node)
     return a
+
+
+@njit(inline="always")
+def _keep_first_stage(x: np.ndarray, a: AirState, first: Ros2Stage) -> None:
+    # the air step's start and first stage, kept in a joint's state row for its second (S_PAIR_* columns)
+    put_row_air(x, S_PAIR_START, S_PAIR_T_START, a)
+    put_row_air(x, S_PAIR_K, S_PAIR_T_K, first.k)
+    for c in range(4):
+        x[S_PAIR_MA + c] = first.ma[c]
+        x[S_PAIR_MB + c] = first.mb[c]
+        x[S_PAIR_T_M + c] = first.mt[c]
+    x[S_PAIR_LEAK] = first.leak_a
+    x[S_PAIR_LEAK + 1] = first.leak_b
+
+
+@njit(inline="always")
+def _kept_first_stage(x: np.ndarray) -> Ros2Stage:
+    # the first stage `_keep_first_stage` kept in x
+    return Ros2Stage(
+        row_air(x, S_PAIR_K, S_PAIR_T_K),
+        (x[S_PAIR_MA], x[S_PAIR_MA + 1], x[S_PAIR_MA + 2], x[S_PAIR_MA + 3]),
+        (x[S_PAIR_MB], x[S_PAIR_MB + 1], x[S_PAIR_MB + 2], x[S_PAIR_MB + 3]),
+        x[S_PAIR_LEAK],
+        x[S_PAIR_LEAK + 1],
+        _Nodes(x[S_PAIR_T_M], x[S_PAIR_T_M + 1], x[S_PAIR_T_M + 2], x[S_PAIR_T_M + 3]),
+    )
 
 
 @njit
@@ -1125,56 +1208,35 @@ def advance_air_pair(
         return _advance_air_lines(x, theta, omega, valve_gauge_pa, supply_pa, dt_s, p)
     if x[S_PAIR] == 1.0 and x[S_PAIR_DIR] == direction and x[S_PAIR_SUPPLY] == supply_pa:
         # the second physics step: the first stage's estimate carried on to the step's end
-        torque = joint_torque(x[S_PA_MOTOR], x[S_PB_MOTOR], ratio * theta, omega, p)
-        for c in range(4):
-            x[S_PA_VALVE + c] += dt_s * x[S_PAIR_K + c]
-            x[S_TA_VALVE + c] += dt_s * x[S_PAIR_T_K + c]
+        a = row_air(x, S_PA_VALVE, S_TA_VALVE)
+        torque = joint_torque(a.pa_motor, a.pb_motor, ratio * theta, omega, p)
+        put_row_air(x, S_PA_VALVE, S_TA_VALVE, _air_plus(a, row_air(x, S_PAIR_K, S_PAIR_T_K), dt_s))
         x[S_PAIR] = 2.0
         return torque
     x[S_PAIR] = 0.0
     if at_rest(x, omega, p):
         return joint_torque(x[S_PA_MOTOR], x[S_PB_MOTOR], ratio * theta, omega, p)
-    a_m = x[S_PA_MOTOR]
-    b_m = x[S_PB_MOTOR]
+    a = row_air(x, S_PA_VALVE, S_TA_VALVE)
     if air_substeps(2.0 * dt_s, p) > 1:
         # a short hose: its fill is faster than one ROS2 step over two physics steps follows, so the
         # air takes whole ROS2 steps inside this one (`air_substeps`), the joint turning at omega
-        torque = joint_torque(a_m, b_m, ratio * theta, omega, p)
+        torque = joint_torque(a.pa_motor, a.pb_motor, ratio * theta, omega, p)
         n = air_substeps(dt_s, p)
-        air = _air_ros2(_air_in(x), ratio * theta, ratio * omega, direction, valve_gauge_pa, supply_pa, dt_s / n, n, p)
-        for c in range(4):
-            x[S_PA_VALVE + c] = air[c]
-            x[S_TA_VALVE + c] = air[4 + c]
+        put_row_air(
+            x, S_PA_VALVE, S_TA_VALVE,
+            _air_ros2(a, ratio * theta, ratio * omega, direction, valve_gauge_pa, supply_pa, dt_s / n, n, p),
+        )  # fmt: skip
         return torque
-    f = _air_rates_of(x, ratio * theta, ratio * omega, direction, valve_gauge_pa, supply_pa, p)
-    ma, mb, leak = _ros2_matrices(f, 2.0 * dt_s)
-    k = _ros2_solve(ma, mb, leak, (f.dpa_valve, f.dpa_motor, f.dpb_valve, f.dpb_motor), one_node_per_port(p))
-    for c in range(4):
-        x[S_PAIR_START + c] = x[S_PA_VALVE + c]
-        x[S_PAIR_K + c] = k[c]
-        x[S_PAIR_MA + c] = ma[c]
-        x[S_PAIR_MB + c] = mb[c]
-        x[S_PA_VALVE + c] += dt_s * k[c]
-    gh = ROS2_GAMMA * 2.0 * dt_s
-    for c, (rate, w) in enumerate(
-        (
-            (f.dta_valve, f.wt_a_valve),
-            (f.dta_motor, f.wt_a_motor),
-            (f.dtb_valve, f.wt_b_valve),
-            (f.dtb_motor, f.wt_b_motor),
-        )
-    ):
-        m = 1.0 / (1.0 - gh * w)
-        x[S_PAIR_T_START + c] = x[S_TA_VALVE + c]
-        x[S_PAIR_T_M + c] = m
-        x[S_PAIR_T_K + c] = m * rate
-        x[S_TA_VALVE + c] += dt_s * x[S_PAIR_T_K + c]
-    x[S_PAIR_LEAK] = leak[0]
-    x[S_PAIR_LEAK + 1] = leak[1]
+    # ROS2's first stage over two physics steps, kept for the second (`finish_air_pair`), and its
+    # estimate one physics step on
+    f = air_rates(a, ratio * theta, ratio * omega, direction, valve_gauge_pa, supply_pa, p)
+    first = _ros2_first(f, 2.0 * dt_s, one_node_per_port(p))
+    _keep_first_stage(x, a, first)
+    put_row_air(x, S_PA_VALVE, S_TA_VALVE, _air_plus(a, first.k, dt_s))
     x[S_PAIR_DIR] = direction
     x[S_PAIR_SUPPLY] = supply_pa
     x[S_PAIR] = 1.0
-    return _through_reducer(_vane_torque_at(a_m, b_m, f.slope), ratio * theta, omega, p)
+    return _through_reducer(_vane_torque_at(a.pa_motor, a.pb_motor, f.slope), ratio * theta, omega, p)
 
 
 @njit(inline="always")
@@ -1187,7 +1249,8 @@ def _advance_air_lines(
     # rest at atmosphere and whose chambers' gas is at its walls' temperature
     ratio = p[P.RATIO]
     x[S_PAIR] = 0.0
-    torque = joint_torque(x[S_PA_MOTOR], x[S_PB_MOTOR], ratio * theta, omega, p)
+    a = row_air(x, S_PA_VALVE, S_TA_VALVE)
+    torque = joint_torque(a.pa_motor, a.pb_motor, ratio * theta, omega, p)
     lines = x[N_STATE:]
     if (
         x[S_DIR] == 0.0
@@ -1197,15 +1260,9 @@ def _advance_air_lines(
     ):
         return torque
     s = advance_hoses(
-        lines, ratio * theta, ratio * omega, x[S_DIR], valve_gauge_pa, supply_pa, dt_s, p, x[S_TA_MOTOR],
-        x[S_TB_MOTOR],
-    )  # fmt: skip
-    x[S_PA_VALVE] = s.pa_valve
-    x[S_PA_MOTOR] = s.pa_motor
-    x[S_PB_VALVE] = s.pb_valve
-    x[S_PB_MOTOR] = s.pb_motor
-    x[S_TA_MOTOR] = s.ta_motor
-    x[S_TB_MOTOR] = s.tb_motor
+        lines, ratio * theta, ratio * omega, x[S_DIR], valve_gauge_pa, supply_pa, dt_s, p, a.ta_motor, a.tb_motor
+    )
+    put_row_air(x, S_PA_VALVE, S_TA_VALVE, _hose_ends(s, a))
     return torque
 
 
@@ -1218,30 +1275,27 @@ def finish_air_pair(x: np.ndarray, theta: float, omega: float, dt_s: float, p: n
     if x[S_PAIR] != 2.0:
         return
     ratio = p[P.RATIO]
-    f = _air_rates_of(x, ratio * theta, ratio * omega, x[S_PAIR_DIR], x[S_PV], x[S_PAIR_SUPPLY], p)
-    # ROS2's second stage, (I - g h W) k2 = f - 2 k1, with the first stage's matrix
-    r = (
-        f.dpa_valve - 2.0 * x[S_PAIR_K],
-        f.dpa_motor - 2.0 * x[S_PAIR_K + 1],
-        f.dpb_valve - 2.0 * x[S_PAIR_K + 2],
-        f.dpb_motor - 2.0 * x[S_PAIR_K + 3],
+    estimate = row_air(x, S_PA_VALVE, S_TA_VALVE)
+    g = air_rates(estimate, ratio * theta, ratio * omega, x[S_PAIR_DIR], x[S_PV], x[S_PAIR_SUPPLY], p)
+    start = row_air(x, S_PAIR_START, S_PAIR_T_START)
+    put_row_air(
+        x, S_PA_VALVE, S_TA_VALVE, _ros2_second(start, _kept_first_stage(x), g, 2.0 * dt_s, one_node_per_port(p))
     )
-    ma = (x[S_PAIR_MA], x[S_PAIR_MA + 1], x[S_PAIR_MA + 2], x[S_PAIR_MA + 3])
-    mb = (x[S_PAIR_MB], x[S_PAIR_MB + 1], x[S_PAIR_MB + 2], x[S_PAIR_MB + 3])
-    k2 = _ros2_solve(ma, mb, (x[S_PAIR_LEAK], x[S_PAIR_LEAK + 1]), r, one_node_per_port(p))
-    for c in range(4):
-        x[S_PA_VALVE + c] = x[S_PAIR_START + c] + ros2_increment(2.0 * dt_s, x[S_PAIR_K + c], k2[c])
-    for c, rate in enumerate((f.dta_valve, f.dta_motor, f.dtb_valve, f.dtb_motor)):
-        k2_t = x[S_PAIR_T_M + c] * (rate - 2.0 * x[S_PAIR_T_K + c])
-        x[S_TA_VALVE + c] = x[S_PAIR_T_START + c] + ros2_increment(2.0 * dt_s, x[S_PAIR_T_K + c], k2_t)
     x[S_PAIR] = 0.0
+
+
+class GearDrive(NamedTuple):
+    """A non-rigid reducer's motor side driven by its vanes (`motor_side_drive`)."""
+
+    drive: float  # the vane torque through the gear, joint side (N·m)
+    held: bool  # whether the gear's own friction holds the motor still
 
 
 @njit
 def motor_side_drive(
     pa_motor: float, pb_motor: float, phi_motor: float, w_m: float, slide_m: float, tau_t: float, p: np.ndarray
-) -> tuple[float, bool]:
-    """(drive, held) of a non-rigid reducer's motor side (pneumatics/reducer.py): the vane torque
+) -> GearDrive:
+    """The drive of a non-rigid reducer's motor side (pneumatics/reducer.py): the vane torque
     through the gear, joint side (N·m), and whether the gear's own friction holds the motor still.
 
     The efficiency the gear applies depends on which way the motor turns against its torque
@@ -1255,22 +1309,20 @@ def motor_side_drive(
 
 
 @njit(inline="always")
-def _motor_side_drive_of(
-    t_rippled: float, w_m: float, slide_m: float, tau_t: float, p: np.ndarray
-) -> tuple[float, bool]:
+def _motor_side_drive_of(t_rippled: float, w_m: float, slide_m: float, tau_t: float, p: np.ndarray) -> GearDrive:
     # `motor_side_drive` from the motor's rippled vane torque (one geometry and one ripple for the
     # up to three efficiencies tried)
     if slide_m != 0.0:
-        return _through_gear(t_rippled, slide_m, p), False
+        return GearDrive(_through_gear(t_rippled, slide_m, p), False)
     if abs(w_m) >= p[P.STICK_SPEED]:
-        return _through_gear(t_rippled, w_m, p), False
+        return GearDrive(_through_gear(t_rippled, w_m, p), False)
     forward = _through_gear(t_rippled, 1.0, p)
     if forward > tau_t:
-        return forward, False
+        return GearDrive(forward, False)
     backward = _through_gear(t_rippled, -1.0, p)
     if backward < tau_t:
-        return backward, False
-    return tau_t, True
+        return GearDrive(backward, False)
+    return GearDrive(tau_t, True)
 
 
 @njit
@@ -1295,88 +1347,88 @@ def stop_or_turn(
     return q, 0.0
 
 
+class _MotorSide(NamedTuple):
+    # what `advance_motor_side` integrates: the joint's air and a non-rigid reducer's motor side
+    air: AirState
+    q_m: float  # the motor side's angle, joint side (motor angle / ratio, rad)
+    w_m: float  # its speed (rad/s)
+
+
+class _MotorSideRates(NamedTuple):
+    # the rates of a `_MotorSide` and the torque the gear transmits (N·m), whose integral is the impulse
+    air: AirState
+    dq_m: float
+    dw_m: float
+    torque: float
+
+
+class _MotorSideInputs(NamedTuple):
+    # what `advance_motor_side` holds over its step: the joint's speed (rad/s), the direction valve, the
+    # proportional valve's output (gauge Pa), the supply (Pa), the gear's stiffness (N·m/rad), damping
+    # (N·m·s/rad) and half backlash (rad), the motor side's inertia (kg·m^2)
+    omega: float
+    direction: float
+    valve: float
+    supply_pa: float
+    k: float
+    c: float
+    half_gap: float
+    j_motor: float
+
+
 @njit
 def _motor_side_rates(
-    y: tuple[float, float, float, float, float, float, float, float, float, float],
-    theta: float,
-    omega: float,
-    direction: float,
-    valve: float,
-    supply_pa: float,
-    k: float,
-    c: float,
-    half_gap: float,
-    j_motor: float,
-    slide_m: float,
-    p: np.ndarray,
-) -> tuple[float, float, float, float, float, float, float, float, float, float, float]:
-    # rates of y (the four node pressures, their temperatures, the motor side q_m, w_m) and the
-    # transmitted torque
+    y: _MotorSide, theta: float, slide_m: float, inputs: _MotorSideInputs, p: np.ndarray
+) -> _MotorSideRates:
+    # rates of y, the joint at theta, the gear's friction held sliding in `slide_m` (0: Karnopp's rule)
     ratio = p[P.RATIO]
-    q_m, w_m = y[8], y[9]
-    phi = ratio * q_m
-    tau_t = transmitted_torque(q_m - theta, w_m - omega, half_gap, k, c)
-    r = air_rates(y[0], y[1], y[2], y[3], y[4], y[5], y[6], y[7], phi, ratio * w_m, direction, valve, supply_pa, p)
+    phi = ratio * y.q_m
+    tau_t = transmitted_torque(y.q_m - theta, y.w_m - inputs.omega, inputs.half_gap, inputs.k, inputs.c)
+    r = air_rates(y.air, phi, ratio * y.w_m, inputs.direction, inputs.valve, inputs.supply_pa, p)
     # `motor_side_drive`, from the geometry the rates took at the same angle
-    drive, held = _motor_side_drive_of(_rippled(_vane_torque_at(y[1], y[3], r.slope), phi, p), w_m, slide_m, tau_t, p)
-    dq, dw = (0.0, 0.0) if held else (w_m, (drive - tau_t) / j_motor)
-    return (
-        r.dpa_valve, r.dpa_motor, r.dpb_valve, r.dpb_motor, r.dta_valve, r.dta_motor, r.dtb_valve, r.dtb_motor, dq,
-        dw, tau_t,
-    )  # fmt: skip
+    t_rippled = _rippled(_vane_torque_at(y.air.pa_motor, y.air.pb_motor, r.slope), phi, p)
+    drive, stuck = _motor_side_drive_of(t_rippled, y.w_m, slide_m, tau_t, p)
+    dq, dw = (0.0, 0.0) if stuck else (y.w_m, (drive - tau_t) / inputs.j_motor)
+    return _MotorSideRates(_air_slopes(r), dq, dw, tau_t)
 
 
 @njit
 def _motor_side_stage(
-    y0: tuple[float, float, float, float, float, float, float, float, float, float],
-    rates: tuple[float, float, float, float, float, float, float, float, float, float, float],
+    y0: _MotorSide,
+    rates: _MotorSideRates,
     c: float,
     theta: float,
-    omega: float,
-    direction: float,
-    valve: float,
-    supply_pa: float,
-    k: float,
-    damping_nms: float,
-    half_gap: float,
-    j_motor: float,
     slide_m: float,
+    inputs: _MotorSideInputs,
     p: np.ndarray,
-) -> tuple[float, float, float, float, float, float, float, float, float, float, float]:
+) -> _MotorSideRates:
     # `_motor_side_rates` at the state y0 + c * rates: an RK4 stage
-    y = (
-        y0[0] + c * rates[0], y0[1] + c * rates[1], y0[2] + c * rates[2], y0[3] + c * rates[3],
-        y0[4] + c * rates[4], y0[5] + c * rates[5], y0[6] + c * rates[6], y0[7] + c * rates[7],
-        y0[8] + c * rates[8], y0[9] + c * rates[9],
-    )  # fmt: skip
-    return _motor_side_rates(
-        y, theta, omega, direction, valve, supply_pa, k, damping_nms, half_gap, j_motor, slide_m, p
-    )
+    y = _MotorSide(_air_plus(y0.air, rates.air, c), y0.q_m + c * rates.dq_m, y0.w_m + c * rates.dw_m)
+    return _motor_side_rates(y, theta, slide_m, inputs, p)
 
 
 @njit(inline="always")
-def _held_air_rates(
-    rates: tuple[float, float, float, float, float, float, float, float, float, float, float],
-    secant: AirState,
-    held: bool,
-) -> tuple[float, float, float, float, float, float, float, float, float, float, float]:
-    # `_motor_side_rates` with the air's eight rates replaced by its secant over the sub-step, when the
-    # air is not RK4's own (hoses that are lines; a short hose's ROS2 steps, `explicit_air_substeps`)
+def _held_air_rates(rates: _MotorSideRates, secant: AirState, held: bool) -> _MotorSideRates:
+    # `_motor_side_rates` with the air's rates replaced by its secant over the sub-step, when the air is
+    # not RK4's own (hoses that are lines; a short hose's ROS2 steps, `explicit_air_substeps`)
     if not held:
         return rates
-    return (
-        secant[0], secant[1], secant[2], secant[3], secant[4], secant[5], secant[6], secant[7], rates[8], rates[9],
-        rates[10],
-    )  # fmt: skip
+    return _MotorSideRates(secant, rates.dq_m, rates.dw_m, rates.torque)
 
 
 @njit(inline="always")
-def _air_secant(start: AirState, end: AirState, h: float) -> AirState:
-    # the air's mean rate from `start` to `end` over h
-    return (
-        (end[0] - start[0]) / h, (end[1] - start[1]) / h, (end[2] - start[2]) / h, (end[3] - start[3]) / h,
-        (end[4] - start[4]) / h, (end[5] - start[5]) / h, (end[6] - start[6]) / h, (end[7] - start[7]) / h,
-    )  # fmt: skip
+def _air_rk4(a: AirState, k1: AirState, k2: AirState, k3: AirState, k4: AirState, h: float) -> AirState:
+    # the air a after a classical Runge-Kutta step of h from its four stage rates
+    return AirState(
+        a.pa_valve + rk4_increment(h, k1.pa_valve, k2.pa_valve, k3.pa_valve, k4.pa_valve),
+        a.pa_motor + rk4_increment(h, k1.pa_motor, k2.pa_motor, k3.pa_motor, k4.pa_motor),
+        a.pb_valve + rk4_increment(h, k1.pb_valve, k2.pb_valve, k3.pb_valve, k4.pb_valve),
+        a.pb_motor + rk4_increment(h, k1.pb_motor, k2.pb_motor, k3.pb_motor, k4.pb_motor),
+        a.ta_valve + rk4_increment(h, k1.ta_valve, k2.ta_valve, k3.ta_valve, k4.ta_valve),
+        a.ta_motor + rk4_increment(h, k1.ta_motor, k2.ta_motor, k3.ta_motor, k4.ta_motor),
+        a.tb_valve + rk4_increment(h, k1.tb_valve, k2.tb_valve, k3.tb_valve, k4.tb_valve),
+        a.tb_motor + rk4_increment(h, k1.tb_motor, k2.tb_motor, k3.tb_motor, k4.tb_motor),
+    )
 
 
 @njit
@@ -1411,17 +1463,13 @@ def advance_motor_side(
     ratio = p[P.RATIO]
     j_m = ratio * ratio * p[P.ROTOR_J]
     k = stiffness(p[P.BACKLASH], p[P.COMPLIANCE])
-    c = damping(k, j_m)
     half = 0.5 * p[P.BACKLASH]
     stick = p[P.STICK_SPEED]
     n = substeps_for(dt_s, mode_frequency(k, j_m, 0.0), substeps)
     h = dt_s / n
-    valve = valve_gauge_pa
     direction = x[S_DIR]
-    y = (
-        x[S_PA_VALVE], x[S_PA_MOTOR], x[S_PB_VALVE], x[S_PB_MOTOR], x[S_TA_VALVE], x[S_TA_MOTOR], x[S_TB_VALVE],
-        x[S_TB_MOTOR], x[S_QM], x[S_OMEGA_M],
-    )  # fmt: skip
+    inputs = _MotorSideInputs(omega, direction, valve_gauge_pa, supply_pa, k, damping(k, j_m), half, j_m)
+    y = _MotorSide(row_air(x, S_PA_VALVE, S_TA_VALVE), x[S_QM], x[S_OMEGA_M])
     impulse = 0.0
     # hoses that are lines: advanced once over the step, the motor turning at its starting speed, and
     # RK4's stages see the four pressures move linearly to where the lines end (`single_joint_rk4`)
@@ -1430,75 +1478,47 @@ def advance_motor_side(
     # sub-step's starting speed, and RK4's stages see it move linearly to where they end
     m = 0 if line else explicit_air_substeps(h, p)
     held = line or m > 0
-    ends = (y[0], y[1], y[2], y[3], y[4], y[5], y[6], y[7])
+    ends = y.air
     if line:
-        hs = advance_hoses(x[N_STATE:], ratio * y[8], ratio * y[9], direction, valve, supply_pa, dt_s, p, y[5], y[7])
-        ends = (hs.pa_valve, hs.pa_motor, hs.pb_valve, hs.pb_motor, y[4], hs.ta_motor, y[6], hs.tb_motor)
-    secant = _air_secant((y[0], y[1], y[2], y[3], y[4], y[5], y[6], y[7]), ends, dt_s)
+        hs = advance_hoses(
+            x[N_STATE:], ratio * y.q_m, ratio * y.w_m, direction, valve_gauge_pa, supply_pa, dt_s, p,
+            y.air.ta_motor, y.air.tb_motor,
+        )  # fmt: skip
+        ends = _hose_ends(hs, y.air)
+    secant = _air_secant(y.air, ends, dt_s)
     for i in range(n):
         th0 = theta + omega * (i * h)
         th1 = theta + omega * ((i + 0.5) * h)
         th2 = theta + omega * ((i + 1) * h)
-        w0 = y[9]
+        w0 = y.w_m
         s = _slide_direction(w0, p)
         if m > 0:
-            start = (y[0], y[1], y[2], y[3], y[4], y[5], y[6], y[7])
-            ends = _air_ros2(start, ratio * y[8], ratio * y[9], direction, valve, supply_pa, h / m, m, p)
-            secant = _air_secant(start, ends, h)
-        k1 = _held_air_rates(
-            _motor_side_rates(y, th0, omega, direction, valve, supply_pa, k, c, half, j_m, s, p), secant, held
-        )
-        k2 = _held_air_rates(
-            _motor_side_stage(y, k1, 0.5 * h, th1, omega, direction, valve, supply_pa, k, c, half, j_m, s, p),
-            secant,
-            held,
-        )
-        k3 = _held_air_rates(
-            _motor_side_stage(y, k2, 0.5 * h, th1, omega, direction, valve, supply_pa, k, c, half, j_m, s, p),
-            secant,
-            held,
-        )
-        k4 = _held_air_rates(
-            _motor_side_stage(y, k3, h, th2, omega, direction, valve, supply_pa, k, c, half, j_m, s, p), secant, held
-        )
-        y = (
-            y[0] + rk4_increment(h, k1[0], k2[0], k3[0], k4[0]),
-            y[1] + rk4_increment(h, k1[1], k2[1], k3[1], k4[1]),
-            y[2] + rk4_increment(h, k1[2], k2[2], k3[2], k4[2]),
-            y[3] + rk4_increment(h, k1[3], k2[3], k3[3], k4[3]),
-            y[4] + rk4_increment(h, k1[4], k2[4], k3[4], k4[4]),
-            y[5] + rk4_increment(h, k1[5], k2[5], k3[5], k4[5]),
-            y[6] + rk4_increment(h, k1[6], k2[6], k3[6], k4[6]),
-            y[7] + rk4_increment(h, k1[7], k2[7], k3[7], k4[7]),
-            y[8] + rk4_increment(h, k1[8], k2[8], k3[8], k4[8]),
-            y[9] + rk4_increment(h, k1[9], k2[9], k3[9], k4[9]),
-        )
-        if m > 0:  # ROS2's result, not its secant's rounding
-            y = (ends[0], ends[1], ends[2], ends[3], ends[4], ends[5], ends[6], ends[7], y[8], y[9])
-        impulse += rk4_increment(h, k1[10], k2[10], k3[10], k4[10])
-        a_m, b_m, q, w = y[1], y[3], y[8], y[9]
+            ends = _air_ros2(y.air, ratio * y.q_m, ratio * y.w_m, direction, valve_gauge_pa, supply_pa, h / m, m, p)
+            secant = _air_secant(y.air, ends, h)
+        k1 = _held_air_rates(_motor_side_rates(y, th0, s, inputs, p), secant, held)
+        k2 = _held_air_rates(_motor_side_stage(y, k1, 0.5 * h, th1, s, inputs, p), secant, held)
+        k3 = _held_air_rates(_motor_side_stage(y, k2, 0.5 * h, th1, s, inputs, p), secant, held)
+        k4 = _held_air_rates(_motor_side_stage(y, k3, h, th2, s, inputs, p), secant, held)
+        # ROS2's result where it took the air, not its secant's rounding
+        air = ends if m > 0 else _air_rk4(y.air, k1.air, k2.air, k3.air, k4.air, h)
+        q = y.q_m + rk4_increment(h, k1.dq_m, k2.dq_m, k3.dq_m, k4.dq_m)
+        w = y.w_m + rk4_increment(h, k1.dw_m, k2.dw_m, k3.dw_m, k4.dw_m)
+        impulse += rk4_increment(h, k1.torque, k2.torque, k3.torque, k4.torque)
+        a_m, b_m = air.pa_motor, air.pb_motor
         if s != 0.0 and s * w < 0.0:
             phi = ratio * q
             q, w = stop_or_turn(
                 q, w0, w, s, joint_torque(a_m, b_m, phi, -s, p) - joint_torque(a_m, b_m, phi, s, p), j_m, h
             )
         if abs(w) < stick:
-            tau_t = transmitted_torque(q - th2, w - omega, half, k, c)
-            if motor_side_drive(a_m, b_m, ratio * q, w, 0.0, tau_t, p)[1]:
+            tau_t = transmitted_torque(q - th2, w - omega, half, k, inputs.c)
+            if motor_side_drive(a_m, b_m, ratio * q, w, 0.0, tau_t, p).held:
                 w = 0.0
-        y = (y[0], y[1], y[2], y[3], y[4], y[5], y[6], y[7], q, w)
-    if line:  # the lines' ends, not their secant's rounding
-        y = (ends[0], ends[1], ends[2], ends[3], ends[4], ends[5], ends[6], ends[7], y[8], y[9])
-    x[S_PA_VALVE] = y[0]
-    x[S_PA_MOTOR] = y[1]
-    x[S_PB_VALVE] = y[2]
-    x[S_PB_MOTOR] = y[3]
-    x[S_TA_VALVE] = y[4]
-    x[S_TA_MOTOR] = y[5]
-    x[S_TB_VALVE] = y[6]
-    x[S_TB_MOTOR] = y[7]
-    x[S_QM] = y[8]
-    x[S_OMEGA_M] = y[9]
+        y = _MotorSide(air, q, w)
+    # the lines' ends, not their secant's rounding
+    put_row_air(x, S_PA_VALVE, S_TA_VALVE, ends if line else y.air)
+    x[S_QM] = y.q_m
+    x[S_OMEGA_M] = y.w_m
     return impulse / dt_s
 
 
@@ -1543,19 +1563,21 @@ def _slide_direction(speed: float, p: np.ndarray) -> float:
     return 0.0 if abs(speed) < p[P.STICK_SPEED] else math.copysign(1.0, speed)
 
 
+class _BodyInputs(NamedTuple):
+    # what the one-joint model holds over a step (`single_joint_rates`' arguments): the direction
+    # valve's position, the proportional valve's output (gauge Pa), the supply (Pa, absolute), the load
+    # torque (N·m), the joint-side inertia with the reflected rotor (kg·m^2), the brake's engagement
+    direction: float
+    valve_gauge_pa: float
+    supply_pa: float
+    load_torque_nm: float
+    inertia_kg_m2: float
+    brake_engagement: float
+
+
 @njit
 def _rates(
-    y: np.ndarray,
-    direction: float,
-    valve_gauge_pa: float,
-    supply_pa: float,
-    load_torque_nm: float,
-    inertia_kg_m2: float,
-    brake_engagement: float,
-    slide: float,
-    slide_m: float,
-    p: np.ndarray,
-    out: np.ndarray,
+    y: np.ndarray, inputs: _BodyInputs, slide: float, slide_m: float, p: np.ndarray, out: np.ndarray
 ) -> tuple[bool, bool]:
     # `single_joint_rates` with the joint side's dry friction held sliding in the direction `slide`
     # (+1/-1) and a non-rigid gear's in `slide_m`, or, where 0, by Karnopp's rule at the speed in y.
@@ -1566,27 +1588,26 @@ def _rates(
     rigid = is_rigid(p)
     tau_t = 0.0
     if rigid:
-        j_j = inertia_kg_m2
+        j_j = inputs.inertia_kg_m2
         phi = ratio * theta
         w_motor = ratio * omega
     else:
-        j_m, j_j = inertia_split(inertia_kg_m2, ratio * ratio * p[P.ROTOR_J])
+        j_m, j_j = inertia_split(inputs.inertia_kg_m2, ratio * ratio * p[P.ROTOR_J])
         k = stiffness(p[P.BACKLASH], p[P.COMPLIANCE])
         phi = ratio * y[R_QM]
         tau_t = transmitted_torque(y[R_QM] - theta, y[R_OMEGA_M] - omega, 0.5 * p[P.BACKLASH], k, damping(k, j_m))
         w_motor = ratio * y[R_OMEGA_M]
     rates = air_rates(
-        y[R_PA_VALVE], y[R_PA_MOTOR], y[R_PB_VALVE], y[R_PB_MOTOR], y[R_TA_VALVE], y[R_TA_MOTOR], y[R_TB_VALVE],
-        y[R_TB_MOTOR], phi, w_motor, direction, valve_gauge_pa, supply_pa, p,
-    )  # fmt: skip
+        row_air(y, R_PA_VALVE, R_TA_VALVE), phi, w_motor, inputs.direction, inputs.valve_gauge_pa, inputs.supply_pa, p
+    )
     # the motor's vane torque from the geometry the rates took at the same angle (`joint_torque`)
     t_rippled = _rippled(_vane_torque_at(y[R_PA_MOTOR], y[R_PB_MOTOR], rates.slope), phi, p)
     drive = tau_t  # a non-rigid gear's transmitted torque
     if rigid:
         # a joint held sliding keeps its gear's efficiency (forward or back-driven) with its friction
         drive = _through_gear(t_rippled, slide if slide != 0.0 else omega, p)
-    drive -= load_torque_nm
-    coulomb = dry_friction_limit(brake_engagement, omega, p)
+    drive -= inputs.load_torque_nm
+    coulomb = dry_friction_limit(inputs.brake_engagement, omega, p)
     joint_held = False
     if slide != 0.0:
         out[R_THETA] = omega
@@ -1610,14 +1631,7 @@ def _rates(
         else:
             out[R_QM] = y[R_OMEGA_M]
             out[R_OMEGA_M] = (motor_drive - tau_t) / j_m
-    out[R_PA_VALVE] = rates.dpa_valve
-    out[R_PA_MOTOR] = rates.dpa_motor
-    out[R_PB_VALVE] = rates.dpb_valve
-    out[R_PB_MOTOR] = rates.dpb_motor
-    out[R_TA_VALVE] = rates.dta_valve
-    out[R_TA_MOTOR] = rates.dta_motor
-    out[R_TB_VALVE] = rates.dtb_valve
-    out[R_TB_MOTOR] = rates.dtb_motor
+    put_row_air(out, R_PA_VALVE, R_TA_VALVE, _air_slopes(rates))
     return joint_held, motor_held
 
 
@@ -1646,41 +1660,16 @@ def single_joint_rates(
     joint side's J_j split `inertia_kg_m2` (`reducer.inertia_split`). With the rigid reducer the
     motor side's rates are the joint's.
     """
-    slide = _slide_direction(y[R_OMEGA], p)
-    _rates(
-        y,
-        direction,
-        valve_gauge_pa,
-        supply_pa,
-        load_torque_nm,
-        inertia_kg_m2,
-        brake_engagement,
-        slide,
-        _slide_direction(y[R_OMEGA_M], p),
-        p,
-        out,
-    )
-
-
-# the one-joint state's air columns in `_air_ros2`'s order: the four pressures, then their temperatures
-_R_AIR = (R_PA_VALVE, R_PA_MOTOR, R_PB_VALVE, R_PB_MOTOR, R_TA_VALVE, R_TA_MOTOR, R_TB_VALVE, R_TB_MOTOR)
+    inputs = _BodyInputs(direction, valve_gauge_pa, supply_pa, load_torque_nm, inertia_kg_m2, brake_engagement)
+    _rates(y, inputs, _slide_direction(y[R_OMEGA], p), _slide_direction(y[R_OMEGA_M], p), p, out)
 
 
 @njit(inline="always")
-def _air_of_rigid(y: np.ndarray) -> AirState:
-    # the air of a one-joint state y, in `_air_ros2`'s order
-    return (
-        y[R_PA_VALVE], y[R_PA_MOTOR], y[R_PB_VALVE], y[R_PB_MOTOR], y[R_TA_VALVE], y[R_TA_MOTOR], y[R_TB_VALVE],
-        y[R_TB_MOTOR],
-    )  # fmt: skip
-
-
-@njit(inline="always")
-def _held_air(rates: np.ndarray, air: np.ndarray, held: bool) -> None:
-    # an RK4 stage's air rates replaced by the ROS2 step's secant `air` (`single_joint_rk4`)
+def _held_air(rates: np.ndarray, secant: AirState, held: bool) -> None:
+    # an RK4 stage's air rates (R_* columns) replaced by the air's secant over the sub-step
+    # (`single_joint_rk4`)
     if held:
-        for c in range(8):
-            rates[_R_AIR[c]] = air[c]
+        put_row_air(rates, R_PA_VALVE, R_TA_VALVE, secant)
 
 
 @njit
@@ -1742,56 +1731,46 @@ def single_joint_rk4(
     m = explicit_air_substeps(h, p)
     line = uses_line(p)
     air_ros2 = line or m > 0
-    air = np.empty(8)
+    inputs = _BodyInputs(direction, valve_gauge_pa, supply_pa, load_torque_nm, inertia_kg_m2, brake_engagement)
+    secant = AirState(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)  # the air's secant over a sub-step, when air_ros2
     for _ in range(n):
         w0 = y[R_OMEGA]
         wm0 = y[R_OMEGA_M]
         s = _slide_direction(w0, p)
         s_m = s if rigid else _slide_direction(wm0, p)
         if air_ros2:
-            # the air after the sub-step (`_air_ros2`'s order): the lines' ends, or the ROS2 steps' result
+            # the air after the sub-step: the lines' ends, or the ROS2 steps' result; the stages take
+            # its secant
+            start = row_air(y, R_PA_VALVE, R_TA_VALVE)
             if line:
                 hs = advance_hoses(
                     lines, ratio * y[R_QM], ratio * y[R_OMEGA_M], direction, valve_gauge_pa, supply_pa, h, p,
-                    y[R_TA_MOTOR], y[R_TB_MOTOR],
+                    start.ta_motor, start.tb_motor,
                 )  # fmt: skip
-                # the valve nodes' gas is the line's, at its wall's temperature; the chambers' their own
-                end = (
-                    hs.pa_valve, hs.pa_motor, hs.pb_valve, hs.pb_motor, y[R_TA_VALVE], hs.ta_motor, y[R_TB_VALVE],
-                    hs.tb_motor,
-                )  # fmt: skip
+                end = _hose_ends(hs, start)
             else:
                 end = _air_ros2(
-                    _air_of_rigid(y), ratio * y[R_QM], ratio * y[R_OMEGA_M], direction, valve_gauge_pa, supply_pa,
-                    h / m, m, p,
-                )  # fmt: skip
-            for c in range(8):
-                air[c] = (end[c] - y[_R_AIR[c]]) / h
-        _rates(y, direction, valve_gauge_pa, supply_pa, load_torque_nm, inertia_kg_m2, brake_engagement, s, s_m, p, k1)
-        _held_air(k1, air, air_ros2)
+                    start, ratio * y[R_QM], ratio * y[R_OMEGA_M], direction, valve_gauge_pa, supply_pa, h / m, m, p
+                )
+            secant = _air_secant(start, end, h)
+        _rates(y, inputs, s, s_m, p, k1)
+        _held_air(k1, secant, air_ros2)
         for i in range(N_RIGID):
             tmp[i] = y[i] + 0.5 * h * k1[i]
-        _rates(
-            tmp, direction, valve_gauge_pa, supply_pa, load_torque_nm, inertia_kg_m2, brake_engagement, s, s_m, p, k2
-        )
-        _held_air(k2, air, air_ros2)
+        _rates(tmp, inputs, s, s_m, p, k2)
+        _held_air(k2, secant, air_ros2)
         for i in range(N_RIGID):
             tmp[i] = y[i] + 0.5 * h * k2[i]
-        _rates(
-            tmp, direction, valve_gauge_pa, supply_pa, load_torque_nm, inertia_kg_m2, brake_engagement, s, s_m, p, k3
-        )
-        _held_air(k3, air, air_ros2)
+        _rates(tmp, inputs, s, s_m, p, k3)
+        _held_air(k3, secant, air_ros2)
         for i in range(N_RIGID):
             tmp[i] = y[i] + h * k3[i]
-        _rates(
-            tmp, direction, valve_gauge_pa, supply_pa, load_torque_nm, inertia_kg_m2, brake_engagement, s, s_m, p, k4
-        )
-        _held_air(k4, air, air_ros2)
+        _rates(tmp, inputs, s, s_m, p, k4)
+        _held_air(k4, secant, air_ros2)
         for i in range(N_RIGID):
             y[i] += rk4_increment(h, k1[i], k2[i], k3[i], k4[i])
         if line:
-            for c in range(8):
-                y[_R_AIR[c]] = end[c]  # the lines' ends, not their secant's rounding
+            put_row_air(y, R_PA_VALVE, R_TA_VALVE, end)  # the lines' ends, not their secant's rounding
         if s != 0.0 and s * y[R_OMEGA] < 0.0:
             jump = 2.0 * s * static
             if rigid:  # the gear's efficiency turns with the joint
@@ -1811,19 +1790,7 @@ def single_joint_rk4(
             y[R_OMEGA_M] = y[R_OMEGA]
         if abs(y[R_OMEGA]) < p[P.STICK_SPEED] or abs(y[R_OMEGA_M]) < p[P.STICK_SPEED]:
             # Karnopp: a body that has come to rest and is not pushed past its friction stays put
-            joint_held, motor_held = _rates(
-                y,
-                direction,
-                valve_gauge_pa,
-                supply_pa,
-                load_torque_nm,
-                inertia_kg_m2,
-                brake_engagement,
-                0.0,
-                0.0,
-                p,
-                tmp,
-            )
+            joint_held, motor_held = _rates(y, inputs, 0.0, 0.0, p, tmp)
             if joint_held:
                 y[R_OMEGA] = 0.0
             if motor_held:

@@ -14,19 +14,28 @@ the pressure ratio.
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 from pneumatics._jit import njit
 
 LINEAR_RATIO = 0.99  # pressure ratio above which the flow is linearised (see module docstring)
 
 
-def _constants_of(k: float) -> tuple[float, float, float, float]:
-    # (C1, C2/C1, critical ratio, f at LINEAR_RATIO) for a gas with ratio of specific heats k
+class _Constants(NamedTuple):
+    # the flow law's numbers for a gas with ratio of specific heats k
+    c1: float  # C1 of the choked flow
+    c2_c1: float  # C2 / C1
+    pr_crit: float  # the critical pressure ratio
+    f_lin: float  # f at LINEAR_RATIO
+
+
+def _constants_of(k: float) -> _Constants:
+    # `_Constants` of a gas with ratio of specific heats k
     c1 = math.sqrt(k * (2.0 / (k + 1.0)) ** ((k + 1.0) / (k - 1.0)))
     c2_c1 = math.sqrt(2.0 * k / (k - 1.0)) / c1
     pr_crit = (2.0 / (k + 1.0)) ** (k / (k - 1.0))
     f_lin = c2_c1 * math.sqrt(LINEAR_RATIO ** (2.0 / k) - LINEAR_RATIO ** ((k + 1.0) / k))
-    return c1, c2_c1, pr_crit, f_lin
+    return _Constants(c1, c2_c1, pr_crit, f_lin)
 
 
 _AIR_K = 1.4
@@ -35,7 +44,7 @@ _constants_jit = njit(_constants_of)
 
 
 @njit
-def _constants(k: float) -> tuple[float, float, float, float]:
+def _constants(k: float) -> _Constants:
     if k == _AIR_K:
         return _AIR_CONSTANTS
     return _constants_jit(k)
@@ -44,7 +53,7 @@ def _constants(k: float) -> tuple[float, float, float, float]:
 @njit
 def critical_pressure_ratio(k: float) -> float:
     """Downstream/upstream ratio below which the orifice is choked: (2/(k+1))^(k/(k-1))."""
-    return _constants(k)[2]
+    return _constants(k).pr_crit
 
 
 @njit
@@ -55,7 +64,8 @@ def flow_function(pressure_ratio: float, k: float) -> float:
     k = 1.4), linearised to 0 above LINEAR_RATIO. Continuous everywhere.
     """
     pr = pressure_ratio
-    _, c2_c1, pr_crit, f_lin = _constants(k)
+    c = _constants(k)
+    c2_c1, pr_crit, f_lin = c.c2_c1, c.pr_crit, c.f_lin
     if pr <= pr_crit:
         return 1.0
     if pr >= 1.0:
@@ -71,7 +81,7 @@ def choked_flux(t_up_k: float, r: float, k: float) -> float:
     """C1 / sqrt(R T_u) in s/m: choked mass flow per unit area and per Pa of upstream pressure
     (0.0404 s·K^0.5/m / sqrt(T_u) for air). A number of the gas alone at the supply temperature:
     the kernels keep it in the parameter row (`params_row`)."""
-    return _constants(k)[0] / math.sqrt(r * t_up_k)
+    return _constants(k).c1 / math.sqrt(r * t_up_k)
 
 
 @njit

@@ -337,25 +337,35 @@ DERIVED = (
 )
 
 
-def _derived(params: JointParams, gas: Gas, dt_s: float) -> tuple[float, ...]:
-    # in the order of DERIVED
-    lags: tuple[float, ...] = (math.nan,) * 6
-    if math.isfinite(dt_s):
-        lags = (
-            *lag_factors(dt_s, params.valve_time_constant_s),
-            *lag_factors(dt_s, params.brake_engage_time_constant_s),
-            *lag_factors(dt_s, params.brake_release_time_constant_s),
-        )
-    return (
-        half_pitch_volume(params.stator_radius_m, params.rotor_radius_m, params.vane_length_m, params.n_vanes),
-        *hose_constants(params.hose_length_m, params.hose_diameter_m, gas.mu_pa_s),
-        choked_flux(gas.t_supply_k, gas.r_j_per_kg_k, gas.k),
-        *vane_cell(params.stator_radius_m, params.rotor_radius_m, params.vane_length_m, params.n_vanes),
-        *_air_times(params, gas),
-        dt_s,
-        *lags,
-        *_line_row(params, gas),
-    )
+def _derived(params: JointParams, gas: Gas, dt_s: float) -> dict[str, float]:
+    # the DERIVED columns' values, by name
+    k_laminar, laminar_limit, k_blasius = hose_constants(params.hose_length_m, params.hose_diameter_m, gas.mu_pa_s)
+    cell = vane_cell(params.stator_radius_m, params.rotor_radius_m, params.vane_length_m, params.n_vanes)
+    air_step, hose_time = _air_times(params, gas)
+    values = {
+        "half_pitch_volume_m3": half_pitch_volume(
+            params.stator_radius_m, params.rotor_radius_m, params.vane_length_m, params.n_vanes
+        ),
+        "hose_k_laminar": k_laminar,
+        "hose_laminar_limit_kg_s": laminar_limit,
+        "hose_k_blasius": k_blasius,
+        "choked_flux_s_m": choked_flux(gas.t_supply_k, gas.r_j_per_kg_k, gas.k),
+        "cell_area_per_volume_1_m": cell.area_per_volume_1_m,
+        "cell_hydraulic_diameter_m": cell.hydraulic_diameter_m,
+        "air_step_s": air_step,
+        "hose_time_s": hose_time,
+        "lag_dt_s": dt_s,
+    }
+    for lag, tau in (
+        ("valve", params.valve_time_constant_s),
+        ("brake_engage", params.brake_engage_time_constant_s),
+        ("brake_release", params.brake_release_time_constant_s),
+    ):
+        decay, gain = lag_factors(dt_s, tau) if math.isfinite(dt_s) else (math.nan, math.nan)
+        values[f"{lag}_decay"] = decay
+        values[f"{lag}_mean_gain"] = gain
+    values.update(zip(("line_" + f for f in LINE_ROW_FIELDS), _line_row(params, gas), strict=True))
+    return values
 
 
 def _line_row(params: JointParams, gas: Gas) -> tuple[float, ...]:
@@ -443,7 +453,11 @@ def params_row(
     low, high = stops
     if not low < high:
         raise ValueError(f"end stops {stops!r}: the low stop must be below the high one")
-    return np.array(tuple(params) + tuple(gas) + _derived(params, gas, dt_s) + (low, high), dtype=np.float64)
+    derived = _derived(params, gas, dt_s)
+    assert derived.keys() == set(DERIVED), "params._derived: one value per DERIVED column"
+    return np.array(
+        tuple(params) + tuple(gas) + tuple(derived[name] for name in DERIVED) + (low, high), dtype=np.float64
+    )
 
 
 # column of each field in `params_row` (compile-time constants for the kernels)
