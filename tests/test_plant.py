@@ -20,6 +20,7 @@ No test may make MuJoCo warn: the plant raises SimulationError, and the counters
 
 from __future__ import annotations
 
+import ctypes
 import math
 
 import mujoco
@@ -29,6 +30,7 @@ from located_events import energy_air_rates
 from scipy.integrate import solve_ivp
 
 import assets
+import twin.kernel
 import twin.plant
 from gap import protocols
 from pneumatics import joint as J
@@ -426,6 +428,30 @@ def test_compiled_step_loop_equals_the_python_loop(monkeypatch) -> None:
     scripted_run(python)
     no_warnings(python)
     assert_identical(snapshot(compiled), snapshot(python))
+
+
+def test_mujoco_profiler_is_off_and_the_physics_does_not_read_it() -> None:
+    # twin/kernel.py clears the timer callback the mujoco package installs (mjData.timer's clock):
+    # a timer installed again is called by every step, and the run is bit-identical without it
+    timer = ctypes.c_void_p.in_dll(twin.kernel._MUJOCO, "mjcb_time")
+    assert timer.value is None
+    calls = []
+
+    def count() -> float:
+        calls.append(1)
+        return float(len(calls))
+
+    clock = ctypes.CFUNCTYPE(ctypes.c_double)(count)
+    without = Plant(assets.SCENE_XML)
+    scripted_run(without)
+    timer.value = ctypes.cast(clock, ctypes.c_void_p).value
+    try:
+        timed = Plant(assets.SCENE_XML)
+        scripted_run(timed)
+    finally:
+        timer.value = None
+    assert calls
+    assert_identical(snapshot(without), snapshot(timed))
 
 
 def test_sensors_hold_no_angle() -> None:

@@ -147,13 +147,8 @@ def pneumatic_step(
         advance_brake(x[j], commands[j], supply_pa, pa_start, pb_start, x[j, S_PA_MOTOR], x[j, S_PB_MOTOR], dt_s, p)
 
 
-def _mujoco_step_function():
-    """MuJoCo's C `mj_step(const mjModel*, mjData*)` as a ctypes function numba can call, or None.
-
-    Calling it from compiled code lets a whole run of physics steps, air and rigid bodies, go by
-    without returning to Python (`step_plant`). It is the same library the mujoco package loads,
-    so results are bit-identical to `mujoco.mj_step` (tests/test_plant.py).
-    """
+def _mujoco_library() -> ctypes.CDLL | None:
+    """The shared library the mujoco package loaded (the same one `mujoco.mj_step` runs), or None."""
     from pathlib import Path
 
     import mujoco
@@ -162,16 +157,43 @@ def _mujoco_step_function():
         Path(mujoco.__file__).parent.glob("libmujoco*.dylib")
     ):
         try:
-            fn = ctypes.CDLL(str(path)).mj_step
+            lib = ctypes.CDLL(str(path))
+            lib.mj_step  # noqa: B018 - a library without it is not MuJoCo's
         except (OSError, AttributeError):
             continue
-        fn.argtypes = [ctypes.c_void_p, ctypes.c_void_p]
-        fn.restype = None
-        return fn
+        return lib
     return None
 
 
-MJ_STEP = _mujoco_step_function()
+def _mujoco_step_function(lib: ctypes.CDLL | None):
+    """MuJoCo's C `mj_step(const mjModel*, mjData*)` as a ctypes function numba can call, or None.
+
+    Calling it from compiled code lets a whole run of physics steps, air and rigid bodies, go by
+    without returning to Python (`step_plant`). It is the same library the mujoco package loads,
+    so results are bit-identical to `mujoco.mj_step` (tests/test_plant.py).
+    """
+    if lib is None:
+        return None
+    fn = lib.mj_step
+    fn.argtypes = [ctypes.c_void_p, ctypes.c_void_p]
+    fn.restype = None
+    return fn
+
+
+def _stop_profiler(lib: ctypes.CDLL | None) -> None:
+    """Clear MuJoCo's timer callback `mjcb_time`, which the mujoco package installs: with it, each
+    mj_step reads the clock at every stage for mjData.timer (MuJoCo's profiler), which the twin
+    never reads. It cost 14 % of bare mj_step's time on the cleaning scene's motion (6.3 against
+    5.4 us per step, CPU time, six alternating rounds: benchmarks/bench_twin.py's replay). The
+    physics does not read the timers: results are bit-identical. Process-wide, like the callback:
+    MuJoCo stepped from Python (`mujoco.mj_step`, the benchmarks' bare baselines) runs without it too."""
+    if lib is not None:
+        ctypes.c_void_p.in_dll(lib, "mjcb_time").value = None
+
+
+_MUJOCO = _mujoco_library()
+_stop_profiler(_MUJOCO)
+MJ_STEP = _mujoco_step_function(_MUJOCO)
 # its address, handed to compiled code (`step_plant`); None: no compiled MuJoCo step (Plant.step loops in Python)
 MJ_STEP_ADDRESS = ctypes.cast(MJ_STEP, ctypes.c_void_p).value if MJ_STEP is not None and not NO_JIT else None
 
