@@ -5,7 +5,7 @@
 
 Every closed-loop run goes through `run_ticks`: the scenarios (twin/sim.py's `run`, with telemetry
 and recorders as its `on_tick`), the paper's experiments (control/experiments.py) and the gap's
-rehearsals (scenarios/arm_rehearsal.py). A plant that can (twin.plant.Plant) hands the loop its
+rehearsals (gap/arm_rehearsal.py). A plant that can (twin.plant.Plant) hands the loop its
 compiled ticks (`SteppedPlant.ticks_batch`, twin/compiled_loop.py): the ticks between the
 schedules' due times, the controller's plan changes and the run's end run there, controller tick,
 air and mj_step in one compiled call. The Python loop below runs the rest and is the reference
