@@ -28,7 +28,8 @@ class FaultKind:
 
     name: str  # the file's `kind`
     what: str  # what strikes the plant, in words
-    act: Callable[[Plant, Fault], None]  # strikes: changes the plant, once, at the fault's time
+    # strikes: changes the plant, once, at the fault's time; None for a fault of the supply (`supply_pa`)
+    act: Callable[[Plant, Fault], None] | None = None
     # why the kind names no joint (it strikes every joint); "": it names the one joint it strikes
     whole_arm: str = ""
     value: tuple[float, float, str] | None = None  # its `value`'s range and unit (not 0); None: it takes none
@@ -37,6 +38,10 @@ class FaultKind:
     # a fault of the supply: the supply (Pa, absolute) from its time on, which the supply's schedule
     # carries in a run (FaultEvents.supply); None: it acts on the plant through `act`
     supply_pa: float | None = None
+
+    def __post_init__(self):
+        if (self.act is None) == (self.supply_pa is None):
+            raise ValueError(f"fault kind {self.name!r}: give it either `act` or `supply_pa`, not both or neither")
 
 
 class FaultEvents:
@@ -61,20 +66,12 @@ class FaultEvents:
     def apply(self, plant: Plant, t: float) -> None:
         while self.pending and self.pending[0].at_s <= t:
             fault = self.pending.pop(0)
-            if FAULTS[fault.kind].supply_pa is None:  # the supply's schedule carries a supply fault (`supply`)
-                apply_fault(plant, fault)
+            kind = FAULTS[fault.kind]
+            if kind.act is not None:  # a fault of the supply is the supply's schedule's (`supply`)
+                kind.act(plant, fault)
 
     def due_s(self, t: float) -> float:
         return self.pending[0].at_s if self.pending else math.inf
-
-
-def apply_fault(plant: Plant, fault: Fault) -> None:
-    """Strike the plant with the fault, as its kind's row says."""
-    FAULTS[fault.kind].act(plant, fault)
-
-
-def _lose_supply(plant: Plant, fault: Fault) -> None:
-    plant.set_supply(AIR.p_atm_pa)
 
 
 def _leak_hose(plant: Plant, fault: Fault) -> None:
@@ -103,7 +100,6 @@ FAULTS: dict[str, FaultKind] = registry(
     FaultKind(
         name="supply_lost",
         what="the supply falls to atmosphere (the brakes' springs engage)",
-        act=_lose_supply,
         whole_arm="the supply feeds every joint",
         supply_pa=AIR.p_atm_pa,
     ),
