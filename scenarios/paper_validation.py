@@ -97,6 +97,23 @@ class ValidationRun:
         gap = self.predictor_gap()
         return tuple(s for s in ("mean", "max") if gap[s] > sum(PAPER[k][s][self.supply_mpa] for k in KINDS))
 
+    def out_of_reach_within(self, factor: float) -> tuple[str, ...]:
+        """The statistics ("mean", "max") for which no reality has both errors (with and without
+        the loss) within `factor` of the paper's at this supply, whatever the as-built arm. Sample
+        by sample a reality's two errors e1, e2 and the predictions' distance d obey
+        |e1 - e2| <= d <= e1 + e2, and so do their means and maxima: both figures are within reach
+        only if some e1 in [a / factor, a * factor] and e2 in [b / factor, b * factor] (a, b the
+        paper's) are no farther apart than d and add to at least d. `unreachable()` is the upper
+        half of this at factor 1."""
+        gap = self.predictor_gap()
+        out = []
+        for stat in ("mean", "max"):
+            a, b = (PAPER[k][stat][self.supply_mpa] for k in KINDS)
+            nearest = max(b / factor - a * factor, a / factor - b * factor, 0.0)
+            if not nearest <= gap[stat] <= (a + b) * factor:
+                out.append(stat)
+        return tuple(out)
+
 
 def _commands(mpa: float, k_u: float) -> dict[str, np.ndarray]:
     t = np.round(np.arange(0.0, MOTION.total_s() + 1e-9, DT_S), 6)
