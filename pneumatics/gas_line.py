@@ -106,7 +106,7 @@ from pneumatics._jit import njit
 from pneumatics.darcy import hose_constants, hose_resistance_with
 from pneumatics.heat import duct_heat_transfer_coefficient
 from pneumatics.integrators import secant_slope
-from pneumatics.line import N_UNSTEADY, UNSTEADY_M, UNSTEADY_N, FarEnd, LineStep, inlet_driven_series, wave_speed
+from pneumatics.line import N_UNSTEADY, UNSTEADY_M, UNSTEADY_N, FarEnd, LineStep, inlet_substeps, wave_speed
 from pneumatics.orifice import choked_flux, orifice_mass_flow_with
 
 BAND_HZ = 100.0  # the band a line resolves by default (docs/air_lines.md: accuracy per cost)
@@ -716,4 +716,11 @@ def far_end_series(
     steps of at most `max_dt_s` (`pneumatics.hose.line_response` checks the arguments)."""
     x = initial_line_state(row, inlet_pa[0])
     end = FarEnd(end_volume_m3, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
-    return inlet_driven_series(advance_from_pressure, far_end_pressure, x, row, end, times_s, inlet_pa, max_dt_s)
+    plan = inlet_substeps(times_s, inlet_pa, max_dt_s)
+    out = np.empty(times_s.size)
+    out[0] = far_end_pressure(x, row)
+    for j in range(plan.dt_s.size):
+        advance_from_pressure(x, row, plan.dt_s[j], plan.start_pa[j], plan.end_pa[j], end)
+        if plan.sample[j] >= 0:
+            out[plan.sample[j]] = far_end_pressure(x, row)
+    return out

@@ -500,24 +500,37 @@ def advance_from_flow(x: np.ndarray, row: np.ndarray, dt_s: float, mass_flow_kg_
     return _advance(x, row, dt_s, _INLET_FLOW, mass_flow_kg_s, 0.0, 0.0, 0.0, 0.0, end)
 
 
+class InletSubsteps(NamedTuple):
+    """A line's steps under an inlet pressure sampled at given times: per step its length (s), the
+    inlet pressure at its start and end (Pa, linear between samples), and the sample whose time it
+    ends on (-1 inside a sample's span)."""
+
+    dt_s: np.ndarray
+    start_pa: np.ndarray
+    end_pa: np.ndarray
+    sample: np.ndarray
+
+
 @njit
-def inlet_driven_series(advance, far_end, x, row, end, times_s, inlet_pa, max_dt_s):
-    """The far end's pressure at `times_s` of a line in the state x whose inlet pressure follows
-    `inlet_pa` (linear between samples), stepped by `advance` (an `advance_from_pressure`) in steps
-    of at most `max_dt_s` and read by `far_end` (a `far_end_pressure`): one driver for both lines,
-    the acoustic one here and pneumatics/gas_line.py's."""
-    out = np.empty(times_s.size)
-    out[0] = far_end(x, row)
+def inlet_substeps(times_s: np.ndarray, inlet_pa: np.ndarray, max_dt_s: float) -> InletSubsteps:
+    """Each span between samples cut into equal steps of at most `max_dt_s`, the inlet linear across
+    it: the stepping both lines' `far_end_series` follow (this one and pneumatics/gas_line.py's)."""
+    counts = np.empty(times_s.size - 1, dtype=np.int64)
     for i in range(times_s.size - 1):
-        span = times_s[i + 1] - times_s[i]
-        steps = max(1, int(math.ceil(span / max_dt_s - 1e-9)))
-        dt = span / steps
+        counts[i] = max(1, int(math.ceil((times_s[i + 1] - times_s[i]) / max_dt_s - 1e-9)))
+    n = int(counts.sum())
+    plan = InletSubsteps(np.empty(n), np.empty(n), np.empty(n), np.full(n, -1, dtype=np.int64))
+    j = 0
+    for i in range(times_s.size - 1):
+        steps = counts[i]
+        dt = (times_s[i + 1] - times_s[i]) / steps
         for s in range(steps):
-            a = inlet_pa[i] + (inlet_pa[i + 1] - inlet_pa[i]) * s / steps
-            b = inlet_pa[i] + (inlet_pa[i + 1] - inlet_pa[i]) * (s + 1) / steps
-            advance(x, row, dt, a, b, end)
-        out[i + 1] = far_end(x, row)
-    return out
+            plan.dt_s[j] = dt
+            plan.start_pa[j] = inlet_pa[i] + (inlet_pa[i + 1] - inlet_pa[i]) * s / steps
+            plan.end_pa[j] = inlet_pa[i] + (inlet_pa[i + 1] - inlet_pa[i]) * (s + 1) / steps
+            j += 1
+        plan.sample[j - 1] = i + 1
+    return plan
 
 
 @njit
@@ -529,4 +542,11 @@ def far_end_series(
     steps of at most `max_dt_s` (`pneumatics.hose.line_response` checks the arguments)."""
     x = initial_line_state(row, inlet_pa[0])
     end = FarEnd(end_volume_m3, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
-    return inlet_driven_series(advance_from_pressure, far_end_pressure, x, row, end, times_s, inlet_pa, max_dt_s)
+    plan = inlet_substeps(times_s, inlet_pa, max_dt_s)
+    out = np.empty(times_s.size)
+    out[0] = far_end_pressure(x, row)
+    for j in range(plan.dt_s.size):
+        advance_from_pressure(x, row, plan.dt_s[j], plan.start_pa[j], plan.end_pa[j], end)
+        if plan.sample[j] >= 0:
+            out[plan.sample[j]] = far_end_pressure(x, row)
+    return out

@@ -8,12 +8,13 @@ measured-looking inlet (noise, a 1.5 ms step, 1-8 bar).
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
 from exact_riemann import sample
 
-from pneumatics import AIR
+from pneumatics import AIR, _jit
 from pneumatics.gas_line import (
     FarEnd,
     advance_from_flow,
@@ -163,3 +164,17 @@ def test_line_response_takes_a_measured_looking_inlet(p_high: float, length_m: f
     assert far.min() > 0.3 * ATM and far.max() < 2.0 * p_high
     settled = (t > 0.12) & (t < 0.15)
     assert np.std(np.diff(far[settled])) < 2e3
+
+
+@pytest.mark.skipif(_jit.NO_JIT or _jit.cache_root() is None, reason="no compiled-code cache folder here")
+def test_a_line_response_is_compiled_once_and_kept_in_the_cache() -> None:
+    """`line_response` is what a user calls first in a fresh process: its series (both lines') must be
+    saved to numba's cache, or each start compiles it again (seconds) and warns that it cannot cache."""
+    from pneumatics import line
+
+    t = np.linspace(0.0, 0.01, 5)
+    line_response(1.0, BORE, 1e-6, t, np.full(5, 2e5), T)
+    row = line.line_row(1.0, BORE, T, R, K, MU, 10)
+    line.far_end_series(row, 1e-6, t, np.full(5, 2e5), DT)
+    for series in (far_end_series, line.far_end_series):
+        assert Path(series._cache._cache_file._index_path).is_file(), series
