@@ -36,14 +36,13 @@ import assets
 from gap import protocols
 from gap.arm_campaign import JOINTS, PRESSURE_PERIOD_S, ArmCampaign, ArmInstrument, ArmRun
 from gap.arm_diagnose import LATENCY_GRID_S, ArmDiagnosis, ReplayedArm, axis_of, gravity_torques, probe_value, twin_of
-from gap.arm_effects import ARM_CATALOGUE, JOINT_CATALOGUE, ArmCandidate, ArmSetup, candidate_named
+from gap.arm_effects import ARM_CATALOGUE, JOINT_CATALOGUE, ArmCandidate, ArmSetup, candidate_named, stall_torque_nm
 from gap.arm_replay import arm_plant, replay
 from gap.design import GRID_POINTS, MAX_PROPOSALS, SEPARATED_FLOORS, Design, DesignCriterion, Pair, choose, family_pairs
 from gap.discrimination import Change, Hypothesis, Reading, Response
 from pneumatics import JointParams, load_joint_params
 from pneumatics.as_built import load_as_built
 from pneumatics.gas import AIR
-from pneumatics.motor import displacement_per_rad
 
 PITCH_JOINTS = ("shoulder_pitch", "elbow_pitch", "wrist_pitch")  # the joints gravity loads
 BASE_YAW_DEG = 40.0  # the base turned away from the insulator string (scenarios/arm_protocols/one_joint.toml)
@@ -190,14 +189,6 @@ def home_pose(params: dict[str, JointParams], setup: ArmSetup) -> tuple[object, 
     plant.data.qpos[:] = plant.model.key("home").qpos
     plant.data.joint("base_yaw").qpos[0] = math.radians(BASE_YAW_DEG)
     return plant, plant.data.qpos.copy()
-
-
-def stall_torque_nm(p: JointParams, supply_mpa: float) -> float:
-    """The joint's stall torque at a supply: the supply's gauge pressure on the vane motor's
-    displacement, through the reducer's ratio and forward efficiency (the sizing rule of
-    assets/joints/*.toml, e.g. the elbow's 0.5 MPa x 3.1e-6 x 200 x 0.7 = 217 N·m)."""
-    d = displacement_per_rad(p.stator_radius_m, p.rotor_radius_m, p.vane_length_m, p.n_vanes)
-    return supply_mpa * 1e6 * d * p.ratio * p.efficiency_forward
 
 
 def postures(joint: str, twin: ReplayedArm, supply_mpa: float) -> list[tuple[float, np.ndarray, float]]:

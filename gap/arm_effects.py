@@ -17,6 +17,7 @@ plant, never a second model (as gap/effects.py does for a joint).
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 from typing import NamedTuple
@@ -24,9 +25,11 @@ from typing import NamedTuple
 import mujoco
 import numpy as np
 
+import assets
 from gap.effects import BY_NAME, INERTIA, LOAD_SPRING, LOAD_TORQUE, Effect
 from gap.kinds import Family
-from pneumatics import JointParams
+from pneumatics import JointParams, load_joint_params
+from pneumatics.motor import displacement_per_rad
 
 PAYLOAD_BODY = "payload"  # assets/arm.xml
 # the payload's mass and inertia in assets/arm.xml (20 kg, the paper's maximum; diaginertia 0.0626)
@@ -105,6 +108,41 @@ ARM_JOINT_EXCLUDED = ("hose_loss", "inertia_error", "reducer_backlash", "reducer
 JOINT_CATALOGUE: tuple[Effect, ...] = tuple(e for n, e in BY_NAME.items() if n not in ARM_JOINT_EXCLUDED)
 JOINT_BY_NAME = {e.name: e for e in JOINT_CATALOGUE}
 
+# The one-joint catalogue's bounds are set for the wrist (gap/effects.py). On another joint of the arm
+# a torque's bounds are the same share of what that joint's motor can give: the wrist's scaled by the
+# joint's stall torque over the wrist's (the shoulder's own Coulomb friction, 60 N·m, was the wrist's
+# upper bound; its brake's 1600 N·m five times the wrist's 300). A brake's release pressure keeps the
+# wrist's offsets from the joint's own nominal (the others' 3.0 bar lay under the wrist's 3.25 bar).
+BOUNDS_JOINT = "wrist_pitch"
+TORQUE_FIELDS = frozenset({"coulomb_nm", "stribeck_excess_nm", "viscous_nm_s", LOAD_SPRING, "brake_holding_nm"})
+OFFSET_FIELDS = frozenset({"brake_release_gauge_pa"})
+
+
+def stall_torque_nm(p: JointParams, supply_mpa: float) -> float:
+    """The joint's stall torque at a supply: the supply's gauge pressure on the vane motor's
+    displacement, through the reducer's ratio and forward efficiency (the sizing rule of
+    assets/joints/*.toml, e.g. the elbow's 0.5 MPa x 3.1e-6 x 200 x 0.7 = 217 N·m)."""
+    d = displacement_per_rad(p.stator_radius_m, p.rotor_radius_m, p.vane_length_m, p.n_vanes)
+    return supply_mpa * 1e6 * d * p.ratio * p.efficiency_forward
+
+
+@functools.cache
+def _nominal(joint: str) -> JointParams:
+    return load_joint_params(assets.joint_param_path(joint))
+
+
+def joint_bounds(effect: Effect, joint: str) -> tuple[float, float]:
+    """The search bounds of a one-joint catalogue effect on `joint` of the arm (see above)."""
+    if joint == BOUNDS_JOINT:
+        return effect.low, effect.high
+    if effect.field in TORQUE_FIELDS:
+        scale = stall_torque_nm(_nominal(joint), 1.0) / stall_torque_nm(_nominal(BOUNDS_JOINT), 1.0)
+        return effect.low * scale, effect.high * scale
+    if effect.field in OFFSET_FIELDS:
+        shift = getattr(_nominal(joint), effect.field) - getattr(_nominal(BOUNDS_JOINT), effect.field)
+        return effect.low + shift, effect.high + shift
+    return effect.low, effect.high
+
 
 @dataclass(frozen=True)
 class ArmCandidate:
@@ -123,7 +161,9 @@ class ArmCandidate:
 
     @property
     def bounds(self) -> tuple[float, float]:
-        e = JOINT_BY_NAME[self.effect] if self.joint else ARM_BY_NAME[self.effect]
+        if self.joint:
+            return joint_bounds(JOINT_BY_NAME[self.effect], self.joint)
+        e = ARM_BY_NAME[self.effect]
         return e.low, e.high
 
     @property

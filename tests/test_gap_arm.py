@@ -8,6 +8,7 @@ import math
 import numpy as np
 import pytest
 
+import assets
 from gap.arm_campaign import JOINTS, ArmRun, HiddenArmEffect, campaign_toml, load_arm_campaign, write_arm_run
 from gap.arm_diagnose import (
     SIGNIFICANT,
@@ -27,6 +28,7 @@ from gap.arm_rehearsal import twin_of as scenario_twin
 from gap.arm_replay import replay
 from gap.campaign import GapError
 from gap.jobs import parallel_jobs
+from pneumatics import load_joint_params
 from scenarios.schema import load
 
 ONE_JOINT = "scenarios/arm_protocols/one_joint.toml"
@@ -254,3 +256,23 @@ def test_an_effects_signature_is_what_the_noise_adds_to(campaigns):
         assert measured.pressure_floors == pytest.approx(math.hypot(1.0, s.pressure_floors), rel=0.1), (measured, s)
     none = signature(c, coulomb, coulomb.value_in(twin_of(c).params, twin_of(c).setup, JOINTS), c.instrument.latency_s)
     assert none.snr == 0.0 and none.below_floor
+
+
+def test_every_joints_own_value_lies_inside_its_effects_bounds_at_the_wrists_share_of_its_stall():
+    """The catalogue's bounds are the wrist's; on each joint of the arm a torque's bounds are the same
+    share of the joint's stall torque (gap.arm_effects.joint_bounds), so the twin's own value of every
+    effect lies inside them and the search can move it either way (the shoulder's 60 N·m Coulomb
+    friction sat on the wrist's upper bound, its 1600 N·m brake outside the wrist's 20-300)."""
+    from gap.arm_effects import BOUNDS_JOINT, JOINT_BY_NAME, TORQUE_FIELDS, ArmCandidate, stall_torque_nm
+    from gap.effects import LOAD_SPRING
+
+    nominal = {j: load_joint_params(assets.joint_param_path(j)) for j in JOINTS}
+    wrist_stall = stall_torque_nm(nominal[BOUNDS_JOINT], 0.5)
+    for joint in JOINTS:
+        share = stall_torque_nm(nominal[joint], 0.5) / wrist_stall
+        for name, effect in JOINT_BY_NAME.items():
+            lo, hi = ArmCandidate(name, joint).bounds
+            if effect.field in TORQUE_FIELDS:
+                assert (lo, hi) == pytest.approx((effect.low * share, effect.high * share)), (joint, name)
+            if effect.field != LOAD_SPRING:
+                assert lo <= getattr(nominal[joint], effect.field) <= hi, (joint, name, lo, hi)

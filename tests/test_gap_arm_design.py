@@ -128,7 +128,8 @@ def test_the_postures_gravity_torques_are_the_potential_energys_slope_and_within
     force the design reads), the three differ, and each is at most HOLD_SHARE of the stall torque."""
     import mujoco
 
-    from gap.arm_design import HOLD_SHARE, nominal_twin, postures, stall_torque_nm
+    from gap.arm_design import HOLD_SHARE, nominal_twin, postures
+    from gap.arm_effects import stall_torque_nm
     from gap.arm_replay import arm_plant
 
     twin = nominal_twin()
