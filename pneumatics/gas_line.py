@@ -106,7 +106,7 @@ from pneumatics._jit import njit
 from pneumatics.darcy import hose_constants, hose_resistance_with
 from pneumatics.heat import duct_heat_transfer_coefficient
 from pneumatics.integrators import secant_slope
-from pneumatics.line import N_UNSTEADY, UNSTEADY_M, UNSTEADY_N, FarEnd, LineStep, inlet_substeps, wave_speed
+from pneumatics.line import N_UNSTEADY, UNSTEADY_M, UNSTEADY_N, FarEnd, LineStep, wave_speed
 from pneumatics.orifice import choked_flux, orifice_mass_flow_with
 
 BAND_HZ = 100.0  # the band a line resolves by default (docs/air_lines.md: accuracy per cost)
@@ -705,22 +705,3 @@ def advance_from_orifice(
 def advance_from_flow(x: np.ndarray, row: np.ndarray, dt_s: float, mass_flow_kg_s: float, end: FarEnd) -> LineStep:
     """Advance a line over dt in place, a given mass flow into its first cell held over the step."""
     return _advance(x, row, dt_s, _INLET_FLOW, mass_flow_kg_s, 0.0, 0.0, 0.0, 0.0, end)
-
-
-@njit
-def far_end_series(
-    row: np.ndarray, end_volume_m3: float, times_s: np.ndarray, inlet_pa: np.ndarray, max_dt_s: float
-) -> np.ndarray:
-    """The far end's pressure at `times_s` of a line, at rest at inlet_pa[0], whose inlet follows
-    `inlet_pa` (linear between samples) and whose far end is closed by a rigid `end_volume_m3`;
-    steps of at most `max_dt_s` (`pneumatics.hose.line_response` checks the arguments)."""
-    x = initial_line_state(row, inlet_pa[0])
-    end = FarEnd(end_volume_m3, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
-    plan = inlet_substeps(times_s, inlet_pa, max_dt_s)
-    out = np.empty(times_s.size)
-    out[0] = far_end_pressure(x, row)
-    for j in range(plan.dt_s.size):
-        advance_from_pressure(x, row, plan.dt_s[j], plan.start_pa[j], plan.end_pa[j], end)
-        if plan.sample[j] >= 0:
-            out[plan.sample[j]] = far_end_pressure(x, row)
-    return out

@@ -24,6 +24,7 @@ from pneumatics.darcy import (
     reynolds_number,
 )
 from pneumatics.gas import AIR
+from pneumatics.line_series import GAS_LINE, far_end_series
 
 __all__ = [
     "BLASIUS_LAMINAR_RE",
@@ -62,7 +63,7 @@ def line_response(
     c = _line.wave_speed(temperature_k, AIR.r_j_per_kg_k, AIR.k)
     cells = max(LINE_RESPONSE_MIN_CELLS, _line.segments_for(length_m, c, LINE_RESPONSE_BAND_HZ))
     row = _line.line_row(length_m, bore_m, temperature_k, AIR.r_j_per_kg_k, AIR.k, AIR.mu_pa_s, cells)
-    return _line.far_end_series(row, end_volume_m3, times, inlet, LINE_STEP_S)
+    return far_end_series(GAS_LINE, row, end_volume_m3, times, inlet, LINE_STEP_S)
 
 
 # `line_response`'s grid, finer than the plant's (it runs offline): within ~0.005 bar rms of a grid

@@ -30,13 +30,13 @@ from pneumatics.line import (
     advance_from_orifice,
     advance_from_pressure,
     far_end_pressure,
-    far_end_series,
     initial_line_state,
     line_row,
     segments_for,
     stored_mass,
     substeps_for,
 )
+from pneumatics.line_series import ACOUSTIC_LINE, far_end_series
 from pneumatics.orifice import choked_flux, orifice_mass_flow
 
 R, K, MU, T = AIR.r_j_per_kg_k, AIR.k, AIR.mu_pa_s, AIR.t_supply_k
@@ -108,7 +108,7 @@ def model_response(freq_hz: np.ndarray, row: np.ndarray, end_m3: float, p_mean_p
     t = np.arange(0.0, 5.0 + DT / 2, DT)
     ramp = np.clip(t / 0.5, 0.0, 1.0)
     inlet = p_mean_pa + 10.0 * ramp * np.sin(2.0 * np.pi * np.outer(t, freq_hz) + phases).sum(axis=1)
-    far = far_end_series(row, end_m3, t, inlet, DT)
+    far = far_end_series(ACOUSTIC_LINE, row, end_m3, t, inlet, DT)
     window = slice(int(round(4.0 / DT)), int(round(5.0 / DT)))
     bins = np.round(freq_hz).astype(int)
     return np.fft.rfft(far[window])[bins] / np.fft.rfft(inlet[window])[bins]
@@ -181,7 +181,7 @@ def test_the_plants_coarser_grid_keeps_the_delay_within_1_ms(length_m: float) ->
     # 1 ms of L/c (8 m: 23.9 ms against 23.3)
     row = _row(length_m, band_hz=PLANT_BAND_HZ)
     t = np.arange(0.0, 1.5 * length_m / C, 1e-4)
-    far = far_end_series(row, 0.0, t, np.where(t > 0.0, 3e5 + 1e3, 3e5), DT)
+    far = far_end_series(ACOUSTIC_LINE, row, 0.0, t, np.where(t > 0.0, 3e5 + 1e3, 3e5), DT)
     assert t[np.argmax(far - 3e5 >= 0.5e3)] == pytest.approx(length_m / C, abs=1.0e-3)
     # nothing before the front but the grid's smear, two segments' travel (as on the default grid)
     assert np.all(far[t < min(0.9, 1.0 - 2.0 / row[0]) * length_m / C] - 3e5 < 0.05e3)
