@@ -57,7 +57,16 @@ the insulator string (paper Sec. II). This model sees only what that camera's pi
   (`OperatorParams.tolerance_m`); a joint his picture gives coarser than UNREADABLE_RAD he does not read;
   with a pixel coarser than his tolerance (`Operator.coarse`), a correction that would move the
   brush across the rim's normal further than it stands off the rim, nearer than the plan's
-  clearance, is taken as a possible misreading and made from clear of the string.
+  clearance, is taken as a possible misreading and made from clear of the string, and a press is
+  corrected only when seen off by more than his tolerance and a pixel (the stroke's two ends are
+  each cut to one).
+- **a brush seen on the rim where it should stand clear** (its face's centre on or past the rim at
+  a standoff): he sets the belief to what he sees and draws it straight out along the rim's normal
+  before anything else (scenarios/task.py, DRAWING_OUT), then looks again.
+- **before the plan's last turn back into the camera's plane** (the retreat's swing from aside of the
+  string) he looks from both views whether the brush, turned back, would pass nearer the string than
+  touching distance, and if the shoulder stands short of where the platform believes it, sets the
+  belief by the carrier seen and lets the shoulder's raise be sent again (`review_swing`).
 
 Numbers (the paper gives none for its camera): 640 x 480 at 25 frames/s, an analogue CCTV
 camera's picture (PAL, assumed); latency 0.4 s = about 0.1 s of video link and encoding plus a
@@ -75,7 +84,14 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
-from scenarios.ik import BRUSH_HALF_LENGTH_M, carrier_m, drive_to_qpos, tip_drive_angles, tool_drive_angles
+from scenarios.ik import (
+    BRUSH_HALF_LENGTH_M,
+    arm_lengths,
+    carrier_m,
+    drive_to_qpos,
+    tip_drive_angles,
+    tool_drive_angles,
+)
 from scenarios.pinhole import Pinhole, camera_of
 from scenarios.plan import CLEAR_M, PRESS_M, TOUCH_STANDOFF_M
 from scenarios.schema import OperatorParams
@@ -85,6 +101,9 @@ from twin.camera_frames import CLOCK_NEXT_S, CLOCK_TAKEN, record_frame, row_size
 
 LATENCY_SPREAD = 0.25  # each look's latency is latency_s x (1 +- this), uniform (assumed: reaction times scatter ~25 %)
 MAX_LOOKS = 6  # corrections per disc before the operator presses, aimed by his last look
+# how many times a disc he draws the brush straight out, seen on its rim where a target holds it clear,
+# before he takes such a look as any other (a draw-out that does not take it off the rim is not repeated)
+DRAW_OUTS_PER_DISC = 2
 # corrections of a press's depth per disc (he presses again by what he sees, then lets it be): the
 # platform's own error over a press, 1-2 cm (the arrival band, 0.5 deg on each of shoulder and
 # elbow, ~4 mm each at the brush; the as-built elbow's small moves 1-3 times the predicted),
@@ -247,6 +266,11 @@ class Operator:
         self.press_looks = 0  # corrections of the press on the disc under way
         self.last_miss_m = 0.0  # how far off the brush's face he last saw it (m)
         self.implausible = ""  # why his last look is not to be believed ('' : it is): he stops and backs off
+        # why his last look saw the brush on a rim where it should stand clear ('': it did not), and how
+        # far he draws it out along the rim's normal for it to stand where the target holds it
+        self.on_rim = ""
+        self.draw_out_m = 0.0
+        self.drawn_out: list[int] = []  # the disc of each look that saw the brush on its rim
         self._last_set: dict[str, float] = {}  # the joints he set the belief of at his last look, as seen
         # joints he saw not move by a small move and left where they stand: (angle, band) per joint; a
         # target within the band of it is not sent again (`hold`), a larger move lets it go
@@ -341,6 +365,102 @@ class Operator:
             + (f" and {moved * 100:.1f} cm across it" if near else "")
         )
 
+    def _seen_on_rim(self, frame: Frame, disc: int, standoff_m: float) -> bool:
+        """His look shows the centre of the brush's face on `disc`'s rim or past it (along the rim's
+        normal, as he found the disc) at a target that holds it clear (further off than touching
+        distance, TOUCH_STANDOFF_M), at most DRAW_OUTS_PER_DISC times a disc: `on_rim` says so and
+        `draw_out_m` is how far out along the normal it must go to stand `standoff_m` off. A brush on
+        the rim where it should stand 5 cm off (disc 2, 160x120: a shoulder 7 deg off, unread under the
+        picture's 5.7 deg, the head pushed in 3.4 cm, 37 N; seen 2.6 cm past the rim) is no drift to
+        correct by the whole pose: sent again from there, the head's edge was dragged over the rim's
+        (163-200 N); the move out is made first. Not the face's edge (`face_clear_m`): with the tool
+        tilted 35-60 deg at the string 10 cm closer its edge is seen on the rim at a 4 cm standoff
+        while the face stands 2.5-3 cm off. Nor the head's stroke: seen 0.5 cm for 3.4 at 160x120."""
+        self.on_rim, self.draw_out_m = "", 0.0
+        if not disc or not math.isfinite(standoff_m) or standoff_m <= TOUCH_STANDOFF_M + 1e-9:
+            return False
+        if self.drawn_out.count(disc) >= DRAW_OUTS_PER_DISC:
+            return False
+        _, normal = self.sighting.discs[disc - 1].rim_facing()
+        out = float(self.picture_error_m(frame, disc, 0.0) @ normal)
+        if out >= 0.0:
+            return False
+        self.on_rim = f"brush seen {-out * 100:.1f} cm past the rim it should stand {standoff_m * 100:.0f} cm off"
+        self.draw_out_m = standoff_m - out
+        self.drawn_out.append(disc)
+        return True
+
+    def swing_clear_m(self, carrier_m_: np.ndarray, yaw_to_rad: float) -> float:
+        """How near the brush's face comes to the string he found (m, the least over its discs: out
+        from each rim along the disc's plane; inf: it passes at no disc's height) when the arm turns
+        about the base axis from where its carrier stands to `yaw_to_rad`, the carrier's distance from
+        the axis and height kept. The face is taken BRUSH_HALF_LENGTH_M ahead of the carrier, out
+        from the axis (the tool level, as the plan's home pose holds it); a disc counts where the
+        head (its face's radius) reaches its shell's height, give or take his picture's pixel at the
+        string (a 160x120 carrier was placed 1.4 cm low)."""
+        radial, z = float(np.hypot(carrier_m_[0], carrier_m_[1])), float(carrier_m_[2])
+        head = float(self.model.geom("brush").size[0])
+        yaw_now = math.atan2(carrier_m_[1], carrier_m_[0])
+        least = math.inf
+        for yaw in np.linspace(yaw_now, yaw_to_rad, 41):
+            face = np.array(
+                [(radial + BRUSH_HALF_LENGTH_M) * math.cos(yaw), (radial + BRUSH_HALF_LENGTH_M) * math.sin(yaw), z]
+            )
+            for disc in self.sighting.discs:
+                v = face - disc.centre_m
+                along = float(v @ disc.axis)
+                if abs(along) > disc.half_thickness_m + head + self.sighting.m_per_px:
+                    continue
+                least = min(least, float(np.linalg.norm(v - along * disc.axis)) - disc.radius_m)
+        return least
+
+    def review_swing(self, now_s: float, done_s: float, platform, yaw_to_rad: float) -> bool | None:
+        """Look, before the plan's last move turns the arm back to `yaw_to_rad` from aside of the
+        string, at where the brush's carrier stands (both views, `carrier_seen_m`: the pitches he
+        reads off the global view are foreshortened this far out of its plane) and whether, turned
+        back, its face would pass nearer the string than touching distance (`swing_clear_m`). The plan's
+        home pose holds the face 5 cm off disc 5's rim: a shoulder left 7 deg short by the retreat
+        put it 1 cm inside, and the turn back swept the head's side into the disc at 879 N (160x120).
+        None: waiting for a picture; True: the carrier further out than the platform believes (the
+        shoulder short): he sets the shoulder's belief by the carrier seen (the elbow and wrist as
+        believed) and the target is sent again; False: clear (or out of looks): he turns it back."""
+        frame = self.camera.seen(now_s, self._latency_s, done_s)
+        if frame is None:
+            return None
+        self._latency_s = self._draw_latency()
+        self.implausible, self.on_rim = "", ""
+        carrier = self.carrier_seen_m(frame)
+        clear = self.swing_clear_m(carrier, yaw_to_rad)
+        believed = dict(zip(platform.joints, platform.predicted_angles(), strict=True))
+        shoulder = self.shoulder_from_carrier(carrier, believed)
+        noise = self.reading_noise_rad(frame)["shoulder_pitch"]
+        near = clear < TOUCH_STANDOFF_M + self.sighting.m_per_px  # touching distance, and his pixel at the string
+        if not near or self.looks >= MAX_LOOKS or abs(shoulder - believed["shoulder_pitch"]) <= noise:
+            self.log.append(
+                f"t = {now_s:.2f} s: final pose: brush to pass {clear * 100:.1f} cm clear of the string "
+                f"turned back, after {self.looks} corrections: turned back"
+            )
+            self.looks = 0
+            return False
+        platform.reference("shoulder_pitch", shoulder)
+        self.looks += 1
+        self.log.append(
+            f"t = {now_s:.2f} s: final pose: brush to pass {clear * 100:.1f} cm clear of the string turned back; "
+            f"shoulder_pitch seen at {math.degrees(shoulder):.1f} deg by its carrier, platform believed "
+            f"{math.degrees(believed['shoulder_pitch']):.1f} deg: pose re-read"
+        )
+        return True
+
+    def shoulder_from_carrier(self, carrier_m_: np.ndarray, believed: dict[str, float]) -> float:
+        """The shoulder's pitch (rad) that puts the brush's carrier where it is seen, the forearm's
+        and the tool's pitch as believed: the upper arm's line from the shoulder to the elbow, the
+        elbow found back from the carrier along the tool and the forearm (ik.arm_lengths)."""
+        shoulder, _, fore, tool = arm_lengths(self.model)
+        f, t = believed["elbow_pitch"], believed["elbow_pitch"] + believed["wrist_pitch"]
+        radial = float(np.hypot(carrier_m_[0], carrier_m_[1])) - tool * math.cos(t) - fore * math.cos(f)
+        z = float(carrier_m_[2]) - tool * math.sin(t) - fore * math.sin(f)
+        return math.atan2(z - shoulder[2], radial - shoulder[0])
+
     def aimed(self, tip_m: np.ndarray, tilt_rad: float) -> dict[str, float]:
         """Drive angles for a brush target with the operator's aim applied (the tool tilted from
         `tilt_rad` where a joint would leave its range: he places the brush, not its tilt)."""
@@ -414,7 +534,14 @@ class Operator:
             self.log.append(f"t = {now_s:.2f} s: disc_{disc} {seen}: not believed, the operator backs out")
             self.press_looks = 0
             return False
-        if abs(error) <= self.tolerance_m or self.press_looks >= MAX_PRESS_LOOKS:
+        # the stroke is read as the distance between two points each cut to a whole pixel: with a picture
+        # coarser than his tolerance (`coarse`) a reading is off by up to a pixel besides the error he
+        # places to, so he corrects the press only past both (160x120: 5.1 cm). Pressed 4 cm in (42 N,
+        # in band) a 160x120 picture showed 5.5 cm, and two corrections by it, each an out-and-in of the
+        # shoulder, left the platform believing it 14 deg off and the brush on the rim at its back-off,
+        # swept by the next move at 329 N
+        limit = self.tolerance_m + (self.sighting.m_per_px if self.coarse else 0.0)
+        if abs(error) <= limit or self.press_looks >= MAX_PRESS_LOOKS:
             self.log.append(
                 f"t = {now_s:.2f} s: disc_{disc} head seen pushed in {(press_m + error) * 100:.1f} cm "
                 f"after {self.press_looks} corrections: pressed"
@@ -479,6 +606,16 @@ class Operator:
         # the platform's belief of it and places the brush by what he sees of the brush itself
         seen_pose = {j: a for j, a in self.read_pose(frame).items() if noise[j] <= UNREADABLE_RAD}
         believed = dict(zip(platform.joints, platform.predicted_angles(), strict=True))
+        if self._seen_on_rim(frame, disc, standoff_m):
+            # the brush on the rim where it should stand clear: sending the pose again from there
+            # drags the head's edge along the rim (the shoulder's 7 deg re-read at disc 2's 12 cm
+            # clearance, 160x120: 200 N). He sets the belief to what he sees and draws the brush
+            # straight out first (scenarios/task.py, DRAWING_OUT), then looks again
+            for joint, angle in seen_pose.items():
+                platform.reference(joint, angle)
+            self._last_set = {}
+            self.log.append(f"t = {now_s:.2f} s: disc_{disc}: {self.on_rim}: pose re-read, the operator draws it out")
+            return True
         worst = max(seen_pose, key=lambda j: abs(seen_pose[j] - believed[j]) / noise[j], default="")
         off = [j for j in seen_pose if abs(seen_pose[j] - believed[j]) > noise[j]]
         # a joint he set last time and sees where it was, the platform having been sent to correct

@@ -11,7 +11,9 @@ task's time and each disc's coverage (scenarios/cleaning.py: the shares of rim a
 brush went over in its force band). Goals (issue 37): >= 95 % of runs clean all the discs, no run
 above MAX_FORCE_N, the median task time against the shipped scenario's. A disc the arm cannot
 reach from where the platform stands is left out of the plan (scenarios/plan.py), said so by the
-operator, and counts as not cleaned; the table says how many.
+operator, and counts as not cleaned; the table says how many, and the goals count the runs with such
+a disc apart (`outside_workspace`): the share of the other runs that cleaned every disc beside the
+share of all.
 
 Written as `robustness.json` (every run's summary), `robustness.md` (a row per case and the
 goals), `robustness.csv` and `robustness.png` (per case the largest force and the task time).
@@ -152,6 +154,14 @@ def discs_out_of_reach(summary: dict) -> int:
     return sum("out of the arm's reach" in e for e in summary.get("controller_events", []))
 
 
+def outside_workspace(summary: dict) -> bool:
+    """The run's string has a disc outside the arm's workspace: one its plan left out (out of the
+    arm's reach from where the platform stands, at any tilt of the tool, scenarios/plan.py), or no
+    plan at all (no disc within reach). Such a run cannot clean every disc whatever the operator
+    does: the goals count it apart, and say so."""
+    return bool(summary.get("refused")) or discs_out_of_reach(summary) > 0
+
+
 def all_cleaned(summary: dict) -> bool:
     """The run cleaned every disc of its string (a run not made cleaned none)."""
     return bool(summary.get("discs")) and cleaned(summary) == len(summary["discs"])
@@ -187,9 +197,13 @@ def goals(results: list[dict]) -> dict[str, float]:
     force of any run, the median task time over all runs and the shipped case's."""
     times = [math.inf if r["finished_s"] is None else r["finished_s"] for r in results]
     shipped = [t for r, t in zip(results, times, strict=True) if r["case"] == SHIPPED]
+    within = [r for r in results if not outside_workspace(r)]
     return {
         "runs": len(results),
         "all_cleaned": float(np.mean([all_cleaned(r) for r in results])),
+        # the runs whose every disc the arm can reach, and the share of them that cleaned every disc
+        "within_reach_runs": len(within),
+        "all_cleaned_within_reach": float(np.mean([all_cleaned(r) for r in within])) if within else math.nan,
         "peak_force_n": max(largest_force_n(r) for r in results),
         "task_time_s": float(np.median(times)),
         "shipped_task_time_s": float(np.median(shipped)) if shipped else math.nan,
@@ -222,6 +236,17 @@ def table(study_rows: list[RobustnessRow], figures: dict[str, float]) -> str:
         f"largest force {f['peak_force_n']:.0f} N (goal <= {MAX_FORCE_N:.0f} N); median task time "
         f"{_time(f['task_time_s'])} s against the shipped scenario's {_time(f['shipped_task_time_s'])} s.",
     ]
+    outside = f["runs"] - f["within_reach_runs"]
+    if outside:
+        within = (
+            "no other runs"
+            if not f["within_reach_runs"]
+            else (f"of the other {f['within_reach_runs']}, {f['all_cleaned_within_reach']:.0%} cleaned every disc")
+        )
+        lines.append(
+            f"{outside} of the {f['runs']} runs have a disc outside the arm's workspace (out of its reach from "
+            f"where the platform stands, at any tilt of the tool: counted as not cleaned above); {within}."
+        )
     return "\n".join(lines)
 
 

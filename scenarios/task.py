@@ -43,7 +43,7 @@ import numpy as np
 
 from control import ArmController, MotionRefused
 from pneumatics.joint import C_BRAKE_RELEASE, C_DIRECTION, C_PV_SET_GAUGE_PA
-from scenarios.ik import drive_to_qpos, rim_target
+from scenarios.ik import carrier_m, drive_to_qpos, rim_target, tool_drive_angles
 from scenarios.operator import GlobalCamera, Operator
 from scenarios.plan import CLEAR_M, TOUCH_STANDOFF_M
 from scenarios.schema import Scenario
@@ -277,7 +277,13 @@ class TaskController:
 
     def _look(self, t: float) -> None:
         """He looks wherever the brush stands clear of a disc (not only before a press: a drift left
-        until the next press has by then rammed a disc on the way), and at the plan's last pose."""
+        until the next press has by then rammed a disc on the way), at the plan's last pose, and
+        before the plan's last turn back from aside of the string (`_is_before_swing_back`)."""
+        if self._is_before_swing_back(self.k):
+            yaw_to = self.targets[self.k + 1]["base_yaw"]
+            self._seen = self.operator.review_swing(t, self._review_from_s, self.controller, yaw_to)
+            self._why = ""
+            return
         target = self.scenario.targets[self.k]
         self._seen = self.operator.review(
             t,
@@ -328,6 +334,11 @@ class TaskController:
 
     def _stop_settled(self, t: float) -> bool:
         return t >= self._stop.settle_until_s
+
+    def _seen_on_the_rim(self, t: float) -> bool:
+        """His look saw the brush on its disc's rim where target k holds it clear (`Operator.on_rim`,
+        up to DRAW_OUTS_PER_DISC times a disc): he draws it straight out before anything else."""
+        return bool(self._seen and self.operator.on_rim)
 
     def _not_believed_clear_of_string(self, t: float) -> bool:
         """A look he does not believe (`Operator.implausible`) with the brush off the string or
@@ -447,6 +458,31 @@ class TaskController:
         )
         self._send(0.0, pressed=True)
 
+    def _draw_out(self, t: float) -> None:
+        """The brush seen on the rim where it should stand clear: he draws it straight out along the
+        rim's normal by what he saw (`Operator.draw_out_m`), the tool's pitch kept, from the pose he
+        has just set the platform's belief to. Only the move out is asked of the arm (shoulder, elbow,
+        wrist by the arm's kinematics at the believed pose: a belief a few degrees off moves it out
+        all the same), so the head leaves the rim along its normal instead of being dragged over its
+        edge by the whole pose sent again; at rest he looks again. Out of reach: the target as planned."""
+        disc = self.scenario.targets[self.k].brush_at_disc
+        _, normal = self.discs[disc - 1].rim_facing()
+        here = dict(zip(self.controller.joints, self.controller.predicted_angles().tolist(), strict=True))
+        out = self.operator.draw_out_m
+        try:
+            drive = tool_drive_angles(
+                self.model, carrier_m(self.model, here) + out * normal, here["elbow_pitch"] + here["wrist_pitch"]
+            )
+            target = {j: drive[j] for j in ("shoulder_pitch", "elbow_pitch", "wrist_pitch")}
+            for joint, q in drive_to_qpos({**here, **target}).items():
+                lo, hi = self.model.joint(joint).range
+                if not lo <= q <= hi:
+                    raise ValueError(joint)
+        except ValueError:
+            target = self._aimed(self.k)
+        self._notes.append(f"t = {t:.3f} s: disc_{disc}: operator draws the brush {out * 100:.1f} cm straight out")
+        self._send(0.0, pressed=True, target=target)
+
     def _come_in_after_retreat(self, t: float) -> None:
         """Backed off from a look he did not believe: in again, to look afresh."""
         self._send(0.0, pressed=True)
@@ -471,12 +507,12 @@ class TaskController:
         """Out of the press to touching distance: the press again, by what he saw, as the first one."""
         self._send(self.scenario.targets[self.k].dwell_s)
 
-    def _send(self, dwell_s: float, pressed: bool = False) -> None:
-        """Send target k (as the state the task is in places it: `_standoff_m`), not reached until the
-        platform says so; `pressed`: the brush is in a press or at touching distance from the rim now
-        (see `_out_of_the_rim_first`)."""
+    def _send(self, dwell_s: float, pressed: bool = False, target: dict[str, float] | None = None) -> None:
+        """Send target k (as the state the task is in places it: `_standoff_m`; or `target`, drive
+        angles in its stead), not reached until the platform says so; `pressed`: the brush is in a
+        press or at touching distance from the rim now (see `_out_of_the_rim_first`)."""
         k = self.k
-        target = self._aimed(k)
+        target = self._aimed(k) if target is None else target
         self.issued[k] = target
         self.reached[k] = False
         self.controller.expect_press(*self._expected_surface(k))
@@ -613,7 +649,17 @@ class TaskController:
         it, the pitches he reads off the picture are foreshortened (the plan ending swung aside by
         40 deg, he set the wrist 8-11 deg off by them)."""
         last = k == len(self.targets) - 1 and abs(self._aimed_plan(k).get("base_yaw", 0.0)) <= READABLE_YAW_RAD
-        return self._is_standoff(k) or last
+        return self._is_standoff(k) or last or self._is_before_swing_back(k)
+
+    def _is_before_swing_back(self, k: int) -> bool:
+        """Target k is the plan's last but one, the arm turned aside of the camera's plane, and the
+        last turns it back (its base yaw alone) into that plane, where the string is: he looks from
+        both views that the brush will pass clear of the string (`Operator.review_swing`)."""
+        last = len(self.targets) - 1
+        if self.operator is None or k != last - 1 or set(self.targets[last]) != {"base_yaw"}:
+            return False
+        yaw = {j: q for target in self.targets[: k + 1] for j, q in target.items()}.get("base_yaw", 0.0)
+        return abs(yaw) > READABLE_YAW_RAD >= abs(self.targets[last]["base_yaw"])
 
     def _is_standoff(self, k: int) -> bool:
         """A target holding the brush clear of a disc (in the camera's plane: base yaw at zero)."""
@@ -686,6 +732,7 @@ TRANSITIONS: tuple[Transition, ...] = (
     Transition(S.MOVING, C._pose_to_look_at, S.LOOKING),
     Transition(S.MOVING, C._stop_to_drive_into, S.STOP_DRIVE, C._start_stop_drive),
     Transition(S.MOVING, C._always, S.GOING_ON),
+    Transition(S.LOOKING, C._seen_on_the_rim, S.DRAWING_OUT, C._draw_out),
     Transition(S.LOOKING, C._not_believed_clear_of_string, S.MOVING, C._stop_and_go_again),
     Transition(S.LOOKING, C._not_believed, S.RETREATING, C._stop_and_retreat),
     Transition(S.LOOKING, C._not_believed_again_before_press, S.GOING_ON, C._leave_unpressed_not_believed),
@@ -701,6 +748,7 @@ TRANSITIONS: tuple[Transition, ...] = (
     Transition(S.LOOKING_CLOSE, C._placed_off_for_press, S.MOVING, C._come_in_again),
     Transition(S.LOOKING_CLOSE, C._placed, S.GOING_ON),
     Transition(S.RETREATING, C._always, S.MOVING, C._come_in_after_retreat),
+    Transition(S.DRAWING_OUT, C._always, S.LOOKING),
     Transition(S.LOOKING_AT_PRESS, C._press_off, S.OUT_TO_PRESS_AGAIN, C._back_out_to_press_again),
     Transition(S.LOOKING_AT_PRESS, C._pressed_at_last_pose, S.LOOKING),
     Transition(S.LOOKING_AT_PRESS, C._placed, S.GOING_ON),
@@ -711,7 +759,7 @@ TRANSITIONS: tuple[Transition, ...] = (
 ROWS = rows_from(TRANSITIONS)
 # what a state does each time the task is asked in it, before its rows are tried: a move's state
 # notes the arrival (the task is asked only once the platform is done), a look's state looks
-MOVES = (S.MOVING, S.CLOSING_IN, S.RETREATING, S.BACKING_OUT, S.OUT_TO_PRESS_AGAIN)
+MOVES = (S.MOVING, S.CLOSING_IN, S.RETREATING, S.DRAWING_OUT, S.BACKING_OUT, S.OUT_TO_PRESS_AGAIN)
 LOOKS = (S.LOOKING, S.LOOKING_CLOSE, S.LOOKING_AT_PRESS)
 BEHAVIOURS = {
     **dict.fromkeys(MOVES, C._arrive),

@@ -20,6 +20,7 @@ class TaskState(enum.Enum):
     MOVING = "moving"  # the platform taking the arm to target k at the plan's standoff
     CLOSING_IN = "closing in"  # to TOUCH_STANDOFF_M off the rim, before the press that follows approach k
     RETREATING = "retreating"  # back to CLEAR_M off the rim from a look the operator does not believe
+    DRAWING_OUT = "drawing out"  # the brush straight out along the rim's normal, seen on it at target k
     BACKING_OUT = "backing out"  # out of the press to TOUCH_STANDOFF_M, wrist held, before back-off k
     OUT_TO_PRESS_AGAIN = "out to press again"  # out of press k, seen off, to TOUCH_STANDOFF_M
     LOOKING = "looking"  # at rest at target k: the operator's look (at the plan's standoff, or the last pose)

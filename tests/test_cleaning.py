@@ -705,3 +705,86 @@ def test_a_correction_across_the_rim_near_it_is_made_from_clear_of_it(scene):
         assert bool(operator.implausible) is stops, (standoff_m, operator.log)
         if stops:
             assert "across it" in operator.implausible
+
+
+def _brush_to_disc_m(scene, drive: dict[str, float], disc: str) -> float:
+    """MuJoCo's distance between the brush's head and a disc's shell at these drive angles (m; under
+    0: overlapping), an independent measure of the geometry the operator judges by."""
+    d = mujoco.MjData(scene)
+    for j, q in drive_to_qpos(drive).items():
+        d.joint(j).qpos[0] = q
+    mujoco.mj_forward(scene, d)
+    return float(mujoco.mj_geomDistance(scene, d, scene.geom("brush").id, scene.geom(disc).id, 0.5, None))
+
+
+def test_before_turning_back_he_sees_from_above_whether_the_brush_will_pass_clear_of_the_string(scene):
+    """The plan's home pose turned aside (base yaw 40 deg) with the shoulder 7.6 deg short of its
+    90 (as the retreat left it in a 160x120 run): turned back to yaw 0 the head would stand in disc
+    5 (MuJoCo's distance between them under 0; the turn struck it at 419 N). From both views, with
+    the shipped picture and with a 160x120 one, he finds the brush's carrier further out than the
+    platform believes, sets the shoulder's belief to within his reading of the truth and sends the
+    target again; with the shoulder where the platform believes it (the head 2.7 cm off disc 5
+    turned back) he turns it back."""
+    home = {"base_yaw": math.radians(40.0), "shoulder_pitch": math.radians(90.0)}
+    home |= {"elbow_pitch": math.radians(-30.0), "wrist_pitch": math.radians(30.0), "tool_roll": 0.0}
+    short = {**home, "shoulder_pitch": math.radians(82.4)}
+    assert _brush_to_disc_m(scene, {**short, "base_yaw": 0.0}, "disc_5") < 0.0
+    assert _brush_to_disc_m(scene, {**home, "base_yaw": 0.0}, "disc_5") > 0.02
+    for params, within_deg in ((OperatorParams(), 1.0), (OperatorParams(width_px=160, height_px=120), 4.0)):
+        operator = _operator_looking_at(scene, short, params=params)
+        platform = _platform(home)
+        assert operator.review_swing(5.0, 0.0, platform, 0.0) is True, operator.log
+        believed = platform.predicted_angles()[platform.joints.index("shoulder_pitch")]
+        assert abs(math.degrees(believed) - 82.4) < within_deg, operator.log
+        assert "pose re-read" in operator.log[-1]
+        at_home = _operator_looking_at(scene, home, params=params)
+        assert at_home.review_swing(5.0, 0.0, _platform(home), 0.0) is False, at_home.log
+        assert "turned back" in at_home.log[-1]
+
+
+def test_a_brush_seen_on_the_rim_where_it_should_stand_clear_is_drawn_out_first(scene):
+    """A 160x120 picture, the platform believing the brush 5 cm off disc 2's rim: with the brush in
+    truth 2.5 cm past the rim (a shoulder 7 deg off, unread: the head's stroke shows as 0.5 cm at a
+    2.5 cm pixel) he sees its face past the rim, sets the belief and says how far to draw it out
+    (the 5 cm and what he sees past the rim, to his pixels; so with the shipped picture too); with
+    the brush at its standoff, or with
+    the tool tilted 45 deg 4 cm off the rim (the face's edge seen on it, its centre off), he does
+    not. At most DRAW_OUTS_PER_DISC times a disc."""
+    from scenarios.operator import DRAW_OUTS_PER_DISC
+
+    coarse = OperatorParams(width_px=160, height_px=120)
+    target = tool_drive_angles(scene, disc_rim_target(scene, 2, 0.05), 0.0)
+    past = tool_drive_angles(scene, disc_rim_target(scene, 2, -0.025), 0.0)
+    for params in (coarse, OperatorParams()):
+        operator = _operator_looking_at(scene, past, params=params)
+        for _ in range(DRAW_OUTS_PER_DISC):
+            assert operator.review(5.0, 0.0, 2, 0.05, _platform(target), aim=True) is True
+            assert operator.on_rim and "draws it out" in operator.log[-1], operator.log
+            # the face and the rim each cut to a whole pixel: their distance to two
+            assert operator.draw_out_m == pytest.approx(0.075, abs=2.0 * operator.sighting.m_per_px)
+        operator.review(5.0, 0.0, 2, 0.05, _platform(target), aim=True)
+        assert not operator.on_rim  # out of draw-outs on this disc: a look as any other
+    tilted = tool_drive_angles(scene, disc_rim_target(scene, 3, 0.04), math.radians(-45.0))
+    for drive, standoff_m in ((target, 0.05), (tilted, 0.04)):
+        operator = _operator_looking_at(scene, drive, params=coarse)
+        operator.review(5.0, 0.0, 2 if drive is target else 3, standoff_m, _platform(drive), aim=True)
+        assert not operator.on_rim, operator.log
+
+
+def test_with_a_coarse_picture_a_press_is_corrected_only_past_the_pixel_of_its_reading(scene):
+    """The head pushed 4 cm into disc 3's rim (42 N, in the 15-55 N band; 1.5 cm more than the
+    plan's 2.5): the shipped picture reads the stroke to its 0.6 cm pixel and he corrects the press;
+    a 160x120 one reads it as the distance between two points each cut to a 2.5 cm pixel (here 3 cm
+    off the plan's, past his 2.5 cm tolerance), so a seen error under his tolerance plus that pixel
+    he leaves (corrected by such readings, each an out-and-in of the shoulder, the platform's belief
+    drifted 14 deg and the next move swept disc 4 at 329 N)."""
+    from scenarios.plan import PRESS_M
+
+    coarse = OperatorParams(width_px=160, height_px=120)
+    for params, corrects in ((OperatorParams(), True), (coarse, False)):
+        operator = _operator_looking_at(scene, disc_drive_angles(scene, 3, -0.04), stroke_m=0.04, params=params)
+        seen = operator.press_error_m(operator.camera.frames[-1], PRESS_M)
+        assert seen > operator.tolerance_m  # off by more than he places to: corrected before
+        if params is coarse:
+            assert seen < operator.tolerance_m + operator.sighting.m_per_px
+        assert (operator.review_press(5.0, 0.0, 3, PRESS_M) is True) is corrects, (params, seen, operator.log)

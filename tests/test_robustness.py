@@ -79,9 +79,12 @@ def test_a_tiny_robustness_study(tmp_path):
     ]
     figures = robustness.goals(results)
     assert figures["runs"] == 2 and figures["all_cleaned"] == 0.0
+    assert figures["within_reach_runs"] == 1 and figures["all_cleaned_within_reach"] == 0.0
     assert math.isinf(figures["shipped_task_time_s"])  # 3 s: the plan not finished
     text = (tmp_path / "robustness.md").read_text()
     assert "| string x +55 cm | 1 | 0% | 0% | out of reach: not run |" in text
+    assert "1 of the 2 runs have a disc outside the arm's workspace" in text
+    assert "of the other 1, 0% cleaned every disc" in text
     assert (tmp_path / "robustness.png").stat().st_size > 1000
     assert (tmp_path / "robustness.csv").read_text().splitlines()[0].startswith("case,runs,all_cleaned")
 
@@ -119,3 +122,25 @@ def test_the_coverage_criteria_judge_each_disc_by_its_share(scene):
     assert passed[("disc_rim_share", "disc_3")] and passed[("disc_top_share", "disc_3")]
     assert not passed[("disc_rim_share", "disc_2")] and not passed[("disc_top_share", "disc_2")]
     assert not any(passed[(k, "disc_5")] for k in ("disc_rim_share", "disc_top_share"))
+
+
+def test_runs_with_a_disc_outside_the_arms_workspace_are_counted_apart():
+    """A run whose plan left a disc out (the operator's "out of the arm's reach" at the start, the
+    disc judged not cleaned) and a case refused whole are outside the workspace; the share of the
+    other runs that cleaned every disc is given beside the share of all (1 of 1 against 1 of 3)."""
+    disc = {"peak_force_n": 30.0, "rim_share": 0.1, "top_share": 0.0, "cleaned": True}
+    force = [{"kind": "contact_force_n", "value": 30.0}]
+    clean = {"case": "a", "passed": True, "finished_s": 120.0, "discs": [disc, disc], "criteria": force}
+    out = ["t = 0.000 s: disc_1: out of the arm's reach from where the platform stands: not cleaned"]
+    left_out = {**clean, "case": "b", "passed": False, "discs": [{**disc, "cleaned": False}, disc]}
+    left_out["controller_events"] = out
+    refused = {"case": "c", "passed": False, "refused": "no disc within reach", "finished_s": None}
+    runs = [clean, left_out, refused]
+    assert [robustness.outside_workspace(r) for r in runs] == [False, True, True]
+    figures = robustness.goals(runs)
+    assert figures["within_reach_runs"] == 1 and figures["all_cleaned_within_reach"] == 1.0
+    assert figures["all_cleaned"] == pytest.approx(1 / 3)
+    text = robustness.table(robustness.rows(runs), figures)
+    assert "2 of the 3 runs have a disc outside the arm's workspace" in text and "of the other 1, 100%" in text
+    everywhere = robustness.table(robustness.rows([clean]), robustness.goals([clean]))
+    assert "outside the arm's workspace" not in everywhere  # said only where there is such a run

@@ -85,7 +85,7 @@ class Task:
             return verdict
 
         operator.review = review
-        operator.review_press = lambda *args: verdict
+        operator.review_press = operator.review_swing = lambda *args: verdict
         return self
 
     def fire(self, source: TaskState, when: str, target: TaskState, action: str = "-"):
@@ -166,6 +166,20 @@ def moving_pose(shipped):
     assert t.task.compiled_ticks(T_S)[1] == t.task.operator.review_due_s(T_S) > T_S
 
 
+def moving_pose_before_the_turn_back(shipped):
+    """The plan's last but one target (the shoulder raised with the arm turned 40 deg aside), the
+    last turning it back into the camera's plane: he looks before the turn (Operator.review_swing)."""
+    k = len(shipped[2]) - 2
+    t = Task(shipped, S.MOVING, k)
+    t.fire(S.MOVING, "pose_to_look_at", S.LOOKING)
+    assert t.task._is_before_swing_back(k) and not t.task._is_before_swing_back(k - 1)
+    seen = []
+    t.task.operator.review = lambda *args, **kwargs: pytest.fail("the pitches are foreshortened this far aside")
+    t.task.operator.review_swing = lambda now, done, platform, yaw_to: seen.append(yaw_to) or True
+    t.fire(S.LOOKING, "moved", S.MOVING, "go_again")
+    assert seen == [0.0] and t.sent[-1][0] == [shipped[2][k]]  # the shoulder's raise sent again
+
+
 def moving_stop(shipped):
     k = first(shipped, "back off")
     t = Task(shipped, S.MOVING, k, strategy="rereference")
@@ -190,6 +204,30 @@ def moving_always(shipped):
     )
     t = Task(shipped, S.MOVING, last_back_off, strategy="rereference")
     t.fire(S.MOVING, "always", S.GOING_ON)
+
+
+def looking_seen_on_the_rim(shipped):
+    """The brush seen on disc 1's rim at the 5 cm approach (Operator.on_rim): he draws it straight
+    out along the rim's normal by what he saw, its height and the tool's pitch kept."""
+    k = first(shipped, "approach")
+    t = Task(shipped, S.LOOKING, k).sees(True)
+    t.task.operator.on_rim, t.task.operator.draw_out_m = "brush seen 2.0 cm past the rim", 0.07
+    here = dict(zip(t.platform.joints, t.platform.predicted_angles().tolist(), strict=True))
+    notes = t.fire(S.LOOKING, "seen_on_the_rim", S.DRAWING_OUT, "draw_out")
+    assert notes == ["t = 0.000 s: disc_1: operator draws the brush 7.0 cm straight out"]
+    sent = t.sent[-1][0][-1]
+    assert set(sent) == {"shoulder_pitch", "elbow_pitch", "wrist_pitch"}
+    _, normal = t.task.discs[0].rim_facing()
+    moved = t.task._tip_m({**here, **sent}) - t.task._tip_m(here)
+    assert moved == pytest.approx(0.07 * normal, abs=2e-3)
+    assert sent["elbow_pitch"] + sent["wrist_pitch"] == pytest.approx(here["elbow_pitch"] + here["wrist_pitch"])
+
+
+def drawing_out(shipped):
+    k = first(shipped, "approach")
+    t = Task(shipped, S.DRAWING_OUT, k)
+    t.fire(S.DRAWING_OUT, "always", S.LOOKING)
+    assert t.task.reached[k] and not t.sent  # at rest: he looks again
 
 
 def looking_not_believed_clear_of_string(shipped):
@@ -368,9 +406,11 @@ CASES = {
     (S.GOING_ON, "back_off_after_press"): going_on_back_off_after_press,
     (S.GOING_ON, "always"): going_on_always,
     (S.MOVING, "press_to_look_at"): moving_press,
-    (S.MOVING, "pose_to_look_at"): moving_pose,
+    (S.MOVING, "pose_to_look_at"): lambda shipped: (moving_pose(shipped), moving_pose_before_the_turn_back(shipped)),
     (S.MOVING, "stop_to_drive_into"): moving_stop,
     (S.MOVING, "always"): moving_always,
+    (S.LOOKING, "seen_on_the_rim"): looking_seen_on_the_rim,
+    (S.DRAWING_OUT, "always"): drawing_out,
     (S.LOOKING, "not_believed_clear_of_string"): looking_not_believed_clear_of_string,
     (S.LOOKING, "not_believed"): looking_not_believed,
     (S.LOOKING, "not_believed_again_before_press"): looking_not_believed_again_before_press,
