@@ -8,7 +8,10 @@ from __future__ import annotations
 
 import functools
 import math
+import threading
+from collections import OrderedDict
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
@@ -46,6 +49,65 @@ class Prepared:
     tp: np.ndarray  # times of the pressure samples (empty: the run measured no chamber pressure)
     pmask: np.ndarray  # (2, len(tp)) bool: which of p_a, p_b was measured at each time
     pmeas: np.ndarray  # measured chamber pressures (Pa), flattened over pmask
+
+
+class Readout(NamedTuple):
+    """A run's samples of a twin trajectory: the twin's angle at the run's angle-sample times less
+    each latency of the instrument's grid (n_latency x samples, rad) and its chamber pressures where
+    the run measured them (Pa, flattened over the run's pmask)."""
+
+    angle: np.ndarray
+    pressure: np.ndarray
+
+
+# Readouts kept for residual vectors (ReplayMemo): the single fits' rows are read again at other
+# latencies by the family call (gap.members.at_fold_latencies). Measured: 0.22 MB a row on a
+# campaign of 16 runs of 1.6-3.1 s at 13 latencies, ~600 rows kept (130 MB); past the budget the
+# oldest go and are replayed again when asked for
+READOUT_BUDGET_BYTES = 256 * 2**20
+
+
+class ReplayMemo:
+    """The replays a diagnosis has made, by their inputs (the parameter row's bytes, the rig, the
+    group of runs): per run its objective at every latency (a few numbers: all kept) and, where
+    asked for, its readouts (`Readout`: kept up to READOUT_BUDGET_BYTES, the least recently used
+    dropped first). The replay is deterministic, so a remembered replay is the replay's own bits:
+    the pair search's full fit meets the screen's grid and search again, the family call the single
+    fits' rows. Shared by threads; a copy sent to a Dask worker starts empty."""
+
+    def __init__(self, budget_bytes: int = READOUT_BUDGET_BYTES):
+        self.budget_bytes = budget_bytes
+        self._sses: dict[tuple, dict[int, np.ndarray]] = {}
+        self._readouts: OrderedDict[tuple, dict[int, Readout]] = OrderedDict()
+        self._bytes = 0
+        self._lock = threading.Lock()
+
+    def __reduce__(self):
+        return ReplayMemo, (self.budget_bytes,)
+
+    def get(self, key: tuple, readouts: bool):
+        """(per run its objective, per run its readout) of the replay `key`; (None, None) where not
+        remembered (with `readouts`: where its readouts are not)."""
+        with self._lock:
+            sses = self._sses.get(key)
+            if not readouts:
+                return sses, None
+            got = self._readouts.get(key)
+            if got is None:
+                return None, None
+            self._readouts.move_to_end(key)
+            return sses, got
+
+    def put(self, key: tuple, sses: dict[int, np.ndarray], readouts: dict[int, Readout] | None) -> None:
+        with self._lock:
+            self._sses[key] = sses
+            if readouts is None or key in self._readouts:
+                return
+            self._readouts[key] = readouts
+            self._bytes += sum(r.angle.nbytes + r.pressure.nbytes for r in readouts.values())
+            while self._bytes > self.budget_bytes and self._readouts:
+                _, old = self._readouts.popitem(last=False)
+                self._bytes -= sum(r.angle.nbytes + r.pressure.nbytes for r in old.values())
 
 
 def nominal_params(campaign: Campaign) -> JointParams:
@@ -131,6 +193,7 @@ class CampaignReplay:
         self.has_pressure = any(pr.pmeas.size for pr in self.runs)
         self.pressure_weight = pressure_weight
         self.n_replays = 0
+        self.memo = ReplayMemo()
 
     @functools.cached_property
     def ref_latency_s(self) -> float:
@@ -158,10 +221,14 @@ class CampaignReplay:
     def trajectory(self, params: JointParams, rig: Rig, g: int, start_shift_rad: float = 0.0) -> tuple[np.ndarray, ...]:
         """(t, theta, omega, p_a, p_b) of the twin through group g's commands (from the runs' start
         angle moved by `start_shift_rad`)."""
+        return self._replay(params_row(params, stops=self.stops), rig, g, start_shift_rad)
+
+    def _replay(self, row: np.ndarray, rig: Rig, g: int, start_shift_rad: float = 0.0) -> tuple[np.ndarray, ...]:
+        # `trajectory` from the parameter row (made once per set of effects, not once per group)
         rep = self.runs[self.groups[g][0]]
         self.n_replays += 1  # for the report's cost line (threads may miss a count: it is a statistic)
         return replay_run(
-            params_row(params, stops=self.stops),
+            row,
             *rep.args,
             rep.run.start_rad + start_shift_rad,
             rep.inertia * rig.inertia_scale,
@@ -174,8 +241,47 @@ class CampaignReplay:
     def _each_run(self, effects, ks):
         """(k, twin trajectory of run k's group) for k in ks; one replay per group of repeats."""
         p, s = apply_effects(self.params, effects)
-        traj = {g: self.trajectory(p, s, g) for g in dict.fromkeys(self.group_of[k] for k in ks)}
+        row = params_row(p, stops=self.stops)
+        traj = {g: self._replay(row, s, g) for g in dict.fromkeys(self.group_of[k] for k in ks)}
         return [(k, traj[self.group_of[k]]) for k in ks]
+
+    def _replayed(self, effects, ks, keep: bool) -> list[tuple[int, Readout | None, np.ndarray]]:
+        """Per run k in `ks`: (k, the twin with `effects` read at k's samples (`Readout`; None unless
+        `keep`), k's objective at every latency of the grid (`_sse`)). One replay per group of
+        repeats, none where the memo has the group replayed with the same parameter row and rig
+        (`ReplayMemo`). `keep`: the readouts are wanted (for residual vectors), not only the objective."""
+        p, rig = apply_effects(self.params, effects)
+        row = params_row(p, stops=self.stops)
+        out: dict[int, tuple[Readout | None, np.ndarray]] = {}
+        for g in dict.fromkeys(self.group_of[k] for k in ks):
+            key = (row.tobytes(), *rig, g)
+            sses, readouts = self.memo.get(key, keep)
+            if sses is None:
+                traj = self._replay(row, rig, g)
+                readouts = {k: self._readout(k, traj) for k in self.groups[g]}
+                sses = {k: self._sse(k, r) for k, r in readouts.items()}
+                self.memo.put(key, sses, readouts if keep else None)
+            out |= {k: (readouts[k] if keep else None, sses[k]) for k in self.groups[g]}
+        return [(k, *out[k]) for k in ks]
+
+    def _readout(self, k: int, traj) -> Readout:
+        """Run k's samples of a twin trajectory (t, theta, omega, p_a, p_b)."""
+        t, th, _, pa, pb = traj
+        pr = self.runs[k]
+        angle = np.interp(pr.ts[None, :] - self.latencies[:, None], t, th)
+        return Readout(angle, np.stack([np.interp(pr.tp, t, pa), np.interp(pr.tp, t, pb)])[pr.pmask])
+
+    def _sse(self, k: int, r: Readout) -> np.ndarray:
+        """Run k's objective at every latency of the grid from its readout: its squared angle
+        residuals plus its weighted squared chamber-pressure residuals."""
+        pr = self.runs[k]
+        ang = pr.meas[None, :] - r.angle
+        return np.sum(ang**2, axis=1) + self.pressure_weight * np.sum((pr.pmeas - r.pressure) ** 2)
+
+    def _residual(self, k: int, r: Readout, i: int) -> tuple[np.ndarray, np.ndarray]:
+        """Run k's (angle residual at the grid's latency i, chamber-pressure residual) from its readout."""
+        pr = self.runs[k]
+        return pr.meas - r.angle[i], pr.pmeas - r.pressure
 
     def spread(self, effects) -> np.ndarray:
         """Per run, the twin's own spread with `effects` (rad): the rms over the run's angle samples
@@ -207,40 +313,33 @@ class CampaignReplay:
             out[k] = (pr.meas - np.interp(pr.ts - latency_s, t, th), self._pressure_residual(pr, t, pa, pb))
         return out
 
-    def _residual_rows(self, trajs):
-        """Per (k, trajectory): the angle residual at every latency of the grid (n_latency x samples)
-        and the chamber-pressure residual."""
-        for k, (t, th, _, pa, pb) in trajs:
-            pr = self.runs[k]
-            ang = pr.meas[None, :] - np.interp(pr.ts[None, :] - self.latencies[:, None], t, th)
-            yield k, ang, self._pressure_residual(pr, t, pa, pb)
-
     def run_sses(self, effects, ks) -> np.ndarray:
         """The fit's objective per run k in `ks` and latency of the grid, shape (len(ks), n_latency):
         squared angle residuals plus weighted squared pressure residuals."""
-        return self._run_sses_of(list(self._residual_rows(self._each_run(effects, ks))))
+        return self._sses_of(self._replayed(effects, ks, keep=False))
 
-    def _run_sses_of(self, rows) -> np.ndarray:
+    def _sses_of(self, rows) -> np.ndarray:
         out = np.empty((len(rows), len(self.latencies)))
-        for i, (_, ang, pres) in enumerate(rows):
-            out[i] = np.sum(ang**2, axis=1) + self.pressure_weight * np.sum(pres**2)
+        for i, (_, _, sse) in enumerate(rows):
+            out[i] = sse
         return out
 
     def run_sses_and_residual(self, effects, ks) -> tuple[np.ndarray, np.ndarray]:
         """`run_sses`, and the residual of runs `ks` at the reference latency (`ref_latency_s`) as one
         vector: angle (rad) then pressure (Pa) x sqrt(pressure_weight), so that its squared norm is
         the objective (the family call and the pair screen work on these vectors, no replay)."""
-        rows = list(self._residual_rows(self._each_run(effects, ks)))
-        i_ref = self.latency_index(self.ref_latency_s)
-        angles = [ang[i_ref] for _, ang, _ in rows]
-        return self._run_sses_of(rows), residual_vector(angles, [pres for _, _, pres in rows], self.pressure_weight)
+        rows = self._replayed(effects, ks, keep=True)
+        return self._sses_of(rows), self._residual_vector(rows, self.latency_index(self.ref_latency_s))
+
+    def _residual_vector(self, rows, i: int) -> np.ndarray:
+        res = [self._residual(k, r, i) for k, r, _ in rows]
+        return residual_vector([a for a, _ in res], [p for _, p in res], self.pressure_weight)
 
     def residual_vectors(self, effects, ks, indices) -> dict[int, np.ndarray]:
         """The residual vector of runs `ks` (as `run_sses_and_residual`'s) at each latency of the grid
         whose index is in `indices`, from one replay."""
-        rows = list(self._residual_rows(self._each_run(effects, ks)))
-        pressures = [pres for _, _, pres in rows]
-        return {i: residual_vector([ang[i] for _, ang, _ in rows], pressures, self.pressure_weight) for i in indices}
+        rows = self._replayed(effects, ks, keep=True)
+        return {i: self._residual_vector(rows, i) for i in indices}
 
     def latency_index(self, latency_s: float) -> int:
         """The index of the grid's latency nearest `latency_s`."""
@@ -249,11 +348,10 @@ class CampaignReplay:
     def fold_residuals(self, effects, train, test) -> tuple[float, dict[int, tuple[np.ndarray, np.ndarray]]]:
         """The latency that fits runs `train` best with `effects`, and the residuals of runs `test` at
         it (as `residuals_with`), from one replay of their groups."""
-        rows = list(self._residual_rows(self._each_run(effects, list(dict.fromkeys([*train, *test])))))
-        w = self.pressure_weight
-        sse = sum(np.sum(ang**2, axis=1) + w * np.sum(pres**2) for k, ang, pres in rows if k in train)
+        rows = self._replayed(effects, list(dict.fromkeys([*train, *test])), keep=True)
+        sse = sum(s for k, _, s in rows if k in train)
         i = int(np.argmin(sse))
-        return float(self.latencies[i]), {k: (ang[i], pres) for k, ang, pres in rows if k in test}
+        return float(self.latencies[i]), {k: self._residual(k, r, i) for k, r, _ in rows if k in test}
 
     def latency_of(self, effects, idx) -> float:
         """The instrument latency that fits runs `idx` best with `effects` added."""

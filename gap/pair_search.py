@@ -2,7 +2,8 @@
 PAIR_POOL best singles pre-screened by adding their corrections (no replay, `superposed_sse`), the
 PAIR_SCREEN best and every pair of the best single screened by replay in-sample (`screened_pairs`,
 `screen_pair`), and the best N_PAIRS_CV fitted on all runs by a Nelder-Mead search that follows the
-valley of two effects acting alike, refitted per fold from there (`_valley_search`, `fit_pair`)."""
+valley of two effects acting alike (`_valley_search`, `full_pair_fit`), refitted per fold from there
+(`fold_pair_fit`; the chosen pairs' folds run as one batch of jobs)."""
 
 from __future__ import annotations
 
@@ -140,46 +141,57 @@ def pair_grid(
     A grid rather than coordinate descent from the singles' values: a single effect's value,
     fitted alone, can be far from its value in the pair (it soaks up the other effect)."""
     ea, eb = BY_NAME[a.name], BY_NAME[b.name]
-    ga, gb = effect_grid(ea, n_grid), effect_grid(eb, n_grid)
+    ga, gb = _grids(ea, eb, n_grid)
     runs = list(range(len(replay.runs))) if runs is None else runs
     sse = np.array([[replay.run_sses([(ea, va), (eb, vb)], runs) for vb in gb] for va in ga])
     return ga, gb, sse
 
 
-def fit_pair(
-    replay: CampaignReplay, a: Candidate, b: Candidate, folds, grid: tuple[np.ndarray, np.ndarray, np.ndarray]
-) -> Candidate:
-    """Both effects fitted together on all runs (the 2-D grid on all runs, then the valley search
-    from its best local minima, `_multi_start_search`) and refitted on each fold's training runs from there,
-    scored on each fold's withheld runs; the reported values are those fitted on all runs."""
+def full_pair_fit(replay: CampaignReplay, a: Candidate, b: Candidate) -> tuple[float, float]:
+    """The pair's point (grid-index coordinates) fitted on all runs: the coarse 2-D grid
+    (`pair_grid`), then the valley search from its best local minima (`_multi_start_search`)."""
+    every = list(range(len(replay.runs)))
+    ga, gb, sse = pair_grid(replay, a, b)
+    return _multi_start_search(replay, BY_NAME[a.name], BY_NAME[b.name], ga, gb, every, sse, every)[0]
+
+
+def fold_pair_fit(replay: CampaignReplay, a: Candidate, b: Candidate, full, fold):
+    """The pair refitted on a fold's training runs from its point on all runs `full` (a short valley
+    search): (its values, the latency its training runs choose, the withheld runs' residuals)."""
+    ea, eb = BY_NAME[a.name], BY_NAME[b.name]
+    ga, gb = _grids(ea, eb)
+    train, test = fold
+    u = _valley_search(replay, ea, eb, ga, gb, list(train), full, FOLD_STEP, FOLD_EVALS)[0]
+    effects = _pair_at(ea, eb, ga, gb, u)
+    lat, res = replay.fold_residuals(effects, train, test)
+    return [v for _, v in effects], lat, res
+
+
+def pair_candidate(replay: CampaignReplay, a: Candidate, b: Candidate, full, per_fold) -> Candidate:
+    """The pair's candidate from its point on all runs and its folds' refits (`fold_pair_fit`)."""
     ea, eb = BY_NAME[a.name], BY_NAME[b.name]
     n = len(replay.runs)
-    every = list(range(n))
-    ga, gb, sse = grid
-    full, _ = _multi_start_search(replay, ea, eb, ga, gb, every, sse, every)
-    per_fold = [_valley_search(replay, ea, eb, ga, gb, list(tr), full, FOLD_STEP, FOLD_EVALS)[0] for tr, _ in folds]
     heldout: list = [None] * n
     heldout_p: list = [None] * n
-    fold_values, fold_lat = [], []
-    for (train, test), u in zip(folds, per_fold, strict=True):
-        (_, va), (_, vb) = _pair_at(ea, eb, ga, gb, u)
-        lat, res = replay.fold_residuals([(ea, va), (eb, vb)], train, test)
-        fold_values.append([va, vb])
-        fold_lat.append(lat)
+    for _, _, res in per_fold:
         for k, r in res.items():
             heldout[k], heldout_p[k] = r
-    (_, va), (_, vb) = _pair_at(ea, eb, ga, gb, full)
-    lat = replay.latency_of([(ea, va), (eb, vb)], every)
+    (_, va), (_, vb) = _pair_at(ea, eb, *_grids(ea, eb), full)
     return Candidate(
         name=f"{a.name}+{b.name}",
         effects=[a.name, b.name],
-        fold_values=fold_values,
+        fold_values=[values for values, _, _ in per_fold],
         full_values=[va, vb],
         heldout=heldout,
         heldout_p=heldout_p,
-        fold_latencies=fold_lat,
-        latency_s=lat,
+        fold_latencies=[lat for _, lat, _ in per_fold],
+        latency_s=replay.latency_of([(ea, va), (eb, vb)], list(range(n))),
     )
+
+
+def _grids(ea: Effect, eb: Effect, n_grid: int = 5) -> tuple[np.ndarray, np.ndarray]:
+    """The pair's coarse grids (`pair_grid`'s)."""
+    return effect_grid(ea, n_grid), effect_grid(eb, n_grid)
 
 
 def pair_stage(replay: CampaignReplay, singles: list[Candidate], folds, run_jobs, progress: bool) -> list[Candidate]:
@@ -190,8 +202,16 @@ def pair_stage(replay: CampaignReplay, singles: list[Candidate], folds, run_jobs
     distinct = sorted({pr.run.signature(): k for k, pr in reversed(list(enumerate(replay.runs)))}.values())
     with stage_bar(len(combos), "gap: pairs", progress):
         screen = run_jobs(delayed(screen_pair)(replay, a, b, distinct) for a, b in combos)
-    order = np.argsort(screen)[:N_PAIRS_CV]
-    return run_jobs(delayed(_cv_pair)(replay, combos[i][0], combos[i][1], folds) for i in order)
+    chosen = [combos[i] for i in np.argsort(screen)[:N_PAIRS_CV]]
+    # the full fits, then every pair's folds together: the stage's jobs are not held up by the last
+    # pair's folds run one after another
+    fulls = run_jobs(delayed(full_pair_fit)(replay, a, b) for a, b in chosen)
+    jobs = [(i, fold) for i in range(len(chosen)) for fold in folds]
+    refits = run_jobs(delayed(fold_pair_fit)(replay, *chosen[i], fulls[i], fold) for i, fold in jobs)
+    return [
+        pair_candidate(replay, a, b, full, [r for (j, _), r in zip(jobs, refits, strict=True) if j == i])
+        for i, ((a, b), full) in enumerate(zip(chosen, fulls, strict=True))
+    ]
 
 
 def screened_pairs(pool: list[Candidate], gap: np.ndarray) -> list[tuple[Candidate, Candidate]]:
@@ -215,7 +235,3 @@ def superposed_sse(a: Candidate, b: Candidate, gap: np.ndarray) -> float:
         + 2.0 * da @ db.T
     )
     return float(sse.min())
-
-
-def _cv_pair(replay: CampaignReplay, a: Candidate, b: Candidate, folds) -> Candidate:
-    return fit_pair(replay, a, b, folds, pair_grid(replay, a, b))

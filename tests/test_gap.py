@@ -496,6 +496,44 @@ def test_a_replay_is_given_its_pressure_weight_and_cannot_be_made_without_it(tmp
     )
 
 
+def test_a_replay_is_made_once_and_remembered_bit_for_bit(campaigns):
+    """The diagnosis's replays are remembered by their inputs (gap.campaign_replay.ReplayMemo): the
+    same effects asked again, for the objective or for residual vectors at any latency of the grid,
+    are not replayed, and what comes back is the replay's own bits; readouts past the memo's budget
+    are replayed again; a copy sent to another process starts with an empty memo."""
+    import pickle
+
+    from gap.campaign_replay import CampaignReplay, ReplayMemo, apply_effects
+
+    replay = CampaignReplay(load_campaign(campaigns["leak"]), pressure_weight=0.0)
+    every = list(range(len(replay.runs)))
+    leak = [(BY_NAME["vane_leakage"], 3e-7)]
+    assert replay.ref_latency_s >= 0.0  # the nominal twin replayed first (the reference latency)
+    before = replay.n_replays + len(replay.groups)
+    sses, _ = replay.run_sses_and_residual(leak, every)
+    made = replay.n_replays
+    assert made == before
+    i = len(replay.latencies) - 1  # not the reference latency: read again from what was kept
+    got = replay.residual_vectors(leak, every, [i])[i]
+    assert np.array_equal(replay.run_sses(leak, every), sses) and replay.n_replays == made
+    p, rig = apply_effects(replay.params, leak)
+    want = []
+    for k, pr in enumerate(replay.runs):
+        t, th = replay.trajectory(p, rig, replay.group_of[k])[:2]
+        want.append(pr.meas - np.interp(pr.ts - replay.latencies[i], t, th))
+    assert np.array_equal(got, np.concatenate(want))  # bit for bit a fresh replay's
+    replay.memo = ReplayMemo(budget_bytes=1)  # keeps each run's objective, no readouts
+    replay.run_sses_and_residual(leak, every)
+    made = replay.n_replays
+    replay.run_sses(leak, every)
+    assert replay.n_replays == made
+    replay.residual_vectors(leak, every, [i])
+    assert replay.n_replays == made + len(replay.groups)
+    sent = pickle.loads(pickle.dumps(replay))
+    sent.run_sses(leak, every)
+    assert sent.n_replays == made + 2 * len(replay.groups)
+
+
 def test_each_verdict_is_one_row_and_reads_back_from_its_text():
     """A verdict is a kind with one row (its text and what it counts as); its text is what
     diagnosis.json, bench.json and the reports carry, and reading that text gives the kind back."""
