@@ -982,10 +982,11 @@ def advance_brake(
 # at rest (`air_settled`), Pa. Its air then has only a slow tail left: the motor node drains through
 # the laminar hose and the exhaust throttle's linear last 1 % of pressure ratio (time constants
 # 0.3-0.5 s on the arm's joints), and a joint creeping under its brake below the stick speed (MuJoCo's
-# soft friction: 1e-5 rad/s) pumps it and holds it 0.01-0.1 Pa off atmosphere on the cleaning scene,
-# so it never reaches round-off. Air held in the band gives at most `rest_torque_bound`: 1 mN·m on the
-# shoulder, the largest (3e-6 of the 340 N·m it carries), 0.06 mN·m on the wrist; docs/tick_loop.md, "Speed".
-REST_BAND_PA = 0.1
+# soft friction: 1e-5 rad/s) pumps it and holds it 0.01-0.2 Pa off atmosphere, so it never reaches
+# round-off. Air held in the band gives at most `rest_torque_bound`: 0.1 N·m on the shoulder, the
+# largest (3e-4 of the 340 N·m it carries), 5.5 mN·m on the wrist; docs/tick_loop.md, "Speed", says
+# why 10 Pa and not 0.1 or 1.
+REST_BAND_PA = 10.0
 # the same for the gas temperature (K): tight, a still warm or cold gas exchanges heat for seconds
 REST_BAND_K = 1e-6
 
