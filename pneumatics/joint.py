@@ -978,17 +978,41 @@ def advance_brake(
     )
 
 
+# How far from atmospheric pressure a node's air may be for a still joint with its valves shut to be
+# at rest (`air_settled`), Pa. Its air then has only a slow tail left: the motor node drains through
+# the laminar hose and the exhaust throttle's linear last 1 % of pressure ratio (time constants
+# 0.3-0.5 s on the arm's joints), and a joint creeping under its brake below the stick speed (MuJoCo's
+# soft friction: 1e-5 rad/s) pumps it and holds it 0.01-0.2 Pa off atmosphere, so it never reaches
+# round-off. Air held in the band gives at most `rest_torque_bound`: 0.1 N·m on the shoulder, the
+# largest (3e-4 of the 340 N·m it carries), 5.5 mN·m on the wrist; docs/tick_loop.md, "Speed", says
+# why 10 Pa and not 0.1 or 1.
+REST_BAND_PA = 10.0
+# the same for the gas temperature (K): tight, a still warm or cold gas exchanges heat for seconds
+REST_BAND_K = 1e-6
+
+
 @njit(inline="always")
 def air_settled(pressures: np.ndarray, temperatures: np.ndarray, p: np.ndarray) -> bool:
     """True when the four nodes' air (their pressures and temperatures, each in the S_PA_VALVE..
-    order) is at atmospheric pressure and at its walls' temperature: a still joint whose valves
-    are shut stays so."""
+    order) is within REST_BAND_PA of atmospheric pressure and REST_BAND_K of its walls'
+    temperature: a still joint whose valves are shut has only the slow tail of its air left, which
+    the at-rest shortcuts hold (`at_rest`, the predictor's `predictor_at_rest`)."""
     atm = p[P.GAS_P_ATM]
     t_w = p[P.GAS_T]
     for c in range(4):  # noqa: SIM110 (a loop, not all() of a generator: compiled code)
-        if abs(pressures[c] - atm) >= 1e-6 or abs(temperatures[c] - t_w) >= 1e-6:
+        if abs(pressures[c] - atm) >= REST_BAND_PA or abs(temperatures[c] - t_w) >= REST_BAND_K:
             return False
     return True
+
+
+@njit
+def rest_torque_bound(p: np.ndarray) -> float:
+    """The most torque (N·m, joint side) the air of a joint at rest (`air_settled`) can give: its two
+    motor nodes REST_BAND_PA either side of atmosphere, at the vane's steepest volume slope (mid-pitch,
+    `chamber_geometry` at 0: rho is largest there), the ripple at its crest, through the gear
+    back-driven (`reducer_output_torque`, 1 / eta_b)."""
+    slope = chamber_geometry(0.0, p[P.STATOR], p[P.ROTOR], p[P.VANE_L], p[P.N_VANES], p[P.DEAD_V], p[P.HALF_PITCH_V])[2]
+    return 2.0 * REST_BAND_PA * slope * (1.0 + abs(p[P.RIPPLE])) * p[P.RATIO] / p[P.ETA_B]
 
 
 @njit
@@ -1345,6 +1369,34 @@ def stop_or_turn(
     if slide * turned < 0.0:
         return q + 0.5 * turned * after, turned
     return q, 0.0
+
+
+class HeldMotorSide(NamedTuple):
+    """A non-rigid reducer's motor side at rest (`held_motor_side`)."""
+
+    at_rest: bool
+    torque: float  # what the gear passes to the joint with the motor held (N·m)
+
+
+@njit
+def held_motor_side(x: np.ndarray, theta: float, omega: float, p: np.ndarray) -> HeldMotorSide:
+    """Whether a non-rigid reducer's motor side and air are at rest, to be held over the coming step
+    (the plant's shortcut beside `advance_motor_side`), and the torque the gear then passes to the
+    joint at its angle `theta` and speed `omega`: the spring's and the damper's on the held motor.
+
+    At rest: the joint's air at rest (`at_rest`: valves shut, the joint still, the air in the rest
+    band), the motor held by its gear's friction at the last step's end (speed exactly 0, Karnopp's
+    rule in `advance_motor_side`), and the gear's torque within `rest_torque_bound`. The integrated
+    motor stays held while the gear's torque lies between what the vanes' torque passes forward and
+    back-driven, and their air gives at most `rest_torque_bound`: so the integrated gear's torque is
+    within the bound too, the held one's differs from it by at most twice the bound, and a joint
+    creeping into its held motor (MuJoCo's soft brake) leaves the shortcut once it has wound the
+    gear past the bound."""
+    ratio = p[P.RATIO]
+    j_m = ratio * ratio * p[P.ROTOR_J]
+    k = stiffness(p[P.BACKLASH], p[P.COMPLIANCE])
+    torque = transmitted_torque(x[S_QM] - theta, -omega, 0.5 * p[P.BACKLASH], k, damping(k, j_m))
+    return HeldMotorSide(x[S_OMEGA_M] == 0.0 and at_rest(x, omega, p) and abs(torque) <= rest_torque_bound(p), torque)
 
 
 class _MotorSide(NamedTuple):

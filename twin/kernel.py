@@ -25,6 +25,7 @@ from pneumatics.joint import (
     brake_over_step,
     dry_friction_limit,
     finish_air_pair,
+    held_motor_side,
 )
 from pneumatics.reducer import is_rigid
 
@@ -142,7 +143,12 @@ def pneumatic_step(
             # MuJoCo's own semi-implicit Euler; a mid-step torque was tried and was no closer to LSODA)
             torque = advance_air_pair(x[j], theta, omega, valve, supply_pa, dt_s, p)
         else:
-            torque = advance_motor_side(x[j], theta, omega, valve, supply_pa, dt_s, substeps, p)
+            held = held_motor_side(x[j], theta, omega, p)
+            torque = (
+                held.torque
+                if held.at_rest
+                else advance_motor_side(x[j], theta, omega, valve, supply_pa, dt_s, substeps, p)
+            )
         a.ctrl[a.actuator_ids[j]] = torque
         advance_brake(x[j], commands[j], supply_pa, pa_start, pb_start, x[j, S_PA_MOTOR], x[j, S_PB_MOTOR], dt_s, p)
 
