@@ -999,34 +999,51 @@ def test_family_fit_explains_a_mix_of_its_members_and_not_another_familys():
     assert fits["own"].where_misfit < 0.05 < 0.9 < fits["other"].where_misfit
 
 
-def test_a_pair_counts_when_each_effect_is_earned_on_withheld_runs_not_by_its_distance_from_nominal(tmp_path):
-    """The bench's weak valve gain (k_u 0.7 x the datasheet's) on back-and-forth and stop-and-go moves
-    at the four supplies, read by the encoder, fitted with the valve's lag and dead zone and the brake's
-    holding torque. The valve lag fitted with the dead zone sits at 0.107 s for the twin's 0.100,
-    within OFF_NOMINAL of it, yet the pair leaves on withheld runs a fraction of what the dead zone
-    leaves alone: its lag is earned (gap.verdict.Judge.earned_over), and it is the call. Under the
-    rule it replaces (both effects 3 % of their range off nominal) that pair did not count and the
-    brake's holding torque with the dead zone was called, a family the form is not of (the bench's
-    valve_gain after its design round)."""
+def test_a_second_effect_whose_gain_lies_on_a_knife_edge_or_under_the_floor_is_not_earned(tmp_path):
+    """Coulomb friction at 30 N·m on back-and-forth moves, read by a camera (the knife-edge campaign
+    above), its candidates fitted by the diagnosis's own stages: the pair stage fits Coulomb friction
+    with a slow brake release at the twin's own 0.05 s, and the pair's withheld misfit is under
+    0.8 times Coulomb's alone and clearly below the pair's without the brake: by the margin and by
+    the raw misfit per run it would count. Its gain lies on the 0.6 MPa runs, where the joint's
+    release hangs on a fraction of a N·m (the twin's own spread there), and under the floor on the
+    others: the drop-one test (gap.verdict.Judge.earned_over) refuses it, against the pair's own fits
+    with the brake at its nominal value (gap.verdict.Judge.without)."""
+    from gap import instrument, verdict
+    from gap.campaign_replay import CampaignReplay, nominal_residuals, prepared_runs
+    from gap.diagnose import fit_candidates
+    from gap.floors import MODEL_TOLERANCE_DEG, floors_of
+    from gap.jobs import parallel_jobs
     from gap.protocols import library
+    from gap.stats import mean_lower_bound, rms_deg, rms_kpa, run_ms
 
+    camera = synth.SimInstrument("camera_30hz", 30.0, 0.2, 0.021, 0.03, phase_s=0.012)
     folder = synth.make_campaign(
-        tmp_path / "valve_gain",
-        commanded_run.wrist_params()._replace(k_u_per_pa=0.7 * 1.959e-6),  # gap.bench's valve_gain
-        seed=7,
-        repeats=1,
-        motion={q: [library(q)["back_and_forth"], library(q)["stop_and_go"]] for q in synth.PRESSURES_MPA},
+        tmp_path / "coulomb",
+        commanded_run.wrist_params()._replace(coulomb_nm=30.0),
+        seed=5102,
+        motion={q: library(q)["back_and_forth"] for q in synth.PRESSURES_MPA},
+        instrument=camera,
     )
-    catalogue = tuple(BY_NAME[n] for n in ("valve_lag", "valve_dead_zone", "brake_holding"))
-    w = diagnose(load_campaign(folder), catalogue=catalogue, progress=False).which
-    assert w.verdict == "explained" and w.top.name == "valve_lag+valve_dead_zone", (w.verdict, w.top.name)
-    assert w.top.off_nominal == [False, True], w.top.fitted_values  # the old rule refused it
-    zone = next(c for c in w.ranking if c.name == "valve_dead_zone")
-    assert w.top.score_in_floors < 0.5 * zone.score_in_floors
-    # the brake's pair counts (each of its effects earned too) and loses on withheld runs
-    brake = next(c for c in w.pairs if c.name == "brake_holding+valve_dead_zone")
-    assert brake.name not in [r.pair for r in w.pairs_refused] and brake.score_in_floors > w.top.score_in_floors
-    assert "valve_lag+brake_holding" in [r.pair for r in w.pairs_refused]
+    campaign = load_campaign(folder)
+    nuisance = instrument.estimate(campaign)
+    fl = floors_of(campaign, prepared_runs(campaign, nuisance), MODEL_TOLERANCE_DEG)
+    replay = CampaignReplay(campaign, pressure_weight=fl.pressure_weight, nuisance=nuisance)
+    before, before_p = nominal_residuals(replay, replay.ref_latency_s)
+    catalogue = tuple(BY_NAME[n] for n in ("coulomb_friction", "brake_slow_release", "viscous_friction"))
+    with parallel_jobs(1, None) as run_jobs:
+        fits = fit_candidates(replay, catalogue, fl, True, run_jobs, False)
+    judge = verdict.Judge(replay, fl, rms_deg(before), fl.score, np.random.default_rng(0), rms_kpa(before_p))
+    coulomb = fits.singles[0]
+    pair = next(p for p in fits.pairs if p.name == "coulomb_friction+brake_slow_release")
+    assert coulomb.name == "coulomb_friction" and fl.score(pair) < verdict.PAIR_MARGIN * fl.score(coulomb)
+    without = judge.without(pair, "brake_slow_release")
+    raw = [run_ms(c.heldout, c.heldout_p, fl.floor_deg, fl.floor_kpa) for c in (pair, without, coulomb)]
+    for sub in raw[1:]:  # the same test on the raw misfit would count it
+        assert mean_lower_bound(sub - raw[0], np.random.default_rng(verdict.EARNED_SEED)) > 0.0, raw
+    # against Coulomb's own single fit (its folds at 29.15-30.02 N·m) the brake would be earned: the
+    # pair's folds fit Coulomb better, so the model without the brake is also the pair's own fits
+    assert judge.earned_over(pair, coulomb) and not judge.earned_over(pair, without)
+    assert "brake_slow_release" in judge.pair_counts(pair, coulomb, fits.singles)
 
 
 def test_a_pair_whose_second_effect_does_not_beat_its_first_alone_on_withheld_runs_does_not_count():
@@ -1039,19 +1056,19 @@ def test_a_pair_whose_second_effect_does_not_beat_its_first_alone_on_withheld_ru
     from gap.floors import Floors
 
     def cand(name, values, rms_deg):  # six withheld runs of 50 samples at these rms (deg)
-        return Candidate(
-            name, name.split("+"), [], values, [np.full(50, np.radians(x)) for x in rms_deg], [np.zeros(0)] * 6
-        )
+        heldout = [np.full(50, np.radians(x)) for x in rms_deg]
+        return Candidate(name, name.split("+"), [], values, heldout, [np.zeros(0)] * 6, spread=np.zeros(6))
 
     fl = SimpleNamespace(floor_deg=1.0, floor_kpa=1.0, threshold_deg=2.0, threshold_kpa=2.0)
-    alone = cand("coulomb_friction", [30.0], [4.0, 1.0, 1.0, 1.0, 1.0, 1.0])
+    alone = cand("coulomb_friction", [30.0], [6.0, 2.0, 2.0, 2.0, 2.0, 2.0])
     other = cand("valve_lag", [0.2], [5.0] * 6)
-    pair = cand("coulomb_friction+valve_lag", [30.0, 0.2], [0.0] + [np.sqrt(2.0)] * 5)
+    pair = cand("coulomb_friction+valve_lag", [30.0, 0.2], [0.0] + [2.2] * 5)
     judge = verdict.Judge(
         SimpleNamespace(params=commanded_run.wrist_params()), fl, 10.0, None, np.random.default_rng(0)
     )
     judge.score = lambda c: Floors.score(fl, c)
     judge.beyond_spread_deg = lambda c: 0.0
+    judge.without = lambda pair, dropped: None  # no replay here: each member's single fit is its sub-model
     assert judge.score(pair) < verdict.PAIR_MARGIN * judge.score(alone)
     assert not judge.earned_over(pair, alone) and judge.earned_over(pair, other)
     why = judge.pair_counts(pair, alone, [alone, other])
