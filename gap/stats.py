@@ -48,6 +48,21 @@ def run_ms(angle: list[np.ndarray], pressure: list[np.ndarray], floor_deg: float
     )
 
 
+def run_ms_beyond(
+    angle: list[np.ndarray], pressure: list[np.ndarray], spread_rad: np.ndarray, floor_deg: float, floor_kpa: float
+) -> np.ndarray:
+    """Per run: what its mean square misfit in floors (as `run_ms`) leaves beyond what a true model's
+    would: in each channel, its mean square less the floor's (1) and, in the angle, less the run's
+    own spread's square (rad; `rms_beyond_deg`), not below 0, weighted by the channels' samples."""
+    out = []
+    for a, p, s in zip(angle, pressure, spread_rad, strict=True):
+        ms_a = float(np.mean((np.rad2deg(a) / floor_deg) ** 2)) if a.size else 0.0
+        ms_p = float(np.mean((p / (floor_kpa * 1e3)) ** 2)) if p.size else 0.0
+        beyond_a = max(ms_a - 1.0 - (math.degrees(s) / floor_deg) ** 2, 0.0)
+        out.append((a.size * beyond_a + p.size * max(ms_p - 1.0, 0.0)) / max(a.size + p.size, 1))
+    return np.array(out)
+
+
 def normalised_rms(angle: list[np.ndarray], pressure: list[np.ndarray], floor_deg: float, floor_kpa: float) -> float:
     """rms misfit of all samples, angle and pressure, each in units of its own floor."""
     misfit = np.concatenate([_in_floors(a, p, floor_deg, floor_kpa) for a, p in zip(angle, pressure, strict=True)])

@@ -1035,3 +1035,81 @@ def test_family_fit_explains_a_mix_of_its_members_and_not_another_familys():
     assert fits["own"].heldout_sse < 0.01 * fits["other"].heldout_sse
     assert fits["own"].heldout_sse < 0.01 * float(gap @ gap)
     assert fits["own"].where_misfit < 0.05 < 0.9 < fits["other"].where_misfit
+
+
+def test_a_second_effect_whose_gain_lies_on_a_knife_edge_or_under_the_floor_is_not_earned(tmp_path):
+    """Coulomb friction at 30 N·m on back-and-forth moves, read by a camera (the knife-edge campaign
+    above), its candidates fitted by the diagnosis's own stages: the pair stage fits Coulomb friction
+    with a slow brake release at the twin's own 0.05 s, and the pair's withheld misfit is under
+    0.8 times Coulomb's alone and clearly below the pair's without the brake: by the margin and by
+    the raw misfit per run it would count. Its gain lies on the 0.6 MPa runs, where the joint's
+    release hangs on a fraction of a N·m (the twin's own spread there), and under the floor on the
+    others: the drop-one test (gap.verdict.Judge.earned_over) refuses it, against the pair's own fits
+    with the brake at its nominal value (gap.verdict.Judge.without)."""
+    from gap import instrument, verdict
+    from gap.campaign_replay import CampaignReplay, nominal_residuals, prepared_runs
+    from gap.diagnose import fit_candidates
+    from gap.floors import MODEL_TOLERANCE_DEG, floors_of
+    from gap.jobs import parallel_jobs
+    from gap.protocols import library
+    from gap.stats import mean_lower_bound, rms_deg, rms_kpa, run_ms
+
+    camera = synth.SimInstrument("camera_30hz", 30.0, 0.2, 0.021, 0.03, phase_s=0.012)
+    folder = synth.make_campaign(
+        tmp_path / "coulomb",
+        commanded_run.wrist_params()._replace(coulomb_nm=30.0),
+        seed=5102,
+        motion={q: library(q)["back_and_forth"] for q in synth.PRESSURES_MPA},
+        instrument=camera,
+    )
+    campaign = load_campaign(folder)
+    nuisance = instrument.estimate(campaign)
+    fl = floors_of(campaign, prepared_runs(campaign, nuisance), MODEL_TOLERANCE_DEG)
+    replay = CampaignReplay(campaign, pressure_weight=fl.pressure_weight, nuisance=nuisance)
+    before, before_p = nominal_residuals(replay, replay.ref_latency_s)
+    catalogue = tuple(BY_NAME[n] for n in ("coulomb_friction", "brake_slow_release", "viscous_friction"))
+    with parallel_jobs(1, None) as run_jobs:
+        fits = fit_candidates(replay, catalogue, fl, True, run_jobs, False)
+    judge = verdict.Judge(replay, fl, rms_deg(before), fl.score, np.random.default_rng(0), rms_kpa(before_p))
+    coulomb = fits.singles[0]
+    pair = next(p for p in fits.pairs if p.name == "coulomb_friction+brake_slow_release")
+    assert coulomb.name == "coulomb_friction" and fl.score(pair) < verdict.PAIR_MARGIN * fl.score(coulomb)
+    without = judge.without(pair, "brake_slow_release")
+    raw = [run_ms(c.heldout, c.heldout_p, fl.floor_deg, fl.floor_kpa) for c in (pair, without, coulomb)]
+    for sub in raw[1:]:  # the same test on the raw misfit would count it
+        assert mean_lower_bound(sub - raw[0], np.random.default_rng(verdict.EARNED_SEED)) > 0.0, raw
+    # against Coulomb's own single fit (its folds at 29.15-30.02 N·m) the brake would be earned: the
+    # pair's folds fit Coulomb better, so the model without the brake is also the pair's own fits
+    assert judge.earned_over(pair, coulomb) and not judge.earned_over(pair, without)
+    assert "brake_slow_release" in judge.pair_counts(pair, coulomb, fits.singles)
+
+
+def test_a_pair_whose_second_effect_does_not_beat_its_first_alone_on_withheld_runs_does_not_count():
+    """The drop-one test (gap.verdict.Judge.earned_over) on withheld residuals, runs the unit: a pair
+    that does better than its member alone on one run and worse on the five others is not earned,
+    though its misfit over all runs is clearly below the best single's (the margin alone would count
+    it); one that does better on every run is."""
+    from gap import verdict
+    from gap.candidate import Candidate
+    from gap.floors import Floors
+
+    def cand(name, values, rms_deg):  # six withheld runs of 50 samples at these rms (deg)
+        heldout = [np.full(50, np.radians(x)) for x in rms_deg]
+        return Candidate(name, name.split("+"), [], values, heldout, [np.zeros(0)] * 6, spread=np.zeros(6))
+
+    fl = SimpleNamespace(floor_deg=1.0, floor_kpa=1.0, threshold_deg=2.0, threshold_kpa=2.0)
+    alone = cand("coulomb_friction", [30.0], [6.0, 2.0, 2.0, 2.0, 2.0, 2.0])
+    other = cand("valve_lag", [0.2], [5.0] * 6)
+    pair = cand("coulomb_friction+valve_lag", [30.0, 0.2], [0.0] + [2.2] * 5)
+    judge = verdict.Judge(
+        SimpleNamespace(params=commanded_run.wrist_params()), fl, 10.0, None, np.random.default_rng(0)
+    )
+    judge.score = lambda c: Floors.score(fl, c)
+    judge.beyond_spread_deg = lambda c: 0.0
+    judge.without = lambda pair, dropped: None  # no replay here: each member's single fit is its sub-model
+    assert judge.score(pair) < verdict.PAIR_MARGIN * judge.score(alone)
+    assert not judge.earned_over(pair, alone) and judge.earned_over(pair, other)
+    why = judge.pair_counts(pair, alone, [alone, other])
+    assert why.startswith("valve_lag is not earned") and "coulomb_friction alone" in why, why
+    better = cand(pair.name, pair.full_values, [0.5] * 6)
+    assert judge.earned_over(better, alone) and judge.pair_counts(better, alone, [alone, other]) == ""
