@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import math
 import weakref
+from collections.abc import Iterator
 
 import mujoco
 import numpy as np
@@ -106,14 +107,22 @@ def tip_drive_angles(model: mujoco.MjModel, tip_target: np.ndarray, tilt_rad: fl
     """Drive angles that put brush_tip at `tip_target` with every joint inside its range: the tool
     at `tilt_rad` where the arm reaches, else tilted from it in 5 deg steps (up to 45 deg either
     way; the brush's tilt is free within that, its position is not). ValueError if none does."""
+    for drive in _tilted(model, tip_target, tilt_rad):
+        return drive
+    raise ValueError(f"brush target {tip_target} is out of reach with every joint inside its range")
+
+
+def _tilted(model: mujoco.MjModel, tip_target: np.ndarray, tilt_rad: float) -> Iterator[dict[str, float]]:
+    """Each pose putting brush_tip at `tip_target` with every joint inside its range, in the order
+    `tip_drive_angles` tries them: the tool at `tilt_rad`, then tilted from it 5 deg at a time, the
+    nearer first (up before down at the same angle), up to 45 deg either way."""
     for step_deg in sorted(range(-45, 50, 5), key=lambda t: (abs(t), -t)):
         try:
             drive = tool_drive_angles(model, tip_target, tilt_rad + math.radians(step_deg))
         except ValueError:
             continue
         if _within_ranges(model, drive_to_qpos(drive)):
-            return drive
-    raise ValueError(f"brush target {tip_target} is out of reach with every joint inside its range")
+            yield drive
 
 
 def _within_ranges(model: mujoco.MjModel, qpos: dict[str, float]) -> bool:
@@ -144,10 +153,20 @@ def rim_target(disc: Disc, standoff_m: float) -> np.ndarray:
     return rim + (BRUSH_HALF_LENGTH_M + standoff_m) * normal
 
 
-def rim_drive_angles(model: mujoco.MjModel, disc: Disc, standoff_m: float) -> dict[str, float]:
-    """Drive angles putting the brush face `standoff_m` off `disc`'s rim, the tool along the rim's
-    normal (`tip_drive_angles`: tilted in 5 deg steps where out of range). ValueError if none does."""
-    return tip_drive_angles(model, rim_target(disc, standoff_m), normal_pitch(disc))
+def rim_drive_angles(
+    model: mujoco.MjModel, disc: Disc, standoff_m: float, tilt_rad: float | None = None
+) -> dict[str, float]:
+    """Drive angles putting the brush face `standoff_m` off `disc`'s rim, the tool at the absolute
+    pitch `tilt_rad` (None: along the rim's normal), tilted from it in 5 deg steps where out of
+    range (`tip_drive_angles`). ValueError if none does."""
+    return tip_drive_angles(model, rim_target(disc, standoff_m), normal_pitch(disc) if tilt_rad is None else tilt_rad)
+
+
+def rim_pitches(model: mujoco.MjModel, disc: Disc, standoff_m: float, tilt_rad: float | None = None) -> list[float]:
+    """The tool's absolute pitches (rad) of every pose `rim_drive_angles` could take for the brush
+    `standoff_m` off `disc`'s rim, in the order it tries them (empty: out of reach)."""
+    tilt = normal_pitch(disc) if tilt_rad is None else tilt_rad
+    return [d["elbow_pitch"] + d["wrist_pitch"] for d in _tilted(model, rim_target(disc, standoff_m), tilt)]
 
 
 def drive_to_qpos(drive: dict[str, float]) -> dict[str, float]:

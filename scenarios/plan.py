@@ -15,6 +15,7 @@ not cleaned).
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from dataclasses import replace
 
@@ -41,8 +42,20 @@ STANDOFF_STEP_M = 0.01
 # the nearest the plan's ready standoff may be brought in where 5 cm is out of reach
 TOUCH_STANDOFF_M = 0.02
 
+# the largest turn of the tool's pitch planned from one disc to the next with the brush nearer the
+# string than CLEAR_M at either end. At the plan's clearance a turn of 75 deg passes clear (the
+# scene file's string, discs 3 to 4, every run at 21-36 N); with the string 10 cm closer both
+# discs are reached only 4 cm off, disc 3 with the tool 50 deg down, disc 4 with it 45 deg up,
+# and the 95 deg turn between them swept the head over disc 4's top edge (123-201 N). Half that
+# turn: the tool's tilt kept on one side of the rim's normal from disc to disc
+MAX_TURN_NEAR_RAD = math.radians(45.0)
+
 # (disc, standoff_m) -> whether the arm can put the brush there: the plan's view of the arm's reach
 Reach = Callable[[int, float], bool]
+# (disc, standoff_m, pitch) -> the tool's absolute pitches (rad) with which the arm puts the brush
+# there, every joint in its range, in the order they are tried: from `pitch` (None: along the
+# rim's normal) out, 5 deg at a time, up to 45 deg either way (empty: out of reach)
+Tilts = Callable[[int, float, float | None], list[float]]
 
 
 def _everywhere(_disc: int, _standoff_m: float) -> bool:
@@ -89,6 +102,49 @@ def disc_targets(disc: int, first: bool, last: bool, reach: Reach | None = None)
 def reachable_discs(n_discs: int, reach: Reach | None = None) -> list[int]:
     """The discs (1..n) whose ready standoff and press the arm reaches (all, without `reach`)."""
     return [d for d in range(1, n_discs + 1) if ready_m(d, reach or _everywhere) is not None]
+
+
+def disc_pitches(discs: list[int], tilts: Tilts) -> dict[int, float]:
+    """The tool's pitch (rad) each disc is pressed at, where the plan departs from the pitch nearest
+    the rim's normal that reaches the press (the discs left out keep that one). The operator aims
+    every target of a disc from its press's pitch (scenarios/task.py), each at the first pitch from
+    it that the arm reaches; the plan's disc-to-disc move goes from one disc's last target to the
+    next one's first. Rule, top to bottom: of the press pitches the arm reaches (the nearest the
+    normal first), the first whose disc-to-disc turn is at most MAX_TURN_NEAR_RAD or holds the brush
+    at least CLEAR_M off at both ends; none such: the least turn. A disc's standoffs are then those
+    the arm reaches from its pitch (`disc_targets`)."""
+    chosen: dict[int, float] = {}
+
+    def reach(disc: int, standoff: float) -> bool:
+        return bool(tilts(disc, standoff, chosen.get(disc)))
+
+    def aimed(disc: int, standoff: float, press: float) -> float:
+        # as the operator aims it: from the press's pitch (the plan's own where that is out of reach)
+        return (tilts(disc, standoff, press) or tilts(disc, standoff, chosen.get(disc)))[0]
+
+    before: tuple[float, float] | None = None  # the previous disc's last target: standoff, pitch
+    for disc in discs:
+        press = tilts(disc, -PRESS_M, None)
+        best: tuple[float, float, tuple[float, float]] | None = None  # turn, press pitch, last target
+        for i, pitch in enumerate(press):
+            if i:
+                chosen[disc] = pitch
+            if ready_m(disc, reach) is None:
+                continue
+            planned = disc_targets(disc, first=disc == discs[0], last=disc == discs[-1], reach=reach)
+            come, go = planned[0].standoff_m, planned[-1].standoff_m
+            turn = 0.0 if before is None else abs(aimed(disc, come, pitch) - before[1])
+            option = (turn, pitch, (go, aimed(disc, go, pitch)))
+            if turn <= MAX_TURN_NEAR_RAD or (before is not None and min(before[0], come) >= CLEAR_M):
+                best = option
+                break
+            if best is None or turn < best[0]:
+                best = option
+        _, pitch, before = best
+        chosen.pop(disc, None)
+        if pitch != press[0]:
+            chosen[disc] = pitch
+    return chosen
 
 
 def expand(scenario: Scenario, n_discs: int, reach: Reach | None = None) -> Scenario:

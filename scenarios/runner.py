@@ -21,8 +21,8 @@ from scenarios import controllers
 from scenarios.cleaning import DiscContact, disc_contacts
 from scenarios.criteria import CRITERIA, CriterionVerdict, When, as_dicts, judge
 from scenarios.faults import FaultEvents
-from scenarios.ik import RANGE_MARGIN_RAD, carrier_m, rim_drive_angles
-from scenarios.plan import expand
+from scenarios.ik import RANGE_MARGIN_RAD, carrier_m, rim_drive_angles, rim_pitches
+from scenarios.plan import disc_pitches, expand, reachable_discs
 from scenarios.schema import (
     Fault,
     Scenario,
@@ -245,7 +245,14 @@ def plan(scenario: Scenario, plant: Plant) -> tuple[Scenario, list[Disc], list[d
     scenario with its `clean_string` target made into every disc's targets, those discs, and each
     target as drive angles (rad)."""
     discs = platform_string(scenario, plant) if scenario.model == "arm" else []
-    planned = expand(scenario, len(discs), lambda disc, standoff: _reaches(plant.model, discs[disc - 1], standoff))
+
+    def tilts(disc: int, standoff_m: float, pitch: float | None) -> list[float]:
+        return rim_pitches(plant.model, discs[disc - 1], standoff_m, pitch)
+
+    pitches: dict[int, float] = {}  # each disc's press pitch where the plan departs from the rim's normal
+    if any(t.clean_string for t in scenario.targets):
+        pitches = disc_pitches(reachable_discs(len(discs), lambda disc, s: bool(tilts(disc, s, None))), tilts)
+    planned = expand(scenario, len(discs), lambda disc, s: bool(tilts(disc, s, pitches.get(disc))))
     if discs and planned is not scenario and not any(t.brush_at_disc for t in planned.targets):
         where = ", ".join(f"{v:.3f}" for v in discs[0].centre_m)
         raise ScenarioError(
@@ -253,7 +260,7 @@ def plan(scenario: Scenario, plant: Plant) -> tuple[Scenario, list[Disc], list[d
             "is out of the brush's reach; allowed: a string within the arm's reach (1.1 m from the shoulder at "
             "0.4 m, every joint inside its range)"
         )
-    return _clear_of_the_string(planned, plant.model, discs, resolve_targets(planned, plant, discs))
+    return _clear_of_the_string(planned, plant.model, discs, resolve_targets(planned, plant, discs, pitches))
 
 
 def _clear_of_the_string(
@@ -289,18 +296,12 @@ def _in_the_string(model: mujoco.MjModel, drive: dict[str, float], discs: list[D
     return False
 
 
-def _reaches(model: mujoco.MjModel, disc: Disc, standoff_m: float) -> bool:
-    """Whether the arm puts the brush `standoff_m` off `disc`'s rim with every joint in its range."""
-    try:
-        rim_drive_angles(model, disc, standoff_m)
-    except ValueError:
-        return False
-    return True
-
-
-def resolve_targets(scenario: Scenario, plant: Plant, discs: list[Disc] | None = None) -> list[dict[str, float]]:
+def resolve_targets(
+    scenario: Scenario, plant: Plant, discs: list[Disc] | None = None, pitches: dict[int, float] | None = None
+) -> list[dict[str, float]]:
     """Each target as drive angles in rad (brush_at_disc solved by inverse kinematics on `discs`,
-    the string as the platform sees it; None: as `plan` finds it)."""
+    the string as the platform sees it, None: as `plan` finds it; the tool's pitch from the disc's
+    in `pitches`, else along the rim's normal: `plan.disc_pitches`)."""
     if discs is None and any(t.brush_at_disc for t in scenario.targets):
         discs = platform_string(scenario, plant)
     out = []
@@ -308,7 +309,8 @@ def resolve_targets(scenario: Scenario, plant: Plant, discs: list[Disc] | None =
     for i, t in enumerate(scenario.targets):
         target = {j: math.radians(v) for j, v in t.angles_deg.items()}
         if t.brush_at_disc:
-            target = {**_brush_drive(scenario, plant.model, discs, i, t), **target}
+            pitch = (pitches or {}).get(t.brush_at_disc)
+            target = {**_brush_drive(scenario, plant.model, discs, i, t, pitch), **target}
         elif pose and any(s.brush_at_disc for s in scenario.targets[:i]):
             target = _short_of_the_elbow_stop(plant.model, pose, target)
         pose.update(target)
@@ -338,9 +340,12 @@ def _short_of_the_elbow_stop(model: mujoco.MjModel, pose: dict[str, float], targ
     return {**target, "shoulder_pitch": shoulder}
 
 
-def _brush_drive(scenario: Scenario, model: mujoco.MjModel, discs: list[Disc], i: int, t) -> dict[str, float]:
+def _brush_drive(
+    scenario: Scenario, model: mujoco.MjModel, discs: list[Disc], i: int, t, pitch: float | None = None
+) -> dict[str, float]:
     """Drive angles putting the brush `t.standoff_m` off the rim of disc `t.brush_at_disc` as the
-    platform sees it, the tool along the rim's normal (tilted in 5 deg steps where out of range)."""
+    platform sees it, the tool at `pitch` (None: along the rim's normal), tilted in 5 deg steps
+    where out of range."""
     seen = "the string as the platform sees it"
     if t.brush_at_disc > len(discs):
         raise ScenarioError(
@@ -349,7 +354,7 @@ def _brush_drive(scenario: Scenario, model: mujoco.MjModel, discs: list[Disc], i
         )
     disc = discs[t.brush_at_disc - 1]
     try:
-        return rim_drive_angles(model, disc, t.standoff_m)
+        return rim_drive_angles(model, disc, t.standoff_m, pitch)
     except ValueError:
         where = ", ".join(f"{v:.3f}" for v in disc.centre_m)
         raise ScenarioError(

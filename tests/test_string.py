@@ -3,6 +3,7 @@ finding it in his pictures, and the plan made at run time for the string he foun
 
 from __future__ import annotations
 
+import itertools
 import math
 from pathlib import Path
 
@@ -10,7 +11,7 @@ import mujoco
 import numpy as np
 import pytest
 
-from scenarios.ik import drive_to_qpos, rim_target
+from scenarios.ik import drive_to_qpos, rim_target, tip_drive_angles
 from scenarios.pinhole import camera_of
 from scenarios.plan import CLEAR_M, PRESS_M, READY_M, TOUCH_STANDOFF_M, expand
 from scenarios.runner import build_plant, plan, run_scenario
@@ -179,14 +180,15 @@ def test_the_plans_standoffs_are_brought_in_only_where_the_arm_does_not_reach_th
     ready). The string 10 cm closer (the arm parked swung aside: at home its brush would be inside
     disc 5): at discs 3 and 4 neither 12 nor 5 cm is inside the shoulder's range (IK, tested here
     with every joint's range), so they are brought in (the ready one down to touching distance) and
-    every target of the plan stays inside every joint's range."""
+    every target of the plan stays inside every joint's range. Disc 4, its tool kept tilted down
+    as disc 3's (`test_the_tool_is_not_turned_over_between_discs_near_the_string`), reaches 5 cm."""
     shipped, _, _ = _planned({})
     assert {s for d, s in _standoffs(shipped) if s > 0 and d > 1} == {CLEAR_M, READY_M}
     closer, model, poses = _planned({"string.x_m": 0.65, "start.angles_deg.base_yaw": 40.0})
     ready = {d: s for d, s in _standoffs(closer)[1::5]}  # each disc's approach, press, back-off, clear
     assert [d for d, _ in _standoffs(closer) if _ < 0] == list(range(1, 9))  # every disc pressed
-    assert all(TOUCH_STANDOFF_M <= ready[d] < READY_M for d in (3, 4)), ready
-    assert all(ready[d] == READY_M for d in (1, 2, 5, 6, 7, 8)), ready
+    assert TOUCH_STANDOFF_M <= ready[3] < READY_M, ready
+    assert all(ready[d] == READY_M for d in (1, 2, 4, 5, 6, 7, 8)), ready
     for qpos in poses:
         for joint, q in qpos.items():
             lo, hi = model.joint(joint).range
@@ -194,6 +196,44 @@ def test_the_plans_standoffs_are_brought_in_only_where_the_arm_does_not_reach_th
     # the retreat's home pose would put the brush back inside disc 5: the plan ends swung aside
     assert shipped.targets[-1].angles_deg == {"base_yaw": 0.0}
     assert closer.targets[-1].angles_deg == {"shoulder_pitch": 90.0}
+
+
+def _turns_near_the_string(overrides: dict) -> list[tuple[int, float]]:
+    """Each disc-to-disc move of the plan with the brush nearer the string than CLEAR_M at either
+    end: (the disc it comes to, the turn of the tool's pitch in deg), each pose as the operator aims
+    it (scenarios/task.py: the brush's target from the pitch of the plan's press on its disc, the
+    first pitch from it that the arm reaches, ik.tip_drive_angles)."""
+    scenario = with_overrides(load("insulator_cleaning"), overrides)
+    plant = build_plant(scenario)
+    planned, discs, targets = plan(scenario, plant)
+    brushed = [(t, q) for t, q in zip(planned.targets, targets, strict=True) if t.brush_at_disc]
+    press = {t.brush_at_disc: q["elbow_pitch"] + q["wrist_pitch"] for t, q in brushed if t.standoff_m < 0}
+
+    def pitch(t) -> float:
+        d = tip_drive_angles(plant.model, rim_target(discs[t.brush_at_disc - 1], t.standoff_m), press[t.brush_at_disc])
+        return d["elbow_pitch"] + d["wrist_pitch"]
+
+    return [
+        (b.brush_at_disc, math.degrees(abs(pitch(b) - pitch(a))))
+        for (a, _), (b, _) in itertools.pairwise(brushed)
+        if a.brush_at_disc != b.brush_at_disc and min(a.standoff_m, b.standoff_m) < CLEAR_M
+    ]
+
+
+def test_the_tool_is_not_turned_over_between_discs_near_the_string():
+    """The string 10 cm closer: discs 3 and 4 are reached only a few cm off, disc 3 with the tool
+    tilted ~50 deg down, disc 4 also ~45 deg up; planned from the pitch nearest the rim's normal
+    the tool turned 95 deg from one to the other and swept the head over disc 4's top edge (123 and
+    201 N). The plan keeps every turn between adjacent discs near the string within
+    MAX_TURN_NEAR_RAD (45 deg) and presses every disc; the scene file's string has no such move
+    (all at the 12 cm clearance, where its 75 deg turn passes clear) and keeps its plan."""
+    closer = {"string.x_m": 0.65, "start.angles_deg.base_yaw": 40.0}
+    turns = _turns_near_the_string(closer)
+    assert {d for d, _ in turns} >= {3, 4}, turns  # the moves into discs 3 and 4 are near the string
+    assert max(turn for _, turn in turns) <= 45.0 + 1e-6, turns  # MAX_TURN_NEAR_RAD
+    assert _turns_near_the_string({}) == []
+    planned, _, _ = _planned(closer)
+    assert [d for d, s in _standoffs(planned) if s < 0] == list(range(1, 9))
 
 
 def test_a_disc_out_of_reach_is_left_out_and_said_so():
