@@ -43,11 +43,13 @@ STANDOFF_STEP_M = 0.01
 TOUCH_STANDOFF_M = 0.02
 
 # the largest turn of the tool's pitch planned from one disc to the next with the brush nearer the
-# string than CLEAR_M at either end. At the plan's clearance a turn of 75 deg passes clear (the
-# scene file's string, discs 3 to 4, every run at 21-36 N); with the string 10 cm closer both
-# discs are reached only 4 cm off, disc 3 with the tool 50 deg down, disc 4 with it 45 deg up,
-# and the 95 deg turn between them swept the head over disc 4's top edge (123-201 N). Half that
-# turn: the tool's tilt kept on one side of the rim's normal from disc to disc
+# string than CLEAR_M at both ends. With the string 10 cm closer discs 3 and 4 are reached only a
+# few cm off, disc 3 with the tool 50 deg down, disc 4 with it 45 deg up, and the 95 deg turn
+# between them swept the head over disc 4's top edge (201 N); planned at most 45 deg apart (disc 4
+# tilted down as disc 3), 32 N. Where one end is at the clearance a large turn passes clear: 75 deg
+# between 12 cm standoffs (the scene file's string, discs 3 to 4: 21-36 N), 110 deg from 6 to 12 cm
+# (the closer string, discs 4 to 5: 25-35 N over 3 seeds); held to 45 deg there too, discs 5 and 6
+# were pressed with the tool 30-45 deg down, at 70-111 N
 MAX_TURN_NEAR_RAD = math.radians(45.0)
 
 # (disc, standoff_m) -> whether the arm can put the brush there: the plan's view of the arm's reach
@@ -110,8 +112,8 @@ def disc_pitches(discs: list[int], tilts: Tilts) -> dict[int, float]:
     every target of a disc from its press's pitch (scenarios/task.py), each at the first pitch from
     it that the arm reaches; the plan's disc-to-disc move goes from one disc's last target to the
     next one's first. Rule, top to bottom: of the press pitches the arm reaches (the nearest the
-    normal first), the first whose disc-to-disc turn is at most MAX_TURN_NEAR_RAD or holds the brush
-    at least CLEAR_M off at both ends; none such: the least turn. A disc's standoffs are then those
+    normal first), the first whose disc-to-disc turn is at most MAX_TURN_NEAR_RAD or has the brush
+    at least CLEAR_M off at one end; none such: the least turn. A disc's standoffs are then those
     the arm reaches from its pitch (`disc_targets`)."""
     chosen: dict[int, float] = {}
 
@@ -135,7 +137,7 @@ def disc_pitches(discs: list[int], tilts: Tilts) -> dict[int, float]:
             come, go = planned[0].standoff_m, planned[-1].standoff_m
             turn = 0.0 if before is None else abs(aimed(disc, come, pitch) - before[1])
             option = (turn, pitch, (go, aimed(disc, go, pitch)))
-            if turn <= MAX_TURN_NEAR_RAD or (before is not None and min(before[0], come) >= CLEAR_M):
+            if turn <= MAX_TURN_NEAR_RAD or (before is not None and max(before[0], come) >= CLEAR_M):
                 best = option
                 break
             if best is None or turn < best[0]:

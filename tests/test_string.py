@@ -199,8 +199,8 @@ def test_the_plans_standoffs_are_brought_in_only_where_the_arm_does_not_reach_th
 
 
 def _turns_near_the_string(overrides: dict) -> list[tuple[int, float]]:
-    """Each disc-to-disc move of the plan with the brush nearer the string than CLEAR_M at either
-    end: (the disc it comes to, the turn of the tool's pitch in deg), each pose as the operator aims
+    """Each disc-to-disc move of the plan with the brush nearer the string than CLEAR_M at both
+    ends: (the disc it comes to, the turn of the tool's pitch in deg), each pose as the operator aims
     it (scenarios/task.py: the brush's target from the pitch of the plan's press on its disc, the
     first pitch from it that the arm reaches, ik.tip_drive_angles)."""
     scenario = with_overrides(load("insulator_cleaning"), overrides)
@@ -216,17 +216,17 @@ def _turns_near_the_string(overrides: dict) -> list[tuple[int, float]]:
     return [
         (b.brush_at_disc, math.degrees(abs(pitch(b) - pitch(a))))
         for (a, _), (b, _) in itertools.pairwise(brushed)
-        if a.brush_at_disc != b.brush_at_disc and min(a.standoff_m, b.standoff_m) < CLEAR_M
+        if a.brush_at_disc != b.brush_at_disc and max(a.standoff_m, b.standoff_m) < CLEAR_M
     ]
 
 
 def test_the_tool_is_not_turned_over_between_discs_near_the_string():
     """The string 10 cm closer: discs 3 and 4 are reached only a few cm off, disc 3 with the tool
     tilted ~50 deg down, disc 4 also ~45 deg up; planned from the pitch nearest the rim's normal
-    the tool turned 95 deg from one to the other and swept the head over disc 4's top edge (123 and
-    201 N). The plan keeps every turn between adjacent discs near the string within
-    MAX_TURN_NEAR_RAD (45 deg) and presses every disc; the scene file's string has no such move
-    (all at the 12 cm clearance, where its 75 deg turn passes clear) and keeps its plan."""
+    the tool turned 90-95 deg from one to the other and swept the head over disc 4's top edge
+    (201 N). The plan keeps every turn between adjacent discs with the brush nearer the string than
+    the 12 cm clearance at both ends within MAX_TURN_NEAR_RAD (45 deg) and presses every disc; the
+    scene file's string has no such move (all at the clearance, where its 75 deg turn passes clear)."""
     closer = {"string.x_m": 0.65, "start.angles_deg.base_yaw": 40.0}
     turns = _turns_near_the_string(closer)
     assert {d for d, _ in turns} >= {3, 4}, turns  # the moves into discs 3 and 4 are near the string
