@@ -350,7 +350,7 @@ def test_a_press_seen_off_is_made_again_from_touching_distance(monkeypatch):
     """The operator sees disc 1's first press 1.5 cm short (his look made so: the picture's own
     error added). Pressing deeper from inside the press, shoulder and elbow turning together with
     the brush on the rim, lifted the head off and swung its side onto the rim: 682 N (as-built,
-    0.5 MPa, his seed 2021340933837429789, until stop 20). He backs out to touching distance, the
+    0.5 MPa, his seed 2021340933837429789, with the earlier press). He backs out to touching distance, the
     brush off the rim, and presses again from there as he pressed the first time: disc 1 is
     pressed in the band, and no contact on the way leaves it."""
     from scenarios.operator import Operator
@@ -386,7 +386,7 @@ def test_at_half_a_megapascal_the_counterbalanced_wrist_reaches_its_targets(caps
     torque, 5.1 at its worst vane angle, against a 5 bar supply), the platform faulted at 20.7 s and
     again every 15 s, and the operator cleaned 1-2 discs of 8. With the wrist's counterbalance spring
     (assets/arm.xml), known to the controller's load model, every move of the first 28 s arrives and
-    disc 1 is pressed in the band and left (at 14.7 s; 16.3 s with Heun's air until stop 20, 22.6 s
+    disc 1 is pressed in the band and left (at 14.7 s; 16.3 s with Heun's air, 22.6 s
     with ROS2 before the vane leak's coupling joined its W: the camera's corrections vary)."""
     toml = (ROOT / "scenarios" / "insulator_cleaning.toml").read_text()
     supply = "pressure_mpa = 0.6 "

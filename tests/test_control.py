@@ -241,7 +241,7 @@ def test_minimum_rotation_limit_exists():
     """Paper Fig. 21: below ~20 deg the loop loses its ability to adjust. The twin's limit lies
     between a few degrees and 40 deg, and small moves below it really fail."""
     limit = minimum_rotation_limit(rig_plant, predictor_params=NOMINAL, angles_deg=(1, 2, 3, 4, 8, 16, 24, 32, 40))
-    # measured: 2 deg (1 deg stops at 0.81 deg); 4 deg before stop 20's air integrator (3 deg ended at
+    # measured: 2 deg (1 deg stops at 0.81 deg); 4 deg with Heun's air integrator (3 deg ended at
     # 3.31 deg, just outside its 10 % band; 3.29 since); 8 deg while the loop floored its set point at the brake's
     # full release, where every approach throttled into the brake's drag (issue 14's brake margin),
     # 16 while the predictor's braked stops crept (before issue 12). The paper's ~20 deg is a

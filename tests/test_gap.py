@@ -92,7 +92,7 @@ def _by_name(*names):
             None,
         ),
         # Stribeck friction (20 N·m breakaway excess), the catalogue with Coulomb and viscous only.
-        # 40 N·m until stop 23, when the excess still vanished at rest; as static friction (55 N·m)
+        # Not 40 N·m: as static friction (55 N·m)
         # it is over the wrist's stall torque at 0.5 MPa, the joint never moves there, and the
         # call is supply droop
         (
@@ -646,9 +646,8 @@ def test_each_family_reads_the_gap_at_its_own_instrument_latency(tmp_path):
 def test_a_pair_that_acts_through_its_interaction_is_found(tmp_path):
     """A vane leak and more Coulomb friction, read by a camera on the paper's 60-degree moves: both
     take torque and near a stall take more together than apart, so their corrections, added, rank
-    the pair 7th of 28 while its replay fits 10 times better than any other pair's. Until stop 22
-    the screen saw only the five best by the sum, and the leak alone was called (held-out 1.1 deg
-    of 23)."""
+    the pair 7th of 28 while its replay fits 10 times better than any other pair's. A screen that
+    kept only the five best by the sum called the leak alone (held-out 1.1 deg of 23)."""
     from gap.protocols import library
 
     camera = synth.SimInstrument("camera_30hz", 30.0, 0.2, 0.017, 0.03, phase_s=0.013)
@@ -662,6 +661,22 @@ def test_a_pair_that_acts_through_its_interaction_is_found(tmp_path):
     w = diagnose(load_campaign(folder), progress=False).which
     assert w.verdict == "explained" and w.top.name == "vane_leakage+coulomb_friction", (w.verdict, w.top.name)
     assert w.top.fitted_values == pytest.approx([2e-7, 25.0], rel=0.1)
+
+
+def _knife_edge_coulomb_campaign(tmp_path):
+    """Coulomb friction at 30 N·m on back-and-forth runs read by a 30 Hz camera: at 0.6 MPa the
+    joint's release hangs on a fraction of a N·m (the twin's own spread is large there)."""
+    from gap.protocols import library
+
+    camera = synth.SimInstrument("camera_30hz", 30.0, 0.2, 0.021, 0.03, phase_s=0.012)
+    folder = synth.make_campaign(
+        tmp_path / "coulomb",
+        commanded_run.wrist_params()._replace(coulomb_nm=30.0),
+        seed=5102,
+        motion={q: library(q)["back_and_forth"] for q in synth.PRESSURES_MPA},
+        instrument=camera,
+    )
+    return load_campaign(folder)
 
 
 def test_what_a_residual_leaves_beyond_each_runs_own_spread():
@@ -678,20 +693,10 @@ def test_a_run_on_a_knife_edge_is_held_to_the_twins_own_spread(tmp_path):
     the drive peaks only just over the friction after the second reversal, and where the joint lets
     go hangs on a fraction of a N·m, which the vanes' torque ripple sets from the angle: the plant
     stands 1.96 deg from the located-event reference there, the replay 0.013 deg. The twin's spread
-    finds that run, and the true effect explains the gap beyond it. Until stop 22 its held-out
-    1.05 deg (threshold 0.73) was called outside the catalogue."""
+    finds that run, and the true effect explains the gap beyond it."""
     from gap.campaign_replay import CampaignReplay
-    from gap.protocols import library
 
-    camera = synth.SimInstrument("camera_30hz", 30.0, 0.2, 0.021, 0.03, phase_s=0.012)
-    folder = synth.make_campaign(
-        tmp_path / "coulomb",
-        commanded_run.wrist_params()._replace(coulomb_nm=30.0),
-        seed=5102,
-        motion={q: library(q)["back_and_forth"] for q in synth.PRESSURES_MPA},
-        instrument=camera,
-    )
-    campaign = load_campaign(folder)
+    campaign = _knife_edge_coulomb_campaign(tmp_path)
     spread = np.degrees(CampaignReplay(campaign, pressure_weight=0.0).spread([(BY_NAME["coulomb_friction"], 30.0)]))
     at_06 = np.array([r.supply_mpa == 0.6 for r in campaign.runs])
     assert spread[at_06].min() > 1.0 and spread[~at_06].max() < 0.5, spread
@@ -1051,18 +1056,9 @@ def test_a_second_effect_whose_gain_lies_on_a_knife_edge_or_under_the_floor_is_n
     from gap.diagnose import fit_candidates
     from gap.floors import MODEL_TOLERANCE_DEG, floors_of
     from gap.jobs import parallel_jobs
-    from gap.protocols import library
     from gap.stats import mean_lower_bound, rms_deg, rms_kpa, run_ms
 
-    camera = synth.SimInstrument("camera_30hz", 30.0, 0.2, 0.021, 0.03, phase_s=0.012)
-    folder = synth.make_campaign(
-        tmp_path / "coulomb",
-        commanded_run.wrist_params()._replace(coulomb_nm=30.0),
-        seed=5102,
-        motion={q: library(q)["back_and_forth"] for q in synth.PRESSURES_MPA},
-        instrument=camera,
-    )
-    campaign = load_campaign(folder)
+    campaign = _knife_edge_coulomb_campaign(tmp_path)
     nuisance = instrument.estimate(campaign)
     fl = floors_of(campaign, prepared_runs(campaign, nuisance), MODEL_TOLERANCE_DEG)
     replay = CampaignReplay(campaign, pressure_weight=fl.pressure_weight, nuisance=nuisance)

@@ -170,7 +170,7 @@ def test_a_joint_with_stribeck_friction_breaks_away_and_stops_where_the_located_
 def test_a_drive_between_coulomb_and_static_friction_leaves_the_joint_at_rest() -> None:
     # at 0.5 MPa the wrist's drive peaks between its Coulomb (15 N·m) and static (15 + 40 N·m)
     # friction: the reference holds it at rest, and so must the model (a Stribeck excess that is
-    # zero at rest, as the smoothed drive torque before stop 23, let it go as if Coulomb alone)
+    # zero at rest, as a smoothed drive torque makes it, would let it go as if Coulomb alone)
     p = params_row(WRIST._replace(stribeck_excess_nm=40.0, stribeck_speed_rad_s=0.2))
     supply = P_ATM + 0.5e6
     commands, t_end, _ = stop_and_go(0.5e6, cycles=1)

@@ -192,8 +192,8 @@ def test_rig_matches_lsoda_on_the_same_equations(reference) -> None:
     t, theta, pressures = run_rig(rig_sliding_from_rest(), SLIDE_S)
     e = errors_against(reference, t, theta, pressures)
     print(f"\n{e}")
-    # measured (0.5 ms step, drive angle read from qpos; stop 20's ROS2 air): 0.047 deg max, 0.009 deg
-    # at 0.5 s, 0.87 kPa (0.40 %). Heun's method (two rate evaluations a physics step, until stop 20)
+    # measured (0.5 ms step, drive angle read from qpos; the ROS2 air): 0.047 deg max, 0.009 deg
+    # at 0.5 s, 0.87 kPa (0.40 %). Heun's method (two rate evaluations a physics step)
     # gave 0.078 deg, 0.019 deg, 1.05 kPa (0.31 %), whatever its sub-steps. The angle error is the
     # first-order explicit coupling of torque, brake and motion: the brake, fed by the filling port,
     # drags with 100 N·m per bar below its full release, and MuJoCo holds its friction over a step.

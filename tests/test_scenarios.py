@@ -41,7 +41,7 @@ mode = "none"
         ("[[faults]]\nkind = 'supply_lost'\nat_s = 0.2", "faults[0].at_s", "0.2"),
         ("[reality.effects.wrist_pitch]\nleak_area_m2 = -1.0", "reality.effects.wrist_pitch.leak_area_m2", "-1.0"),
         ("[reality.effects.wrist_pitch]\nmagic = 1.0", "reality.effects.wrist_pitch.magic", "not a known field"),
-        # a count: 2.5 vanes ran until stop 21
+        # a count: 2.5 vanes must be refused, not run
         (
             "[reality.effects.wrist_pitch]\nn_vanes = 2.5",
             "reality.effects.wrist_pitch.n_vanes",
