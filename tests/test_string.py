@@ -11,6 +11,7 @@ import mujoco
 import numpy as np
 import pytest
 
+from scenarios.cleaning import BAND_N
 from scenarios.ik import drive_to_qpos, rim_target, tip_drive_angles
 from scenarios.pinhole import camera_of
 from scenarios.plan import CLEAR_M, PRESS_M, READY_M, TOUCH_STANDOFF_M, expand
@@ -18,6 +19,7 @@ from scenarios.runner import build_plant, plan, run_scenario
 from scenarios.schema import ScenarioError, String, load, parse, with_overrides
 from scenarios.sighting import sight_string, silhouette_ends_px
 from scenarios.string import discs_of, scene_spec, string_discs
+from scenarios.sweep import child_seeds
 
 ROOT = Path(__file__).resolve().parents[1]
 PLACED = {  # a string displaced in every way a scenario can place it
@@ -234,6 +236,20 @@ def test_the_tool_is_not_turned_over_between_discs_near_the_string():
     assert _turns_near_the_string({}) == []
     planned, _, _ = _planned(closer)
     assert [d for d, s in _standoffs(planned) if s < 0] == list(range(1, 9))
+
+
+def test_from_disc_to_disc_near_the_string_the_brush_leaves_the_rim_first():
+    """The string 10 cm closer, one of the robustness study's seeds, on the real plant: disc 3's last
+    target holds the brush 4 cm off its rim with the tool ~45 deg down (the clearance brought in),
+    the next is disc 4's approach 6 cm off with it ~70 deg down. Sent whole, the elbow's drop led
+    and dragged the head's face over disc 3's upper rim corner: disc 3 at 57.9 N (over the 15-55 N
+    band), the same sweep in 7 of 10 seeds of the case. Made out of the rim first (the joints whose
+    own turn draws the brush out, then the others: `TaskController._disc_to_disc_near_the_string`),
+    disc 3 is pressed in band (28 N) and not struck on the way down."""
+    scenario = with_overrides(load("insulator_cleaning"), {"string.x_m": 0.65, "start.angles_deg.base_yaw": 40.0})
+    result = run_scenario(scenario, seed=child_seeds(scenario.seed, 3)[2], duration_s=50.0)
+    disc_3 = result.discs[2]
+    assert BAND_N[0] <= disc_3.peak_n <= BAND_N[1], disc_3
 
 
 def test_a_disc_out_of_reach_is_left_out_and_said_so():
