@@ -126,8 +126,17 @@ def _tilted(model: mujoco.MjModel, tip_target: np.ndarray, tilt_rad: float) -> I
 
 
 def _within_ranges(model: mujoco.MjModel, qpos: dict[str, float]) -> bool:
-    margin = RANGE_MARGIN_RAD
-    return all(model.joint(j).range[0] + margin <= q <= model.joint(j).range[1] - margin for j, q in qpos.items())
+    return not joint_out_of_range(model, qpos, RANGE_MARGIN_RAD)
+
+
+def joint_out_of_range(model: mujoco.MjModel, qpos: dict[str, float], margin_rad: float = 0.0) -> str:
+    """The first joint of `qpos` (MuJoCo joint angles, rad) outside its range narrowed by `margin_rad`
+    at each end; '' if none is."""
+    for j, q in qpos.items():
+        lo, hi = model.joint(j).range
+        if not lo + margin_rad <= q <= hi - margin_rad:
+            return j
+    return ""
 
 
 def disc_rim_target(model: mujoco.MjModel, disc: int, standoff_m: float) -> np.ndarray:

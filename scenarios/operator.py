@@ -89,6 +89,7 @@ from scenarios.ik import (
     arm_lengths,
     carrier_m,
     drive_to_qpos,
+    joint_out_of_range,
     tip_drive_angles,
     tool_drive_angles,
 )
@@ -480,10 +481,9 @@ class Operator:
         for _ in range(12):
             drive = tool_drive_angles(self.model, tip_m + self.aim_offset_m, drive["elbow_pitch"] + wrist_rad)
         drive["wrist_pitch"] = wrist_rad
-        for joint, q in drive_to_qpos(drive).items():
-            lo, hi = self.model.joint(joint).range
-            if not lo <= q <= hi:
-                raise ValueError(f"{joint} at {math.degrees(q):.1f} deg is out of its range")
+        qpos = drive_to_qpos(drive)
+        if joint := joint_out_of_range(self.model, qpos):
+            raise ValueError(f"{joint} at {math.degrees(qpos[joint]):.1f} deg is out of its range")
         del drive["wrist_pitch"]
         return drive
 

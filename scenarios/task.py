@@ -43,7 +43,7 @@ import numpy as np
 
 from control import ArmController, MotionRefused
 from pneumatics.joint import C_BRAKE_RELEASE, C_DIRECTION, C_PV_SET_GAUGE_PA
-from scenarios.ik import carrier_m, drive_to_qpos, rim_target, tool_drive_angles
+from scenarios.ik import carrier_m, drive_to_qpos, joint_out_of_range, rim_target, tool_drive_angles
 from scenarios.operator import GlobalCamera, Operator
 from scenarios.plan import CLEAR_M, TOUCH_STANDOFF_M
 from scenarios.schema import Scenario
@@ -492,11 +492,9 @@ class TaskController:
                 self.model, carrier_m(self.model, here) + out * normal, here["elbow_pitch"] + here["wrist_pitch"]
             )
             target = {j: drive[j] for j in ("shoulder_pitch", "elbow_pitch", "wrist_pitch")}
-            for joint, q in drive_to_qpos({**here, **target}).items():
-                lo, hi = self.model.joint(joint).range
-                if not lo <= q <= hi:
-                    raise ValueError(joint)
         except ValueError:
+            target = None
+        if target is None or joint_out_of_range(self.model, drive_to_qpos({**here, **target})):
             target = self._aimed(self.k)
         self._notes.append(f"t = {t:.3f} s: disc_{disc}: operator draws the brush {out * 100:.1f} cm straight out")
         self._send(0.0, pressed=True, target=target)
