@@ -110,6 +110,11 @@ class ReplayMemo:
                 self._bytes -= sum(r.angle.nbytes + r.pressure.nbytes for r in old.values())
 
 
+def _pressures_at(pr: Prepared, t: np.ndarray, pa: np.ndarray, pb: np.ndarray) -> np.ndarray:
+    """The twin's chamber pressures (Pa) where run `pr` measured them, flattened over its pmask."""
+    return np.stack([np.interp(pr.tp, t, pa), np.interp(pr.tp, t, pb)])[pr.pmask]
+
+
 def nominal_params(campaign: Campaign) -> JointParams:
     p = load_joint_params(assets.joint_param_path(campaign.joint))
     p = p._replace(hose_length_m=campaign.hose_length_m)
@@ -269,7 +274,7 @@ class CampaignReplay:
         t, th, _, pa, pb = traj
         pr = self.runs[k]
         angle = np.interp(pr.ts[None, :] - self.latencies[:, None], t, th)
-        return Readout(angle, np.stack([np.interp(pr.tp, t, pa), np.interp(pr.tp, t, pb)])[pr.pmask])
+        return Readout(angle, _pressures_at(pr, t, pa, pb))
 
     def _sse(self, k: int, r: Readout) -> np.ndarray:
         """Run k's objective at every latency of the grid from its readout: its squared angle
@@ -300,7 +305,7 @@ class CampaignReplay:
         return out
 
     def _pressure_residual(self, pr: Prepared, t, pa, pb) -> np.ndarray:
-        return pr.pmeas - np.stack([np.interp(pr.tp, t, pa), np.interp(pr.tp, t, pb)])[pr.pmask]
+        return pr.pmeas - _pressures_at(pr, t, pa, pb)
 
     def residuals_with(
         self, effects: list[tuple[Effect, float]], ks, latency_s: float

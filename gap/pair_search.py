@@ -43,6 +43,7 @@ PAIR_EVALS = 60  # the search on all runs (the screen on distinct runs, the full
 FOLD_EVALS = 20  # each fold's refit on its training runs, from the full fit's point
 FOLD_STEP = 0.1  # its initial simplex, in grid steps: a fold's optimum lies near all runs'
 SEARCH_XTOL = 0.01  # in grid steps
+PAIR_GRID_POINTS = 5  # the pair's coarse grid, points per effect (`pair_grid`)
 PAIR_STARTS = 2  # the search starts from the grid's best local minima, at most this many (`_grid_starts`)
 
 
@@ -134,7 +135,7 @@ def screen_pair(replay: CampaignReplay, a: Candidate, b: Candidate, runs: list[i
 
 
 def pair_grid(
-    replay: CampaignReplay, a: Candidate, b: Candidate, runs: list[int] | None = None, n_grid: int = 5
+    replay: CampaignReplay, a: Candidate, b: Candidate, runs: list[int] | None = None, n_grid: int = PAIR_GRID_POINTS
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """SSE of every run on a coarse 2-D grid of the pair's parameters: (grid_a, grid_b,
     sse[i, j, run, latency]).
@@ -189,7 +190,7 @@ def pair_candidate(replay: CampaignReplay, a: Candidate, b: Candidate, full, per
     )
 
 
-def _grids(ea: Effect, eb: Effect, n_grid: int = 5) -> tuple[np.ndarray, np.ndarray]:
+def _grids(ea: Effect, eb: Effect, n_grid: int = PAIR_GRID_POINTS) -> tuple[np.ndarray, np.ndarray]:
     """The pair's coarse grids (`pair_grid`'s)."""
     return effect_grid(ea, n_grid), effect_grid(eb, n_grid)
 
